@@ -1,0 +1,1 @@
+//! Shared output helpers: frame writers, stats.jsonl, summary.json (being filled in).

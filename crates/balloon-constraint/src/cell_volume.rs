@@ -1,0 +1,1 @@
+//! cell_volume (being filled in).

@@ -1,0 +1,1 @@
+//! rigid (being filled in).

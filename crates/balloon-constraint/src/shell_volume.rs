@@ -1,0 +1,1 @@
+//! shell_volume (being filled in).

@@ -1,0 +1,1 @@
+//! Finite elements (being filled in).

@@ -1,0 +1,1 @@
+//! Gas models (being filled in).

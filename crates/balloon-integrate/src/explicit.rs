@@ -1,0 +1,1 @@
+//! Explicit integrators (being filled in).

@@ -1,0 +1,1 @@
+//! Backward Euler with Newton (being filled in).

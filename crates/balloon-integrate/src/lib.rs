@@ -1,0 +1,15 @@
+//! Time integrators over generic systems for the `balloon` toolkit.
+//!
+//! **For:** advancing any mechanical system that can report masses, forces and force
+//! differentials ([`ForceSystem`]) with backward Euler + Newton (seed 000, Eq. 18-23) using a
+//! run-time choice of linear solver, and any first-order ODE with explicit Euler, symplectic
+//! Euler, midpoint or RK4 (seed 004, Ch. 5).
+//!
+//! **Not for:** knowing what the forces are. Nothing here knows about balloons, meshes or gas.
+
+pub mod explicit;
+pub mod implicit;
+pub mod linear;
+pub mod system;
+
+pub use system::{ForceSystem, LowRankTerm, SystemError};

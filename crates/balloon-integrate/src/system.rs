@@ -1,0 +1,84 @@
+//! The seam between integrators and physics: a [`ForceSystem`].
+//!
+//! Degrees of freedom are flat: `x = [x0, y0, z0, x1, y1, z1, ...]` (metres), forces in newtons,
+//! masses in kilograms per degree of freedom (a lumped, diagonal mass matrix).
+
+use thiserror::Error;
+
+/// A dense symmetric rank-1 term `coefficient * u u^T` of a stiffness matrix that must never be
+/// assembled (the uniform-gas coupling of seed 000, Eq. 16-17).
+#[derive(Clone, Debug, Default)]
+pub struct LowRankTerm {
+    /// Scalar factor (units of stiffness per unit of `u u^T`).
+    pub coefficient: f64,
+    /// The vector `u`, one entry per degree of freedom.
+    pub vector: Vec<f64>,
+}
+
+/// Error raised by a force system while evaluating itself (e.g. an inverted element).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SystemError {
+    /// A quantity became NaN or infinite.
+    #[error("non-finite {quantity} at {location}")]
+    NonFinite {
+        /// What became non-finite (e.g. "force", "gas volume").
+        quantity: String,
+        /// Where (e.g. "vertex 12", "element 7").
+        location: String,
+    },
+    /// An element inverted or degenerated (zero or negative area / volume).
+    #[error("element {element} is inverted or degenerate ({detail})")]
+    InvertedElement {
+        /// Element index.
+        element: usize,
+        /// Numbers that explain it.
+        detail: String,
+    },
+    /// Any other physical failure, described in words.
+    #[error("{0}")]
+    Other(String),
+    /// The system does not provide an assembled stiffness matrix; choose the matrix-free solver.
+    #[error(
+        "this force system cannot assemble its stiffness matrix; use the matrix-free CG solver"
+    )]
+    AssemblyUnsupported,
+}
+
+/// A mechanical system as seen by the implicit integrators.
+///
+/// The integrator calls [`ForceSystem::forces`] at a linearisation point `x`; the later calls to
+/// [`ForceSystem::add_force_differential`], [`ForceSystem::add_stiffness_triplets`] and
+/// [`ForceSystem::low_rank_terms`] refer to that same point. `K = -df/dx` is the tangent stiffness.
+pub trait ForceSystem {
+    /// Number of degrees of freedom (3 x vertices).
+    fn num_dofs(&self) -> usize;
+
+    /// Lumped mass per degree of freedom, kg (length [`ForceSystem::num_dofs`]). Entries must be
+    /// positive.
+    fn masses(&self) -> &[f64];
+
+    /// Evaluates all position-dependent forces at `x` into `f` (overwritten), and stores whatever
+    /// is needed to linearise about `x`. `time` is the simulation time at which `x` is evaluated
+    /// (for time-dependent loads such as a pump).
+    fn forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError>;
+
+    /// Adds the force differential `df = -K dx` at the last linearisation point to `df`.
+    /// Includes any low-rank terms.
+    fn add_force_differential(&self, dx: &[f64], df: &mut [f64]);
+
+    /// Appends the sparse part of `K` (everything but [`ForceSystem::low_rank_terms`]) as
+    /// `(row, col, value)` triplets; duplicates are summed. Systems that cannot assemble return
+    /// [`SystemError::AssemblyUnsupported`] (the default).
+    fn add_stiffness_triplets(
+        &self,
+        triplets: &mut Vec<(usize, usize, f64)>,
+    ) -> Result<(), SystemError> {
+        let _ = triplets;
+        Err(SystemError::AssemblyUnsupported)
+    }
+
+    /// The dense low-rank part of `K` at the last linearisation point (default: none).
+    fn low_rank_terms(&self) -> &[LowRankTerm] {
+        &[]
+    }
+}

@@ -1,0 +1,1 @@
+//! Hyperelastic materials (being filled in).

@@ -1,0 +1,1 @@
+//! generate (being filled in).

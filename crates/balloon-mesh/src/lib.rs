@@ -1,0 +1,34 @@
+//! Triangle and tetrahedral meshes for the `balloon` toolkit.
+//!
+//! **For:** reading the meshes users actually have (OBJ, OFF, PLY, STL), validating them with
+//! errors that name the file, line and element, topology (edges, adjacency, components, genus),
+//! geometry (areas, normals, enclosed volume and its gradient), procedural generators (spheres,
+//! torus, box, implicit shapes, the built-in teddy) and the triangle-soup to tetrahedral-lattice
+//! generator of Diziol, Bender and Bayer (seed 003, Sec. 3).
+//!
+//! **Not for:** physics. Nothing here knows about materials, forces or time.
+//!
+//! ```
+//! use balloon_mesh::TriMesh;
+//! use nalgebra::Point3;
+//! let tet = TriMesh::new(
+//!     vec![Point3::new(0.0, 0.0, 0.0), Point3::new(1.0, 0.0, 0.0),
+//!          Point3::new(0.0, 1.0, 0.0), Point3::new(0.0, 0.0, 1.0)],
+//!     vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+//! );
+//! assert_eq!(tet.num_triangles(), 4);
+//! ```
+
+pub mod error;
+pub mod generate;
+pub mod geometry;
+pub mod io;
+pub mod lattice;
+pub mod mesh;
+pub mod tet;
+pub mod topology;
+pub mod validate;
+
+pub use error::MeshError;
+pub use mesh::TriMesh;
+pub use tet::TetMesh;

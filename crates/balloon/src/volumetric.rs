@@ -1,0 +1,1 @@
+//! volumetric (being filled in).

@@ -1,0 +1,1 @@
+//! shell integration tests (being filled in).

@@ -1,0 +1,1 @@
+//! two_layer integration tests (being filled in).

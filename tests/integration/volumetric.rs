@@ -1,0 +1,1 @@
+//! volumetric integration tests (being filled in).
