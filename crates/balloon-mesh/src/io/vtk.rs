@@ -1,0 +1,1 @@
+//! Legacy VTK writers for tetrahedral meshes (being filled in).
