@@ -1,6 +1,5 @@
 //! Cross-crate integration tests: one binary for the whole workspace (linking is slow on 2 cores).
 
-mod cli;
 mod shell;
 mod two_layer;
 mod volumetric;

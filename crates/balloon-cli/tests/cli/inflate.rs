@@ -1,0 +1,1 @@
+//! `balloon inflate` end-to-end tests (being filled in).

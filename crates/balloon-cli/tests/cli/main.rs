@@ -1,0 +1,26 @@
+//! End-to-end tests of the `balloon` binary: one test binary for all subcommands.
+
+mod inflate;
+mod mesh;
+mod two_layer;
+mod volumetric;
+
+use std::process::{Command, Output};
+
+/// Runs the `balloon` binary with `args` and returns its output.
+pub fn run_balloon(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_balloon")).args(args).output().expect("failed to start the balloon binary")
+}
+
+/// The last non-empty line of stdout parsed as JSON (what `--json` prints).
+pub fn last_json_line(out: &Output) -> serde_json::Value {
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let line = stdout.lines().rev().find(|l| !l.trim().is_empty()).expect("no stdout line");
+    serde_json::from_str(line).unwrap_or_else(|e| panic!("last stdout line is not JSON ({e}): {line}"))
+}
+
+/// The shared real meshes folder beside the repository, if present.
+pub fn shared_meshes_dir() -> Option<std::path::PathBuf> {
+    let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
+    dir.is_dir().then_some(dir)
+}

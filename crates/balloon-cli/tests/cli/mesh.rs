@@ -1,0 +1,1 @@
+//! `balloon mesh` end-to-end tests (being filled in).

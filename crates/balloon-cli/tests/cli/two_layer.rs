@@ -1,0 +1,1 @@
+//! `balloon two_layer` end-to-end tests (being filled in).

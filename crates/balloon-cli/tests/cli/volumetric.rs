@@ -1,0 +1,1 @@
+//! `balloon volumetric` end-to-end tests (being filled in).

@@ -1,1 +1,0 @@
-//! cli integration tests (being filled in).
