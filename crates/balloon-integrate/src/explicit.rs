@@ -402,7 +402,7 @@ mod tests {
                 .map(|&h| {
                     let mut it = ExplicitIntegrator::new(method);
                     let mut y = [1.0];
-                    let steps = (2.0 / h).round() as usize;
+                    let steps = (2.0f64 / h).round() as usize;
                     for i in 0..steps {
                         it.step(&mut TimeDependent, i as f64 * h, h, &mut y)
                             .unwrap();
