@@ -1,1 +1,732 @@
-//! cell_volume (being filled in).
+//! Cell volume constraints of impulse-based volume-conserving bodies (seed 003, Diziol, Bender
+//! and Bayer, Sec. 4).
+//!
+//! A *cell* is a lattice hexahedron: 8 particles, 5 tetrahedra and 16 springs (12 edges and 4
+//! body diagonals, [`CellSprings`]). One simulation step (Eq. 1) first integrates the external
+//! forces (springs, gravity) into the velocities, `v += h F_ext / m`, and forms the *preview*
+//! positions `x = p + h v`. Then [`CellVolumeConstraints::project`] visits the cells in
+//! Gauss-Seidel order; for each it sums the five preview tetrahedron volumes (Eq. 3) to
+//! `V(t+h)`, and with `lambda = cbrt(V0 / V(t+h))` moves its particles by
+//! `(lambda - 1)(x_i - c)` about the cell centre `c`, which scales the cell about `c` and so
+//! multiplies its volume by `lambda^3`, restoring `V0` (Eq. 2). The velocity change that produces
+//! this displacement is
+//!
+//! ```text
+//! Delta v_i = (lambda - 1) (x_i - c) / h,        impulse  J_i = m_i Delta v_i.
+//! ```
+//!
+//! (The printed Eq. 4 divides by `h m_i`: that is the velocity change produced by an *impulse*
+//! `(lambda - 1)(x_i - c)`, which would not move the particle by `(lambda - 1)(x_i - c)` unless
+//! `m_i = 1`. We use the velocity change above; with equal masses the two differ only by the
+//! constant factor `m`, and the momentum argument of the paper holds unchanged.) Sweeps repeat
+//! until every cell's relative volume error `|V - V0| / V0` is below the tolerance.
+//!
+//! With unequal masses, the arithmetic centre `c = mean(x_i)` no longer conserves momentum;
+//! [`CellCentre::MassWeighted`] uses `c = sum(m_i x_i) / sum(m_i)`, for which
+//! `sum_i m_i Delta v_i = 0` exactly.
+
+use balloon_mesh::tet::signed_tet_volume;
+use nalgebra::{Point3, Vector3};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Which centre the cell is scaled about.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CellCentre {
+    /// `c = (1/8) sum x_i`, as in the paper; conserves momentum for equal masses.
+    #[default]
+    Arithmetic,
+    /// `c = sum m_i x_i / sum m_i`; conserves momentum for any masses.
+    MassWeighted,
+}
+
+/// Parameters of the Gauss-Seidel volume projection.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CellVolumeParams {
+    /// Largest accepted relative cell-volume error `|V - V0| / V0` after projection. Default
+    /// `1e-10`.
+    pub tolerance: f64,
+    /// Largest number of sweeps over all cells. Default 500.
+    pub max_sweeps: usize,
+    /// Centre of the scaling. Default [`CellCentre::Arithmetic`].
+    pub centre: CellCentre,
+}
+
+impl Default for CellVolumeParams {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-10,
+            max_sweeps: 500,
+            centre: CellCentre::Arithmetic,
+        }
+    }
+}
+
+/// Failures of the volume projection.
+#[derive(Clone, Debug, PartialEq, Error)]
+pub enum CellVolumeError {
+    /// A tetrahedron of the preview has non-positive volume; the caller should halve the time
+    /// step and retry (Sec. 4).
+    #[error("tetrahedron {tet} of cell {cell} inverted in the preview (volume {volume:.3e} m^3)")]
+    Inverted {
+        /// The cell.
+        cell: usize,
+        /// Local tetrahedron (0..5) of the cell.
+        tet: usize,
+        /// Its signed volume.
+        volume: f64,
+    },
+    /// The sweeps did not bring every cell below the tolerance.
+    #[error(
+        "volume projection did not converge in {sweeps} sweeps: max relative error {max_error:.3e} in cell {cell}"
+    )]
+    NotConverged {
+        /// Sweeps done.
+        sweeps: usize,
+        /// Largest remaining relative error.
+        max_error: f64,
+        /// The worst cell.
+        cell: usize,
+    },
+    /// A cell's rest volume is not positive (the lattice is broken).
+    #[error("cell {cell} has non-positive rest volume {volume:.3e} m^3")]
+    BadRestVolume {
+        /// The cell.
+        cell: usize,
+        /// Its volume.
+        volume: f64,
+    },
+    /// Invalid parameter.
+    #[error("invalid parameter `{name}` = {value}: {reason}")]
+    InvalidParameter {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: String,
+        /// The allowed range.
+        reason: String,
+    },
+}
+
+/// Result of one projection.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ProjectionInfo {
+    /// Sweeps performed.
+    pub sweeps: usize,
+    /// Largest relative cell-volume error before the projection.
+    pub initial_error: f64,
+    /// Largest relative cell-volume error after it.
+    pub final_error: f64,
+}
+
+/// The volume constraints of all cells.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CellVolumeConstraints {
+    /// Eight particles per cell.
+    pub cells: Vec<[usize; 8]>,
+    /// Five tetrahedra per cell, as particle indices.
+    pub tets: Vec<[[usize; 4]; 5]>,
+    /// Rest volume `V0` per cell (m^3).
+    pub rest_volumes: Vec<f64>,
+    /// Parameters.
+    pub params: CellVolumeParams,
+}
+
+/// Volume of a cell: the sum of its five signed tetrahedron volumes (Eq. 3).
+pub fn cell_volume(positions: &[Point3<f64>], tets: &[[usize; 4]; 5]) -> f64 {
+    tets.iter()
+        .map(|t| {
+            signed_tet_volume(
+                &positions[t[0]],
+                &positions[t[1]],
+                &positions[t[2]],
+                &positions[t[3]],
+            )
+        })
+        .sum()
+}
+
+impl CellVolumeConstraints {
+    /// Constraints for `cells` with tetrahedra `tets` (particle indices), rest volumes measured
+    /// at `rest_positions`.
+    pub fn new(
+        cells: Vec<[usize; 8]>,
+        tets: Vec<[[usize; 4]; 5]>,
+        rest_positions: &[Point3<f64>],
+        params: CellVolumeParams,
+    ) -> Result<Self, CellVolumeError> {
+        if !(params.tolerance > 0.0 && params.tolerance < 1.0) {
+            return Err(CellVolumeError::InvalidParameter {
+                name: "tolerance",
+                value: params.tolerance.to_string(),
+                reason: "must be in (0, 1)".into(),
+            });
+        }
+        if params.max_sweeps == 0 {
+            return Err(CellVolumeError::InvalidParameter {
+                name: "max_sweeps",
+                value: "0".into(),
+                reason: "must be >= 1".into(),
+            });
+        }
+        let rest_volumes: Vec<f64> = tets
+            .iter()
+            .map(|t| cell_volume(rest_positions, t))
+            .collect();
+        for (cell, &volume) in rest_volumes.iter().enumerate() {
+            if volume.is_nan() || volume <= 0.0 {
+                return Err(CellVolumeError::BadRestVolume { cell, volume });
+            }
+        }
+        Ok(Self {
+            cells,
+            tets,
+            rest_volumes,
+            params,
+        })
+    }
+
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// True when there are no cells.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    /// Largest relative volume error `|V - V0| / V0` over the cells, and the cell.
+    pub fn max_relative_error(&self, positions: &[Point3<f64>]) -> (f64, usize) {
+        let mut worst = (0.0, 0);
+        for (c, t) in self.tets.iter().enumerate() {
+            let e = (cell_volume(positions, t) / self.rest_volumes[c] - 1.0).abs();
+            if e > worst.0 || e.is_nan() {
+                worst = (e, c);
+            }
+        }
+        worst
+    }
+
+    /// First tetrahedron with non-positive volume, if any (Sec. 4: the step must be halved).
+    pub fn find_inverted(&self, positions: &[Point3<f64>]) -> Option<CellVolumeError> {
+        for (cell, tets) in self.tets.iter().enumerate() {
+            for (tet, t) in tets.iter().enumerate() {
+                let volume = signed_tet_volume(
+                    &positions[t[0]],
+                    &positions[t[1]],
+                    &positions[t[2]],
+                    &positions[t[3]],
+                );
+                if volume.is_nan() || volume <= 0.0 {
+                    return Some(CellVolumeError::Inverted { cell, tet, volume });
+                }
+            }
+        }
+        None
+    }
+
+    /// Applies the volume impulses (Eq. 2-4) in Gauss-Seidel sweeps.
+    ///
+    /// * `preview`: the positions `x = p + h v` of Eq. 1 (m), moved in place to the corrected
+    ///   positions;
+    /// * `velocities`: `v(t + h)` (m/s), changed by `Delta v_i = (lambda - 1)(x_i - c) / h` so that
+    ///   `p + h v` equals the corrected preview again;
+    /// * `masses`: particle masses (kg), used only by [`CellCentre::MassWeighted`];
+    /// * `h`: the time step (s).
+    ///
+    /// Returns [`CellVolumeError::Inverted`] when a preview tetrahedron is not positive (before
+    /// or during the sweeps), and [`CellVolumeError::NotConverged`] after `max_sweeps`.
+    pub fn project(
+        &self,
+        preview: &mut [Point3<f64>],
+        velocities: &mut [Vector3<f64>],
+        masses: &[f64],
+        h: f64,
+    ) -> Result<ProjectionInfo, CellVolumeError> {
+        if let Some(e) = self.find_inverted(preview) {
+            return Err(e);
+        }
+        let (initial_error, _) = self.max_relative_error(preview);
+        let mut info = ProjectionInfo {
+            sweeps: 0,
+            initial_error,
+            final_error: initial_error,
+        };
+        if initial_error <= self.params.tolerance {
+            return Ok(info);
+        }
+        for sweep in 1..=self.params.max_sweeps {
+            for (c, cell) in self.cells.iter().enumerate() {
+                let v = cell_volume(preview, &self.tets[c]);
+                if v.is_nan() || v <= 0.0 {
+                    return Err(CellVolumeError::Inverted {
+                        cell: c,
+                        tet: 0,
+                        volume: v,
+                    });
+                }
+                let lambda = (self.rest_volumes[c] / v).cbrt();
+                let centre = self.centre(preview, masses, cell);
+                for &i in cell {
+                    let dx = (preview[i].coords - centre) * (lambda - 1.0);
+                    preview[i] += dx;
+                    velocities[i] += dx / h;
+                }
+            }
+            if let Some(e) = self.find_inverted(preview) {
+                return Err(e);
+            }
+            let (err, cell) = self.max_relative_error(preview);
+            info.sweeps = sweep;
+            info.final_error = err;
+            if err <= self.params.tolerance {
+                return Ok(info);
+            }
+            if sweep == self.params.max_sweeps {
+                return Err(CellVolumeError::NotConverged {
+                    sweeps: sweep,
+                    max_error: err,
+                    cell,
+                });
+            }
+        }
+        Ok(info)
+    }
+
+    fn centre(&self, x: &[Point3<f64>], masses: &[f64], cell: &[usize; 8]) -> Vector3<f64> {
+        match self.params.centre {
+            CellCentre::Arithmetic => {
+                cell.iter().fold(Vector3::zeros(), |a, &i| a + x[i].coords) / 8.0
+            }
+            CellCentre::MassWeighted => {
+                let m: f64 = cell.iter().map(|&i| masses[i]).sum();
+                cell.iter()
+                    .fold(Vector3::zeros(), |a, &i| a + x[i].coords * masses[i])
+                    / m
+            }
+        }
+    }
+}
+
+/// The 12 edges of a cell as local corner pairs (corner order of
+/// `balloon_mesh::lattice::CORNERS`).
+pub const CELL_EDGES: [[usize; 2]; 12] = [
+    [0, 1],
+    [1, 2],
+    [2, 3],
+    [3, 0],
+    [4, 5],
+    [5, 6],
+    [6, 7],
+    [7, 4],
+    [0, 4],
+    [1, 5],
+    [2, 6],
+    [3, 7],
+];
+
+/// The 4 body diagonals of a cell as local corner pairs.
+pub const CELL_DIAGONALS: [[usize; 2]; 4] = [[0, 6], [1, 7], [2, 4], [3, 5]];
+
+/// One damped spring.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Spring {
+    /// Its two particles.
+    pub ends: [usize; 2],
+    /// Rest length (m).
+    pub rest_length: f64,
+    /// Stiffness (N/m).
+    pub stiffness: f64,
+    /// Damping along the spring (N s/m).
+    pub damping: f64,
+}
+
+/// Stiffness and damping of the cell springs (Fig. 3: edges and diagonals separately).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SpringParams {
+    /// Edge spring stiffness (N/m). Default 2e4.
+    pub edge_stiffness: f64,
+    /// Edge spring damping (N s/m). Default 20.
+    pub edge_damping: f64,
+    /// Body-diagonal spring stiffness (N/m). Default 2e4.
+    pub diagonal_stiffness: f64,
+    /// Body-diagonal spring damping (N s/m). Default 20.
+    pub diagonal_damping: f64,
+}
+
+impl Default for SpringParams {
+    fn default() -> Self {
+        Self {
+            edge_stiffness: 2e4,
+            edge_damping: 20.0,
+            diagonal_stiffness: 2e4,
+            diagonal_damping: 20.0,
+        }
+    }
+}
+
+impl SpringParams {
+    /// Checks that all values are finite and non-negative; the error names the parameter.
+    pub fn validate(&self) -> Result<(), CellVolumeError> {
+        for (name, value) in [
+            ("edge_stiffness", self.edge_stiffness),
+            ("edge_damping", self.edge_damping),
+            ("diagonal_stiffness", self.diagonal_stiffness),
+            ("diagonal_damping", self.diagonal_damping),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(CellVolumeError::InvalidParameter {
+                    name,
+                    value: value.to_string(),
+                    reason: "must be finite and >= 0".into(),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The 16 springs of every cell (a spring on an edge shared by several cells appears once per
+/// cell, as in the paper where each constraint owns its springs).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CellSprings {
+    /// All springs.
+    pub springs: Vec<Spring>,
+}
+
+impl CellSprings {
+    /// Springs for `cells` with rest lengths measured at `rest_positions`.
+    pub fn new(
+        cells: &[[usize; 8]],
+        rest_positions: &[Point3<f64>],
+        params: &SpringParams,
+    ) -> Self {
+        let mut springs = Vec::with_capacity(16 * cells.len());
+        for cell in cells {
+            for (pairs, k, c) in [
+                (&CELL_EDGES[..], params.edge_stiffness, params.edge_damping),
+                (
+                    &CELL_DIAGONALS[..],
+                    params.diagonal_stiffness,
+                    params.diagonal_damping,
+                ),
+            ] {
+                for &[a, b] in pairs {
+                    let ends = [cell[a], cell[b]];
+                    springs.push(Spring {
+                        ends,
+                        rest_length: (rest_positions[ends[1]] - rest_positions[ends[0]]).norm(),
+                        stiffness: k,
+                        damping: c,
+                    });
+                }
+            }
+        }
+        Self { springs }
+    }
+
+    /// Elastic energy `sum k/2 (|x_b - x_a| - L0)^2` (J).
+    pub fn energy(&self, x: &[Point3<f64>]) -> f64 {
+        self.springs
+            .iter()
+            .map(|s| {
+                let l = (x[s.ends[1]] - x[s.ends[0]]).norm();
+                0.5 * s.stiffness * (l - s.rest_length).powi(2)
+            })
+            .sum()
+    }
+
+    /// Adds the spring forces to `forces` (N): elastic `-k (l - L0) d` on the first end and
+    /// damping `-c ((v_a - v_b) . d) d` along the unit direction `d = (x_a - x_b)/l`, equal and
+    /// opposite on the two ends (so they exert no net force: momentum is conserved).
+    pub fn add_forces(&self, x: &[Point3<f64>], v: &[Vector3<f64>], forces: &mut [Vector3<f64>]) {
+        for s in &self.springs {
+            let [a, b] = s.ends;
+            let d = x[a] - x[b];
+            let l = d.norm();
+            if l <= f64::MIN_POSITIVE {
+                continue;
+            }
+            let n = d / l;
+            let f = n * (-s.stiffness * (l - s.rest_length) - s.damping * (v[a] - v[b]).dot(&n));
+            forces[a] += f;
+            forces[b] -= f;
+        }
+    }
+
+    /// Force differential `df = -K dx` of the elastic part at `x` (N), for a direction `dx` (m):
+    /// for one spring `K = k [n n^T + (1 - L0/l)(I - n n^T)]` on the relative displacement.
+    pub fn force_differential(&self, x: &[Point3<f64>], dx: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+        let mut df = vec![Vector3::zeros(); x.len()];
+        for s in &self.springs {
+            let [a, b] = s.ends;
+            let d = x[a] - x[b];
+            let l = d.norm();
+            if l <= f64::MIN_POSITIVE {
+                continue;
+            }
+            let n = d / l;
+            let r = dx[a] - dx[b];
+            let kr =
+                (n * n.dot(&r) + (r - n * n.dot(&r)) * (1.0 - s.rest_length / l)) * s.stiffness;
+            df[a] -= kr;
+            df[b] += kr;
+        }
+        df
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use balloon_test_support::{Rng, check_gradient, check_jacobian};
+
+    /// A 2 x 1 x 1 block of unit cells with the five-tet split (parity alternating), built here
+    /// so this crate's tests do not depend on the lattice generator.
+    type Block = (Vec<Point3<f64>>, Vec<[usize; 8]>, Vec<[[usize; 4]; 5]>);
+
+    fn block(nx: usize) -> Block {
+        const C: [[usize; 3]; 8] = [
+            [0, 0, 0],
+            [1, 0, 0],
+            [1, 1, 0],
+            [0, 1, 0],
+            [0, 0, 1],
+            [1, 0, 1],
+            [1, 1, 1],
+            [0, 1, 1],
+        ];
+        const T: [[[usize; 4]; 5]; 2] = [
+            [
+                [1, 3, 4, 6],
+                [0, 1, 3, 4],
+                [2, 3, 1, 6],
+                [5, 4, 6, 1],
+                [7, 3, 4, 6],
+            ],
+            [
+                [0, 2, 5, 7],
+                [1, 0, 2, 5],
+                [3, 2, 0, 7],
+                [4, 5, 7, 0],
+                [6, 7, 5, 2],
+            ],
+        ];
+        let vid = |i: usize, j: usize, k: usize| i + (nx + 1) * (j + 2 * k);
+        let mut x = Vec::new();
+        for k in 0..2 {
+            for j in 0..2 {
+                for i in 0..=nx {
+                    x.push(Point3::new(i as f64, j as f64, k as f64) * 0.1);
+                }
+            }
+        }
+        let mut cells = Vec::new();
+        let mut tets = Vec::new();
+        for i in 0..nx {
+            let corners = C.map(|[a, b, c]| vid(i + a, b, c));
+            let mut ts = T[i % 2].map(|t| t.map(|l| corners[l]));
+            for t in &mut ts {
+                if signed_tet_volume(&x[t[0]], &x[t[1]], &x[t[2]], &x[t[3]]) < 0.0 {
+                    t.swap(2, 3);
+                }
+            }
+            cells.push(corners);
+            tets.push(ts);
+        }
+        (x, cells, tets)
+    }
+
+    fn perturbed(x: &[Point3<f64>], amp: f64, seed: u64) -> Vec<Point3<f64>> {
+        let mut rng = Rng::new(seed);
+        x.iter()
+            .map(|p| p + Vector3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * amp)
+            .collect()
+    }
+
+    #[test]
+    fn projection_restores_every_cell_volume_and_conserves_momentum() {
+        // Equal masses and the arithmetic centre: each cell's impulses sum to zero (Sec. 4), so
+        // total momentum cannot change, while every cell returns to its rest volume.
+        let (x0, cells, tets) = block(4);
+        let c = CellVolumeConstraints::new(cells, tets, &x0, CellVolumeParams::default()).unwrap();
+        let mut x = perturbed(&x0, 0.01, 3);
+        let mut v = vec![Vector3::new(0.3, -0.1, 0.2); x.len()];
+        let m = vec![0.5; x.len()];
+        let p0: Vector3<f64> = v.iter().zip(&m).map(|(v, m)| v * *m).sum();
+        let h = 1e-2;
+        let info = c.project(&mut x, &mut v, &m, h).unwrap();
+        assert!(info.initial_error > 1e-3);
+        assert!(info.final_error <= 1e-10);
+        let (err, _) = c.max_relative_error(&x);
+        assert!(err <= 1e-10);
+        let p1: Vector3<f64> = v.iter().zip(&m).map(|(v, m)| v * *m).sum();
+        assert!(
+            (p1 - p0).norm() < 1e-12,
+            "momentum drift {}",
+            (p1 - p0).norm()
+        );
+    }
+
+    #[test]
+    fn mass_weighted_centre_conserves_momentum_with_unequal_masses() {
+        let (x0, cells, tets) = block(3);
+        let params = CellVolumeParams {
+            centre: CellCentre::MassWeighted,
+            ..CellVolumeParams::default()
+        };
+        let c = CellVolumeConstraints::new(cells, tets, &x0, params).unwrap();
+        let mut x = perturbed(&x0, 0.01, 5);
+        let mut v = vec![Vector3::zeros(); x.len()];
+        let mut rng = Rng::new(9);
+        let m: Vec<f64> = (0..x.len()).map(|_| 1.0 + 0.9 * rng.next_f64()).collect();
+        c.project(&mut x, &mut v, &m, 1e-2).unwrap();
+        let p: Vector3<f64> = v.iter().zip(&m).map(|(v, m)| v * *m).sum();
+        let scale: f64 = v.iter().zip(&m).map(|(v, m)| v.norm() * m).sum();
+        assert!(scale > 1e-3);
+        assert!(p.norm() < 1e-12 * scale.max(1.0), "momentum {}", p.norm());
+    }
+
+    #[test]
+    fn velocity_change_matches_displacement() {
+        // p + h v must equal the corrected preview: the velocity carries the correction.
+        let (x0, cells, tets) = block(2);
+        let c = CellVolumeConstraints::new(cells, tets, &x0, CellVolumeParams::default()).unwrap();
+        let p = perturbed(&x0, 0.005, 11);
+        let mut rng = Rng::new(12);
+        let mut v: Vec<Vector3<f64>> = (0..p.len())
+            .map(|_| Vector3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 0.2)
+            .collect();
+        let h = 5e-3;
+        let mut x: Vec<Point3<f64>> = p.iter().zip(&v).map(|(p, v)| p + v * h).collect();
+        c.project(&mut x, &mut v, &[1.0; 18], h).unwrap();
+        for i in 0..p.len() {
+            assert!((p[i] + v[i] * h - x[i]).norm() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn inverted_preview_is_reported_with_cell_and_tet() {
+        let (x0, cells, tets) = block(2);
+        let c = CellVolumeConstraints::new(cells, tets, &x0, CellVolumeParams::default()).unwrap();
+        let mut x = x0.clone();
+        // Push corner 6 of cell 0 through the opposite face.
+        x[c.cells[0][6]] = Point3::new(-0.05, -0.05, -0.05);
+        let mut v = vec![Vector3::zeros(); x.len()];
+        let e = c.project(&mut x, &mut v, &[1.0; 18], 1e-2).unwrap_err();
+        assert!(
+            matches!(e, CellVolumeError::Inverted { cell: 0, .. }),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn volume_impulses_do_not_create_kinetic_energy() {
+        // For a free body with random velocities and no springs, the impulses only remove the
+        // velocity component that changes the cell volumes (for cube-like cells the volume
+        // gradient is radial about the centre), so kinetic energy cannot grow.
+        let (x0, cells, tets) = block(4);
+        let c = CellVolumeConstraints::new(cells, tets, &x0, CellVolumeParams::default()).unwrap();
+        for seed in 1..20 {
+            let mut rng = Rng::new(seed);
+            let mut v: Vec<Vector3<f64>> = (0..x0.len())
+                .map(|_| Vector3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()))
+                .collect();
+            let ke = |v: &[Vector3<f64>]| v.iter().map(|v| 0.5 * v.norm_squared()).sum::<f64>();
+            let before = ke(&v);
+            let h = 1e-3;
+            let mut x: Vec<Point3<f64>> = x0.iter().zip(&v).map(|(p, v)| p + v * h).collect();
+            c.project(&mut x, &mut v, &vec![1.0; x0.len()], h).unwrap();
+            let after = ke(&v);
+            assert!(
+                after <= before * (1.0 + 1e-12),
+                "seed {seed}: {before} -> {after}"
+            );
+        }
+    }
+
+    #[test]
+    fn spring_force_is_minus_energy_gradient_and_differential_matches() {
+        let (x0, cells, _) = block(2);
+        let params = SpringParams {
+            edge_stiffness: 100.0,
+            diagonal_stiffness: 30.0,
+            edge_damping: 0.0,
+            diagonal_damping: 0.0,
+        };
+        let s = CellSprings::new(&cells, &x0, &params);
+        assert_eq!(s.springs.len(), 32);
+        let x = perturbed(&x0, 0.02, 21);
+        let flat: Vec<f64> = x.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+        let unflat = |f: &[f64]| -> Vec<Point3<f64>> {
+            f.chunks_exact(3)
+                .map(|c| Point3::new(c[0], c[1], c[2]))
+                .collect()
+        };
+        let zero_v = vec![Vector3::zeros(); x.len()];
+        let force = |f: &[f64]| -> Vec<f64> {
+            let mut out = vec![Vector3::zeros(); x.len()];
+            s.add_forces(&unflat(f), &zero_v, &mut out);
+            out.iter().flat_map(|v| [v.x, v.y, v.z]).collect()
+        };
+        check_gradient(
+            |f| s.energy(&unflat(f)),
+            |f| force(f).iter().map(|g| -g).collect(),
+            &flat,
+            1e-6,
+            1e-6,
+        );
+        check_jacobian(
+            force,
+            |f, dx| {
+                let dxv: Vec<Vector3<f64>> = dx
+                    .chunks_exact(3)
+                    .map(|c| Vector3::new(c[0], c[1], c[2]))
+                    .collect();
+                s.force_differential(&unflat(f), &dxv)
+                    .iter()
+                    .flat_map(|v| [v.x, v.y, v.z])
+                    .collect()
+            },
+            &flat,
+            1e-6,
+            1e-6,
+            4,
+        );
+    }
+
+    #[test]
+    fn damping_dissipates_and_forces_sum_to_zero() {
+        // Damping forces oppose the relative velocity: their power is never positive; all spring
+        // forces come in equal and opposite pairs, so they sum to zero.
+        let (x0, cells, _) = block(2);
+        let s = CellSprings::new(&cells, &x0, &SpringParams::default());
+        let x = perturbed(&x0, 0.01, 31);
+        let mut rng = Rng::new(32);
+        let v: Vec<Vector3<f64>> = (0..x.len())
+            .map(|_| Vector3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()))
+            .collect();
+        let mut f_all = vec![Vector3::zeros(); x.len()];
+        s.add_forces(&x, &v, &mut f_all);
+        let mut f_el = vec![Vector3::zeros(); x.len()];
+        s.add_forces(&x, &vec![Vector3::zeros(); x.len()], &mut f_el);
+        let power: f64 = (0..x.len()).map(|i| (f_all[i] - f_el[i]).dot(&v[i])).sum();
+        assert!(power <= 0.0);
+        let net: Vector3<f64> = f_all.iter().sum();
+        assert!(net.norm() < 1e-9);
+        assert!(
+            SpringParams {
+                edge_stiffness: -1.0,
+                ..SpringParams::default()
+            }
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("edge_stiffness")
+        );
+    }
+}

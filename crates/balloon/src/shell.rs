@@ -1,1 +1,0 @@
-//! shell (being filled in).
