@@ -1,1 +1,983 @@
-//! Backward Euler with Newton (being filled in).
+//! Backward Euler with Newton-Raphson on velocities (seed 000, Eq. 18-23).
+//!
+//! Unknown: the end-of-step velocity `v`. With `x(v) = x^n + dt v`, backward Euler (Eq. 18) is
+//! the nonlinear equation
+//!
+//! `r(v) = M (v - v^n) - dt (f(x(v)) + f_ext - C v) = 0`, `C = alpha M + beta K`.
+//!
+//! Newton from `v_(0) = v^n` solves, at each iterate `x_(k) = x^n + dt v_(k)`,
+//!
+//! `A dv = b`, `A = M + dt C + dt^2 K(x_(k)) = (1 + dt alpha) M + (dt^2 + dt beta) K`,
+//! `b = M (v^n - v_(k)) + dt (f(x_(k)) + f_ext - C v_(k))` (Eq. 23),
+//!
+//! then `v_(k+1) = v_(k) + dv`. `K = -df/dx` is the system's tangent stiffness (elastic plus gas,
+//! the latter's rank-1 part never assembled). On a linear force system one iteration is exact.
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::linear::{
+    CgWorkspace, LinearSolveError, LinearSolveInfo, LinearSolverKind, LinearSolverParams,
+    SparseAssembler, SparseCholesky, cg, solve_with_low_rank,
+};
+use crate::system::{ForceSystem, SystemError};
+
+/// Parameters of [`BackwardEuler`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct BackwardEulerParams {
+    /// Maximum Newton iterations per step (default 3, as the paper).
+    pub newton_iterations: usize,
+    /// Stop early when `||b_k|| <= newton_tolerance * ||b_0||` (default `1e-6`); `0` always runs
+    /// all `newton_iterations`.
+    pub newton_tolerance: f64,
+    /// The linear solver and its tolerances.
+    pub linear: LinearSolverParams,
+    /// Rayleigh mass damping `alpha`, 1/s (`C = alpha M + beta K`; default 0).
+    pub mass_damping: f64,
+    /// Rayleigh stiffness damping `beta`, s (default 0).
+    pub stiffness_damping: f64,
+    /// Gravitational acceleration, m/s^2, applied as `m_i g` per degree of freedom (default 0).
+    pub gravity: [f64; 3],
+}
+
+impl Default for BackwardEulerParams {
+    fn default() -> Self {
+        Self {
+            newton_iterations: 3,
+            newton_tolerance: 1e-6,
+            linear: LinearSolverParams::default(),
+            mass_damping: 0.0,
+            stiffness_damping: 0.0,
+            gravity: [0.0; 3],
+        }
+    }
+}
+
+/// What one [`BackwardEuler::step`] did.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StepInfo {
+    /// Newton iterations performed (linear solves).
+    pub newton_iterations: usize,
+    /// CG iterations per Newton iteration (1 per solve for Cholesky).
+    pub linear_iterations: Vec<usize>,
+    /// Final relative residual `||b - A dv|| / ||b||` per Newton iteration.
+    pub linear_residuals: Vec<f64>,
+    /// `||b_k||` (N s) at each Newton iterate evaluated.
+    pub newton_residuals: Vec<f64>,
+    /// Whether every linear solve met its tolerance and (if `newton_tolerance > 0`) the Newton
+    /// residual fell below `newton_tolerance * ||b_0||`.
+    pub converged: bool,
+}
+
+impl StepInfo {
+    /// Total linear-solver iterations over the step.
+    pub fn total_linear_iterations(&self) -> usize {
+        self.linear_iterations.iter().sum()
+    }
+}
+
+/// Errors of [`BackwardEuler::step`].
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum IntegrateError {
+    /// The force system failed (inverted element, non-finite gas volume, ...).
+    #[error("force system error in Newton iteration {iteration}: {source}")]
+    System {
+        /// Newton iteration (0-based).
+        iteration: usize,
+        /// The system's error.
+        #[source]
+        source: SystemError,
+    },
+    /// The linear solver broke down (non-positive curvature, Cholesky failure, ...).
+    #[error("linear solver failed in Newton iteration {iteration}: {source}")]
+    Linear {
+        /// Newton iteration (0-based).
+        iteration: usize,
+        /// The solver's error.
+        #[source]
+        source: LinearSolveError,
+    },
+    /// A position, velocity or force became NaN or infinite.
+    #[error("non-finite {quantity} at dof {dof} (vertex {vertex}) in Newton iteration {iteration}")]
+    NonFinite {
+        /// "position", "velocity" or "force".
+        quantity: &'static str,
+        /// Degree of freedom.
+        dof: usize,
+        /// Vertex `dof / 3`.
+        vertex: usize,
+        /// Newton iteration (0-based).
+        iteration: usize,
+    },
+    /// A parameter or array is invalid (message names it).
+    #[error("invalid input: {0}")]
+    InvalidInput(String),
+}
+
+/// Backward Euler + Newton integrator holding scratch buffers and the cached sparse pattern and
+/// symbolic factorisation, reused across Newton iterations and steps.
+#[derive(Debug, Default)]
+pub struct BackwardEuler {
+    /// Parameters (may be changed between steps).
+    pub params: BackwardEulerParams,
+    x_n: Vec<f64>,
+    v_n: Vec<f64>,
+    f: Vec<f64>,
+    f_ext: Vec<f64>,
+    b: Vec<f64>,
+    dv: Vec<f64>,
+    tmp: Vec<f64>,
+    kv: Vec<f64>,
+    diag: Vec<f64>,
+    cg_ws: CgWorkspace,
+    triplets: Vec<(usize, usize, f64)>,
+    assembler: SparseAssembler,
+    cholesky: SparseCholesky,
+    z_scratch: Vec<Vec<f64>>,
+}
+
+fn first_non_finite(v: &[f64]) -> Option<usize> {
+    v.iter().position(|a| !a.is_finite())
+}
+
+impl BackwardEuler {
+    /// A new integrator.
+    pub fn new(params: BackwardEulerParams) -> Self {
+        Self {
+            params,
+            ..Default::default()
+        }
+    }
+
+    fn validate(
+        &self,
+        n: usize,
+        dt: f64,
+        x: &[f64],
+        v: &[f64],
+        masses: &[f64],
+        ext: Option<&[f64]>,
+    ) -> Result<(), IntegrateError> {
+        let p = &self.params;
+        let bad = |s: String| Err(IntegrateError::InvalidInput(s));
+        if !(dt.is_finite() && dt > 0.0) {
+            return bad(format!(
+                "time step dt = {dt:e} s must be positive and finite"
+            ));
+        }
+        if !(p.mass_damping.is_finite() && p.mass_damping >= 0.0) {
+            return bad(format!(
+                "mass_damping = {:e} 1/s must be non-negative",
+                p.mass_damping
+            ));
+        }
+        if !(p.stiffness_damping.is_finite() && p.stiffness_damping >= 0.0) {
+            return bad(format!(
+                "stiffness_damping = {:e} s must be non-negative",
+                p.stiffness_damping
+            ));
+        }
+        if !(p.newton_tolerance.is_finite() && p.newton_tolerance >= 0.0) {
+            return bad(format!(
+                "newton_tolerance = {:e} must be non-negative",
+                p.newton_tolerance
+            ));
+        }
+        if p.gravity.iter().any(|g| !g.is_finite()) {
+            return bad(format!("gravity {:?} must be finite", p.gravity));
+        }
+        for (what, len) in [("x", x.len()), ("v", v.len()), ("masses", masses.len())] {
+            if len != n {
+                return bad(format!(
+                    "`{what}` has length {len}, the system has {n} dofs"
+                ));
+            }
+        }
+        if let Some(e) = ext
+            && e.len() != n
+        {
+            return bad(format!(
+                "`external_forces` has length {}, the system has {n} dofs",
+                e.len()
+            ));
+        }
+        if let Some(i) = masses.iter().position(|m| !(m.is_finite() && *m > 0.0)) {
+            return bad(format!(
+                "mass of dof {i} (vertex {}) is {:e} kg; must be positive",
+                i / 3,
+                masses[i]
+            ));
+        }
+        Ok(())
+    }
+
+    /// Advances `x` (m) and `v` (m/s) from `time` to `time + dt` (s) by backward Euler with
+    /// Newton (Eq. 23). `external_forces` (N, per dof) are added to gravity. On error `x` and
+    /// `v` are left at the last Newton iterate (the caller should keep its own copy to roll back).
+    pub fn step<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        time: f64,
+        dt: f64,
+        x: &mut [f64],
+        v: &mut [f64],
+        external_forces: Option<&[f64]>,
+    ) -> Result<StepInfo, IntegrateError> {
+        let n = system.num_dofs();
+        self.validate(n, dt, x, v, system.masses(), external_forces)?;
+        let p = self.params;
+        let (alpha, beta) = (p.mass_damping, p.stiffness_damping);
+        let m_coef = 1.0 + dt * alpha;
+        let k_coef = dt * dt + dt * beta;
+        for buf in [
+            &mut self.f,
+            &mut self.f_ext,
+            &mut self.b,
+            &mut self.dv,
+            &mut self.tmp,
+            &mut self.kv,
+            &mut self.diag,
+        ] {
+            buf.resize(n, 0.0);
+        }
+        self.x_n.clear();
+        self.x_n.extend_from_slice(x);
+        self.v_n.clear();
+        self.v_n.extend_from_slice(v);
+        {
+            let m = system.masses();
+            for i in 0..n {
+                self.f_ext[i] = m[i] * p.gravity[i % 3] + external_forces.map_or(0.0, |e| e[i]);
+            }
+        }
+        let t1 = time + dt;
+        let mut info = StepInfo {
+            converged: true,
+            ..Default::default()
+        };
+        let mut b0 = 0.0;
+        let mut newton_converged = p.newton_tolerance == 0.0;
+        for k in 0..p.newton_iterations {
+            // x_(k) = x^n + dt v_(k)
+            for i in 0..n {
+                x[i] = self.x_n[i] + dt * v[i];
+            }
+            system
+                .forces(t1, x, &mut self.f)
+                .map_err(|source| IntegrateError::System {
+                    iteration: k,
+                    source,
+                })?;
+            if let Some(dof) = first_non_finite(&self.f) {
+                return Err(IntegrateError::NonFinite {
+                    quantity: "force",
+                    dof,
+                    vertex: dof / 3,
+                    iteration: k,
+                });
+            }
+            // K v_(k) for stiffness damping.
+            self.kv.fill(0.0);
+            if beta != 0.0 {
+                self.tmp.fill(0.0);
+                system.add_force_differential(v, &mut self.tmp);
+                for i in 0..n {
+                    self.kv[i] = -self.tmp[i];
+                }
+            }
+            let m = system.masses();
+            for i in 0..n {
+                let cv = alpha * m[i] * v[i] + beta * self.kv[i];
+                self.b[i] = m[i] * (self.v_n[i] - v[i]) + dt * (self.f[i] + self.f_ext[i] - cv);
+            }
+            let bnorm = self.b.iter().map(|a| a * a).sum::<f64>().sqrt();
+            info.newton_residuals.push(bnorm);
+            if k == 0 {
+                b0 = bnorm;
+            }
+            if bnorm == 0.0
+                || (k > 0 && p.newton_tolerance > 0.0 && bnorm <= p.newton_tolerance * b0)
+            {
+                newton_converged = true;
+                break;
+            }
+            if p.linear.kind != LinearSolverKind::MatrixFreeCg {
+                self.triplets.clear();
+                system
+                    .add_stiffness_triplets(&mut self.triplets)
+                    .map_err(|source| IntegrateError::System {
+                        iteration: k,
+                        source,
+                    })?;
+            }
+            let lin =
+                self.solve(system, m_coef, k_coef)
+                    .map_err(|source| IntegrateError::Linear {
+                        iteration: k,
+                        source,
+                    })?;
+            info.newton_iterations += 1;
+            info.linear_iterations.push(lin.iterations);
+            info.linear_residuals.push(lin.relative_residual);
+            info.converged &= lin.converged;
+            for i in 0..n {
+                v[i] += self.dv[i];
+            }
+            if let Some(dof) = first_non_finite(v) {
+                return Err(IntegrateError::NonFinite {
+                    quantity: "velocity",
+                    dof,
+                    vertex: dof / 3,
+                    iteration: k,
+                });
+            }
+        }
+        for i in 0..n {
+            x[i] = self.x_n[i] + dt * v[i];
+        }
+        if let Some(dof) = first_non_finite(x) {
+            return Err(IntegrateError::NonFinite {
+                quantity: "position",
+                dof,
+                vertex: dof / 3,
+                iteration: info.newton_iterations,
+            });
+        }
+        info.converged &= newton_converged;
+        Ok(info)
+    }
+
+    /// Solves `(m_coef M + k_coef K) dv = b` with the configured solver (the triplets of `K` are
+    /// already in `self.triplets` for the assembled solvers).
+    fn solve<S: ForceSystem>(
+        &mut self,
+        system: &S,
+        m_coef: f64,
+        k_coef: f64,
+    ) -> Result<LinearSolveInfo, LinearSolveError> {
+        let lp = self.params.linear;
+        let n = self.b.len();
+        let masses = system.masses();
+        self.dv.fill(0.0);
+        match lp.kind {
+            LinearSolverKind::MatrixFreeCg => {
+                let tmp = &mut self.tmp;
+                cg(
+                    |p, out| {
+                        tmp.fill(0.0);
+                        system.add_force_differential(p, tmp);
+                        for i in 0..n {
+                            out[i] = m_coef * masses[i] * p[i] - k_coef * tmp[i];
+                        }
+                    },
+                    |r, z| {
+                        for i in 0..n {
+                            z[i] = r[i] / (m_coef * masses[i]);
+                        }
+                    },
+                    &self.b,
+                    &mut self.dv,
+                    lp.max_iterations,
+                    lp.relative_tolerance,
+                    &mut self.cg_ws,
+                )
+            }
+            LinearSolverKind::Pcg | LinearSolverKind::Cholesky => {
+                self.assembler
+                    .assemble(masses, m_coef, &self.triplets, k_coef)?;
+                let a = self.assembler.matrix();
+                let low_rank = system.low_rank_terms();
+                if lp.kind == LinearSolverKind::Pcg {
+                    a.diagonal_into(&mut self.diag);
+                    for t in low_rank {
+                        for i in 0..n.min(t.vector.len()) {
+                            self.diag[i] += k_coef * t.coefficient * t.vector[i] * t.vector[i];
+                        }
+                    }
+                    if let Some(i) = self.diag.iter().position(|d| d.is_nan() || *d <= 0.0) {
+                        return Err(LinearSolveError::NonPositiveCurvature {
+                            iteration: 0,
+                            curvature: self.diag[i],
+                            direction_norm_squared: 1.0,
+                        });
+                    }
+                    let diag = &self.diag;
+                    cg(
+                        |p, out| {
+                            a.mul_into(p, out);
+                            for t in low_rank {
+                                let s = k_coef * t.coefficient * dot(&t.vector, p);
+                                for i in 0..n {
+                                    out[i] += s * t.vector[i];
+                                }
+                            }
+                        },
+                        |r, z| {
+                            for i in 0..n {
+                                z[i] = r[i] / diag[i];
+                            }
+                        },
+                        &self.b,
+                        &mut self.dv,
+                        lp.max_iterations,
+                        lp.relative_tolerance,
+                        &mut self.cg_ws,
+                    )
+                } else {
+                    let version = self.assembler.pattern_version();
+                    self.cholesky.factorize(a, version)?;
+                    let terms: Vec<(f64, &[f64])> = low_rank
+                        .iter()
+                        .map(|t| (k_coef * t.coefficient, t.vector.as_slice()))
+                        .collect();
+                    let chol = &self.cholesky;
+                    solve_with_low_rank(
+                        |r| chol.solve_in_place(r),
+                        &terms,
+                        &self.b,
+                        &mut self.dv,
+                        &mut self.z_scratch,
+                    )?;
+                    // Report the achieved residual honestly.
+                    a.mul_into(&self.dv, &mut self.tmp);
+                    for t in low_rank {
+                        let s = k_coef * t.coefficient * dot(&t.vector, &self.dv);
+                        for i in 0..n {
+                            self.tmp[i] += s * t.vector[i];
+                        }
+                    }
+                    let bn = dot(&self.b, &self.b).sqrt();
+                    let rn = self
+                        .b
+                        .iter()
+                        .zip(&self.tmp)
+                        .map(|(b, a)| (b - a) * (b - a))
+                        .sum::<f64>()
+                        .sqrt();
+                    let rel = if bn > 0.0 { rn / bn } else { 0.0 };
+                    if !rel.is_finite() {
+                        return Err(LinearSolveError::NonFinite { iteration: 0 });
+                    }
+                    Ok(LinearSolveInfo {
+                        iterations: 1,
+                        relative_residual: rel,
+                        converged: rel <= lp.relative_tolerance.max(1e-10),
+                    })
+                }
+            }
+        }
+    }
+}
+
+#[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::system::LowRankTerm;
+    use balloon_test_support::{Rng, check_jacobian};
+    use nalgebra::{DMatrix, DVector};
+
+    /// Chain of 3D springs (nonlinear, with rest lengths) plus a nonlinear rank-1 potential
+    /// `phi(u . x) = s^4 / 4` (its Hessian `3 s^2 u u^T` plays the role of the gas term), plus
+    /// an optional linear quadratic part `1/2 x^T K0 x`.
+    #[derive(Debug, Clone)]
+    struct Chain {
+        masses: Vec<f64>,
+        springs: Vec<(usize, usize, f64, f64)>,
+        u: Vec<f64>,
+        x: Vec<f64>,
+        low_rank: Vec<LowRankTerm>,
+        nonlinear: bool,
+        /// Linear part (dense, small) for the linear tests.
+        k0: Option<DMatrix<f64>>,
+        poison: bool,
+    }
+
+    impl Chain {
+        fn new(nv: usize, nonlinear: bool, seed: u64) -> Self {
+            let mut rng = Rng::new(seed);
+            let n = 3 * nv;
+            let masses = (0..n).map(|i| 0.1 + 0.01 * (i / 3) as f64).collect();
+            let mut springs = Vec::new();
+            for i in 0..nv - 1 {
+                springs.push((i, i + 1, 50.0 + 10.0 * rng.next_f64(), 0.1));
+                if i + 2 < nv {
+                    springs.push((i, i + 2, 20.0, 0.2));
+                }
+            }
+            let u = rng.vector(n).iter().map(|v| 0.3 * v).collect();
+            Self {
+                masses,
+                springs,
+                u,
+                x: vec![0.0; n],
+                low_rank: vec![],
+                nonlinear,
+                k0: None,
+                poison: false,
+            }
+        }
+
+        fn positions(nv: usize, seed: u64) -> Vec<f64> {
+            let mut rng = Rng::new(seed);
+            (0..3 * nv)
+                .map(|i| if i % 3 == 0 { 0.1 * (i / 3) as f64 } else { 0.0 } + 0.02 * rng.next_f64())
+                .collect()
+        }
+
+        fn s(&self, x: &[f64]) -> f64 {
+            self.u.iter().zip(x).map(|(a, b)| a * b).sum()
+        }
+
+        fn energy(&self, x: &[f64]) -> f64 {
+            let mut e = 0.0;
+            if self.nonlinear {
+                for &(i, j, k, l0) in &self.springs {
+                    let d: f64 = (0..3)
+                        .map(|c| (x[3 * i + c] - x[3 * j + c]).powi(2))
+                        .sum::<f64>()
+                        .sqrt();
+                    e += 0.5 * k * (d - l0).powi(2);
+                }
+                e += self.s(x).powi(4) / 4.0;
+            }
+            if let Some(k0) = &self.k0 {
+                let xv = DVector::from_column_slice(x);
+                e += 0.5 * xv.dot(&(k0 * &xv));
+            }
+            e
+        }
+
+        fn spring_block(
+            &self,
+            x: &[f64],
+            i: usize,
+            j: usize,
+            k: f64,
+            l0: f64,
+        ) -> nalgebra::Matrix3<f64> {
+            let d = nalgebra::Vector3::from_fn(|c, _| x[3 * i + c] - x[3 * j + c]);
+            let l = d.norm();
+            let nn = d * d.transpose() / (l * l);
+            (nn + (nalgebra::Matrix3::identity() - nn) * (1.0 - l0 / l)) * k
+        }
+    }
+
+    impl ForceSystem for Chain {
+        fn num_dofs(&self) -> usize {
+            self.masses.len()
+        }
+        fn masses(&self) -> &[f64] {
+            &self.masses
+        }
+        fn forces(&mut self, _time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+            self.x.copy_from_slice(x);
+            f.fill(0.0);
+            self.low_rank.clear();
+            if self.nonlinear {
+                for &(i, j, k, l0) in &self.springs {
+                    let d = nalgebra::Vector3::from_fn(|c, _| x[3 * i + c] - x[3 * j + c]);
+                    let l = d.norm();
+                    let fi = -k * (l - l0) * d / l;
+                    for c in 0..3 {
+                        f[3 * i + c] += fi[c];
+                        f[3 * j + c] -= fi[c];
+                    }
+                }
+                let s = self.s(x);
+                for (fi, ui) in f.iter_mut().zip(&self.u) {
+                    *fi -= s.powi(3) * ui;
+                }
+                self.low_rank.push(LowRankTerm {
+                    coefficient: 3.0 * s * s,
+                    vector: self.u.clone(),
+                });
+            }
+            if let Some(k0) = &self.k0 {
+                let kx = k0 * DVector::from_column_slice(x);
+                for i in 0..f.len() {
+                    f[i] -= kx[i];
+                }
+            }
+            if self.poison {
+                f[7] = f64::NAN;
+            }
+            Ok(())
+        }
+        fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+            let mut t = Vec::new();
+            self.add_stiffness_triplets(&mut t).unwrap();
+            for (r, c, v) in t {
+                df[r] -= v * dx[c];
+            }
+            for lr in &self.low_rank {
+                let s: f64 = lr.vector.iter().zip(dx).map(|(a, b)| a * b).sum();
+                for i in 0..df.len() {
+                    df[i] -= lr.coefficient * s * lr.vector[i];
+                }
+            }
+        }
+        fn add_stiffness_triplets(
+            &self,
+            t: &mut Vec<(usize, usize, f64)>,
+        ) -> Result<(), SystemError> {
+            if self.nonlinear {
+                for &(i, j, k, l0) in &self.springs {
+                    let b = self.spring_block(&self.x, i, j, k, l0);
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            t.push((3 * i + r, 3 * i + c, b[(r, c)]));
+                            t.push((3 * j + r, 3 * j + c, b[(r, c)]));
+                            t.push((3 * i + r, 3 * j + c, -b[(r, c)]));
+                            t.push((3 * j + r, 3 * i + c, -b[(r, c)]));
+                        }
+                    }
+                }
+            }
+            if let Some(k0) = &self.k0 {
+                for r in 0..k0.nrows() {
+                    for c in 0..k0.ncols() {
+                        if k0[(r, c)] != 0.0 {
+                            t.push((r, c, k0[(r, c)]));
+                        }
+                    }
+                }
+            }
+            Ok(())
+        }
+        fn low_rank_terms(&self) -> &[LowRankTerm] {
+            &self.low_rank
+        }
+    }
+
+    /// Free particles: no forces at all (`.1`: whether it can assemble its (zero) stiffness).
+    #[derive(Debug)]
+    struct Free(Vec<f64>, bool);
+    impl ForceSystem for Free {
+        fn num_dofs(&self) -> usize {
+            self.0.len()
+        }
+        fn masses(&self) -> &[f64] {
+            &self.0
+        }
+        fn forces(&mut self, _t: f64, _x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+            f.fill(0.0);
+            Ok(())
+        }
+        fn add_force_differential(&self, _dx: &[f64], _df: &mut [f64]) {}
+        fn add_stiffness_triplets(
+            &self,
+            _t: &mut Vec<(usize, usize, f64)>,
+        ) -> Result<(), SystemError> {
+            if self.1 {
+                Ok(())
+            } else {
+                Err(SystemError::AssemblyUnsupported)
+            }
+        }
+    }
+
+    fn linear_chain(nv: usize) -> Chain {
+        let mut c = Chain::new(nv, false, 1);
+        let n = 3 * nv;
+        let mut k0 = DMatrix::zeros(n, n);
+        for i in 0..n {
+            k0[(i, i)] = 200.0;
+            if i + 3 < n {
+                k0[(i, i + 3)] = -80.0;
+                k0[(i + 3, i)] = -80.0;
+            }
+        }
+        c.k0 = Some(k0);
+        c
+    }
+
+    fn params(kind: LinearSolverKind, iters: usize) -> BackwardEulerParams {
+        BackwardEulerParams {
+            newton_iterations: iters,
+            newton_tolerance: 0.0,
+            linear: LinearSolverParams {
+                kind,
+                max_iterations: 1000,
+                relative_tolerance: 1e-12,
+            },
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn test_system_differential_and_stiffness_match_finite_differences() {
+        let nv = 6;
+        let sys = Chain::new(nv, true, 3);
+        let x = Chain::positions(nv, 4);
+        let f = |x: &[f64]| {
+            let mut s = sys.clone();
+            let mut f = vec![0.0; x.len()];
+            s.forces(0.0, x, &mut f).unwrap();
+            f
+        };
+        check_jacobian(
+            f,
+            |x, dx| {
+                let mut s = sys.clone();
+                let mut tmp = vec![0.0; x.len()];
+                s.forces(0.0, x, &mut tmp).unwrap();
+                let mut df = vec![0.0; x.len()];
+                s.add_force_differential(dx, &mut df);
+                df
+            },
+            &x,
+            1e-6,
+            1e-6,
+            5,
+        );
+        balloon_test_support::check_gradient(
+            |x| sys.energy(x),
+            |x| {
+                let mut s = sys.clone();
+                let mut f = vec![0.0; x.len()];
+                s.forces(0.0, x, &mut f).unwrap();
+                f.iter().map(|v| -v).collect()
+            },
+            &x,
+            1e-6,
+            1e-6,
+        );
+    }
+
+    #[test]
+    fn all_three_solvers_agree_on_a_nonlinear_step() {
+        let nv = 8;
+        let x0 = Chain::positions(nv, 8);
+        let v0: Vec<f64> = Rng::new(9).vector(3 * nv);
+        let mut results = Vec::new();
+        for kind in [
+            LinearSolverKind::MatrixFreeCg,
+            LinearSolverKind::Pcg,
+            LinearSolverKind::Cholesky,
+        ] {
+            let mut sys = Chain::new(nv, true, 3);
+            let mut be = BackwardEuler::new(BackwardEulerParams {
+                mass_damping: 0.5,
+                stiffness_damping: 0.001,
+                gravity: [0.0, -9.81, 0.0],
+                ..params(kind, 4)
+            });
+            let (mut x, mut v) = (x0.clone(), v0.clone());
+            for s in 0..3 {
+                let info = be
+                    .step(&mut sys, 0.01 * s as f64, 0.01, &mut x, &mut v, None)
+                    .unwrap();
+                assert_eq!(info.newton_iterations, 4);
+                assert!(info.converged, "{kind}: {info:?}");
+                // Newton converges quadratically: the residual drops by orders of magnitude.
+                let r = &info.newton_residuals;
+                assert!(r[3] < 1e-6 * r[0], "{kind}: {r:?}");
+            }
+            results.push((x, v));
+        }
+        for (x, v) in &results[1..] {
+            for i in 0..x.len() {
+                assert!((x[i] - results[0].0[i]).abs() < 1e-9, "x[{i}]");
+                assert!((v[i] - results[0].1[i]).abs() < 1e-7, "v[{i}]");
+            }
+        }
+    }
+
+    #[test]
+    fn one_newton_iteration_is_exact_on_a_linear_system() {
+        let nv = 5;
+        let n = 3 * nv;
+        let (dt, alpha, beta) = (0.02, 0.3, 0.004);
+        let x0 = Chain::positions(nv, 2);
+        let v0 = Rng::new(3).vector(n);
+        let ext = Rng::new(4).vector(n);
+        for kind in [
+            LinearSolverKind::MatrixFreeCg,
+            LinearSolverKind::Pcg,
+            LinearSolverKind::Cholesky,
+        ] {
+            let mut sys = linear_chain(nv);
+            let k0 = sys.k0.clone().unwrap();
+            let m = DMatrix::from_diagonal(&DVector::from_column_slice(&sys.masses));
+            let mut be = BackwardEuler::new(BackwardEulerParams {
+                mass_damping: alpha,
+                stiffness_damping: beta,
+                ..params(kind, 1)
+            });
+            let (mut x, mut v) = (x0.clone(), v0.clone());
+            be.step(&mut sys, 0.0, dt, &mut x, &mut v, Some(&ext))
+                .unwrap();
+            // (M + dt C + dt^2 K) v1 = M v0 + dt (-K x0 + f_ext), C = alpha M + beta K.
+            let a = &m + (&m * alpha + &k0 * beta) * dt + &k0 * (dt * dt);
+            let rhs = &m * DVector::from_column_slice(&v0)
+                + (-(&k0 * DVector::from_column_slice(&x0)) + DVector::from_column_slice(&ext))
+                    * dt;
+            let v1 = a.lu().solve(&rhs).unwrap();
+            for i in 0..n {
+                assert!(
+                    (v[i] - v1[i]).abs() < 1e-9 * (1.0 + v1[i].abs()),
+                    "{kind} v[{i}]"
+                );
+                assert!((x[i] - (x0[i] + dt * v1[i])).abs() < 1e-11, "{kind} x[{i}]");
+            }
+            // A second iteration finds nothing left to correct.
+            let mut sys = linear_chain(nv);
+            let mut be = BackwardEuler::new(params(kind, 2));
+            let (mut x, mut v) = (x0.clone(), v0.clone());
+            let info = be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).unwrap();
+            assert!(
+                info.newton_residuals[1] < 1e-9 * info.newton_residuals[0],
+                "{info:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn falling_particle_matches_backward_euler_closed_form() {
+        // Free fall: backward Euler gives v_n = v0 + n dt g and x_n = x0 + n dt v0 +
+        // dt^2 g n (n + 1) / 2 (it uses the end-of-step velocity); mass damping alpha divides the
+        // velocity update by (1 + dt alpha).
+        let g = [0.0, 0.0, -9.81];
+        let dt = 0.01;
+        for kind in [LinearSolverKind::MatrixFreeCg, LinearSolverKind::Cholesky] {
+            let mut sys = Free(vec![0.2; 3], true);
+            let mut be = BackwardEuler::new(BackwardEulerParams {
+                gravity: g,
+                ..params(kind, 3)
+            });
+            let (x0, v0) = ([1.0, 2.0, 3.0], [0.5, 0.0, 1.0]);
+            let (mut x, mut v) = (x0.to_vec(), v0.to_vec());
+            let steps = 20;
+            for s in 0..steps {
+                let info = be
+                    .step(&mut sys, s as f64 * dt, dt, &mut x, &mut v, None)
+                    .unwrap();
+                assert!(info.converged);
+            }
+            let nf = steps as f64;
+            for c in 0..3 {
+                let ve = v0[c] + nf * dt * g[c];
+                let xe = x0[c] + nf * dt * v0[c] + dt * dt * g[c] * nf * (nf + 1.0) / 2.0;
+                assert!((v[c] - ve).abs() < 1e-12, "{kind} v{c}");
+                assert!((x[c] - xe).abs() < 1e-12, "{kind} x{c}");
+            }
+        }
+        let mut sys = Free(vec![0.2; 3], true);
+        let alpha = 2.0;
+        let mut be = BackwardEuler::new(BackwardEulerParams {
+            gravity: g,
+            mass_damping: alpha,
+            ..params(LinearSolverKind::MatrixFreeCg, 1)
+        });
+        let (mut x, mut v) = (vec![0.0; 3], vec![0.0, 0.0, 4.0]);
+        be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).unwrap();
+        let ve = (4.0 + dt * g[2]) / (1.0 + dt * alpha);
+        assert!((v[2] - ve).abs() < 1e-12 && (x[2] - dt * ve).abs() < 1e-14);
+    }
+
+    #[test]
+    fn damping_reduces_energy() {
+        // Backward Euler on a convex quadratic energy never creates energy, and Rayleigh damping
+        // removes more: the total energy decreases monotonically and ends below the undamped run.
+        let nv = 6;
+        let run = |alpha: f64, beta: f64| {
+            let mut sys = linear_chain(nv);
+            let mut be = BackwardEuler::new(BackwardEulerParams {
+                mass_damping: alpha,
+                stiffness_damping: beta,
+                ..params(LinearSolverKind::MatrixFreeCg, 1)
+            });
+            let mut x = Chain::positions(nv, 5);
+            let mut v = vec![0.0; 3 * nv];
+            let energy = |sys: &Chain, x: &[f64], v: &[f64]| {
+                sys.energy(x)
+                    + 0.5
+                        * v.iter()
+                            .zip(&sys.masses)
+                            .map(|(v, m)| m * v * v)
+                            .sum::<f64>()
+            };
+            let mut e = vec![energy(&sys, &x, &v)];
+            for s in 0..30 {
+                be.step(&mut sys, s as f64 * 0.01, 0.01, &mut x, &mut v, None)
+                    .unwrap();
+                e.push(energy(&sys, &x, &v));
+            }
+            e
+        };
+        let undamped = run(0.0, 0.0);
+        for (a, b) in [(1.0, 0.0), (0.0, 0.01)] {
+            let damped = run(a, b);
+            assert!(
+                damped.windows(2).all(|w| w[1] <= w[0] + 1e-12),
+                "{damped:?}"
+            );
+            assert!(damped.last().unwrap() < undamped.last().unwrap());
+        }
+        assert!(undamped.windows(2).all(|w| w[1] <= w[0] + 1e-12));
+    }
+
+    #[test]
+    fn errors_are_reported_with_context() {
+        let nv = 4;
+        let x0 = Chain::positions(nv, 1);
+        let mut sys = Chain::new(nv, true, 3);
+        sys.poison = true;
+        let mut be = BackwardEuler::new(params(LinearSolverKind::MatrixFreeCg, 3));
+        let (mut x, mut v) = (x0.clone(), vec![0.0; 3 * nv]);
+        let e = be
+            .step(&mut sys, 0.0, 0.01, &mut x, &mut v, None)
+            .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                IntegrateError::NonFinite {
+                    dof: 7,
+                    vertex: 2,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let mut free = Free(vec![1.0; 3], false);
+        let mut be = BackwardEuler::new(BackwardEulerParams {
+            gravity: [0.0, 0.0, -1.0],
+            ..params(LinearSolverKind::Pcg, 1)
+        });
+        let e = be
+            .step(&mut free, 0.0, 0.01, &mut [0.0; 3], &mut [0.0; 3], None)
+            .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                IntegrateError::System {
+                    source: SystemError::AssemblyUnsupported,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let e = be
+            .step(&mut free, 0.0, -0.01, &mut [0.0; 3], &mut [0.0; 3], None)
+            .unwrap_err();
+        assert!(e.to_string().contains("dt"), "{e}");
+        let e = be
+            .step(&mut free, 0.0, 0.01, &mut [0.0; 2], &mut [0.0; 3], None)
+            .unwrap_err();
+        assert!(e.to_string().contains("`x`"), "{e}");
+        // Too few CG iterations: the step still returns but says it did not converge.
+        let mut sys = Chain::new(8, true, 3);
+        let mut p = params(LinearSolverKind::MatrixFreeCg, 1);
+        p.linear.max_iterations = 1;
+        let mut be = BackwardEuler::new(p);
+        let (mut x, mut v) = (Chain::positions(8, 2), Rng::new(1).vector(24));
+        let info = be.step(&mut sys, 0.0, 0.01, &mut x, &mut v, None).unwrap();
+        assert!(!info.converged && info.linear_residuals[0] > 1e-12);
+    }
+}
