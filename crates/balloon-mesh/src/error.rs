@@ -34,4 +34,35 @@ pub enum MeshError {
         /// Why it is invalid and what range is allowed.
         reason: String,
     },
+    /// The file extension is not one of the supported mesh formats. Convert the mesh to OBJ,
+    /// OFF, PLY or STL, or rename it if the extension is wrong.
+    #[error("{path}: unsupported mesh format `{extension}` (supported: {supported})")]
+    UnsupportedFormat {
+        /// The file.
+        path: PathBuf,
+        /// Its extension (empty when it has none).
+        extension: String,
+        /// The supported extensions for this operation.
+        supported: &'static str,
+    },
+    /// `builtin:NAME` named no built-in mesh. Use one of the listed names.
+    #[error("unknown built-in mesh `{name}` (known: {known})")]
+    UnknownBuiltin {
+        /// The name asked for.
+        name: String,
+        /// The known names, comma separated.
+        known: String,
+    },
+    /// The mesh is not a valid closed, consistently outward-oriented 2-manifold without
+    /// degenerate triangles. The message names the first defect and how many more there are;
+    /// repair the mesh (e.g. with [`crate::validate::weld_vertices`],
+    /// [`crate::validate::remove_degenerate_triangles`], [`crate::validate::orient_outward`]) or
+    /// fix it in a modelling tool.
+    #[error("invalid mesh: {first} (and {others} more defect(s))")]
+    InvalidMesh {
+        /// The first defect found, naming its triangle, edge or vertex.
+        first: crate::validate::Defect,
+        /// How many further defects were found.
+        others: usize,
+    },
 }

@@ -19,6 +19,7 @@
 //! assert_eq!(tet.num_triangles(), 4);
 //! ```
 
+pub mod builtin;
 pub mod error;
 pub mod generate;
 pub mod geometry;
@@ -29,6 +30,7 @@ pub mod tet;
 pub mod topology;
 pub mod validate;
 
+pub use builtin::{builtin, load};
 pub use error::MeshError;
 pub use mesh::TriMesh;
 pub use tet::TetMesh;

@@ -1,1 +1,349 @@
-//! topology (being filled in).
+//! Mesh topology: unique edges, vertex/edge/triangle adjacency in compressed (CSR) form, one-rings,
+//! boundary edges, connected components, Euler characteristic, genus and manifoldness.
+//!
+//! Edge `k` of triangle `t = [a, b, c]` is the directed edge `(t[k], t[(k + 1) % 3])`, i.e.
+//! `(a, b)`, `(b, c)`, `(c, a)`.
+
+use crate::TriMesh;
+
+/// Adjacency of a triangle mesh, built once in `O(F log F)`.
+///
+/// Requires every triangle index to be `< num_vertices` (check with [`crate::validate`] first for
+/// user-built meshes; the readers guarantee it).
+#[derive(Clone, Debug)]
+pub struct Topology {
+    num_vertices: usize,
+    edges: Vec<[usize; 2]>,
+    triangle_edges: Vec<[usize; 3]>,
+    edge_tri_offsets: Vec<usize>,
+    edge_tris: Vec<usize>,
+    vert_tri_offsets: Vec<usize>,
+    vert_tris: Vec<usize>,
+    vert_nbr_offsets: Vec<usize>,
+    vert_nbrs: Vec<usize>,
+}
+
+fn csr(n: usize, pairs: &mut [(usize, usize)]) -> (Vec<usize>, Vec<usize>) {
+    pairs.sort_unstable();
+    let mut offsets = vec![0usize; n + 1];
+    for &(k, _) in pairs.iter() {
+        offsets[k + 1] += 1;
+    }
+    for i in 0..n {
+        offsets[i + 1] += offsets[i];
+    }
+    (offsets, pairs.iter().map(|&(_, v)| v).collect())
+}
+
+impl Topology {
+    /// Builds the adjacency of `mesh`.
+    ///
+    /// # Panics
+    /// If a triangle index is `>= mesh.num_vertices()`.
+    pub fn new(mesh: &TriMesh) -> Self {
+        Self::from_triangles(mesh.num_vertices(), &mesh.triangles)
+    }
+
+    /// Builds the adjacency of `triangles` over `num_vertices` vertices.
+    ///
+    /// # Panics
+    /// If a triangle index is `>= num_vertices`.
+    pub fn from_triangles(num_vertices: usize, triangles: &[[usize; 3]]) -> Self {
+        let nf = triangles.len();
+        // (edge key, triangle, local edge)
+        let mut keyed: Vec<([usize; 2], usize, usize)> = Vec::with_capacity(3 * nf);
+        for (t, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                assert!(
+                    a < num_vertices && b < num_vertices,
+                    "triangle {t} index out of range"
+                );
+                keyed.push(([a.min(b), a.max(b)], t, k));
+            }
+        }
+        keyed.sort_unstable();
+        let mut edges: Vec<[usize; 2]> = Vec::new();
+        let mut triangle_edges = vec![[0usize; 3]; nf];
+        let mut edge_tri_offsets = vec![0usize];
+        let mut edge_tris = Vec::with_capacity(3 * nf);
+        for (key, t, k) in keyed {
+            if edges.last() != Some(&key) {
+                edges.push(key);
+                edge_tri_offsets.push(*edge_tri_offsets.last().unwrap_or(&0));
+            }
+            let e = edges.len() - 1;
+            triangle_edges[t][k] = e;
+            edge_tris.push(t);
+            edge_tri_offsets[e + 1] += 1;
+        }
+        let mut vt: Vec<(usize, usize)> = Vec::with_capacity(3 * nf);
+        for (t, tri) in triangles.iter().enumerate() {
+            for &v in tri {
+                vt.push((v, t));
+            }
+        }
+        let (vert_tri_offsets, mut vert_tris) = csr(num_vertices, &mut vt);
+        // A triangle with a repeated index appears twice in its vertex's list: keep it once.
+        for v in 0..num_vertices {
+            let s = &mut vert_tris[vert_tri_offsets[v]..vert_tri_offsets[v + 1]];
+            s.sort_unstable();
+        }
+        let mut vn: Vec<(usize, usize)> = Vec::with_capacity(2 * edges.len());
+        for &[a, b] in &edges {
+            if a != b {
+                vn.push((a, b));
+                vn.push((b, a));
+            }
+        }
+        let (vert_nbr_offsets, vert_nbrs) = csr(num_vertices, &mut vn);
+        Self {
+            num_vertices,
+            edges,
+            triangle_edges,
+            edge_tri_offsets,
+            edge_tris,
+            vert_tri_offsets,
+            vert_tris,
+            vert_nbr_offsets,
+            vert_nbrs,
+        }
+    }
+
+    /// Number of vertices (including unreferenced ones).
+    pub fn num_vertices(&self) -> usize {
+        self.num_vertices
+    }
+
+    /// Number of triangles.
+    pub fn num_triangles(&self) -> usize {
+        self.triangle_edges.len()
+    }
+
+    /// Number of unique undirected edges.
+    pub fn num_edges(&self) -> usize {
+        self.edges.len()
+    }
+
+    /// Unique undirected edges `[a, b]` with `a <= b`, sorted.
+    pub fn edges(&self) -> &[[usize; 2]] {
+        &self.edges
+    }
+
+    /// For each triangle, the indices (into [`Self::edges`]) of its edges `(a, b)`, `(b, c)`,
+    /// `(c, a)`.
+    pub fn triangle_edges(&self) -> &[[usize; 3]] {
+        &self.triangle_edges
+    }
+
+    /// Triangles containing edge `e` (sorted; a triangle appears once per occurrence of the edge).
+    pub fn edge_triangles(&self, e: usize) -> &[usize] {
+        &self.edge_tris[self.edge_tri_offsets[e]..self.edge_tri_offsets[e + 1]]
+    }
+
+    /// Triangles incident to vertex `v` (sorted).
+    pub fn vertex_triangles(&self, v: usize) -> &[usize] {
+        &self.vert_tris[self.vert_tri_offsets[v]..self.vert_tri_offsets[v + 1]]
+    }
+
+    /// The one-ring of vertex `v`: its distinct edge neighbours (sorted).
+    pub fn vertex_neighbors(&self, v: usize) -> &[usize] {
+        &self.vert_nbrs[self.vert_nbr_offsets[v]..self.vert_nbr_offsets[v + 1]]
+    }
+
+    /// Edges with exactly one incident triangle (the boundary of an open mesh).
+    pub fn boundary_edges(&self) -> Vec<usize> {
+        (0..self.num_edges())
+            .filter(|&e| self.edge_triangles(e).len() == 1)
+            .collect()
+    }
+
+    /// Edges with more than two incident triangles.
+    pub fn non_manifold_edges(&self) -> Vec<usize> {
+        (0..self.num_edges())
+            .filter(|&e| self.edge_triangles(e).len() > 2)
+            .collect()
+    }
+
+    /// Number of edge-connected fans of triangles around `v` (two incident triangles are in the
+    /// same fan when they share an edge through `v`). A manifold vertex has exactly one fan
+    /// (a disk, or a half-disk on the boundary); 0 for an unreferenced vertex.
+    pub fn vertex_fan_count(&self, v: usize, triangles: &[[usize; 3]]) -> usize {
+        let tris = self.vertex_triangles(v);
+        let n = tris.len();
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn find(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        let others = |t: usize| triangles[t].into_iter().filter(move |&w| w != v);
+        for i in 0..n {
+            for j in i + 1..n {
+                if tris[i] == tris[j] {
+                    continue;
+                }
+                if others(tris[i]).any(|w| others(tris[j]).any(|u| u == w)) {
+                    let (a, b) = (find(&mut parent, i), find(&mut parent, j));
+                    parent[a] = b;
+                }
+            }
+        }
+        let mut roots: Vec<usize> = (0..n).map(|i| find(&mut parent, i)).collect();
+        roots.sort_unstable();
+        roots.dedup();
+        roots.len()
+    }
+
+    /// Vertices whose incident triangles form more than one fan (see
+    /// [`Self::vertex_fan_count`]): two surfaces touching at a point.
+    pub fn non_manifold_vertices(&self, triangles: &[[usize; 3]]) -> Vec<usize> {
+        (0..self.num_vertices)
+            .filter(|&v| self.vertex_fan_count(v, triangles) > 1)
+            .collect()
+    }
+
+    /// Connected components of triangles (connected through shared edges): a label per triangle
+    /// and the number of components. Labels are numbered in order of first triangle.
+    pub fn triangle_components(&self) -> (Vec<usize>, usize) {
+        let nf = self.num_triangles();
+        let mut label = vec![usize::MAX; nf];
+        let mut count = 0;
+        let mut stack = Vec::new();
+        for seed in 0..nf {
+            if label[seed] != usize::MAX {
+                continue;
+            }
+            label[seed] = count;
+            stack.push(seed);
+            while let Some(t) = stack.pop() {
+                for &e in &self.triangle_edges[t] {
+                    for &u in self.edge_triangles(e) {
+                        if label[u] == usize::MAX {
+                            label[u] = count;
+                            stack.push(u);
+                        }
+                    }
+                }
+            }
+            count += 1;
+        }
+        (label, count)
+    }
+
+    /// Number of referenced vertices (vertices with at least one incident triangle).
+    pub fn num_referenced_vertices(&self) -> usize {
+        (0..self.num_vertices)
+            .filter(|&v| !self.vertex_triangles(v).is_empty())
+            .count()
+    }
+
+    /// Euler characteristic `chi = V - E + F`, counting only referenced vertices.
+    pub fn euler_characteristic(&self) -> i64 {
+        self.num_referenced_vertices() as i64 - self.num_edges() as i64
+            + self.num_triangles() as i64
+    }
+
+    /// `true` when every edge has exactly two triangles (no boundary, no non-manifold edge).
+    pub fn is_closed(&self) -> bool {
+        (0..self.num_edges()).all(|e| self.edge_triangles(e).len() == 2)
+    }
+
+    /// `true` when no edge has more than two triangles and every vertex has at most one fan.
+    pub fn is_manifold(&self, triangles: &[[usize; 3]]) -> bool {
+        self.non_manifold_edges().is_empty() && self.non_manifold_vertices(triangles).is_empty()
+    }
+
+    /// Genus of a closed orientable 2-manifold: the sum over connected components of
+    /// `g_c = (2 - chi_c) / 2`, where `chi_c = V_c - E_c + F_c`. `None` when the mesh is not closed
+    /// or not manifold, or a component has odd Euler characteristic.
+    pub fn genus(&self, triangles: &[[usize; 3]]) -> Option<usize> {
+        if !self.is_closed() || !self.is_manifold(triangles) {
+            return None;
+        }
+        let (label, count) = self.triangle_components();
+        let mut chi = vec![0i64; count];
+        for &l in &label {
+            chi[l] += 1;
+        }
+        for e in 0..self.num_edges() {
+            chi[label[self.edge_triangles(e)[0]]] -= 1;
+        }
+        for v in 0..self.num_vertices {
+            if let Some(&t) = self.vertex_triangles(v).first() {
+                chi[label[t]] += 1;
+            }
+        }
+        let mut g = 0usize;
+        for c in chi {
+            if c > 2 || (2 - c) % 2 != 0 {
+                return None;
+            }
+            g += ((2 - c) / 2) as usize;
+        }
+        Some(g)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generate::{icosphere, torus};
+
+    #[test]
+    fn icosphere_topology() {
+        // A sphere is a closed genus-0 surface: chi = V - E + F = 2 and E = 3F/2.
+        let m = icosphere(1.0, 2).unwrap();
+        let t = Topology::new(&m);
+        assert_eq!(t.num_edges(), 3 * m.num_triangles() / 2);
+        assert_eq!(t.euler_characteristic(), 2);
+        assert!(t.is_closed());
+        assert!(t.is_manifold(&m.triangles));
+        assert_eq!(t.genus(&m.triangles), Some(0));
+        assert_eq!(t.triangle_components().1, 1);
+        // Icosahedron vertices keep valence 5, the others 6.
+        assert_eq!(t.vertex_neighbors(0).len(), 5);
+        assert_eq!(t.vertex_neighbors(m.num_vertices() - 1).len(), 6);
+        assert_eq!(t.vertex_triangles(0).len(), 5);
+    }
+
+    #[test]
+    fn torus_has_genus_one_and_two_spheres_two_components() {
+        let m = torus(1.0, 0.3, 24, 12).unwrap();
+        let t = Topology::new(&m);
+        assert_eq!(t.euler_characteristic(), 0);
+        assert_eq!(t.genus(&m.triangles), Some(1));
+        // Two disjoint spheres: genus 0 + 0, two components.
+        let a = icosphere(1.0, 1).unwrap();
+        let n = a.num_vertices();
+        let mut both = a.clone();
+        both.vertices
+            .extend(a.vertices.iter().map(|p| p + nalgebra::Vector3::x() * 5.0));
+        both.triangles
+            .extend(a.triangles.iter().map(|t| t.map(|i| i + n)));
+        let t2 = Topology::new(&both);
+        assert_eq!(t2.triangle_components().1, 2);
+        assert_eq!(t2.genus(&both.triangles), Some(0));
+    }
+
+    #[test]
+    fn open_and_bowtie_meshes_are_detected() {
+        // Removing one triangle opens the sphere: three boundary edges, genus undefined.
+        let mut m = icosphere(1.0, 1).unwrap();
+        m.triangles.pop();
+        let t = Topology::new(&m);
+        assert_eq!(t.boundary_edges().len(), 3);
+        assert!(!t.is_closed());
+        assert_eq!(t.genus(&m.triangles), None);
+        // Two triangles sharing only a vertex (a bow tie) make that vertex non-manifold.
+        let tris = [[0, 1, 2], [0, 3, 4]];
+        let t = Topology::from_triangles(5, &tris);
+        assert_eq!(t.non_manifold_vertices(&tris), vec![0]);
+        // Three triangles on one edge make it non-manifold.
+        let tris = [[0, 1, 2], [1, 0, 3], [0, 1, 4]];
+        let t = Topology::from_triangles(5, &tris);
+        assert_eq!(t.non_manifold_edges().len(), 1);
+    }
+}

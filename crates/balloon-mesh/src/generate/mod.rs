@@ -1,4 +1,16 @@
 //! Procedural mesh generators. All return closed, outward-oriented triangle meshes.
+//!
+//! * spheres: [`icosphere`], [`octahedron_sphere`], [`uv_sphere`] (seed 004, Sec. 3.4);
+//! * [`torus`] and the subdivided box [`box_mesh`];
+//! * [`implicit::implicit_surface`]: any signed distance / implicit function, meshed by marching
+//!   tetrahedra and relaxed onto the surface;
+//! * [`teddy::teddy`]: the procedural teddy bear (seed 000, Fig. 4), built on the implicit mesher.
+
+pub mod implicit;
+pub mod teddy;
+
+pub use implicit::{ImplicitParams, implicit_surface};
+pub use teddy::{TeddyParams, TeddyPart, teddy, teddy_vertex_parts};
 
 use crate::{MeshError, TriMesh};
 use nalgebra::{Point3, Vector3};
@@ -192,9 +204,162 @@ pub fn uv_sphere(radius: f64, slices: usize, stacks: usize) -> Result<TriMesh, M
     Ok(TriMesh::new(vertices, triangles))
 }
 
+fn check_positive(name: &'static str, value: f64) -> Result<(), MeshError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(MeshError::InvalidParameter {
+            name,
+            value: value.to_string(),
+            reason: "must be a positive finite length in metres".into(),
+        })
+    }
+}
+
+fn check_count(name: &'static str, value: usize, min: usize, max: usize) -> Result<(), MeshError> {
+    if (min..=max).contains(&value) {
+        Ok(())
+    } else {
+        Err(MeshError::InvalidParameter {
+            name,
+            value: value.to_string(),
+            reason: format!("must be between {min} and {max}"),
+        })
+    }
+}
+
+/// Torus about the z axis, centred at the origin: tube centre circle of radius `major_radius`
+/// (m) in the xy plane, tube radius `minor_radius` (m, `< major_radius`), `major_segments`
+/// (>= 3) around z and `minor_segments` (>= 3) around the tube. Vertex `(i, j)` sits at angle
+/// `2 pi i / major_segments` around z and `2 pi j / minor_segments` around the tube; genus 1,
+/// `major_segments * minor_segments` vertices, twice as many triangles.
+pub fn torus(
+    major_radius: f64,
+    minor_radius: f64,
+    major_segments: usize,
+    minor_segments: usize,
+) -> Result<TriMesh, MeshError> {
+    check_positive("major_radius", major_radius)?;
+    check_positive("minor_radius", minor_radius)?;
+    if minor_radius >= major_radius {
+        return Err(MeshError::InvalidParameter {
+            name: "minor_radius",
+            value: minor_radius.to_string(),
+            reason: format!("must be smaller than major_radius = {major_radius}"),
+        });
+    }
+    check_count("major_segments", major_segments, 3, 100_000)?;
+    check_count("minor_segments", minor_segments, 3, 100_000)?;
+    let (m, n) = (major_segments, minor_segments);
+    let tau = 2.0 * std::f64::consts::PI;
+    let mut vertices = Vec::with_capacity(m * n);
+    for i in 0..m {
+        let u = tau * i as f64 / m as f64;
+        for j in 0..n {
+            let v = tau * j as f64 / n as f64;
+            let rho = major_radius + minor_radius * v.cos();
+            vertices.push(Point3::new(
+                rho * u.cos(),
+                rho * u.sin(),
+                minor_radius * v.sin(),
+            ));
+        }
+    }
+    let id = |i: usize, j: usize| (i % m) * n + (j % n);
+    let mut triangles = Vec::with_capacity(2 * m * n);
+    for i in 0..m {
+        for j in 0..n {
+            // (d/du x d/dv) points out of the tube.
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        }
+    }
+    Ok(TriMesh::new(vertices, triangles))
+}
+
+/// Axis-aligned box of edge lengths `size` (m) centred at the origin, every face split into a
+/// `subdivisions x subdivisions` grid of quads (two triangles each) so that it can deform and
+/// inflate. `6 n^2 + 2` vertices and `12 n^2` triangles for `n = subdivisions` (1..=1000).
+pub fn box_mesh(size: Vector3<f64>, subdivisions: usize) -> Result<TriMesh, MeshError> {
+    check_positive("size.x", size.x)?;
+    check_positive("size.y", size.y)?;
+    check_positive("size.z", size.z)?;
+    check_count("subdivisions", subdivisions, 1, 1000)?;
+    let n = subdivisions;
+    // Coordinate of grid line `i` along axis `k`: exactly +-size/2 at the ends, so that the
+    // faces' shared rim vertices coincide bit for bit and weld exactly.
+    let coord = |k: usize, i: usize| size[k] * (i as f64 / n as f64 - 0.5);
+    let mut vertices: Vec<Point3<f64>> = Vec::new();
+    let mut index: HashMap<[usize; 3], usize> = HashMap::new();
+    let mut triangles = Vec::with_capacity(12 * n * n);
+    for axis in 0..3 {
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in [0, n] {
+            let mut vid = |i: usize, j: usize| {
+                let mut g = [0usize; 3];
+                g[axis] = side;
+                g[u] = i;
+                g[v] = j;
+                *index.entry(g).or_insert_with(|| {
+                    vertices.push(Point3::new(coord(0, g[0]), coord(1, g[1]), coord(2, g[2])));
+                    vertices.len() - 1
+                })
+            };
+            for i in 0..n {
+                for j in 0..n {
+                    let (a, b, c, d) = (vid(i, j), vid(i + 1, j), vid(i + 1, j + 1), vid(i, j + 1));
+                    // e_u x e_v = e_axis: counter-clockwise seen from +axis.
+                    if side == n {
+                        triangles.push([a, b, c]);
+                        triangles.push([a, c, d]);
+                    } else {
+                        triangles.push([a, c, b]);
+                        triangles.push([a, d, c]);
+                    }
+                }
+            }
+        }
+    }
+    Ok(TriMesh::new(vertices, triangles))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::validate::validate_closed_manifold;
+
+    #[test]
+    fn torus_and_box_are_closed_outward_with_exact_counts() {
+        // Torus volume 2 pi^2 R r^2 and genus 1; box volume is the product of its sides.
+        let t = torus(1.0, 0.25, 64, 24).unwrap();
+        validate_closed_manifold(&t).unwrap();
+        assert_eq!(t.num_vertices(), 64 * 24);
+        let exact = 2.0 * std::f64::consts::PI.powi(2) * 0.25 * 0.25;
+        let v = crate::geometry::enclosed_volume(&t);
+        assert!((v / exact - 1.0).abs() < 0.02, "{v} vs {exact}");
+        let topo = crate::topology::Topology::new(&t);
+        assert_eq!(topo.genus(&t.triangles), Some(1));
+        let b = box_mesh(Vector3::new(1.0, 2.0, 3.0), 5).unwrap();
+        validate_closed_manifold(&b).unwrap();
+        assert_eq!(b.num_vertices(), 6 * 25 + 2);
+        assert_eq!(b.num_triangles(), 12 * 25);
+        assert!((crate::geometry::enclosed_volume(&b) - 6.0).abs() < 1e-12);
+        assert!(torus(1.0, 1.5, 8, 8).is_err());
+        assert!(box_mesh(Vector3::new(1.0, 0.0, 1.0), 2).is_err());
+        assert!(box_mesh(Vector3::new(1.0, 1.0, 1.0), 0).is_err());
+    }
+
+    #[test]
+    fn spheres_are_valid_closed_manifolds() {
+        for m in [
+            icosphere(0.1, 2).unwrap(),
+            octahedron_sphere(0.1, 3).unwrap(),
+            uv_sphere(0.1, 12, 6).unwrap(),
+        ] {
+            validate_closed_manifold(&m).unwrap();
+        }
+    }
 
     fn volume(m: &TriMesh) -> f64 {
         m.triangles

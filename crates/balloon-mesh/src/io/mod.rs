@@ -1,6 +1,27 @@
 //! Mesh readers and writers (OBJ, OFF, PLY, STL; VTK for tetrahedral meshes).
+//!
+//! | format | read | write |
+//! |---|---|---|
+//! | Wavefront OBJ | [`read_obj`] | [`write_obj`] |
+//! | OFF (also COFF/NOFF, Princeton benchmark quirks) | [`read_off`] | [`write_off`] |
+//! | PLY ASCII / binary LE / binary BE | [`read_ply`] | [`write_ply_binary`] (LE) |
+//! | STL ASCII / binary | [`read_stl`], [`read_stl_with_tolerance`] | [`write_stl_binary`] |
+//!
+//! [`read_mesh`] and [`write_mesh`] pick the format from the extension (case-insensitive). The
+//! readers are hand-written so that every error names the file and the line (text) or byte
+//! offset (binary); the `parse_*` functions read from memory. See `docs/mesh-io.md`.
 
+pub mod obj;
+pub mod off;
+pub mod ply;
+pub mod stl;
+mod text;
 pub mod vtk;
+
+pub use obj::parse_obj;
+pub use off::parse_off;
+pub use ply::parse_ply;
+pub use stl::parse_stl;
 
 use crate::{MeshError, TriMesh};
 use std::io::Write;
@@ -13,28 +34,119 @@ fn io_err(path: &Path, source: std::io::Error) -> MeshError {
     }
 }
 
-/// Writes `mesh` as a Wavefront OBJ file (`v` and `f` lines, 1-based indices).
-pub fn write_obj(path: &Path, mesh: &TriMesh) -> Result<(), MeshError> {
+fn read_bytes(path: &Path) -> Result<Vec<u8>, MeshError> {
+    std::fs::read(path).map_err(|e| io_err(path, e))
+}
+
+fn extension(path: &Path) -> String {
+    path.extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default()
+}
+
+/// Reads a Wavefront OBJ file (see [`obj`] for what is handled).
+pub fn read_obj(path: &Path) -> Result<TriMesh, MeshError> {
+    parse_obj(&read_bytes(path)?, path)
+}
+
+/// Reads an OFF file (see [`off`] for what is handled).
+pub fn read_off(path: &Path) -> Result<TriMesh, MeshError> {
+    parse_off(&read_bytes(path)?, path)
+}
+
+/// Reads a PLY file (see [`ply`] for what is handled).
+pub fn read_ply(path: &Path) -> Result<TriMesh, MeshError> {
+    parse_ply(&read_bytes(path)?, path)
+}
+
+/// Reads an STL file, welding exactly coincident vertices (see [`stl`]).
+pub fn read_stl(path: &Path) -> Result<TriMesh, MeshError> {
+    parse_stl(&read_bytes(path)?, path, 0.0)
+}
+
+/// Reads an STL file, welding vertices closer than `tolerance` (m).
+pub fn read_stl_with_tolerance(path: &Path, tolerance: f64) -> Result<TriMesh, MeshError> {
+    parse_stl(&read_bytes(path)?, path, tolerance)
+}
+
+/// Reads a mesh, choosing the format from the extension (`.obj`, `.off`, `.ply`, `.stl`,
+/// case-insensitive).
+///
+/// # Errors
+/// [`MeshError::UnsupportedFormat`] for another extension, [`MeshError::Io`] when the file cannot
+/// be read, [`MeshError::Parse`] (file and line or byte) when it is malformed.
+pub fn read_mesh(path: &Path) -> Result<TriMesh, MeshError> {
+    match extension(path).as_str() {
+        "obj" => read_obj(path),
+        "off" => read_off(path),
+        "ply" => read_ply(path),
+        "stl" => read_stl(path),
+        ext => Err(MeshError::UnsupportedFormat {
+            path: path.to_path_buf(),
+            extension: ext.to_string(),
+            supported: ".obj, .off, .ply, .stl",
+        }),
+    }
+}
+
+/// Writes a mesh, choosing the format from the extension: `.obj`, `.off`, `.ply` (binary
+/// little-endian) or `.stl` (binary, `f32` coordinates).
+///
+/// # Errors
+/// [`MeshError::UnsupportedFormat`] for another extension, [`MeshError::Io`] on write failure.
+pub fn write_mesh(path: &Path, mesh: &TriMesh) -> Result<(), MeshError> {
+    match extension(path).as_str() {
+        "obj" => write_obj(path, mesh),
+        "off" => write_off(path, mesh),
+        "ply" => write_ply_binary(path, mesh),
+        "stl" => write_stl_binary(path, mesh),
+        ext => Err(MeshError::UnsupportedFormat {
+            path: path.to_path_buf(),
+            extension: ext.to_string(),
+            supported: ".obj, .off, .ply, .stl",
+        }),
+    }
+}
+
+fn write_with(
+    path: &Path,
+    f: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+) -> Result<(), MeshError> {
     let file = std::fs::File::create(path).map_err(|e| io_err(path, e))?;
     let mut w = std::io::BufWriter::new(file);
-    let mut run = || -> std::io::Result<()> {
+    f(&mut w)
+        .and_then(|()| w.flush())
+        .map_err(|e| io_err(path, e))
+}
+
+/// Writes `mesh` as a Wavefront OBJ file (`v` and `f` lines, 1-based indices).
+pub fn write_obj(path: &Path, mesh: &TriMesh) -> Result<(), MeshError> {
+    write_with(path, |w| {
         for p in &mesh.vertices {
             writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
         }
         for t in &mesh.triangles {
             writeln!(w, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
         }
-        w.flush()
-    };
-    run().map_err(|e| io_err(path, e))
+        Ok(())
+    })
+}
+
+/// Writes `mesh` as an OFF file (coordinates round-trip exactly).
+pub fn write_off(path: &Path, mesh: &TriMesh) -> Result<(), MeshError> {
+    write_with(path, |w| off::write_off_to(w, mesh))
+}
+
+/// Writes `mesh` as a binary STL file (triangle soup, `f32` coordinates: about 7 significant
+/// digits survive).
+pub fn write_stl_binary(path: &Path, mesh: &TriMesh) -> Result<(), MeshError> {
+    write_with(path, |w| stl::write_stl_to(w, mesh))
 }
 
 /// Writes `mesh` as a binary little-endian PLY file (`vertex` x, y, z as float64; `face` as a
 /// uchar count and int32 indices).
 pub fn write_ply_binary(path: &Path, mesh: &TriMesh) -> Result<(), MeshError> {
-    let file = std::fs::File::create(path).map_err(|e| io_err(path, e))?;
-    let mut w = std::io::BufWriter::new(file);
-    let mut run = || -> std::io::Result<()> {
+    write_with(path, |w| {
         write!(
             w,
             "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
@@ -52,7 +164,6 @@ pub fn write_ply_binary(path: &Path, mesh: &TriMesh) -> Result<(), MeshError> {
                 w.write_all(&(i as i32).to_le_bytes())?;
             }
         }
-        w.flush()
-    };
-    run().map_err(|e| io_err(path, e))
+        Ok(())
+    })
 }

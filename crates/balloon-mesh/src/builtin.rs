@@ -1,0 +1,85 @@
+//! Built-in meshes by name and the `load` entry point used by the CLI and the simulators.
+
+use crate::generate::{self, TeddyParams};
+use crate::{MeshError, TriMesh};
+use nalgebra::Vector3;
+use std::path::Path;
+
+/// Names accepted by [`builtin`], the default first.
+pub const BUILTIN_NAMES: &[&str] = &[
+    "teddy",
+    "icosphere",
+    "sphere",
+    "octasphere",
+    "uvsphere",
+    "torus",
+    "box",
+];
+
+/// A built-in mesh by name (all closed, outward, centred at the origin, metres):
+///
+/// | name | mesh |
+/// |---|---|
+/// | `teddy` | [`generate::teddy`] with default [`TeddyParams`] (0.3 m tall, ~8k vertices) |
+/// | `icosphere`, `sphere` | icosphere level 4, radius 0.1 m (2562 vertices) |
+/// | `octasphere` | subdivided octahedron level 5, radius 0.1 m (4098 vertices) |
+/// | `uvsphere` | UV sphere, radius 0.1 m, 64 slices x 32 stacks |
+/// | `torus` | torus R = 0.1 m, r = 0.03 m, 64 x 24 segments |
+/// | `box` | 0.1 m cube, 10 x 10 quads per face |
+///
+/// Names are case-insensitive.
+///
+/// # Errors
+/// [`MeshError::UnknownBuiltin`] for any other name.
+pub fn builtin(name: &str) -> Result<TriMesh, MeshError> {
+    match name.trim().to_ascii_lowercase().as_str() {
+        "teddy" => generate::teddy(&TeddyParams::default()),
+        "icosphere" | "sphere" => generate::icosphere(0.1, 4),
+        "octasphere" => generate::octahedron_sphere(0.1, 5),
+        "uvsphere" => generate::uv_sphere(0.1, 64, 32),
+        "torus" => generate::torus(0.1, 0.03, 64, 24),
+        "box" => generate::box_mesh(Vector3::repeat(0.1), 10),
+        _ => Err(MeshError::UnknownBuiltin {
+            name: name.to_string(),
+            known: BUILTIN_NAMES.join(", "),
+        }),
+    }
+}
+
+/// Loads a mesh from a spec: `builtin` (the teddy), `builtin:NAME` (see [`builtin`]) or a file
+/// path read by [`crate::io::read_mesh`] (format from the extension).
+///
+/// The mesh is returned as read; call [`crate::validate::validate_closed_manifold`] before
+/// simulating it.
+///
+/// # Errors
+/// Those of [`builtin`] and [`crate::io::read_mesh`].
+pub fn load(spec: &str) -> Result<TriMesh, MeshError> {
+    if spec == "builtin" {
+        return builtin("teddy");
+    }
+    if let Some(name) = spec.strip_prefix("builtin:") {
+        return builtin(name);
+    }
+    crate::io::read_mesh(Path::new(spec))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::validate::validate_closed_manifold;
+
+    #[test]
+    fn every_builtin_is_valid_and_unknown_names_fail() {
+        for name in BUILTIN_NAMES.iter().filter(|n| **n != "teddy") {
+            let m = load(&format!("builtin:{name}")).unwrap();
+            validate_closed_manifold(&m).unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+        assert_eq!(builtin("sphere").unwrap(), builtin("ICOSPHERE").unwrap());
+        assert_eq!(builtin("icosphere").unwrap().num_vertices(), 2562);
+        let err = load("builtin:teapot").unwrap_err().to_string();
+        assert!(err.contains("teapot") && err.contains("teddy"), "{err}");
+        let err = load("/nonexistent/dir/mesh.obj").unwrap_err().to_string();
+        assert!(err.contains("/nonexistent/dir/mesh.obj"), "{err}");
+    }
+}
