@@ -1,0 +1,344 @@
+//! Unit tests of the gas models and the pressure load.
+
+use balloon_mesh::generate::icosphere;
+use balloon_test_support::{
+    Rng, assert_second_order, check_gradient, check_jacobian, taylor_remainder_orders,
+};
+
+use crate::*;
+
+fn sphere(radius: f64, subdivisions: u32) -> (Vec<f64>, Vec<[usize; 3]>) {
+    let m = icosphere(radius, subdivisions).expect("icosphere");
+    (m.positions_flat(), m.triangles.clone())
+}
+
+/// A closed but irregular surface: a sphere with randomly displaced vertices, shifted off the
+/// origin (so origin-dependent mistakes show up).
+fn lumpy(seed: u64) -> (Vec<f64>, Vec<[usize; 3]>) {
+    let (mut x, t) = sphere(0.3, 1);
+    let mut rng = Rng::new(seed);
+    for (i, xi) in x.iter_mut().enumerate() {
+        *xi += 0.03 * rng.next_f64() + [0.7, -0.2, 0.4][i % 3];
+    }
+    (x, t)
+}
+
+fn forces_of<G: GasModel + Clone + 'static>(
+    load: PressureLoad<G>,
+    tris: &[[usize; 3]],
+) -> impl Fn(&[f64]) -> Vec<f64> + '_ {
+    move |x: &[f64]| {
+        let mut l = load.clone();
+        let mut f = vec![0.0; x.len()];
+        l.evaluate(0.0, x, tris, &mut f).unwrap();
+        f
+    }
+}
+
+#[test]
+fn volume_of_sphere_approaches_analytic_and_gradient_is_exact() {
+    let (x, t) = sphere(1.0, 3);
+    let v = enclosed_volume(&x, &t).unwrap();
+    let exact = 4.0 / 3.0 * std::f64::consts::PI;
+    // An inscribed polyhedron is slightly smaller than the sphere.
+    assert!(v < exact && v > 0.98 * exact, "V = {v}");
+    let (x, t) = lumpy(3);
+    check_gradient(
+        |x| enclosed_volume(x, &t).unwrap(),
+        |x| {
+            let mut g = vec![0.0; x.len()];
+            volume_and_gradient(x, &t, &mut g).unwrap();
+            g
+        },
+        &x,
+        1e-6,
+        1e-8,
+    );
+}
+
+#[test]
+fn closed_mesh_gradient_equals_one_third_area_normal_sum() {
+    // On a closed surface dV/dx_i = (1/3) sum A^e n^e = (1/6) sum e12 x e13 (Eq. 15's geometry).
+    let (x, t) = lumpy(5);
+    let mut g = vec![0.0; x.len()];
+    volume_and_gradient(&x, &t, &mut g).unwrap();
+    let mut an = vec![0.0; x.len()];
+    for tri in &t {
+        let p: Vec<nalgebra::Vector3<f64>> = tri
+            .iter()
+            .map(|&i| nalgebra::Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2]))
+            .collect();
+        let area_normal = 0.5 * (p[1] - p[0]).cross(&(p[2] - p[0]));
+        for &i in tri {
+            for k in 0..3 {
+                an[3 * i + k] += area_normal[k] / 3.0;
+            }
+        }
+    }
+    for (a, b) in g.iter().zip(&an) {
+        assert!((a - b).abs() < 1e-14, "{a} vs {b}");
+    }
+}
+
+#[test]
+fn ideal_gas_forces_are_minus_potential_gradient() {
+    let (x, t) = lumpy(11);
+    let v0 = enclosed_volume(&x, &t).unwrap();
+    let gas = IdealGas::try_from_gauge(3000.0, STANDARD_ATMOSPHERE, 0.9 * v0).unwrap();
+    let load = PressureLoad::new(gas);
+    let energy = |x: &[f64]| {
+        let mut l = load.clone();
+        let mut f = vec![0.0; x.len()];
+        l.evaluate(0.0, x, &t, &mut f).unwrap();
+        l.potential(0.0).unwrap()
+    };
+    let grad = |x: &[f64]| {
+        forces_of(load.clone(), &t)(x)
+            .iter()
+            .map(|v| -v)
+            .collect::<Vec<_>>()
+    };
+    check_gradient(energy, grad, &x, 1e-6, 1e-6);
+    let dx = Rng::new(2).vector(x.len());
+    assert_second_order(&taylor_remainder_orders(energy, grad, &x, &dx, 1e-2));
+}
+
+#[test]
+fn constant_pressure_forces_are_minus_potential_gradient() {
+    let (x, t) = lumpy(13);
+    let gas = ConstantPressure::try_from_gauge(500.0, STANDARD_ATMOSPHERE).unwrap();
+    let load = PressureLoad::new(gas)
+        .with_ambient_pressure(90_000.0)
+        .unwrap();
+    let energy = |x: &[f64]| {
+        let mut l = load.clone();
+        let mut f = vec![0.0; x.len()];
+        l.evaluate(0.0, x, &t, &mut f).unwrap();
+        l.potential(0.0).unwrap()
+    };
+    let grad = |x: &[f64]| {
+        forces_of(load.clone(), &t)(x)
+            .iter()
+            .map(|v| -v)
+            .collect::<Vec<_>>()
+    };
+    check_gradient(energy, grad, &x, 1e-6, 1e-6);
+}
+
+#[test]
+fn full_differential_with_follower_term_matches_finite_differences() {
+    for gas in [
+        Gas::Ideal(IdealGas::try_from_gauge(2000.0, STANDARD_ATMOSPHERE, 0.1).unwrap()),
+        Gas::Constant(ConstantPressure::try_new(150_000.0).unwrap()),
+        Gas::Pump(Pump::try_from_rest(0.05, STANDARD_ATMOSPHERE, 1e4).unwrap()),
+    ] {
+        let (x, t) = lumpy(17);
+        let mut load = PressureLoad::new(gas).with_follower_term(true);
+        let f = forces_of(load.clone(), &t);
+        let mut scratch = vec![0.0; x.len()];
+        load.evaluate(0.0, &x, &t, &mut scratch).unwrap();
+        check_jacobian(
+            &f,
+            |x, dx| {
+                let mut df = vec![0.0; x.len()];
+                load.add_differential(x, &t, dx, &mut df).unwrap();
+                df
+            },
+            &x,
+            1e-6,
+            1e-6,
+            21,
+        );
+        // The assembled follower triplets plus the rank-1 term give the same product.
+        let mut trip = Vec::new();
+        load.add_follower_triplets(&x, &t, &mut trip).unwrap();
+        let dx = Rng::new(4).vector(x.len());
+        let mut kdx = vec![0.0; x.len()];
+        for &(r, c, v) in &trip {
+            kdx[r] += v * dx[c];
+        }
+        let lr = load.low_rank_term();
+        let udx: f64 = lr.vector.iter().zip(&dx).map(|(a, b)| a * b).sum();
+        let mut df = vec![0.0; x.len()];
+        load.add_differential(&x, &t, &dx, &mut df).unwrap();
+        for i in 0..x.len() {
+            let k = kdx[i] + lr.coefficient * udx * lr.vector[i];
+            assert!(
+                (df[i] + k).abs() < 1e-9 * (1.0 + df[i].abs()),
+                "{i}: {} vs {}",
+                df[i],
+                -k
+            );
+        }
+        // The follower stiffness is symmetric (it is a Hessian).
+        let mut dense = vec![0.0; x.len() * x.len()];
+        for &(r, c, v) in &trip {
+            dense[r * x.len() + c] += v;
+        }
+        for r in 0..x.len() {
+            for c in 0..r {
+                let (a, b) = (dense[r * x.len() + c], dense[c * x.len() + r]);
+                assert!((a - b).abs() <= 1e-9 * (1.0 + a.abs()));
+            }
+        }
+    }
+}
+
+#[test]
+fn rank1_coefficient_is_p0v0_over_v_squared_and_factor_is_one_ninth() {
+    let (x, t) = sphere(0.5, 2);
+    let v = enclosed_volume(&x, &t).unwrap();
+    let gas = IdealGas::try_new(2.0e5, 1.3 * v).unwrap();
+    let mut load = PressureLoad::new(gas);
+    let mut f = vec![0.0; x.len()];
+    load.evaluate(0.0, &x, &t, &mut f).unwrap();
+    let c = load.low_rank_term().coefficient;
+    let expected = 2.0e5 * 1.3 * v / (v * v);
+    assert!((c - expected).abs() <= 1e-12 * expected);
+    // With An_i = sum A^e n^e = 3 g_i, c g g^T = (c / 9) An An^T: the constant is 1/9, not 1/27.
+    let g = &load.low_rank_term().vector;
+    let mut an = vec![0.0; x.len()];
+    for tri in &t {
+        let p: Vec<nalgebra::Vector3<f64>> = tri
+            .iter()
+            .map(|&i| nalgebra::Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2]))
+            .collect();
+        let area_normal = 0.5 * (p[1] - p[0]).cross(&(p[2] - p[0]));
+        for &i in tri {
+            for k in 0..3 {
+                an[3 * i + k] += area_normal[k];
+            }
+        }
+    }
+    for (gi, ai) in g.iter().zip(&an) {
+        assert!((9.0 * gi * gi - ai * ai).abs() <= 1e-12 * (1.0 + ai * ai));
+    }
+    // Without the follower term the differential is exactly -c g (g . dx) (Eq. 17, corrected).
+    let dx = Rng::new(9).vector(x.len());
+    let mut df = vec![0.0; x.len()];
+    load.add_differential(&x, &t, &dx, &mut df).unwrap();
+    let gdx: f64 = g.iter().zip(&dx).map(|(a, b)| a * b).sum();
+    for i in 0..x.len() {
+        assert!((df[i] + c * gdx * g[i]).abs() <= 1e-9 * (1.0 + df[i].abs()));
+    }
+}
+
+#[test]
+fn pressure_has_no_net_force_or_torque_on_closed_surfaces() {
+    // Uniform pressure on a closed surface has no resultant force and no resultant torque
+    // (the integral of p n dA over a closed surface, and of x x p n dA, both vanish).
+    for (x, t) in [sphere(1.0, 2), lumpy(23), lumpy(29)] {
+        let v = enclosed_volume(&x, &t).unwrap();
+        let mut load = PressureLoad::new(IdealGas::try_from_gauge(5000.0, 1e5, v).unwrap())
+            .with_ambient_pressure(1e5)
+            .unwrap();
+        let mut f = vec![0.0; x.len()];
+        load.evaluate(0.0, &x, &t, &mut f).unwrap();
+        let mut net = nalgebra::Vector3::zeros();
+        let mut torque = nalgebra::Vector3::zeros();
+        let mut scale = 0.0f64;
+        for i in 0..x.len() / 3 {
+            let fi = nalgebra::Vector3::new(f[3 * i], f[3 * i + 1], f[3 * i + 2]);
+            let xi = nalgebra::Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
+            net += fi;
+            torque += xi.cross(&fi);
+            scale = scale.max(fi.norm());
+        }
+        assert!(net.norm() < 1e-11 * scale, "net force {net:?}");
+        assert!(torque.norm() < 1e-11 * scale, "net torque {torque:?}");
+    }
+}
+
+#[test]
+fn isothermal_gas_keeps_pv_constant() {
+    // Boyle's law: at fixed temperature and amount, p V = p0 V0 whatever the volume change.
+    let (x0, t) = sphere(0.2, 2);
+    let v0 = enclosed_volume(&x0, &t).unwrap();
+    let gas = IdealGas::try_from_gauge(1500.0, STANDARD_ATMOSPHERE, v0).unwrap();
+    let mut load = PressureLoad::new(gas);
+    for s in [0.7, 1.0, 1.3, 2.0] {
+        let x: Vec<f64> = x0.iter().map(|v| v * s).collect();
+        let mut f = vec![0.0; x.len()];
+        let st = load.evaluate(0.0, &x, &t, &mut f).unwrap();
+        let pv = st.absolute_pressure * st.volume;
+        assert!((pv - gas.amount()).abs() <= 1e-12 * pv);
+        assert!((st.volume - s * s * s * v0).abs() <= 1e-12 * st.volume);
+    }
+}
+
+#[test]
+fn pump_pressure_grows_linearly_in_time_at_fixed_volume() {
+    // A pump adds gas at a constant rate: at fixed volume p(t) = (nRT_0 + rate t) / V.
+    let (x, t) = sphere(0.1, 1);
+    let v = enclosed_volume(&x, &t).unwrap();
+    let rate = 20.0;
+    let mut load = PressureLoad::new(Gas::Pump(
+        Pump::try_from_rest(v, STANDARD_ATMOSPHERE, rate).unwrap(),
+    ));
+    let mut f = vec![0.0; x.len()];
+    let p0 = load.evaluate(0.0, &x, &t, &mut f).unwrap();
+    assert!(p0.gauge_pressure.abs() < 1e-9, "starts at ambient");
+    assert!(f.iter().all(|v| v.abs() < 1e-9), "no load at rest");
+    let mut prev = p0.absolute_pressure;
+    for k in 1..5 {
+        let st = load.evaluate(0.5 * k as f64, &x, &t, &mut f).unwrap();
+        let dp = st.absolute_pressure - prev;
+        assert!((dp - rate * 0.5 / v).abs() <= 1e-9 * dp);
+        prev = st.absolute_pressure;
+    }
+    assert!(load.potential(1.0).is_none());
+}
+
+#[test]
+fn errors_name_the_problem() {
+    let (x, t) = sphere(1.0, 0);
+    // Inverted surface: negative volume.
+    let flipped: Vec<[usize; 3]> = t.iter().map(|&[a, b, c]| [a, c, b]).collect();
+    let mut load = PressureLoad::new(Gas::Constant(ConstantPressure::try_new(1e5).unwrap()));
+    let mut f = vec![0.0; x.len()];
+    let e = load.evaluate(0.0, &x, &flipped, &mut f).unwrap_err();
+    assert!(matches!(e, GasError::InvalidVolume { volume } if volume < 0.0));
+    assert!(e.to_string().contains("volume"));
+    let bad = vec![[0, 1, 99]];
+    let e = load.evaluate(0.0, &x, &bad, &mut f).unwrap_err();
+    assert!(e.to_string().contains("vertex 99"), "{e}");
+    assert!(
+        IdealGas::try_new(-1.0, 1.0)
+            .unwrap_err()
+            .to_string()
+            .contains("initial_pressure")
+    );
+    assert!(Pump::try_from_rest(1.0, 1e5, -2.0).is_err());
+    assert!(load.clone().with_ambient_pressure(f64::NAN).is_err());
+}
+
+#[test]
+fn gas_kind_parses_and_round_trips() {
+    for (s, k) in [
+        ("ideal", GasKind::Ideal),
+        ("constant", GasKind::Constant),
+        ("pump", GasKind::Pump),
+    ] {
+        assert_eq!(s.parse::<GasKind>().unwrap(), k);
+        assert_eq!(k.to_string(), s);
+        assert_eq!(serde_json::to_string(&k).unwrap(), format!("\"{s}\""));
+        let g = Gas::try_from_kind(k, 0.01, 1000.0, STANDARD_ATMOSPHERE, 5.0).unwrap();
+        assert_eq!(g.kind(), k);
+        let back: Gas = serde_json::from_str(&serde_json::to_string(&g).unwrap()).unwrap();
+        assert_eq!(back, g);
+    }
+    let e = "helium".parse::<GasKind>().unwrap_err();
+    assert!(e.to_string().contains("helium"));
+}
+
+#[test]
+fn reset_reference_reanchors() {
+    let mut g = IdealGas::try_new(2e5, 1.0).unwrap();
+    g.reset_reference(0.5, 0.0);
+    assert_eq!(g.initial_volume, 0.5);
+    assert!((g.absolute_pressure(0.5, 0.0) - 2e5).abs() < 1e-9);
+    let mut p = Pump::try_from_rest(1.0, 1e5, 10.0).unwrap();
+    p.reset_reference(2.0, 3.0);
+    assert!((p.absolute_pressure(2.0, 3.0) - 1e5).abs() < 1e-9);
+    assert!((p.absolute_pressure(2.0, 4.0) - (2e5 + 10.0) / 2.0).abs() < 1e-9);
+}
