@@ -1,1 +1,53 @@
-//! Finite elements (being filled in).
+//! Finite elements of the `balloon` workspace, generic over a [`balloon_material::Material`]:
+//! per-element kinematics, energy, forces, force differential and stiffness block.
+//!
+//! **What it is for.** One element at a time, allocation-free, monomorphised over the material
+//! (no trait objects in hot loops). Assembly over a mesh, time integration and gas pressure live
+//! in other crates; this crate knows nothing of time or gas.
+//!
+//! | element | DOFs | kinematics | seed |
+//! |---|---|---|---|
+//! | [`ThreePrism`] | 3 vertices (+ thickness parameter `h`) | `F = [e12 e13 d h][E12 E13 D H]^-1` | 000 Eq. 1-4, 8, 11, 19 |
+//! | [`MembraneTriangle`] | 3 vertices, fixed thickness | 3x2 in-plane `F` completed by the normal | |
+//! | [`LinearTetrahedron`] | 4 vertices | `F = Ds Dm^-1` | 003 (tet lattice) |
+//! | [`Spring`] | 2 particles | Hooke + axial dashpot | 003, 004 |
+//!
+//! Sign conventions, shared by all elements: `forces = -dE/dx`; `force_differential(dx) = df =
+//! -K dx`; `stiffness = K = d^2E/dx^2` (symmetric), vertex-major `[x1 y1 z1 x2 ...]`.
+//! The derivation of the three-prism forces and differential, including the derivative of the
+//! unit normal, is in `docs/elements.md`.
+//!
+//! ```
+//! use balloon_element::ThreePrism;
+//! use balloon_material::{Lame, StVenantKirchhoff};
+//! use nalgebra::Vector3;
+//!
+//! let rest = [Vector3::zeros(), Vector3::new(0.01, 0.0, 0.0), Vector3::new(0.0, 0.01, 0.0)];
+//! let prism = ThreePrism::try_new(rest, 1.0e-3)?;
+//! let rubber = StVenantKirchhoff::new(Lame::try_from_young_poisson(1.0e6, 0.45).unwrap());
+//! // At rest (x = rest positions, h = H) there is no energy and no force.
+//! assert_eq!(prism.energy(&rubber, &rest, 1.0e-3), 0.0);
+//! let stretched = rest.map(|p| p * 1.1);
+//! let (f, k) = prism.forces_and_stiffness(&rubber, &stretched, 1.0e-3);
+//! assert!(f[1].x < 0.0); // the stretched sheet pulls vertex 2 back
+//! assert!((k - k.transpose()).norm() <= 1e-9 * k.norm());
+//! # Ok::<(), balloon_element::ElementError>(())
+//! ```
+//!
+//! Features: none.
+
+mod error;
+mod expand;
+mod membrane;
+mod prism;
+mod spring;
+mod tet;
+
+pub use error::ElementError;
+pub use membrane::MembraneTriangle;
+pub use prism::ThreePrism;
+pub use spring::Spring;
+pub use tet::LinearTetrahedron;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,337 @@
+//! The three-prism shell element of seed 000 (Sec. 4, Eq. 1-4, 8, 11, 19).
+
+use balloon_material::Material;
+use nalgebra::{Matrix3, SMatrix, Vector3};
+
+use crate::ElementError;
+use crate::expand::edge_to_vertex_hessian;
+
+const NAME: &str = "three-prism";
+
+/// Relative tolerance below which a triangle counts as degenerate:
+/// `|e12 x e13| <= DEGENERACY_TOL * (|e12|^2 + |e13|^2)`.
+pub(crate) const DEGENERACY_TOL: f64 = 1e-12;
+
+/// Rest data of one three-prism element: a triangle extruded along its unit normal by a thickness
+/// (seed 000 Sec. 4, Fig. 1).
+///
+/// A point of the element with parameters `alpha = (a1, a2, a3)` is (Eq. 1)
+/// `x(alpha) = (1 - a1 - a2) x1 + a1 x2 + a2 x3 + a3 h d`, `d = (e12 x e13) / |e12 x e13|`,
+/// so the deformation gradient is constant in the element (Eq. 4):
+///
+/// `F = [e12 e13 d h] [E12 E13 D H]^-1 = Ds Dm^-1`,
+///
+/// where capital letters are rest quantities. The three vertex positions are degrees of freedom;
+/// the current thickness `h` is a *parameter* (changed only by the shell-volume projection of
+/// seed 000 Sec. 7). Because `d` is the current unit normal, `F` depends non-linearly on the
+/// positions and the forces and stiffness include the derivative of `d` (see `docs/elements.md`).
+/// Note `det F = (|e12 x e13| h) / (|E12 x E13| H) > 0`: the element cannot invert.
+///
+/// Array conventions: positions `x: [Vector3; 3]` in metres (world frame, counter-clockwise seen
+/// from outside so that `d` points outwards), thickness in metres, forces in newtons, stiffness in
+/// N/m with vertex-major ordering `[x1 y1 z1 x2 y2 z2 x3 y3 z3]`.
+///
+/// The hot-path methods assume a valid state (finite positions, non-degenerate triangle,
+/// `h > 0`); call [`ThreePrism::check_state`] to verify one. On a zero-area triangle they return
+/// non-finite numbers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThreePrism {
+    dm_inv: Matrix3<f64>,
+    rest_area: f64,
+    rest_thickness: f64,
+}
+
+/// Current kinematic quantities shared by energy, forces and differentials.
+struct Kinematics {
+    e12: Vector3<f64>,
+    e13: Vector3<f64>,
+    /// Current unit normal.
+    d: Vector3<f64>,
+    /// `1 / |e12 x e13|`.
+    inv_n: f64,
+    h: f64,
+    f: Matrix3<f64>,
+}
+
+/// Stress quantities at the current state.
+struct Stress {
+    /// `V0 P Dm^-T`: its columns are `dE/d(e12)`, `dE/d(e13)`, `dE/d(h d)` at fixed `d`.
+    g: Matrix3<f64>,
+    /// `h / |n| (I - d d^T) g3`, the normal-variation lever (see `docs/elements.md`).
+    q: Vector3<f64>,
+}
+
+impl ThreePrism {
+    /// Rest data from the rest vertex positions (m) and rest thickness `thickness` = H (m).
+    ///
+    /// # Errors
+    /// * [`ElementError::NonFinite`] for a non-finite position or thickness;
+    /// * [`ElementError::InvalidParameter`] naming `thickness` if `H <= 0`;
+    /// * [`ElementError::DegenerateRest`] (quantity `area`) for a (near) zero-area triangle,
+    ///   `|E12 x E13| <= 1e-12 (|E12|^2 + |E13|^2)`.
+    pub fn try_new(rest: [Vector3<f64>; 3], thickness: f64) -> Result<Self, ElementError> {
+        if rest.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
+            return Err(ElementError::NonFinite {
+                element: NAME,
+                quantity: "rest position",
+            });
+        }
+        if !thickness.is_finite() {
+            return Err(ElementError::NonFinite {
+                element: NAME,
+                quantity: "rest thickness",
+            });
+        }
+        if thickness <= 0.0 {
+            return Err(ElementError::InvalidParameter {
+                element: NAME,
+                name: "thickness",
+                value: thickness,
+                allowed: "> 0 m",
+            });
+        }
+        let e12 = rest[1] - rest[0];
+        let e13 = rest[2] - rest[0];
+        let n = e12.cross(&e13);
+        let nn = n.norm();
+        let area = 0.5 * nn;
+        if nn <= DEGENERACY_TOL * (e12.norm_squared() + e13.norm_squared()) {
+            return Err(ElementError::DegenerateRest {
+                element: NAME,
+                quantity: "area",
+                value: area,
+            });
+        }
+        let dm = Matrix3::from_columns(&[e12, e13, n * (thickness / nn)]);
+        let dm_inv = dm.try_inverse().ok_or(ElementError::DegenerateRest {
+            element: NAME,
+            quantity: "area",
+            value: area,
+        })?;
+        Ok(Self {
+            dm_inv,
+            rest_area: area,
+            rest_thickness: thickness,
+        })
+    }
+
+    /// Rest triangle area `A` (m^2).
+    pub fn rest_area(&self) -> f64 {
+        self.rest_area
+    }
+
+    /// Rest thickness `H` (m).
+    pub fn rest_thickness(&self) -> f64 {
+        self.rest_thickness
+    }
+
+    /// Rest volume `V^e = A H` (m^3), the `V^e` of seed 000 Eq. 8 and 19.
+    pub fn rest_volume(&self) -> f64 {
+        self.rest_area * self.rest_thickness
+    }
+
+    /// The inverse rest matrix `Dm^-1 = [E12 E13 D H]^-1` of Eq. 4 (1/m).
+    pub fn rest_matrix_inverse(&self) -> &Matrix3<f64> {
+        &self.dm_inv
+    }
+
+    /// Checks that the current state can be evaluated: finite positions, finite `h > 0` and a
+    /// non-degenerate triangle (`|e12 x e13| > 1e-12 (|e12|^2 + |e13|^2)`), so the unit normal `d`
+    /// exists.
+    ///
+    /// # Errors
+    /// [`ElementError::NonFinite`], [`ElementError::InvalidParameter`] (thickness) or
+    /// [`ElementError::Degenerate`] (quantity `area`).
+    pub fn check_state(&self, x: &[Vector3<f64>; 3], h: f64) -> Result<(), ElementError> {
+        if x.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
+            return Err(ElementError::NonFinite {
+                element: NAME,
+                quantity: "position",
+            });
+        }
+        if !h.is_finite() {
+            return Err(ElementError::NonFinite {
+                element: NAME,
+                quantity: "thickness",
+            });
+        }
+        if h <= 0.0 {
+            return Err(ElementError::InvalidParameter {
+                element: NAME,
+                name: "thickness",
+                value: h,
+                allowed: "> 0 m",
+            });
+        }
+        let e12 = x[1] - x[0];
+        let e13 = x[2] - x[0];
+        let nn = e12.cross(&e13).norm();
+        if nn <= DEGENERACY_TOL * (e12.norm_squared() + e13.norm_squared()) {
+            return Err(ElementError::Degenerate {
+                element: NAME,
+                quantity: "area",
+                value: 0.5 * nn,
+            });
+        }
+        Ok(())
+    }
+
+    #[inline]
+    fn kinematics(&self, x: &[Vector3<f64>; 3], h: f64) -> Kinematics {
+        let e12 = x[1] - x[0];
+        let e13 = x[2] - x[0];
+        let n = e12.cross(&e13);
+        let inv_n = 1.0 / n.norm();
+        let d = n * inv_n;
+        let ds = Matrix3::from_columns(&[e12, e13, d * h]);
+        Kinematics {
+            e12,
+            e13,
+            d,
+            inv_n,
+            h,
+            f: ds * self.dm_inv,
+        }
+    }
+
+    #[inline]
+    fn stress(&self, k: &Kinematics, p: &Matrix3<f64>) -> Stress {
+        let g = p * self.dm_inv.transpose() * self.rest_volume();
+        let g3 = g.column(2).into_owned();
+        let q = (g3 - k.d * k.d.dot(&g3)) * (k.h * k.inv_n);
+        Stress { g, q }
+    }
+
+    /// `(dE/de12, dE/de13)`; `dE/dx1` is minus their sum.
+    #[inline]
+    fn edge_gradient(k: &Kinematics, s: &Stress) -> (Vector3<f64>, Vector3<f64>) {
+        (
+            s.g.column(0) + k.e13.cross(&s.q),
+            s.g.column(1) + s.q.cross(&k.e12),
+        )
+    }
+
+    /// Differential of `(dE/de12, dE/de13)` along edge variations `(de12, de13)`.
+    #[inline]
+    fn edge_gradient_differential<M: Material>(
+        &self,
+        mat: &M,
+        k: &Kinematics,
+        s: &Stress,
+        de12: &Vector3<f64>,
+        de13: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let dn = de12.cross(&k.e13) + k.e12.cross(de13);
+        let d_dn = k.d.dot(&dn);
+        let dd = (dn - k.d * d_dn) * k.inv_n;
+        let dds = Matrix3::from_columns(&[*de12, *de13, dd * k.h]);
+        let df = dds * self.dm_inv;
+        let dp = mat.first_piola_differential(&k.f, &df);
+        let dg = dp * self.dm_inv.transpose() * self.rest_volume();
+        let g3 = s.g.column(2);
+        let dg3 = dg.column(2);
+        let dq = -s.q * (k.inv_n * d_dn)
+            + (dg3 - k.d * (k.d.dot(&dg3) + dd.dot(&g3)) - dd * k.d.dot(&g3)) * (k.h * k.inv_n);
+        (
+            dg.column(0) + de13.cross(&s.q) + k.e13.cross(&dq),
+            dg.column(1) + dq.cross(&k.e12) + s.q.cross(de12),
+        )
+    }
+
+    /// Deformation gradient `F = [e12 e13 d h] Dm^-1` (seed 000 Eq. 4), dimensionless.
+    pub fn deformation_gradient(&self, x: &[Vector3<f64>; 3], h: f64) -> Matrix3<f64> {
+        self.kinematics(x, h).f
+    }
+
+    /// Elastic energy `E^e = V^e psi(F)` (J) with `V^e = A H` the rest volume (seed 000 Eq. 5, 8).
+    pub fn energy<M: Material>(&self, mat: &M, x: &[Vector3<f64>; 3], h: f64) -> f64 {
+        self.rest_volume() * mat.energy_density(&self.kinematics(x, h).f)
+    }
+
+    /// Elastic forces `f_i = -dE^e/dx_i` (N) on the three vertices (seed 000 Eq. 8), including
+    /// the contribution of the rotating unit normal `d`.
+    pub fn forces<M: Material>(&self, mat: &M, x: &[Vector3<f64>; 3], h: f64) -> [Vector3<f64>; 3] {
+        let k = self.kinematics(x, h);
+        let s = self.stress(&k, &mat.first_piola(&k.f));
+        let (g12, g13) = Self::edge_gradient(&k, &s);
+        [g12 + g13, -g12, -g13]
+    }
+
+    /// Force differential `df = -K dx` (N) along vertex displacements `dx` (m), seed 000 Eq. 11,
+    /// including the variation of the unit normal `d` (both through `dF` and through the
+    /// geometric term `P : d^2F`). The thickness `h` is held fixed.
+    pub fn force_differential<M: Material>(
+        &self,
+        mat: &M,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+        dx: &[Vector3<f64>; 3],
+    ) -> [Vector3<f64>; 3] {
+        let k = self.kinematics(x, h);
+        let s = self.stress(&k, &mat.first_piola(&k.f));
+        let (a, b) =
+            self.edge_gradient_differential(mat, &k, &s, &(dx[1] - dx[0]), &(dx[2] - dx[0]));
+        [a + b, -a, -b]
+    }
+
+    /// Stiffness `K = -df/dx = d^2E^e/dx^2` (N/m), 9x9, vertex-major `[x1 y1 z1 x2 .. z3]`.
+    /// Symmetric (it is a Hessian); not necessarily positive definite (compression, and the
+    /// normal-variation term).
+    pub fn stiffness<M: Material>(
+        &self,
+        mat: &M,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+    ) -> SMatrix<f64, 9, 9> {
+        self.forces_and_stiffness(mat, x, h).1
+    }
+
+    /// Forces and stiffness together, sharing the kinematics and the stress (the hot path of an
+    /// assembled Newton solve). Allocation-free. The stiffness is built from the Hessian with
+    /// respect to the two edge vectors (6 material differentials) and expanded to the vertices
+    /// using translation invariance.
+    pub fn forces_and_stiffness<M: Material>(
+        &self,
+        mat: &M,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+    ) -> ([Vector3<f64>; 3], SMatrix<f64, 9, 9>) {
+        let k = self.kinematics(x, h);
+        let s = self.stress(&k, &mat.first_piola(&k.f));
+        let (g12, g13) = Self::edge_gradient(&k, &s);
+        let mut ke = SMatrix::<f64, 6, 6>::zeros();
+        let zero = Vector3::zeros();
+        for c in 0..6 {
+            let mut unit = Vector3::zeros();
+            unit[c % 3] = 1.0;
+            let (de12, de13) = if c < 3 { (unit, zero) } else { (zero, unit) };
+            let (a, b) = self.edge_gradient_differential(mat, &k, &s, &de12, &de13);
+            ke.fixed_view_mut::<3, 1>(0, c).copy_from(&a);
+            ke.fixed_view_mut::<3, 1>(3, c).copy_from(&b);
+        }
+        ([g12 + g13, -g12, -g13], edge_to_vertex_hessian::<6, 9>(&ke))
+    }
+
+    /// Generalised force on the thickness, `-dE^e/dh` (N): positive when the material pushes the
+    /// thickness to grow. Equals `-V^e d . (P Dm^-T)_3`, i.e. `-V^e P : (d r3^T)` with `r3` the
+    /// third row of `Dm^-1`.
+    pub fn thickness_force<M: Material>(&self, mat: &M, x: &[Vector3<f64>; 3], h: f64) -> f64 {
+        let k = self.kinematics(x, h);
+        let g = mat.first_piola(&k.f) * self.dm_inv.transpose() * self.rest_volume();
+        -k.d.dot(&g.column(2))
+    }
+
+    /// Lumped vertex masses of seed 000 Eq. 19 with `w_i = 1/3`: `rho A H / 3` each (kg), for a
+    /// density `density` in kg/m^3. They sum to `rho V^e`.
+    pub fn lumped_masses(&self, density: f64) -> [f64; 3] {
+        [density * self.rest_volume() / 3.0; 3]
+    }
+
+    /// Masses for the shell-volume projection of seed 000 Sec. 7 (Eq. 27): weight 1/6 for each of
+    /// the three real vertices and 1/2 for the virtual vertex at the centre of the upper triangle,
+    /// i.e. `([rho V/6; 3], rho V/2)` in kg. They sum to `rho V^e`.
+    pub fn projection_masses(&self, density: f64) -> ([f64; 3], f64) {
+        let m = density * self.rest_volume();
+        ([m / 6.0; 3], m / 2.0)
+    }
+}
