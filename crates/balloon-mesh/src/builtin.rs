@@ -20,7 +20,7 @@ pub const BUILTIN_NAMES: &[&str] = &[
 ///
 /// | name | mesh |
 /// |---|---|
-/// | `teddy` | [`generate::teddy`] with default [`TeddyParams`] (0.3 m tall, ~8k vertices) |
+/// | `teddy` | [`generate::teddy()`] with default [`TeddyParams`] (0.3 m tall, ~8k vertices) |
 /// | `icosphere`, `sphere` | icosphere level 4, radius 0.1 m (2562 vertices) |
 /// | `octasphere` | subdivided octahedron level 5, radius 0.1 m (4098 vertices) |
 /// | `uvsphere` | UV sphere, radius 0.1 m, 64 slices x 32 stacks |

@@ -65,4 +65,17 @@ pub enum MeshError {
         /// How many further defects were found.
         others: usize,
     },
+    /// A tetrahedron refers to a vertex that does not exist. Fix the tetrahedral mesh generator or
+    /// file.
+    #[error(
+        "tetrahedron {tet} refers to vertex {index} but there are only {num_vertices} vertices"
+    )]
+    TetIndexOutOfRange {
+        /// The tetrahedron.
+        tet: usize,
+        /// The bad index.
+        index: usize,
+        /// Number of vertices.
+        num_vertices: usize,
+    },
 }

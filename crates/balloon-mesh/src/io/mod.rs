@@ -167,3 +167,6 @@ pub fn write_ply_binary(path: &Path, mesh: &TriMesh) -> Result<(), MeshError> {
         Ok(())
     })
 }
+
+#[cfg(test)]
+mod tests;
