@@ -1,1 +1,943 @@
-//! volumetric (being filled in).
+//! Volume-conserving impulse-based deformable bodies (seed 003, Diziol, Bender and Bayer).
+//!
+//! A [`VolumetricBody`] is built from any triangle soup: the soup is turned into a tetrahedral
+//! lattice (Sec. 3, [`balloon_mesh::lattice`]), each lattice vertex becomes a particle and each
+//! cell a volume constraint with 16 springs (Sec. 4, [`balloon_constraint::cell_volume`]). A
+//! [`VolumetricSimulation`] advances it with impulses:
+//!
+//! 1. `v += h F_ext / m` with gravity and the damped cell springs (Eq. 1);
+//! 2. impulse contacts with the rigid sphere and static planes
+//!    ([`balloon_constraint::rigid`]), then the cell-volume impulses on the preview `x = p + h v`
+//!    (Eq. 2-4, Gauss-Seidel until every cell is within the tolerance), repeated
+//!    `contact_iterations` times while contacts remain violated; the volume pass is always last,
+//!    so every step ends with every cell at its rest volume;
+//! 3. `p = x`, the sphere moves with its velocity.
+//!
+//! If a preview tetrahedron inverts, the step is redone as two half steps, recursively, up to
+//! `max_halvings` times (Sec. 4); beyond that the step fails with
+//! [`VolumetricError::Inversion`] naming the step and cell.
+//!
+//! ```
+//! use balloon::volumetric::{VolumetricBody, VolumetricParams, VolumetricSimulation};
+//! use balloon_mesh::{generate::icosphere, lattice::LatticeParams};
+//! let soup = icosphere(0.5, 2).unwrap();
+//! let params = VolumetricParams {
+//!     lattice: LatticeParams { resolution: 16, ..LatticeParams::default() },
+//!     gravity: [0.0; 3],
+//!     ..VolumetricParams::default()
+//! };
+//! let body = VolumetricBody::build(&soup, params).unwrap();
+//! let mut sim = VolumetricSimulation::new(body);
+//! let stats = sim.step().unwrap();
+//! assert!(stats.max_cell_volume_error <= 1e-10);
+//! ```
+
+use balloon_constraint::cell_volume::{
+    CellSprings, CellVolumeConstraints, CellVolumeError, CellVolumeParams, SpringParams,
+};
+use balloon_constraint::rigid::{
+    Plane, RigidSphere, plane_particle_contacts, plane_sphere_contact, sphere_particle_contacts,
+};
+use balloon_mesh::lattice::{Lattice, LatticeError, LatticeParams, build_lattice};
+use balloon_mesh::{TetMesh, TriMesh};
+use nalgebra::{Point3, Vector3};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// How the body's mass `density * volume` is shared among the particles.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MassModel {
+    /// Every particle gets the same mass (the paper's setting; with the arithmetic cell centre
+    /// momentum is conserved exactly).
+    #[default]
+    Equal,
+    /// Each cell gives an eighth of its mass to each corner (boundary particles are lighter);
+    /// pair it with `CellCentre::MassWeighted` to conserve momentum.
+    Lumped,
+}
+
+/// Parameters of a volumetric body and its simulation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct VolumetricParams {
+    /// Lattice generator parameters.
+    pub lattice: LatticeParams,
+    /// Cell spring stiffness and damping.
+    pub springs: SpringParams,
+    /// Volume projection parameters (tolerance default 1e-10).
+    pub volume: CellVolumeParams,
+    /// Mass density (kg/m^3), > 0. Default 100.
+    pub density: f64,
+    /// Mass distribution. Default [`MassModel::Equal`].
+    pub mass_model: MassModel,
+    /// Gravity (m/s^2). Default `[0, 0, -9.81]`.
+    pub gravity: [f64; 3],
+    /// Time step (s), > 0. Default 1e-3.
+    pub dt: f64,
+    /// Largest number of nested step halvings on inversion. Default 8.
+    pub max_halvings: u32,
+    /// Restitution of contacts in [0, 1]. Default 0.2.
+    pub restitution: f64,
+    /// Rounds of (contacts, volume projection) per step, >= 1. Default 4.
+    pub contact_iterations: usize,
+}
+
+impl Default for VolumetricParams {
+    fn default() -> Self {
+        Self {
+            lattice: LatticeParams::default(),
+            springs: SpringParams::default(),
+            volume: CellVolumeParams::default(),
+            density: 100.0,
+            mass_model: MassModel::Equal,
+            gravity: [0.0, 0.0, -9.81],
+            dt: 1e-3,
+            max_halvings: 8,
+            restitution: 0.2,
+            contact_iterations: 4,
+        }
+    }
+}
+
+impl VolumetricParams {
+    /// Checks the parameters (the lattice's and the springs' too); errors name the parameter.
+    pub fn validate(&self) -> Result<(), VolumetricError> {
+        self.lattice.validate()?;
+        self.springs.validate()?;
+        let bad = |name: &'static str, value: String, reason: &str| {
+            Err(VolumetricError::InvalidParameter {
+                name,
+                value,
+                reason: reason.into(),
+            })
+        };
+        if !(self.density.is_finite() && self.density > 0.0) {
+            return bad("density", self.density.to_string(), "must be > 0 (kg/m^3)");
+        }
+        if !(self.dt.is_finite() && self.dt > 0.0 && self.dt <= 1.0) {
+            return bad("dt", self.dt.to_string(), "must be in (0, 1] s");
+        }
+        if self.gravity.iter().any(|g| !g.is_finite()) {
+            return bad("gravity", format!("{:?}", self.gravity), "must be finite");
+        }
+        if self.max_halvings > 30 {
+            return bad(
+                "max_halvings",
+                self.max_halvings.to_string(),
+                "must be <= 30",
+            );
+        }
+        if !(0.0..=1.0).contains(&self.restitution) {
+            return bad(
+                "restitution",
+                self.restitution.to_string(),
+                "must be in [0, 1]",
+            );
+        }
+        if self.contact_iterations == 0 || self.contact_iterations > 100 {
+            return bad(
+                "contact_iterations",
+                self.contact_iterations.to_string(),
+                "must be in 1..=100",
+            );
+        }
+        if !(self.volume.tolerance > 0.0 && self.volume.tolerance < 1.0) {
+            return bad(
+                "volume.tolerance",
+                self.volume.tolerance.to_string(),
+                "must be in (0, 1)",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Errors of volumetric bodies.
+#[derive(Debug, Error)]
+pub enum VolumetricError {
+    /// The lattice could not be generated (bad soup or lattice parameter).
+    #[error(transparent)]
+    Lattice(#[from] LatticeError),
+    /// A constraint could not be set up (bad spring or volume parameter, broken cell).
+    #[error(transparent)]
+    Constraint(#[from] CellVolumeError),
+    /// A parameter is out of range.
+    #[error("invalid parameter `{name}` = {value}: {reason}")]
+    InvalidParameter {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: String,
+        /// The allowed range.
+        reason: String,
+    },
+    /// A tetrahedron kept inverting after `halvings` nested step halvings. Lower `dt`, stiffen
+    /// the springs or soften the impact.
+    #[error(
+        "step {step}: tetrahedron {tet} of cell {cell} inverts even after {halvings} step halvings (dt {dt:.3e} s)"
+    )]
+    Inversion {
+        /// The step (0-based).
+        step: usize,
+        /// The cell.
+        cell: usize,
+        /// Local tetrahedron of the cell.
+        tet: usize,
+        /// Halvings tried.
+        halvings: u32,
+        /// The smallest sub-step tried (s).
+        dt: f64,
+    },
+    /// The volume projection did not converge in a step.
+    #[error("step {step}: {source}")]
+    NotConverged {
+        /// The step.
+        step: usize,
+        /// The projection error.
+        source: CellVolumeError,
+    },
+    /// A particle position or velocity became NaN or infinite.
+    #[error("step {step}: particle {particle} has a non-finite position or velocity")]
+    NonFinite {
+        /// The step.
+        step: usize,
+        /// The particle.
+        particle: usize,
+    },
+    /// A rigid sphere parameter is out of range.
+    #[error("invalid sphere: {0}")]
+    InvalidSphere(String),
+}
+
+/// A deformable body ready to simulate: lattice, particle masses, constraints and springs.
+#[derive(Clone, Debug)]
+pub struct VolumetricBody {
+    /// The generated lattice (rest positions in `lattice.tet_mesh.vertices`).
+    pub lattice: Lattice,
+    /// Particle masses (kg).
+    pub masses: Vec<f64>,
+    /// Cell volume constraints.
+    pub constraints: CellVolumeConstraints,
+    /// Cell springs.
+    pub springs: CellSprings,
+    /// Parameters.
+    pub params: VolumetricParams,
+}
+
+impl VolumetricBody {
+    /// Generates the lattice of `soup` and sets up the body.
+    pub fn build(soup: &TriMesh, params: VolumetricParams) -> Result<Self, VolumetricError> {
+        params.validate()?;
+        let lattice = build_lattice(soup, &params.lattice)?;
+        Self::from_lattice(lattice, params)
+    }
+
+    /// Sets up a body on an existing lattice.
+    pub fn from_lattice(
+        lattice: Lattice,
+        params: VolumetricParams,
+    ) -> Result<Self, VolumetricError> {
+        params.validate()?;
+        let x = &lattice.tet_mesh.vertices;
+        let tets: Vec<[[usize; 4]; 5]> = lattice
+            .cell_tets
+            .iter()
+            .map(|ids| ids.map(|t| lattice.tet_mesh.tets[t]))
+            .collect();
+        let constraints =
+            CellVolumeConstraints::new(lattice.cells.clone(), tets, x, params.volume)?;
+        let total_volume: f64 = constraints.rest_volumes.iter().sum();
+        let masses = match params.mass_model {
+            MassModel::Equal => vec![params.density * total_volume / x.len() as f64; x.len()],
+            MassModel::Lumped => {
+                let mut m = vec![0.0; x.len()];
+                for (c, cell) in lattice.cells.iter().enumerate() {
+                    for &i in cell {
+                        m[i] += params.density * constraints.rest_volumes[c] / 8.0;
+                    }
+                }
+                m
+            }
+        };
+        let springs = CellSprings::new(&lattice.cells, x, &params.springs);
+        Ok(Self {
+            lattice,
+            masses,
+            constraints,
+            springs,
+            params,
+        })
+    }
+
+    /// Rest volume of the body (sum of the cell rest volumes, m^3).
+    pub fn rest_volume(&self) -> f64 {
+        self.constraints.rest_volumes.iter().sum()
+    }
+}
+
+/// Numbers reported after each step.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StepStats {
+    /// Step index (0-based) just completed.
+    pub step: usize,
+    /// Simulated time after the step (s).
+    pub time: f64,
+    /// Step halvings needed in this step.
+    pub halvings: u32,
+    /// Smallest sub-step used (s).
+    pub min_dt: f64,
+    /// Gauss-Seidel sweeps over all cells (summed over sub-steps and contact rounds).
+    pub sweeps: usize,
+    /// Largest relative cell-volume error `|V - V0| / V0` after the step.
+    pub max_cell_volume_error: f64,
+    /// Total volume over rest volume.
+    pub total_volume_ratio: f64,
+    /// Total momentum of particles and sphere (kg m/s).
+    pub momentum: [f64; 3],
+    /// Kinetic energy of particles and sphere (J).
+    pub kinetic_energy: f64,
+    /// Active contacts (summed over sub-steps and rounds).
+    pub contacts: usize,
+    /// Largest spring strain `|l / L0 - 1|` over all springs.
+    pub max_strain: f64,
+}
+
+/// A running simulation of a volumetric body, optionally with a rigid sphere and static planes.
+#[derive(Clone, Debug)]
+pub struct VolumetricSimulation {
+    body: VolumetricBody,
+    positions: Vec<Point3<f64>>,
+    velocities: Vec<Vector3<f64>>,
+    sphere: Option<RigidSphere>,
+    planes: Vec<Plane>,
+    step: usize,
+    time: f64,
+    total_halvings: u64,
+    forces: Vec<Vector3<f64>>,
+}
+
+#[derive(Default)]
+struct SubStepInfo {
+    halvings: u32,
+    min_dt: f64,
+    sweeps: usize,
+    contacts: usize,
+}
+
+impl VolumetricSimulation {
+    /// Starts at the rest positions with zero velocities.
+    pub fn new(body: VolumetricBody) -> Self {
+        let positions = body.lattice.tet_mesh.vertices.clone();
+        let n = positions.len();
+        Self {
+            body,
+            positions,
+            velocities: vec![Vector3::zeros(); n],
+            sphere: None,
+            planes: Vec::new(),
+            step: 0,
+            time: 0.0,
+            total_halvings: 0,
+            forces: vec![Vector3::zeros(); n],
+        }
+    }
+
+    /// Adds a rigid sphere (mass and radius must be positive and finite).
+    pub fn with_sphere(mut self, sphere: RigidSphere) -> Result<Self, VolumetricError> {
+        if !(sphere.mass.is_finite() && sphere.mass > 0.0) {
+            return Err(VolumetricError::InvalidSphere(format!(
+                "mass {} must be > 0",
+                sphere.mass
+            )));
+        }
+        if !(sphere.radius.is_finite() && sphere.radius > 0.0) {
+            return Err(VolumetricError::InvalidSphere(format!(
+                "radius {} must be > 0",
+                sphere.radius
+            )));
+        }
+        self.sphere = Some(sphere);
+        Ok(self)
+    }
+
+    /// Adds a static plane.
+    pub fn with_plane(mut self, plane: Plane) -> Self {
+        self.planes.push(plane);
+        self
+    }
+
+    /// Sets all particle velocities (m/s); `velocities.len()` must equal the particle count.
+    pub fn set_velocities(&mut self, velocities: &[Vector3<f64>]) -> Result<(), VolumetricError> {
+        if velocities.len() != self.velocities.len() {
+            return Err(VolumetricError::InvalidParameter {
+                name: "velocities",
+                value: velocities.len().to_string(),
+                reason: format!("expected {} particle velocities", self.velocities.len()),
+            });
+        }
+        self.velocities.copy_from_slice(velocities);
+        Ok(())
+    }
+
+    /// The body (lattice, masses, constraints, springs).
+    pub fn body(&self) -> &VolumetricBody {
+        &self.body
+    }
+
+    /// The lattice.
+    pub fn lattice(&self) -> &Lattice {
+        &self.body.lattice
+    }
+
+    /// Particle positions (m).
+    pub fn positions(&self) -> &[Point3<f64>] {
+        &self.positions
+    }
+
+    /// Particle velocities (m/s).
+    pub fn velocities(&self) -> &[Vector3<f64>] {
+        &self.velocities
+    }
+
+    /// Particle masses (kg).
+    pub fn masses(&self) -> &[f64] {
+        &self.body.masses
+    }
+
+    /// The rigid sphere, if any.
+    pub fn sphere(&self) -> Option<&RigidSphere> {
+        self.sphere.as_ref()
+    }
+
+    /// The static planes.
+    pub fn planes(&self) -> &[Plane] {
+        &self.planes
+    }
+
+    /// Steps completed.
+    pub fn steps(&self) -> usize {
+        self.step
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Step halvings so far.
+    pub fn total_halvings(&self) -> u64 {
+        self.total_halvings
+    }
+
+    /// The soup deformed with the lattice (free-form deformation, Sec. 3).
+    pub fn embedded_surface(&self) -> TriMesh {
+        self.body.lattice.embedding.surface(&self.positions)
+    }
+
+    /// The deformed tetrahedral mesh.
+    pub fn tet_mesh(&self) -> TetMesh {
+        TetMesh::new(
+            self.positions.clone(),
+            self.body.lattice.tet_mesh.tets.clone(),
+        )
+    }
+
+    /// Total momentum of particles and sphere (kg m/s).
+    pub fn momentum(&self) -> Vector3<f64> {
+        let mut p: Vector3<f64> = self
+            .velocities
+            .iter()
+            .zip(&self.body.masses)
+            .map(|(v, m)| v * *m)
+            .sum();
+        if let Some(s) = &self.sphere {
+            p += s.momentum();
+        }
+        p
+    }
+
+    /// Kinetic energy of particles and sphere (J).
+    pub fn kinetic_energy(&self) -> f64 {
+        let mut e: f64 = self
+            .velocities
+            .iter()
+            .zip(&self.body.masses)
+            .map(|(v, m)| 0.5 * m * v.norm_squared())
+            .sum();
+        if let Some(s) = &self.sphere {
+            e += s.kinetic_energy();
+        }
+        e
+    }
+
+    /// Current total volume (sum of the cell volumes, m^3).
+    pub fn total_volume(&self) -> f64 {
+        self.body
+            .constraints
+            .tets
+            .iter()
+            .map(|t| balloon_constraint::cell_volume::cell_volume(&self.positions, t))
+            .sum()
+    }
+
+    /// Largest spring strain `|l / L0 - 1|`.
+    pub fn max_strain(&self) -> f64 {
+        self.body
+            .springs
+            .springs
+            .iter()
+            .map(|s| {
+                let l = (self.positions[s.ends[1]] - self.positions[s.ends[0]]).norm();
+                (l / s.rest_length - 1.0).abs()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Advances one time step of `dt` (halving on inversion, Sec. 4) and reports.
+    pub fn step(&mut self) -> Result<StepStats, VolumetricError> {
+        let dt = self.body.params.dt;
+        let mut info = SubStepInfo {
+            min_dt: dt,
+            ..SubStepInfo::default()
+        };
+        self.advance(dt, 0, &mut info)?;
+        for (i, (p, v)) in self.positions.iter().zip(&self.velocities).enumerate() {
+            if !(p.coords.iter().all(|c| c.is_finite()) && v.iter().all(|c| c.is_finite())) {
+                return Err(VolumetricError::NonFinite {
+                    step: self.step,
+                    particle: i,
+                });
+            }
+        }
+        self.total_halvings += info.halvings as u64;
+        let stats = StepStats {
+            step: self.step,
+            time: self.time,
+            halvings: info.halvings,
+            min_dt: info.min_dt,
+            sweeps: info.sweeps,
+            max_cell_volume_error: self.body.constraints.max_relative_error(&self.positions).0,
+            total_volume_ratio: self.total_volume() / self.body.rest_volume(),
+            momentum: self.momentum().into(),
+            kinetic_energy: self.kinetic_energy(),
+            contacts: info.contacts,
+            max_strain: self.max_strain(),
+        };
+        self.step += 1;
+        Ok(stats)
+    }
+
+    /// Advances by `h`; on inversion restores the state and does two steps of `h / 2`.
+    fn advance(
+        &mut self,
+        h: f64,
+        depth: u32,
+        info: &mut SubStepInfo,
+    ) -> Result<(), VolumetricError> {
+        let saved = (self.positions.clone(), self.velocities.clone(), self.sphere);
+        match self.sub_step(h, info) {
+            Ok(()) => {
+                self.time += h;
+                Ok(())
+            }
+            Err(CellVolumeError::Inverted { cell, tet, .. }) => {
+                (self.positions, self.velocities, self.sphere) = saved;
+                if depth >= self.body.params.max_halvings {
+                    return Err(VolumetricError::Inversion {
+                        step: self.step,
+                        cell,
+                        tet,
+                        halvings: depth,
+                        dt: h,
+                    });
+                }
+                info.halvings += 1;
+                info.min_dt = info.min_dt.min(h / 2.0);
+                self.advance(h / 2.0, depth + 1, info)?;
+                self.advance(h / 2.0, depth + 1, info)
+            }
+            Err(source) => Err(VolumetricError::NotConverged {
+                step: self.step,
+                source,
+            }),
+        }
+    }
+
+    /// One step of Eq. 1 followed by contacts and volume impulses on the preview.
+    fn sub_step(&mut self, h: f64, info: &mut SubStepInfo) -> Result<(), CellVolumeError> {
+        let params = &self.body.params;
+        let g = Vector3::from(params.gravity);
+        // 1. External forces: gravity and cell springs.
+        for f in &mut self.forces {
+            *f = Vector3::zeros();
+        }
+        self.body
+            .springs
+            .add_forces(&self.positions, &self.velocities, &mut self.forces);
+        for ((v, f), m) in self
+            .velocities
+            .iter_mut()
+            .zip(&self.forces)
+            .zip(&self.body.masses)
+        {
+            *v += (f / *m + g) * h;
+        }
+        if let Some(s) = &mut self.sphere {
+            s.velocity += g * h;
+        }
+        // 2. Contacts and volume impulses on the preview.
+        let e = params.restitution;
+        let mut preview = self.positions.clone();
+        for _ in 0..params.contact_iterations {
+            let mut contacts = 0;
+            for plane in &self.planes {
+                contacts +=
+                    plane_particle_contacts(plane, &self.positions, &mut self.velocities, h, e);
+                if let Some(s) = &mut self.sphere {
+                    contacts += usize::from(plane_sphere_contact(plane, s, h, e));
+                }
+            }
+            if let Some(s) = &mut self.sphere {
+                contacts += sphere_particle_contacts(
+                    s,
+                    &self.positions,
+                    &mut self.velocities,
+                    &self.body.masses,
+                    h,
+                    e,
+                );
+            }
+            info.contacts += contacts;
+            for ((x, p), v) in preview
+                .iter_mut()
+                .zip(&self.positions)
+                .zip(&self.velocities)
+            {
+                *x = p + v * h;
+            }
+            let proj = self.body.constraints.project(
+                &mut preview,
+                &mut self.velocities,
+                &self.body.masses,
+                h,
+            )?;
+            info.sweeps += proj.sweeps;
+            if contacts == 0 || proj.sweeps == 0 {
+                break;
+            }
+        }
+        // 3. Positions from the corrected preview.
+        self.positions.copy_from_slice(&preview);
+        if let Some(s) = &mut self.sphere {
+            s.position += s.velocity * h;
+        }
+        Ok(())
+    }
+}
+
+/// Ready-made scenes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VolumetricScene {
+    /// The body alone, no planes, no sphere.
+    Free,
+    /// Fig. 4: a rigid sphere falls on the body resting on a floor plane; with
+    /// `soft_diagonals` the diagonal springs are 100 times softer than the edge springs.
+    DropSphere {
+        /// Use soft diagonal springs.
+        soft_diagonals: bool,
+    },
+}
+
+/// A closed, outward-oriented axis-aligned cube soup of side `side` (m) with its minimum corner
+/// at `min` (12 triangles).
+pub fn cube_soup(min: Point3<f64>, side: f64) -> TriMesh {
+    let v: Vec<Point3<f64>> = balloon_mesh::lattice::CORNERS
+        .iter()
+        .map(|c| min + Vector3::new(c[0] as f64, c[1] as f64, c[2] as f64) * side)
+        .collect();
+    let quads = [
+        [0, 3, 2, 1],
+        [4, 5, 6, 7],
+        [0, 1, 5, 4],
+        [1, 2, 6, 5],
+        [2, 3, 7, 6],
+        [3, 0, 4, 7],
+    ];
+    let mut tris = Vec::new();
+    for q in quads {
+        tris.push([q[0], q[1], q[2]]);
+        tris.push([q[0], q[2], q[3]]);
+    }
+    TriMesh::new(v, tris)
+}
+
+/// Parameters of the Fig. 4 scene: a 1 m cube of 4 x 4 x 4 cells (resolution 12, 3 voxels per
+/// cell, no smoothing), density 100 kg/m^3, edge springs `2e4` N/m; diagonal springs `2e4` N/m
+/// (stiff) or `2e2` N/m (soft).
+pub fn drop_sphere_params(soft_diagonals: bool) -> VolumetricParams {
+    VolumetricParams {
+        lattice: LatticeParams {
+            resolution: 12,
+            voxels_per_cell: 3,
+            smoothing_iterations: 0,
+            ..LatticeParams::default()
+        },
+        springs: SpringParams {
+            diagonal_stiffness: if soft_diagonals { 2e2 } else { 2e4 },
+            diagonal_damping: if soft_diagonals { 2.0 } else { 20.0 },
+            ..SpringParams::default()
+        },
+        ..VolumetricParams::default()
+    }
+}
+
+impl VolumetricScene {
+    /// Builds the scene. For [`VolumetricScene::DropSphere`], `soup` defaults to a 1 m cube
+    /// and `params` should come from [`drop_sphere_params`] (or be adapted from it). The floor is
+    /// placed at the lowest particle, and a sphere of radius 0.3 x the body height and mass 0.3 x
+    /// the body mass starts 0.5 x the height above the body's top, falling at 2 m/s.
+    pub fn build(
+        &self,
+        soup: Option<&TriMesh>,
+        params: VolumetricParams,
+    ) -> Result<VolumetricSimulation, VolumetricError> {
+        let default_cube = cube_soup(Point3::origin(), 1.0);
+        let soup = soup.unwrap_or(&default_cube);
+        let body = VolumetricBody::build(soup, params)?;
+        let sim = VolumetricSimulation::new(body);
+        match self {
+            VolumetricScene::Free => Ok(sim),
+            VolumetricScene::DropSphere { .. } => {
+                let x = sim.positions();
+                let (mut lo, mut hi) = (x[0], x[0]);
+                for p in x {
+                    lo = lo.inf(p);
+                    hi = hi.sup(p);
+                }
+                let height = hi.z - lo.z;
+                let mass: f64 = sim.masses().iter().sum();
+                let radius = 0.3 * height;
+                let centre = Point3::new(
+                    0.5 * (lo.x + hi.x),
+                    0.5 * (lo.y + hi.y),
+                    hi.z + radius + 0.5 * height,
+                );
+                let floor = Plane::new(lo, Vector3::z()).ok_or_else(|| {
+                    VolumetricError::InvalidSphere("cannot place the floor".into())
+                })?;
+                sim.with_plane(floor).with_sphere(RigidSphere {
+                    mass: 0.3 * mass,
+                    radius,
+                    position: centre,
+                    velocity: Vector3::new(0.0, 0.0, -2.0),
+                })
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use balloon_mesh::generate::icosphere;
+    use balloon_test_support::Rng;
+
+    fn free_params() -> VolumetricParams {
+        VolumetricParams {
+            lattice: LatticeParams {
+                resolution: 20,
+                ..LatticeParams::default()
+            },
+            gravity: [0.0; 3],
+            ..VolumetricParams::default()
+        }
+    }
+
+    #[test]
+    fn free_body_keeps_every_cell_volume_and_momentum() {
+        // No gravity, no contacts: springs act in equal and opposite pairs and the volume
+        // impulses of equal-mass particles sum to zero per cell, so total momentum is constant
+        // to round-off, and every cell keeps its rest volume after every step.
+        let soup = icosphere(0.5, 2).unwrap();
+        let body = VolumetricBody::build(&soup, free_params()).unwrap();
+        let mut sim = VolumetricSimulation::new(body);
+        let mut rng = Rng::new(17);
+        let v: Vec<Vector3<f64>> = (0..sim.positions().len())
+            .map(|_| Vector3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 0.5)
+            .collect();
+        sim.set_velocities(&v).unwrap();
+        let p0 = sim.momentum();
+        let scale: f64 = sim.masses().iter().sum::<f64>() * 0.5;
+        for _ in 0..40 {
+            let s = sim.step().unwrap();
+            assert!(
+                s.max_cell_volume_error <= 1e-10,
+                "{}",
+                s.max_cell_volume_error
+            );
+            assert!((s.total_volume_ratio - 1.0).abs() < 1e-9);
+        }
+        let drift = (sim.momentum() - p0).norm() / scale;
+        assert!(drift < 1e-12, "relative momentum drift {drift}");
+    }
+
+    #[test]
+    fn drop_sphere_soft_diagonals_deform_more() {
+        // Fig. 4: the same impact deforms the cube more when its diagonal springs are soft
+        // (largest spring strain and deepest dent over 0.4 s); in both runs the sphere
+        // stays above the floor and on top of the cube, and the cells keep their volume.
+        let mut strain = [0.0; 2];
+        let mut compression = [0.0; 2];
+        for (k, soft) in [false, true].into_iter().enumerate() {
+            let mut sim = VolumetricScene::DropSphere {
+                soft_diagonals: soft,
+            }
+            .build(None, drop_sphere_params(soft))
+            .unwrap();
+            assert_eq!(sim.lattice().cells.len(), 64);
+            let rest = sim.positions().to_vec();
+            // Largest downward displacement of a particle (the dent under the sphere).
+            let dent = |sim: &VolumetricSimulation| {
+                sim.positions()
+                    .iter()
+                    .zip(&rest)
+                    .map(|(p, q)| q.z - p.z)
+                    .fold(0.0, f64::max)
+            };
+            for _ in 0..400 {
+                let s = sim.step().unwrap();
+                assert!(s.max_cell_volume_error <= 1e-10);
+                strain[k] = f64::max(strain[k], s.max_strain);
+                compression[k] = f64::max(compression[k], dent(&sim));
+            }
+            let sphere = sim.sphere().unwrap();
+            let floor = sim.planes()[0];
+            assert!(floor.distance(&sphere.position) > sphere.radius);
+            let top = sim.positions().iter().map(|p| p.z).fold(f64::MIN, f64::max);
+            assert!(
+                sphere.position.z > top - 0.5 * sphere.radius,
+                "sphere sank into the cube"
+            );
+        }
+        eprintln!("max strain stiff {} soft {}", strain[0], strain[1]);
+        eprintln!(
+            "max dent (m) stiff {} soft {}",
+            compression[0], compression[1]
+        );
+        assert!(
+            strain[1] > 1.25 * strain[0],
+            "stiff {} soft {}",
+            strain[0],
+            strain[1]
+        );
+        assert!(
+            compression[1] > 1.25 * compression[0],
+            "dent stiff {} soft {}",
+            compression[0],
+            compression[1]
+        );
+    }
+
+    #[test]
+    fn inversion_that_halving_cannot_fix_names_step_and_cell() {
+        let soup = icosphere(0.5, 2).unwrap();
+        let params = VolumetricParams {
+            max_halvings: 0,
+            ..free_params()
+        };
+        let body = VolumetricBody::build(&soup, params).unwrap();
+        let mut sim = VolumetricSimulation::new(body);
+        let mut v = vec![Vector3::zeros(); sim.positions().len()];
+        v[0] = Vector3::new(0.0, 0.0, 1e4);
+        sim.set_velocities(&v).unwrap();
+        let e = sim.step().unwrap_err();
+        assert!(
+            matches!(e, VolumetricError::Inversion { step: 0, .. }),
+            "{e}"
+        );
+        assert!(e.to_string().contains("cell"));
+    }
+
+    #[test]
+    fn halving_recovers_from_an_inverted_preview() {
+        // A one-cell body contracting uniformly, v = -a (x - c) with h a = 1.5: every preview
+        // tetrahedron turns inside out (scale 1 - h a < 0), so the full step must be halved
+        // (Sec. 4). With h / 2 the preview is the rest cell scaled by 1/4 about its centre, which
+        // lambda = 4 restores exactly: the impulses remove the whole contraction and the cell ends
+        // at rest with its rest volume.
+        let soup = cube_soup(Point3::origin(), 1.0);
+        let params = VolumetricParams {
+            lattice: LatticeParams {
+                resolution: 8,
+                voxels_per_cell: 4,
+                smoothing_iterations: 0,
+                ..LatticeParams::default()
+            },
+            springs: SpringParams {
+                edge_stiffness: 0.0,
+                edge_damping: 0.0,
+                diagonal_stiffness: 0.0,
+                diagonal_damping: 0.0,
+            },
+            ..free_params()
+        };
+        let body = VolumetricBody::build(&soup, params).unwrap();
+        assert_eq!(body.lattice.cells.len(), 1);
+        let mut sim = VolumetricSimulation::new(body);
+        let n = sim.positions().len();
+        let c = sim
+            .positions()
+            .iter()
+            .fold(Vector3::zeros(), |a, p| a + p.coords)
+            / n as f64;
+        let a = 1.5 / sim.body().params.dt;
+        let v: Vec<Vector3<f64>> = sim
+            .positions()
+            .iter()
+            .map(|p| (p.coords - c) * -a)
+            .collect();
+        sim.set_velocities(&v).unwrap();
+        let s = sim.step().unwrap();
+        assert_eq!(s.halvings, 1);
+        assert!(s.max_cell_volume_error <= 1e-10);
+        assert!(
+            sim.kinetic_energy() < 1e-12 * 0.5 * a * a,
+            "{}",
+            sim.kinetic_energy()
+        );
+    }
+
+    #[test]
+    fn bad_parameters_are_named() {
+        let soup = icosphere(0.5, 1).unwrap();
+        let e = VolumetricBody::build(
+            &soup,
+            VolumetricParams {
+                dt: -1.0,
+                ..free_params()
+            },
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("dt"), "{e}");
+        let e = VolumetricBody::build(&TriMesh::default(), free_params()).unwrap_err();
+        assert!(e.to_string().contains("empty"), "{e}");
+    }
+
+    #[test]
+    fn embedded_surface_follows_a_rigid_translation() {
+        let soup = icosphere(0.5, 2).unwrap();
+        let body = VolumetricBody::build(&soup, free_params()).unwrap();
+        let mut sim = VolumetricSimulation::new(body);
+        let v = vec![Vector3::new(1.0, 0.0, 0.0); sim.positions().len()];
+        sim.set_velocities(&v).unwrap();
+        for _ in 0..10 {
+            sim.step().unwrap();
+        }
+        let s = sim.embedded_surface();
+        for (p, q) in s.vertices.iter().zip(&soup.vertices) {
+            assert!((p - q - Vector3::new(0.01, 0.0, 0.0)).norm() < 1e-9);
+        }
+    }
+}
