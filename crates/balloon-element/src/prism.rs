@@ -211,6 +211,45 @@ impl ThreePrism {
         )
     }
 
+    /// First half of the differential along edge variations `(de12, de13)`: the normal variation
+    /// `dd = (I - d d^T) dn / |n|`, `d . dn`, and `dF = [de12 de13 h dd] Dm^-1`.
+    #[inline]
+    fn gradient_variation(
+        &self,
+        k: &Kinematics,
+        de12: &Vector3<f64>,
+        de13: &Vector3<f64>,
+    ) -> (Matrix3<f64>, Vector3<f64>, f64) {
+        let dn = de12.cross(&k.e13) + k.e12.cross(de13);
+        let d_dn = k.d.dot(&dn);
+        let dd = (dn - k.d * d_dn) * k.inv_n;
+        let dds = Matrix3::from_columns(&[*de12, *de13, dd * k.h]);
+        (dds * self.dm_inv, dd, d_dn)
+    }
+
+    /// Second half: the differential of `(dE/de12, dE/de13)` given `dP`, `dd` and `d . dn`
+    /// (`dmt = V0 Dm^-T`).
+    #[inline]
+    fn finish_differential(
+        k: &Kinematics,
+        s: &Stress,
+        dmt: &Matrix3<f64>,
+        (de12, de13): (&Vector3<f64>, &Vector3<f64>),
+        dp: &Matrix3<f64>,
+        dd: &Vector3<f64>,
+        d_dn: f64,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let dg = dp * dmt;
+        let g3 = s.g.column(2);
+        let dg3 = dg.column(2);
+        let dq = -s.q * (k.inv_n * d_dn)
+            + (dg3 - k.d * (k.d.dot(&dg3) + dd.dot(&g3)) - dd * k.d.dot(&g3)) * (k.h * k.inv_n);
+        (
+            dg.column(0) + de13.cross(&s.q) + k.e13.cross(&dq),
+            dg.column(1) + dq.cross(&k.e12) + s.q.cross(de12),
+        )
+    }
+
     /// Differential of `(dE/de12, dE/de13)` along edge variations `(de12, de13)`.
     #[inline]
     fn edge_gradient_differential<M: Material>(
@@ -221,21 +260,10 @@ impl ThreePrism {
         de12: &Vector3<f64>,
         de13: &Vector3<f64>,
     ) -> (Vector3<f64>, Vector3<f64>) {
-        let dn = de12.cross(&k.e13) + k.e12.cross(de13);
-        let d_dn = k.d.dot(&dn);
-        let dd = (dn - k.d * d_dn) * k.inv_n;
-        let dds = Matrix3::from_columns(&[*de12, *de13, dd * k.h]);
-        let df = dds * self.dm_inv;
+        let (df, dd, d_dn) = self.gradient_variation(k, de12, de13);
         let dp = mat.first_piola_differential(&k.f, &df);
-        let dg = dp * self.dm_inv.transpose() * self.rest_volume();
-        let g3 = s.g.column(2);
-        let dg3 = dg.column(2);
-        let dq = -s.q * (k.inv_n * d_dn)
-            + (dg3 - k.d * (k.d.dot(&dg3) + dd.dot(&g3)) - dd * k.d.dot(&g3)) * (k.h * k.inv_n);
-        (
-            dg.column(0) + de13.cross(&s.q) + k.e13.cross(&dq),
-            dg.column(1) + dq.cross(&k.e12) + s.q.cross(de12),
-        )
+        let dmt = self.dm_inv.transpose() * self.rest_volume();
+        Self::finish_differential(k, s, &dmt, (de12, de13), &dp, &dd, d_dn)
     }
 
     /// Deformation gradient `F = [e12 e13 d h] Dm^-1` (seed 000 Eq. 4), dimensionless.
@@ -299,13 +327,31 @@ impl ThreePrism {
         let k = self.kinematics(x, h);
         let s = self.stress(&k, &mat.first_piola(&k.f));
         let (g12, g13) = Self::edge_gradient(&k, &s);
+        let dmt = self.dm_inv.transpose() * self.rest_volume();
+        // Unit edge variations: column c moves component c % 3 of e12 (c < 3) or e13 (c >= 3).
+        let units: [(Vector3<f64>, Vector3<f64>); 6] = std::array::from_fn(|c| {
+            let mut u = Vector3::zeros();
+            u[c % 3] = 1.0;
+            if c < 3 {
+                (u, Vector3::zeros())
+            } else {
+                (Vector3::zeros(), u)
+            }
+        });
+        let var: [(Matrix3<f64>, Vector3<f64>, f64); 6] =
+            std::array::from_fn(|c| self.gradient_variation(&k, &units[c].0, &units[c].1));
+        let dps = mat.first_piola_differentials(&k.f, &var.map(|v| v.0));
         let mut ke = SMatrix::<f64, 6, 6>::zeros();
-        let zero = Vector3::zeros();
         for c in 0..6 {
-            let mut unit = Vector3::zeros();
-            unit[c % 3] = 1.0;
-            let (de12, de13) = if c < 3 { (unit, zero) } else { (zero, unit) };
-            let (a, b) = self.edge_gradient_differential(mat, &k, &s, &de12, &de13);
+            let (a, b) = Self::finish_differential(
+                &k,
+                &s,
+                &dmt,
+                (&units[c].0, &units[c].1),
+                &dps[c],
+                &var[c].1,
+                var[c].2,
+            );
             ke.fixed_view_mut::<3, 1>(0, c).copy_from(&a);
             ke.fixed_view_mut::<3, 1>(3, c).copy_from(&b);
         }

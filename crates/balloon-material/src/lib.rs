@@ -65,6 +65,17 @@ pub trait Material: Clone + Send + Sync + std::fmt::Debug {
     /// (the `P(F; dF)` of seed 000 Eq. 11), in Pa per unit of `dF`.
     fn first_piola_differential(&self, f: &Matrix3<f64>, df: &Matrix3<f64>) -> Matrix3<f64>;
 
+    /// `dP(F; dF_k)` for several directions `dF_k` at the same `F`. Override when the
+    /// directions can share the work that depends on `F` only (both built-in models do): the
+    /// elements' stiffness blocks call this with 6 or 9 directions.
+    fn first_piola_differentials<const N: usize>(
+        &self,
+        f: &Matrix3<f64>,
+        dfs: &[Matrix3<f64>; N],
+    ) -> [Matrix3<f64>; N] {
+        std::array::from_fn(|k| self.first_piola_differential(f, &dfs[k]))
+    }
+
     /// `(psi(F), P(F))` together; override when the two share work (both built-in models do).
     fn energy_and_piola(&self, f: &Matrix3<f64>) -> (f64, Matrix3<f64>) {
         (self.energy_density(f), self.first_piola(f))
@@ -205,6 +216,14 @@ mod tests {
                     (tv - nalgebra::SVector::<f64, 9>::from_column_slice(dp.as_slice())).norm()
                         <= 1e-12 * dp.norm().max(1.0)
                 );
+                // The batched differentials equal the single ones.
+                let dfs = [df, df.transpose(), Matrix3::identity()];
+                let batch = m.first_piola_differentials(&f, &dfs);
+                for (b, d) in batch.iter().zip(&dfs) {
+                    assert!(
+                        (b - m.first_piola_differential(&f, d)).norm() <= 1e-13 * b.norm().max(1.0)
+                    );
+                }
                 // Ordering: entry (i, k) is d vec(P)_i / d vec(F)_k with vec column-major.
                 let mut e = Matrix3::zeros();
                 e[(1, 2)] = 1.0; // F23 -> vec index 3 * 2 + 1 = 7

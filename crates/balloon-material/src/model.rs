@@ -126,6 +126,14 @@ impl Material for MaterialModel {
         dispatch!(self, m => m.first_piola_differential(f, df))
     }
     #[inline]
+    fn first_piola_differentials<const N: usize>(
+        &self,
+        f: &Matrix3<f64>,
+        dfs: &[Matrix3<f64>; N],
+    ) -> [Matrix3<f64>; N] {
+        dispatch!(self, m => m.first_piola_differentials(f, dfs))
+    }
+    #[inline]
     fn energy_and_piola(&self, f: &Matrix3<f64>) -> (f64, Matrix3<f64>) {
         dispatch!(self, m => m.energy_and_piola(f))
     }

@@ -59,6 +59,14 @@ impl NeoHookean {
         let inv_t = inv.transpose();
         inv_t.iter().all(|v| v.is_finite()).then_some((lnj, inv_t))
     }
+
+    /// `dP` given `ln J` and `F^-T`; `tr(F^-1 dF) = F^-T : dF`.
+    #[inline]
+    fn differential_with(&self, lnj: f64, fit: &Matrix3<f64>, df: &Matrix3<f64>) -> Matrix3<f64> {
+        let (mu, lambda) = (self.lame.mu(), self.lame.lambda());
+        let tr = fit.dot(df);
+        df * mu + fit * df.transpose() * fit * (mu - lambda * lnj) + fit * (lambda * tr)
+    }
 }
 
 impl Material for NeoHookean {
@@ -87,13 +95,20 @@ impl Material for NeoHookean {
     #[inline]
     fn first_piola_differential(&self, f: &Matrix3<f64>, df: &Matrix3<f64>) -> Matrix3<f64> {
         match Self::log_j_inv_t(f) {
-            Some((lnj, fit)) => {
-                let (mu, lambda) = (self.lame.mu(), self.lame.lambda());
-                // tr(F^-1 dF) = F^-T : dF.
-                let tr = fit.dot(df);
-                df * mu + fit * df.transpose() * fit * (mu - lambda * lnj) + fit * (lambda * tr)
-            }
+            Some((lnj, fit)) => self.differential_with(lnj, &fit, df),
             None => Matrix3::from_element(f64::NAN),
+        }
+    }
+
+    #[inline]
+    fn first_piola_differentials<const N: usize>(
+        &self,
+        f: &Matrix3<f64>,
+        dfs: &[Matrix3<f64>; N],
+    ) -> [Matrix3<f64>; N] {
+        match Self::log_j_inv_t(f) {
+            Some((lnj, fit)) => std::array::from_fn(|k| self.differential_with(lnj, &fit, &dfs[k])),
+            None => [Matrix3::from_element(f64::NAN); N],
         }
     }
 

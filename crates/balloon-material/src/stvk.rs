@@ -60,6 +60,24 @@ impl StVenantKirchhoff {
         s.m33 += lt;
         (e, s)
     }
+
+    /// `dP = dF S + F dS` given the second Piola stress `S` at `F`.
+    #[inline]
+    fn differential_with_stress(
+        &self,
+        f: &Matrix3<f64>,
+        s: &Matrix3<f64>,
+        df: &Matrix3<f64>,
+    ) -> Matrix3<f64> {
+        let ftdf = f.tr_mul(df);
+        let de = (ftdf + ftdf.transpose()) * 0.5;
+        let mut ds = de * (2.0 * self.lame.mu());
+        let lt = self.lame.lambda() * de.trace();
+        ds.m11 += lt;
+        ds.m22 += lt;
+        ds.m33 += lt;
+        df * s + f * ds
+    }
 }
 
 impl Material for StVenantKirchhoff {
@@ -79,14 +97,17 @@ impl Material for StVenantKirchhoff {
     #[inline]
     fn first_piola_differential(&self, f: &Matrix3<f64>, df: &Matrix3<f64>) -> Matrix3<f64> {
         let (_, s) = self.strain_stress(f);
-        let ftdf = f.tr_mul(df);
-        let de = (ftdf + ftdf.transpose()) * 0.5;
-        let mut ds = de * (2.0 * self.lame.mu());
-        let lt = self.lame.lambda() * de.trace();
-        ds.m11 += lt;
-        ds.m22 += lt;
-        ds.m33 += lt;
-        df * s + f * ds
+        self.differential_with_stress(f, &s, df)
+    }
+
+    #[inline]
+    fn first_piola_differentials<const N: usize>(
+        &self,
+        f: &Matrix3<f64>,
+        dfs: &[Matrix3<f64>; N],
+    ) -> [Matrix3<f64>; N] {
+        let (_, s) = self.strain_stress(f);
+        std::array::from_fn(|k| self.differential_with_stress(f, &s, &dfs[k]))
     }
 
     #[inline]
