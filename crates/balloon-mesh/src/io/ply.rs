@@ -302,7 +302,9 @@ fn read_body(
             vertices.reserve(el.count.min(cap));
         }
         let mut xyz = [0.0; 3];
-        for k in 0..el.count {
+        // An element without properties occupies no bytes, whatever its (untrusted) count.
+        let count = if el.props.is_empty() { 0 } else { el.count };
+        for k in 0..count {
             for (pi, prop) in el.props.iter().enumerate() {
                 match prop {
                     Prop::Scalar { ty, name } => {

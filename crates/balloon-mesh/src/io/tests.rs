@@ -257,6 +257,15 @@ fn malformed_inputs_name_file_and_location() {
     }
     let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
     assert_eq!(parse_ply(ply.as_bytes(), &p()).unwrap().num_triangles(), 1);
+    // A property-less element occupies no bytes however large its count (no long loop).
+    let empty = ply.replace(
+        "element face 1",
+        "element empty 18446744073709551615\nelement face 1",
+    );
+    assert_eq!(
+        parse_ply(empty.as_bytes(), &p()).unwrap().num_triangles(),
+        1
+    );
     let ply_cases: Vec<(String, &str)> = vec![
         (String::new(), "empty"),
         ("ply\n".into(), "no end_header"),
@@ -409,6 +418,12 @@ fn shared_meshes_match_their_readme() {
         let topo = Topology::new(&m);
         assert_eq!(topo.genus(&m.triangles), Some(genus), "{name}");
         let rep = crate::validate::validate(&m, &Default::default());
+        assert!(rep.is_valid(), "{name}: {:?}", rep.defects.first());
+        if name.starts_with("bunny") {
+            // README: "smallest angle 2.7 degrees".
+            let a = crate::geometry::min_angle_degrees(&m).unwrap();
+            assert!((a - 2.7).abs() < 0.05, "{a}");
+        }
         assert!(
             rep.closed && rep.manifold && rep.consistently_oriented && rep.outward,
             "{name}: {:?}",
