@@ -223,8 +223,25 @@ fn check_topology(
 
 /// Material volume of the shell, `V_b = sum_e A_e h_e` (Eq. 26 with each virtual vertex on its
 /// element's normal), m^3. `x`: flat positions (m, length `3N`); `thickness`: one `h_e` per
-/// triangle (m).
-pub fn shell_volume(
+/// triangle (m). Returns NaN when the input is inconsistent (lengths, out-of-range indices);
+/// [`try_shell_volume`] says why. Degenerate triangles contribute their (near-zero) area.
+pub fn shell_volume(triangles: &[[usize; 3]], x: &[f64], thickness: &[f64]) -> f64 {
+    if check_topology(triangles, x, thickness).is_err() {
+        return f64::NAN;
+    }
+    triangles
+        .iter()
+        .zip(thickness)
+        .map(|(t, h)| {
+            let (a, b, c) = (vertex(x, t[0]), vertex(x, t[1]), vertex(x, t[2]));
+            0.5 * (b - a).cross(&(c - a)).norm() * h
+        })
+        .sum()
+}
+
+/// Checked [`shell_volume`]: errors on inconsistent lengths, out-of-range indices and degenerate
+/// triangles (naming the element).
+pub fn try_shell_volume(
     triangles: &[[usize; 3]],
     x: &[f64],
     thickness: &[f64],
@@ -557,7 +574,7 @@ mod tests {
             .map(|(e, t)| 0.5 * doubled_area_normal(&x, t, e).unwrap().norm() * h[e])
             .collect();
         let (wv, we) = projection_inverse_masses(&tris, x.len() / 3, &ve, 950.0).unwrap();
-        let v0 = shell_volume(&tris, &x, &h).unwrap();
+        let v0 = try_shell_volume(&tris, &x, &h).unwrap();
         Shell {
             x,
             tris,
@@ -627,7 +644,7 @@ mod tests {
         assert!((info.final_ratio - 1.0).abs() <= 1e-13, "{info:?}");
         assert!(info.iterations <= 10, "{info:?}");
         // The recomputed thicknesses reproduce the projected volume: sum A_e h_e = V_b0.
-        let v = shell_volume(&s.tris, &s.x, &s.h).unwrap();
+        let v = shell_volume(&s.tris, &s.x, &s.h);
         assert!((v / s.v0 - 1.0).abs() < 1e-12, "{}", v / s.v0);
         // A stretched balloon is thinner: the mean thickness dropped.
         let mean = s.h.iter().sum::<f64>() / s.h.len() as f64;
@@ -707,7 +724,7 @@ mod tests {
         assert!((info.initial_ratio - 0.7).abs() < 1e-12);
         assert!((info.final_ratio - 1.0).abs() <= 1e-9);
         assert!(s.h.iter().all(|&h| h > 0.7 * 2e-4));
-        let v = shell_volume(&s.tris, &s.x, &s.h).unwrap();
+        let v = shell_volume(&s.tris, &s.x, &s.h);
         assert!((v / s.v0 - 1.0).abs() <= 1e-9);
     }
 
@@ -795,5 +812,8 @@ mod tests {
             .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, -1.0)
             .unwrap_err();
         assert!(e.to_string().contains("rest_shell_volume"));
+        assert!(shell_volume(&s.tris, &s.x, &s.h[1..]).is_nan());
+        let e = try_shell_volume(&[[0, 1, 400]], &s.x, &[1e-3]).unwrap_err();
+        assert!(e.to_string().contains("vertex 400"), "{e}");
     }
 }
