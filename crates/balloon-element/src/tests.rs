@@ -614,3 +614,53 @@ fn spring_derivatives_damping_and_guards() {
         2.0
     );
 }
+
+#[test]
+fn three_prism_degenerate_sweep_and_stiffness_covariance() {
+    let mat = NeoHookean::new(lame());
+    let rest = [
+        Vector3::zeros(),
+        Vector3::new(0.01, 0.0, 0.0),
+        Vector3::new(0.004, 0.01, 0.0),
+    ];
+    let p = ThreePrism::try_new(rest, 1e-3).unwrap();
+    // Flatten the current triangle towards a segment: while check_state accepts the state the
+    // forces and stiffness stay finite and the derivatives stay consistent; the collapsed state
+    // is rejected.
+    for t in [1e-1, 1e-2, 1e-3] {
+        let x = [rest[0], rest[1], Vector3::new(0.004, 0.01 * t, 1e-4)];
+        p.check_state(&x, 1e-3).unwrap();
+        let (f, k) = p.forces_and_stiffness(&mat, &x, 1e-3);
+        assert!(f.iter().all(|v| v.iter().all(|c| c.is_finite())));
+        assert!(k.iter().all(|c| c.is_finite()));
+        let l = 0.01 * t;
+        let e = Element {
+            energy: &|x| p.energy(&mat, &arr(x), 1e-3),
+            forces: &|x| flat(&p.forces(&mat, &arr(x), 1e-3)),
+            differential: &|x, d| flat(&p.force_differential(&mat, &arr(x), 1e-3, &arr(d))),
+            stiffness: &|x| dmat(&p.stiffness(&mat, &arr(x), 1e-3)),
+            fused: &|x| {
+                let (f, k) = p.forces_and_stiffness(&mat, &arr(x), 1e-3);
+                (flat(&f), dmat(&k))
+            },
+        };
+        verify(&e, &flat(&x), l, 90);
+    }
+    let collapsed = [rest[0], rest[1], rest[1] * 0.4];
+    assert!(p.check_state(&collapsed, 1e-3).is_err());
+    // Squashing the thickness costs unbounded neo-Hookean energy (J -> 0).
+    assert!(p.energy(&mat, &rest, 1e-9) > 1e2 * p.energy(&mat, &rest, 0.5e-3));
+
+    // The stiffness of a rotated state is the rotated stiffness: K(Rx) = R K(x) R^T blockwise
+    // (the energy is frame indifferent, so its Hessian is a tensor).
+    let mut rng = Rng::new(9);
+    let x = deform(&mut rng, &rest, 1.1, 0.01);
+    let r = rotation(&mut rng);
+    let k = p.stiffness(&mat, &x, 0.9e-3);
+    let kr = p.stiffness(&mat, &x.map(|q| r * q), 0.9e-3);
+    let mut big_r = nalgebra::SMatrix::<f64, 9, 9>::zeros();
+    for i in 0..3 {
+        big_r.fixed_view_mut::<3, 3>(3 * i, 3 * i).copy_from(&r);
+    }
+    assert!((big_r * k * big_r.transpose() - kr).norm() <= 1e-10 * k.norm());
+}
