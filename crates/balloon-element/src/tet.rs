@@ -137,7 +137,7 @@ impl LinearTetrahedron {
         self.forces_and_stiffness(mat, x).1
     }
 
-    /// Forces and stiffness together; the stiffness is built from 9 material differentials with
+    /// Forces and stiffness together; the stiffness is built from 9 (batched) material differentials with
     /// respect to the three edge vectors and expanded by translation invariance.
     pub fn forces_and_stiffness<M: Material>(
         &self,
@@ -147,12 +147,17 @@ impl LinearTetrahedron {
         let f = self.deformation_gradient(x);
         let dmt = self.dm_inv.transpose() * self.rest_volume;
         let p = mat.first_piola(&f);
-        let mut ke = SMatrix::<f64, 9, 9>::zeros();
-        for c in 0..9 {
-            // Unit variation of component c % 3 of edge c / 3: dDs = unit(c % 3, c / 3).
+        // Unit variation of component c % 3 of edge c / 3: dDs = unit(c % 3, c / 3), so
+        // dF = unit(c % 3) (row c / 3 of Dm^-1).
+        let dfs: [Matrix3<f64>; 9] = std::array::from_fn(|c| {
             let mut dds = Matrix3::zeros();
             dds[(c % 3, c / 3)] = 1.0;
-            let dg = mat.first_piola_differential(&f, &(dds * self.dm_inv)) * dmt;
+            dds * self.dm_inv
+        });
+        let dps = mat.first_piola_differentials(&f, &dfs);
+        let mut ke = SMatrix::<f64, 9, 9>::zeros();
+        for c in 0..9 {
+            let dg = dps[c] * dmt;
             ke.column_mut(c).copy_from_slice(dg.as_slice());
         }
         (
