@@ -8,6 +8,23 @@
 //!
 //! **Not for:** physics. Nothing here knows about materials, forces or time.
 //!
+//! | module | what |
+//! |---|---|
+//! | [`load`], [`builtin()`] | a mesh from a path, `builtin` (the teddy) or `builtin:NAME` |
+//! | [`io`] | OBJ, OFF, PLY, STL readers (errors name file + line/byte) and writers |
+//! | [`validate`] | [`validate::validate_closed_manifold`], defect reports, weld / orient / clean |
+//! | [`topology`] | edges, CSR adjacency, one-rings, components, Euler characteristic, genus |
+//! | [`geometry`] | areas, normals, enclosed volume (seed 000, Eq. 13) and its gradient |
+//! | [`generate`] | spheres, torus, box, implicit surfaces, the procedural teddy |
+//! | [`tet`], [`lattice`] | tetrahedral meshes and the seed-003 lattice generator |
+//!
+//! ```
+//! let mesh = balloon_mesh::load("builtin:icosphere").unwrap();
+//! balloon_mesh::validate::validate_closed_manifold(&mesh).unwrap();
+//! let v = balloon_mesh::geometry::enclosed_volume(&mesh);
+//! assert!((v - 4.0 / 3.0 * std::f64::consts::PI * 1e-3).abs() < 1e-5);
+//! ```
+//!
 //! ```
 //! use balloon_mesh::TriMesh;
 //! use nalgebra::Point3;

@@ -381,6 +381,21 @@ fn improve_by_flips(mesh: &mut TriMesh, rounds: usize) {
     }
 }
 
+/// Helpers shared with the tests of other generators.
+#[cfg(test)]
+pub(crate) mod tests_support {
+    use super::*;
+
+    /// Central-difference gradient of `f` at `p`.
+    pub(crate) fn gradient(
+        f: &impl Fn(&Point3<f64>) -> f64,
+        p: &Point3<f64>,
+        eps: f64,
+    ) -> Vector3<f64> {
+        fd_gradient(f, p, eps)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
