@@ -49,4 +49,6 @@ pub use volume::{
 };
 
 #[cfg(test)]
+mod system_tests;
+#[cfg(test)]
 mod tests;
