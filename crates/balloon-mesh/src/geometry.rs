@@ -61,6 +61,18 @@ pub fn vertex_normals(mesh: &TriMesh) -> Vec<Vector3<f64>> {
         .collect()
 }
 
+/// Barycentric (lumped) vertex areas (m^2): each triangle gives a third of its area to each of its
+/// corners, so the sum equals the surface area. The usual lumped-mass weights of a shell.
+pub fn vertex_areas(mesh: &TriMesh) -> Vec<f64> {
+    let mut a = vec![0.0; mesh.num_vertices()];
+    for (t, area) in mesh.triangles.iter().zip(face_areas(mesh)) {
+        for &i in t {
+            a[i] += area / 3.0;
+        }
+    }
+    a
+}
+
 /// Total surface area (m^2).
 pub fn surface_area(mesh: &TriMesh) -> f64 {
     face_areas(mesh).iter().sum()
@@ -285,6 +297,8 @@ mod tests {
         let exact = 4.0 / 3.0 * std::f64::consts::PI * 8.0;
         assert!((v / exact - 1.0).abs() < 5e-3, "{v} vs {exact}");
         assert!((surface_area(&m) / (16.0 * std::f64::consts::PI) - 1.0).abs() < 5e-3);
+        let va: f64 = vertex_areas(&m).iter().sum();
+        assert!((va - surface_area(&m)).abs() < 1e-12 * va);
         for (p, n) in m.vertices.iter().zip(vertex_normals(&m)) {
             assert!((p.coords.normalize() - n).norm() < 1e-2);
         }

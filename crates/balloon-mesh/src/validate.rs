@@ -435,6 +435,30 @@ pub fn weld_vertices(mesh: &TriMesh, tol: f64) -> (TriMesh, Vec<usize>) {
     (TriMesh::new(vertices, triangles), map)
 }
 
+/// Drops vertices used by no triangle. Returns the compacted mesh and, for every input vertex,
+/// its index in the output (`usize::MAX` for a dropped vertex).
+///
+/// # Panics
+/// If a triangle index is out of range.
+pub fn remove_unreferenced_vertices(mesh: &TriMesh) -> (TriMesh, Vec<usize>) {
+    let mut map = vec![usize::MAX; mesh.num_vertices()];
+    let mut vertices = Vec::new();
+    let triangles = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            t.map(|i| {
+                if map[i] == usize::MAX {
+                    map[i] = vertices.len();
+                    vertices.push(mesh.vertices[i]);
+                }
+                map[i]
+            })
+        })
+        .collect();
+    (TriMesh::new(vertices, triangles), map)
+}
+
 /// Removes triangles with a repeated index or `2 A / l_max^2 < tol` (see
 /// [`ValidationOptions::degenerate_tolerance`]); vertices are kept.
 ///
@@ -719,5 +743,17 @@ mod tests {
         let mut d = tetra();
         d.triangles.push([0, 1, 1]);
         assert_eq!(remove_degenerate_triangles(&d, 1e-10).num_triangles(), 4);
+
+        // An unused vertex is dropped and the others keep their geometry.
+        let mut u = tetra();
+        u.vertices.insert(0, Point3::new(9.0, 9.0, 9.0));
+        for t in &mut u.triangles {
+            *t = t.map(|i| i + 1);
+        }
+        assert!(validate_closed_manifold(&u).is_err());
+        let (c, map) = remove_unreferenced_vertices(&u);
+        assert_eq!(map[0], usize::MAX);
+        validate_closed_manifold(&c).unwrap();
+        assert!((crate::geometry::enclosed_volume(&c) - 1.0 / 6.0).abs() < 1e-15);
     }
 }

@@ -6,7 +6,8 @@
 //! triangle or a quad whose edges are shared with exactly one neighbour, so the output is a closed
 //! 2-manifold by construction, without the ambiguous cases of marching cubes; orientation follows
 //! combinatorially from the sign of each tetrahedron. Its triangles are poorly shaped, which the
-//! relaxation fixes.
+//! relaxation fixes. Every crossed grid edge gets exactly one vertex shared by all tetrahedra
+//! around it, so no welding is needed.
 //!
 //! Steps: (1) sample `f` on the grid; values with `|f| < clamp_fraction * h` are pushed to
 //! `+-clamp_fraction * h` (so no vertex lands on a grid node and no triangle is degenerate) and the
