@@ -150,6 +150,12 @@ impl BackwardEuler {
         }
     }
 
+    /// How many times the sparse pattern (and with it the symbolic Cholesky factorisation) has
+    /// been built; stays at 1 across Newton iterations and steps while the pattern is unchanged.
+    pub fn sparse_pattern_builds(&self) -> u64 {
+        self.assembler.pattern_version()
+    }
+
     fn validate(
         &self,
         n: usize,
@@ -778,6 +784,10 @@ mod tests {
                 // Newton converges quadratically: the residual drops by orders of magnitude.
                 let r = &info.newton_residuals;
                 assert!(r[3] < 1e-6 * r[0], "{kind}: {r:?}");
+            }
+            if kind != LinearSolverKind::MatrixFreeCg {
+                // 3 steps x 4 Newton iterations, one pattern (and symbolic factorisation) build.
+                assert_eq!(be.sparse_pattern_builds(), 1);
             }
             results.push((x, v));
         }
