@@ -1,1 +1,116 @@
-//! two_layer (being filled in).
+//! Two-layer elastic objects (seed 004, Song, "Dynamic Deformation of Uniform Elastic Two-Layer
+//! Objects"): mass-spring bodies in 1D, 2D and 3D whose inner and outer layers are joined by
+//! radius and shear springs, filled with an ideal gas, pulled by gravity and a drag ("mouse")
+//! spring, bouncing in a box, and advanced by explicit Euler, midpoint, RK4 or symplectic Euler.
+//!
+//! * [`TwoLayerBody`]: the builder (shape, radii, masses, spring constants per [`SpringKind`],
+//!   pressures, gravity, collision box, restitution) -> [`TwoLayerModel`] (particles, springs,
+//!   layers; seed Ch. 3).
+//! * [`TwoLayerForces`]: gravity (seed Sec. 4.1), Hooke (Sec. 4.2) and damping (Sec. 4.3)
+//!   forces per spring type, the drag spring (Sec. 4.4), gas pressure per closed layer
+//!   (Sec. 4.5); a [`balloon_integrate::explicit::SecondOrderSystem`].
+//! * [`TwoLayerSimulation`]: steps with any [`ExplicitMethod`], resolves collisions (Sec. 4.6),
+//!   reports [`TwoLayerStats`] and stops with [`TwoLayerError::BlowUp`] on NaN or energy growth.
+//!
+//! ```
+//! use balloon::two_layer::{TwoLayerBody, ExplicitMethod};
+//! let body = TwoLayerBody::octahedron_sphere(1)
+//!     .with_radii(0.8, 1.0)
+//!     .with_pressure(200.0, 200.0);
+//! let mut sim = body.simulate(ExplicitMethod::Rk4, 1e-3).unwrap();
+//! let stats = sim.step().unwrap();
+//! assert!(stats.volume_outer > stats.volume_inner);
+//! ```
+//!
+//! **Particle layout.** In 2D and 3D particles `0..n` are the inner layer and `n..2n` the outer
+//! layer, with inner particle `j` paired to outer particle `j + n` (same direction from the
+//! centre). In 1D particle 0 is the fixed end and particle 1 the free end.
+//!
+//! **Gas.** Following seed Sec. 4.7 (Steps 6-9), each closed layer encloses its own gas with
+//! constant `nRT`: `P_k = (nRT)_k / V_k` (seed Eq. 4.10) acts outward on layer `k` only. The
+//! region between the layers is the elastic material itself, modelled by the radius and shear
+//! springs, not a gas. The force is exactly `-dU/dx` of `U_gas = -(nRT)_k ln(V_k / V_k0)`, so the
+//! undamped model conserves energy. Pressures are given as *initial* pressures at the rest
+//! volume: `(nRT)_k = P_k0 V_k0`.
+
+mod forces;
+mod model;
+mod sim;
+
+pub use balloon_constraint::two_layer::AxisBox;
+pub use balloon_integrate::explicit::ExplicitMethod;
+pub use forces::{DragTarget, EnergyBreakdown, TwoLayerForces};
+pub use model::{Dimension, Shape, Spring, SpringKind, SpringParams, TwoLayerBody, TwoLayerModel};
+pub use sim::{TwoLayerSimulation, TwoLayerStats};
+
+use thiserror::Error;
+
+/// Errors of the two-layer system.
+#[derive(Debug, Error)]
+pub enum TwoLayerError {
+    /// A parameter is out of range (non-positive mass, radius, time step, spring constant, ...).
+    /// The message names the parameter and the allowed range.
+    #[error("invalid two-layer parameter `{name}` = {value}: {reason}")]
+    InvalidParameter {
+        /// The parameter.
+        name: &'static str,
+        /// Its value, formatted.
+        value: String,
+        /// Why it is invalid and what is allowed.
+        reason: String,
+    },
+    /// A sphere generator rejected its parameters (e.g. too few slices).
+    #[error("cannot build the two-layer sphere: {0}")]
+    Mesh(#[from] balloon_mesh::MeshError),
+    /// The collision box or restitution is invalid.
+    #[error(transparent)]
+    Collision(#[from] balloon_constraint::two_layer::TwoLayerConstraintError),
+    /// The integrator rejected the step (bad time step or state size).
+    #[error(transparent)]
+    Integrator(#[from] balloon_integrate::explicit::ExplicitError),
+    /// The simulation blew up: a position or velocity became NaN or infinite, or the total energy
+    /// grew beyond the initial energy plus the work done by the drag by more than the allowed
+    /// bound. Explicit integrators are only conditionally stable: use a smaller `dt`, softer
+    /// springs, heavier particles, more damping, or RK4 / symplectic Euler.
+    #[error(
+        "simulation blew up at step {step} (t = {time:.6} s) with the {method} integrator and dt = {dt:e} s: {reason}; try a smaller dt (e.g. {suggested_dt:e} s), softer springs or more damping"
+    )]
+    BlowUp {
+        /// The step that failed (1-based count of steps taken).
+        step: usize,
+        /// Simulated time at the failure (s).
+        time: f64,
+        /// The integrator.
+        method: ExplicitMethod,
+        /// The time step (s).
+        dt: f64,
+        /// A smaller time step to try (s).
+        suggested_dt: f64,
+        /// What was detected.
+        reason: String,
+    },
+}
+
+pub(crate) fn positive(name: &'static str, value: f64) -> Result<f64, TwoLayerError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(TwoLayerError::InvalidParameter {
+            name,
+            value: value.to_string(),
+            reason: "must be a positive finite number".into(),
+        })
+    }
+}
+
+pub(crate) fn non_negative(name: &'static str, value: f64) -> Result<f64, TwoLayerError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(TwoLayerError::InvalidParameter {
+            name,
+            value: value.to_string(),
+            reason: "must be a finite number >= 0".into(),
+        })
+    }
+}

@@ -1,0 +1,482 @@
+//! Forces on a two-layer object (seed 004, Ch. 4) and its energies.
+
+use super::model::{Dimension, SpringParams, TwoLayerBody, TwoLayerModel};
+use balloon_integrate::explicit::SecondOrderSystem;
+use nalgebra::{Point3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// The drag ("mouse") spring of seed Sec. 4.4 (Eq. 4.7): from a target point to the particle
+/// nearest to it, with its own stiffness and damping. The target is at rest.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DragTarget {
+    /// Target ("mouse") position (m).
+    pub point: Point3<f64>,
+    /// Stiffness (N/m), > 0.
+    pub stiffness: f64,
+    /// Damping along the spring (N s/m), >= 0.
+    pub damping: f64,
+    /// Rest length (m), >= 0 (0 pulls the particle onto the target).
+    pub rest_length: f64,
+}
+
+/// Energies of a state (J; J/m in 2D).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EnergyBreakdown {
+    /// Kinetic energy `1/2 sum m v^2`.
+    pub kinetic: f64,
+    /// Spring energy `1/2 sum k (l - L)^2`.
+    pub spring: f64,
+    /// Gas energy `-sum_k (nRT)_k ln(V_k / V_k0)` (zero at the rest volumes).
+    pub gas: f64,
+    /// Gravitational energy `sum m g h` (`h` the up coordinate).
+    pub gravity: f64,
+    /// Energy of the drag spring `1/2 k_m (l - L_m)^2`.
+    pub drag: f64,
+}
+
+impl EnergyBreakdown {
+    /// Potential energy (spring + gas + gravity + drag).
+    pub fn potential(&self) -> f64 {
+        self.spring + self.gas + self.gravity + self.drag
+    }
+
+    /// Total energy (kinetic + potential).
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.potential()
+    }
+}
+
+/// All forces on a two-layer object (seed Sec. 4.7, Steps 1-10): gravity (Eq. 4.1), Hooke
+/// (Eq. 4.2-4.4) and damping (Eq. 4.5-4.6) per spring type, gas pressure on each closed layer
+/// (Eq. 4.10-4.16), the drag spring (Eq. 4.7). Implements
+/// [`SecondOrderSystem`] (acceleration `F / m`; fixed particles and the coordinates outside the
+/// object's dimension do not accelerate).
+#[derive(Clone, Debug)]
+pub struct TwoLayerForces {
+    model: TwoLayerModel,
+    params: [SpringParams; 4],
+    gravity: f64,
+    valence_factor: Option<Vec<f64>>,
+    drag: Option<(DragTarget, usize)>,
+    force: Vec<f64>,
+    spring_force: Vec<f64>,
+}
+
+fn vec3(x: &[f64], i: usize) -> Vector3<f64> {
+    Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2])
+}
+
+fn add3(f: &mut [f64], i: usize, v: Vector3<f64>) {
+    f[3 * i] += v.x;
+    f[3 * i + 1] += v.y;
+    f[3 * i + 2] += v.z;
+}
+
+impl TwoLayerForces {
+    /// Forces of `model` with the spring constants, gravity and valence option of `body`.
+    pub fn new(model: TwoLayerModel, body: &TwoLayerBody) -> Self {
+        let valence_factor = body.valence_normalization.then(|| {
+            // Seed Sec. 3.5.3: scale the spring force sum at a particle by (mean valence of its
+            // layer) / (its valence), so kernel points with fewer springs are not softer.
+            let val = model.valences();
+            let n = model.layer_size.max(1);
+            let layers: Vec<std::ops::Range<usize>> = if model.has_layers() {
+                vec![0..n, n..2 * n]
+            } else {
+                std::iter::once(0..model.num_particles()).collect()
+            };
+            let mut f = vec![1.0; model.num_particles()];
+            for r in layers {
+                let mean = r.clone().map(|i| val[i] as f64).sum::<f64>() / r.len() as f64;
+                for i in r {
+                    f[i] = mean / val[i].max(1) as f64;
+                }
+            }
+            f
+        });
+        let dof = 3 * model.num_particles();
+        Self {
+            model,
+            params: body.springs,
+            gravity: body.gravity,
+            valence_factor,
+            drag: None,
+            force: vec![0.0; dof],
+            spring_force: vec![0.0; dof],
+        }
+    }
+
+    /// The model.
+    pub fn model(&self) -> &TwoLayerModel {
+        &self.model
+    }
+
+    /// The active drag target and the particle it pulls.
+    pub fn drag(&self) -> Option<(DragTarget, usize)> {
+        self.drag
+    }
+
+    /// Sets the drag target (or removes it with `None`) for positions `x`: the pulled particle
+    /// is the outer-layer particle (a free particle in 1D) nearest to the target at this moment
+    /// (seed Sec. 4.4) and stays the same while the target is set. Returns that particle.
+    pub fn set_drag(&mut self, target: Option<DragTarget>, x: &[f64]) -> Option<usize> {
+        self.drag = target.map(|t| {
+            let n = self.model.layer_size;
+            let candidates = if self.model.has_layers() {
+                n..2 * n
+            } else {
+                0..self.model.num_particles()
+            };
+            let nearest = candidates
+                .filter(|&i| !self.model.fixed[i])
+                .min_by(|&i, &j| {
+                    let di = (vec3(x, i) - t.point.coords).norm_squared();
+                    let dj = (vec3(x, j) - t.point.coords).norm_squared();
+                    di.total_cmp(&dj)
+                })
+                .unwrap_or(0);
+            (t, nearest)
+        });
+        self.drag.map(|(_, i)| i)
+    }
+
+    /// Current gas pressures `(outer, inner)` (Pa) for positions `x`: `P = nRT / V`
+    /// (seed Eq. 4.10). Zero where there is no gas.
+    pub fn pressures(&self, x: &[f64]) -> (f64, f64) {
+        let m = &self.model;
+        if !m.has_layers() {
+            return (0.0, 0.0);
+        }
+        let p = |gas: f64, outer: bool| {
+            if gas == 0.0 {
+                0.0
+            } else {
+                gas / m.layer_volume(x, outer)
+            }
+        };
+        (p(m.gas_outer, true), p(m.gas_inner, false))
+    }
+
+    /// Writes the total force (N) on every particle for positions `x` and velocities `v`
+    /// (flat, length `3 * particles`) into `f`.
+    pub fn forces_into(&mut self, x: &[f64], v: &[f64], f: &mut [f64]) {
+        f.fill(0.0);
+        let m = &self.model;
+        let up = m.dimension.up_axis();
+        // Step 1: gravity (seed Eq. 4.1), F = -m g along the up axis.
+        for (i, mass) in m.masses.iter().enumerate() {
+            f[3 * i + up] -= mass * self.gravity;
+        }
+        // Steps 2-4: Hooke and damping forces of all springs (seed Eq. 4.2-4.6).
+        let sf: &mut [f64] = if self.valence_factor.is_some() {
+            self.spring_force.fill(0.0);
+            &mut self.spring_force
+        } else {
+            f
+        };
+        for s in &m.springs {
+            let p = &self.params[s.kind as usize];
+            let d = vec3(x, s.b) - vec3(x, s.a);
+            let len = d.norm();
+            if len <= 0.0 {
+                continue;
+            }
+            let dir = d / len;
+            let rel_v = (vec3(v, s.b) - vec3(v, s.a)).dot(&dir);
+            let fs = dir * (p.stiffness * (len - s.rest_length) + p.damping * rel_v);
+            add3(sf, s.a, fs);
+            add3(sf, s.b, -fs);
+        }
+        if let Some(w) = &self.valence_factor {
+            for (i, wi) in w.iter().enumerate() {
+                for d in 0..3 {
+                    f[3 * i + d] += wi * self.spring_force[3 * i + d];
+                }
+            }
+        }
+        // Steps 5-9: gas pressure on each closed layer.
+        let (p_out, p_in) = self.pressures(x);
+        let n = m.layer_size;
+        for (pressure, off) in [(p_out, n), (p_in, 0)] {
+            if pressure == 0.0 {
+                continue;
+            }
+            match m.dimension {
+                Dimension::One => {}
+                Dimension::Two => {
+                    // Each side (dx, dy) of the counter-clockwise polygon has outward normal
+                    // times length (dy, -dx); the force P (dy, -dx) is split half-half.
+                    for i in 0..n {
+                        let (a, b) = (off + i, off + (i + 1) % n);
+                        let e = vec3(x, b) - vec3(x, a);
+                        let fe = Vector3::new(e.y, -e.x, 0.0) * (0.5 * pressure);
+                        add3(f, a, fe);
+                        add3(f, b, fe);
+                    }
+                }
+                Dimension::Three => {
+                    // Face force P * area * normal = P/2 (b - a) x (c - a), a third to each
+                    // vertex. Summed over a closed surface this equals P dV/dx exactly.
+                    for t in &m.surface {
+                        let (a, b, c) = (off + t[0], off + t[1], off + t[2]);
+                        let xa = vec3(x, a);
+                        let ff = (vec3(x, b) - xa).cross(&(vec3(x, c) - xa)) * (pressure / 6.0);
+                        add3(f, a, ff);
+                        add3(f, b, ff);
+                        add3(f, c, ff);
+                    }
+                }
+            }
+        }
+        // Step 10: drag spring (seed Eq. 4.7), the target at rest.
+        if let Some((t, i)) = self.drag {
+            let d = vec3(x, i) - t.point.coords;
+            let len = d.norm();
+            if len > 0.0 {
+                let dir = d / len;
+                let fd =
+                    -dir * (t.stiffness * (len - t.rest_length) + t.damping * vec3(v, i).dot(&dir));
+                add3(f, i, fd);
+            }
+        }
+    }
+
+    /// Energies at positions `x` and velocities `v`.
+    pub fn energies(&self, x: &[f64], v: &[f64]) -> EnergyBreakdown {
+        let m = &self.model;
+        let mut e = EnergyBreakdown::default();
+        for (i, mass) in m.masses.iter().enumerate() {
+            e.kinetic += 0.5 * mass * vec3(v, i).norm_squared();
+            e.gravity += mass * self.gravity * x[3 * i + m.dimension.up_axis()];
+        }
+        for s in &m.springs {
+            let k = self.params[s.kind as usize].stiffness;
+            let l = (vec3(x, s.b) - vec3(x, s.a)).norm();
+            e.spring += 0.5 * k * (l - s.rest_length).powi(2);
+        }
+        if m.has_layers() {
+            if m.gas_outer > 0.0 {
+                e.gas -= m.gas_outer * (m.layer_volume(x, true) / m.rest_volume_outer).ln();
+            }
+            if m.gas_inner > 0.0 {
+                e.gas -= m.gas_inner * (m.layer_volume(x, false) / m.rest_volume_inner).ln();
+            }
+        }
+        if let Some((t, i)) = self.drag {
+            let l = (vec3(x, i) - t.point.coords).norm();
+            e.drag = 0.5 * t.stiffness * (l - t.rest_length).powi(2);
+        }
+        e
+    }
+
+    /// A scale of the body's energies (J) for the blow-up bound: the largest of the spring
+    /// energy at 100% strain `sum 1/2 k L^2`, the gravitational energy of a fall by the body's
+    /// size `M g R`, and the gas constants `sum (nRT)_k`.
+    pub fn energy_scale(&self) -> f64 {
+        let m = &self.model;
+        let springs: f64 = m
+            .springs
+            .iter()
+            .map(|s| 0.5 * self.params[s.kind as usize].stiffness * s.rest_length.powi(2))
+            .sum();
+        let size = {
+            let n = m.num_particles() as f64;
+            let c: Vector3<f64> = (0..m.num_particles())
+                .map(|i| vec3(&m.rest_positions, i))
+                .sum::<Vector3<f64>>()
+                / n;
+            (0..m.num_particles())
+                .map(|i| (vec3(&m.rest_positions, i) - c).norm())
+                .fold(0.0, f64::max)
+        };
+        let total_mass: f64 = m.masses.iter().sum();
+        springs
+            .max(total_mass * self.gravity.abs() * size)
+            .max(m.gas_outer + m.gas_inner)
+            .max(1e-12)
+    }
+
+    /// Largest angular frequency estimate `omega_max` (rad/s) of the undamped spring network,
+    /// from Gershgorin's bound on `M^-1 K` at rest: `max_i (2 / m_i) sum_(springs at i) k`.
+    /// Explicit methods are stable for undamped oscillation only when `omega dt` is below the
+    /// method's limit on the imaginary axis (RK4: 2.83, symplectic Euler: 2; Euler and
+    /// midpoint: none, they rely on damping).
+    pub fn max_frequency_estimate(&self) -> f64 {
+        let m = &self.model;
+        let mut sum = vec![0.0; m.num_particles()];
+        for s in &m.springs {
+            let k = self.params[s.kind as usize].stiffness;
+            sum[s.a] += k;
+            sum[s.b] += k;
+        }
+        sum.iter()
+            .zip(&m.masses)
+            .map(|(k, mass)| (2.0 * k / mass).sqrt())
+            .fold(0.0, f64::max)
+    }
+}
+
+impl SecondOrderSystem for TwoLayerForces {
+    fn dof(&self) -> usize {
+        3 * self.model.num_particles()
+    }
+
+    fn acceleration(&mut self, _t: f64, x: &[f64], v: &[f64], a: &mut [f64]) {
+        let mut f = std::mem::take(&mut self.force);
+        self.forces_into(x, v, &mut f);
+        let free = self.model.dimension.free_axes();
+        for (i, mass) in self.model.masses.iter().enumerate() {
+            for d in 0..3 {
+                a[3 * i + d] = if self.model.fixed[i] || d >= free {
+                    0.0
+                } else {
+                    f[3 * i + d] / mass
+                };
+            }
+        }
+        self.force = f;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::model::{SpringKind, TwoLayerBody};
+    use super::*;
+    use balloon_test_support::{Rng, assert_second_order, check_gradient, taylor_remainder_orders};
+
+    fn perturbed(model: &TwoLayerModel, amp: f64, seed: u64) -> Vec<f64> {
+        let mut rng = Rng::new(seed);
+        let free = model.dimension.free_axes();
+        model
+            .rest_positions
+            .iter()
+            .enumerate()
+            .map(|(k, x)| {
+                if k % 3 < free {
+                    x + amp * rng.next_f64()
+                } else {
+                    *x
+                }
+            })
+            .collect()
+    }
+
+    fn bodies() -> Vec<TwoLayerBody> {
+        vec![
+            TwoLayerBody::line(0.5),
+            TwoLayerBody::circle(7),
+            TwoLayerBody::uv_sphere(5, 4),
+            TwoLayerBody::octahedron_sphere(1),
+        ]
+        .into_iter()
+        .map(|b| {
+            b.with_radii(0.6, 1.0)
+                .with_pressure(300.0, 150.0)
+                .with_spring(SpringKind::Radius, 70.0, 0.0)
+                .with_spring(SpringKind::ShearLeft, 30.0, 0.0)
+                .with_spring(SpringKind::ShearRight, 40.0, 0.0)
+                .with_damping(0.0)
+                .with_gravity(3.0)
+        })
+        .collect()
+    }
+
+    /// Undamped forces are minus the gradient of spring + gas + gravity + drag energy (central
+    /// differences and a Taylor remainder that falls 4x per halving).
+    #[test]
+    fn conservative_forces_are_minus_energy_gradient() {
+        for body in bodies() {
+            let model = body.build().unwrap();
+            let x0 = perturbed(&model, 0.05, 3);
+            let mut forces = TwoLayerForces::new(model.clone(), &body);
+            forces.set_drag(
+                Some(DragTarget {
+                    point: Point3::new(2.0, 0.5, -0.3),
+                    stiffness: 20.0,
+                    damping: 0.0,
+                    rest_length: 0.1,
+                }),
+                &x0,
+            );
+            let zero_v = vec![0.0; x0.len()];
+            let energy = |x: &[f64]| forces.energies(x, &zero_v).potential();
+            let grad = |x: &[f64]| {
+                let mut f = vec![0.0; x.len()];
+                forces.clone().forces_into(x, &zero_v, &mut f);
+                f.iter().map(|c| -c).collect::<Vec<f64>>()
+            };
+            check_gradient(energy, grad, &x0, 1e-6, 1e-6);
+            let dx = Rng::new(9).vector(x0.len());
+            assert_second_order(&taylor_remainder_orders(energy, grad, &x0, &dx, 1e-3));
+        }
+    }
+
+    /// Spring and drag damping only dissipate: the power of the damping forces `F_d . v` is
+    /// never positive, and internal forces sum to zero (action = reaction), so with no gravity,
+    /// gas or drag the net force vanishes.
+    #[test]
+    fn damping_dissipates_and_internal_forces_balance() {
+        let body = TwoLayerBody::octahedron_sphere(1)
+            .with_damping(0.3)
+            .with_gravity(0.0);
+        let model = body.build().unwrap();
+        let x = perturbed(&model, 0.05, 5);
+        let v = Rng::new(11).vector(x.len());
+        let mut forces = TwoLayerForces::new(model, &body);
+        let mut f_damped = vec![0.0; x.len()];
+        let mut f_still = vec![0.0; x.len()];
+        forces.forces_into(&x, &v, &mut f_damped);
+        forces.forces_into(&x, &vec![0.0; x.len()], &mut f_still);
+        let power: f64 = f_damped
+            .iter()
+            .zip(&f_still)
+            .zip(&v)
+            .map(|((a, b), vi)| (a - b) * vi)
+            .sum();
+        assert!(power < 0.0, "damping power {power} must be negative");
+        for d in 0..3 {
+            let net: f64 = f_damped.iter().skip(d).step_by(3).sum();
+            assert!(net.abs() < 1e-10, "net internal force {net} along axis {d}");
+        }
+    }
+
+    /// Gas pressure on a closed layer exerts zero net force and zero net torque (a closed
+    /// surface has zero vector area and zero moment of area).
+    #[test]
+    fn pressure_has_zero_net_force_and_torque() {
+        let body = TwoLayerBody::uv_sphere(6, 5)
+            .with_pressure(1e3, 5e2)
+            .with_gravity(0.0);
+        let model = body.build().unwrap();
+        let x = perturbed(&model, 0.1, 17);
+        let mut forces = TwoLayerForces::new(model.clone(), &body);
+        let mut f_gas = vec![0.0; x.len()];
+        forces.forces_into(&x, &vec![0.0; x.len()], &mut f_gas);
+        let mut net = Vector3::zeros();
+        let mut torque = Vector3::zeros();
+        for i in 0..model.num_particles() {
+            net += vec3(&f_gas, i);
+            torque += vec3(&x, i).cross(&vec3(&f_gas, i));
+        }
+        assert!(net.norm() < 1e-9 * 1e3, "net force {net}");
+        assert!(torque.norm() < 1e-9 * 1e3, "net torque {torque}");
+    }
+
+    #[test]
+    fn valence_normalisation_equalises_kernel_points() {
+        // Octahedron kernel points have 4 structural neighbours, subdivision points 6 (seed
+        // Sec. 3.5.3); normalisation scales their spring forces by mean/valence.
+        let body = TwoLayerBody::octahedron_sphere(2).with_valence_normalization(true);
+        let model = body.build().unwrap();
+        let val = model.valences();
+        let forces = TwoLayerForces::new(model.clone(), &body);
+        let w = forces.valence_factor.as_ref().unwrap();
+        let n = model.layer_size;
+        // Inner kernel point 0 has fewer springs than inner point 6 (a subdivision point).
+        assert!(val[0] < val[6]);
+        assert!(w[0] > 1.0 && w[6] < 1.0);
+        assert!((w[0] * val[0] as f64 - w[6] * val[6] as f64).abs() < 1e-12);
+        let mean: f64 = (0..n).map(|i| val[i] as f64).sum::<f64>() / n as f64;
+        assert!((w[0] - mean / val[0] as f64).abs() < 1e-15);
+    }
+}
