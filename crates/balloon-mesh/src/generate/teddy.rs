@@ -408,12 +408,16 @@ mod tests {
 
     #[test]
     fn parts_label_ears_on_top_left_at_plus_x() {
-        let p = TeddyParams {
-            resolution: 24,
-            ..Default::default()
-        };
+        let p = TeddyParams::default();
         let m = teddy(&p).unwrap();
         let parts = teddy_vertex_parts(&m, &p);
+        let count = |part| parts.iter().filter(|q| **q == part).count();
+        // The ears are resolved well enough to measure their inflation (about 200 vertices
+        // each by default), and the mirror-symmetric shape gives mirror-like counts.
+        let (l, r) = (count(TeddyPart::LeftEar), count(TeddyPart::RightEar));
+        assert!(l >= 100 && r >= 100, "ears {l} / {r}");
+        assert!((l as f64 / r as f64 - 1.0).abs() < 0.1, "ears {l} / {r}");
+        assert!(count(TeddyPart::Head) > 4 * l);
         for part in [
             TeddyPart::Head,
             TeddyPart::Body,
