@@ -270,6 +270,24 @@ impl VolumetricBody {
         })
     }
 
+    /// Replaces the cell springs (rest lengths from the rest lattice), e.g. once the particle
+    /// masses are known.
+    pub fn with_springs(mut self, springs: SpringParams) -> Result<Self, VolumetricError> {
+        springs.validate()?;
+        self.springs = CellSprings::new(
+            &self.lattice.cells,
+            &self.lattice.tet_mesh.vertices,
+            &springs,
+        );
+        self.params.springs = springs;
+        Ok(self)
+    }
+
+    /// Total mass (kg).
+    pub fn mass(&self) -> f64 {
+        self.masses.iter().sum()
+    }
+
     /// Rest volume of the body (sum of the cell rest volumes, m^3).
     pub fn rest_volume(&self) -> f64 {
         self.constraints.rest_volumes.iter().sum()
@@ -705,7 +723,11 @@ impl VolumetricScene {
     ) -> Result<VolumetricSimulation, VolumetricError> {
         let default_cube = cube_soup(Point3::origin(), 1.0);
         let soup = soup.unwrap_or(&default_cube);
-        let body = VolumetricBody::build(soup, params)?;
+        self.setup(VolumetricBody::build(soup, params)?)
+    }
+
+    /// Puts an already built body into the scene (see [`VolumetricScene::build`]).
+    pub fn setup(&self, body: VolumetricBody) -> Result<VolumetricSimulation, VolumetricError> {
         let sim = VolumetricSimulation::new(body);
         match self {
             VolumetricScene::Free => Ok(sim),

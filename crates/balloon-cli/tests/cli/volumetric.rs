@@ -1,1 +1,83 @@
-//! `balloon volumetric` end-to-end tests (being filled in).
+//! `balloon volumetric` end-to-end tests.
+
+use crate::{last_json_line, run_balloon};
+
+#[test]
+fn json_summary_has_every_key_and_volume_is_conserved() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let o = run_balloon(&[
+        "volumetric",
+        "builtin:icosphere",
+        "--resolution",
+        "16",
+        "--voxels-per-cell",
+        "2",
+        "--steps",
+        "20",
+        "--frame-every",
+        "10",
+        "--soft-diagonals",
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j = last_json_line(&o);
+    for key in [
+        "cells",
+        "tetrahedra",
+        "particles",
+        "steps",
+        "max_cell_volume_error",
+        "total_volume_ratio",
+        "momentum_drift",
+        "step_halvings",
+        "mean_step_ms",
+    ] {
+        assert!(j.get(key).is_some(), "missing key {key} in {j}");
+    }
+    assert_eq!(j["steps"], 20);
+    assert_eq!(
+        j["tetrahedra"].as_u64().unwrap(),
+        5 * j["cells"].as_u64().unwrap()
+    );
+    assert!(j["max_cell_volume_error"].as_f64().unwrap() <= 1e-10);
+    assert!((j["total_volume_ratio"].as_f64().unwrap() - 1.0).abs() < 1e-9);
+    // Files: the lattice for ParaView, frames 0, 10, 20, one stats line per step, the summary.
+    let vtk = std::fs::read_to_string(out.join("lattice.vtk")).unwrap();
+    assert!(vtk.starts_with("# vtk DataFile Version 3.0"));
+    assert!(vtk.contains(&format!("CELLS {} ", j["tetrahedra"])));
+    for f in [
+        "frame_00000.obj",
+        "frame_00010.obj",
+        "frame_00020.obj",
+        "summary.json",
+    ] {
+        assert!(out.join(f).is_file(), "missing {f}");
+    }
+    let stats = std::fs::read_to_string(out.join("stats.jsonl")).unwrap();
+    assert_eq!(stats.lines().count(), 20);
+    for line in stats.lines() {
+        let row: serde_json::Value = serde_json::from_str(line).unwrap();
+        assert!(row["max_cell_volume_error"].as_f64().unwrap() <= 1e-10);
+    }
+}
+
+#[test]
+fn bad_parameter_is_named_in_the_error() {
+    let o = run_balloon(&["volumetric", "builtin:icosphere", "--p-in", "1.5"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("p_in"), "{err}");
+    let o = run_balloon(&["volumetric", "builtin:icosphere", "--dt", "0"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("dt"));
+}
+
+#[test]
+fn missing_mesh_file_is_reported() {
+    let o = run_balloon(&["volumetric", "/nonexistent/soup.obj"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("/nonexistent/soup.obj"));
+}
