@@ -342,3 +342,54 @@ fn reset_reference_reanchors() {
     assert!((p.absolute_pressure(2.0, 3.0) - 1e5).abs() < 1e-9);
     assert!((p.absolute_pressure(2.0, 4.0) - (2e5 + 10.0) / 2.0).abs() < 1e-9);
 }
+
+#[test]
+fn real_meshes_have_no_net_pressure_force_or_torque() {
+    // Uniform pressure on a closed real surface (bunny, genus 0; torus, genus 1) has no resultant
+    // force or torque, and the force equals -dE/dx along random directions.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
+    if !dir.is_dir() {
+        eprintln!("skipping: {} not found", dir.display());
+        return;
+    }
+    for name in ["bunny_closed_libigl.off", "torus.obj"] {
+        let mesh = balloon_mesh::io::read_mesh(&dir.join(name)).expect("readable mesh");
+        let (x, t) = (mesh.positions_flat(), mesh.triangles.clone());
+        let v = enclosed_volume(&x, &t).unwrap();
+        assert!(v > 0.0, "{name}: outward oriented");
+        let mut load = PressureLoad::new(Gas::Ideal(IdealGas::try_new(1.1e5, v).unwrap()));
+        let mut f = vec![0.0; x.len()];
+        load.evaluate(0.0, &x, &t, &mut f).unwrap();
+        let mut net = nalgebra::Vector3::zeros();
+        let mut torque = nalgebra::Vector3::zeros();
+        let mut total = 0.0;
+        for i in 0..x.len() / 3 {
+            let fi = nalgebra::Vector3::new(f[3 * i], f[3 * i + 1], f[3 * i + 2]);
+            let xi = nalgebra::Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
+            net += fi;
+            torque += xi.cross(&fi);
+            total += fi.norm();
+        }
+        assert!(net.norm() < 1e-12 * total, "{name}: net force {net:?}");
+        assert!(
+            torque.norm() < 1e-12 * total * 10.0,
+            "{name}: net torque {torque:?}"
+        );
+        // Directional derivative of the potential along a random direction = -f . dx.
+        let dx = Rng::new(31).vector(x.len());
+        let h = 1e-7;
+        let energy = |s: f64| {
+            let xs: Vec<f64> = x.iter().zip(&dx).map(|(a, b)| a + s * b).collect();
+            let mut l = load.clone();
+            let mut g = vec![0.0; x.len()];
+            l.evaluate(0.0, &xs, &t, &mut g).unwrap();
+            l.potential(0.0).unwrap()
+        };
+        let fd = (energy(h) - energy(-h)) / (2.0 * h);
+        let an: f64 = -f.iter().zip(&dx).map(|(a, b)| a * b).sum::<f64>();
+        assert!(
+            (fd - an).abs() <= 1e-5 * an.abs().max(1e-12),
+            "{name}: {fd} vs {an}"
+        );
+    }
+}
