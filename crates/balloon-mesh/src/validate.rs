@@ -703,6 +703,33 @@ mod tests {
         assert!(orient_outward(&m).is_err());
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 64, failure_persistence: None, ..Default::default() })]
+
+        /// Validation and repair never panic, whatever the indices and coordinates; a mesh that
+        /// passes validation keeps passing after `orient_outward` (it is already outward).
+        #[test]
+        fn validation_never_panics(
+            coords in proptest::collection::vec(-2i8..3, 0..24),
+            tris in proptest::collection::vec([0usize..10, 0usize..10, 0usize..10], 0..12),
+        ) {
+            let vertices: Vec<Point3<f64>> = coords
+                .chunks_exact(3)
+                .map(|c| Point3::new(c[0] as f64, c[1] as f64, c[2] as f64))
+                .collect();
+            let m = TriMesh::new(vertices, tris);
+            let rep = validate(&m, &ValidationOptions::default());
+            let ok = validate_closed_manifold(&m).is_ok();
+            proptest::prop_assert_eq!(ok, rep.is_valid());
+            if let Ok(o) = orient_outward(&m) {
+                proptest::prop_assert_eq!(o.num_triangles(), m.num_triangles());
+                if ok {
+                    proptest::prop_assert!(validate_closed_manifold(&o).is_ok());
+                }
+            }
+        }
+    }
+
     #[test]
     fn repairs_restore_validity() {
         // Scrambled orientation: orient_outward recovers a valid mesh with the same volume sign.

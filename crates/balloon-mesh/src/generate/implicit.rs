@@ -432,6 +432,37 @@ mod tests {
     }
 
     #[test]
+    fn torus_sdf_gives_genus_one() {
+        // The level set of the torus distance has genus 1 and volume 2 pi^2 R r^2.
+        let (big, small) = (0.1, 0.04);
+        let f = |p: &Point3<f64>| {
+            let q = (p.x * p.x + p.y * p.y).sqrt() - big;
+            (q * q + p.z * p.z).sqrt() - small
+        };
+        let e = big + small;
+        let bounds = Aabb {
+            min: Point3::new(-e, -e, -small),
+            max: Point3::new(e, e, small),
+        };
+        let m = implicit_surface(
+            f,
+            bounds,
+            &ImplicitParams {
+                cell_size: 0.01,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        validate_closed_manifold(&m).unwrap();
+        let topo = Topology::new(&m);
+        assert_eq!(topo.genus(&m.triangles), Some(1));
+        let exact = 2.0 * std::f64::consts::PI.powi(2) * big * small * small;
+        let v = enclosed_volume(&m);
+        assert!((v / exact - 1.0).abs() < 0.03, "{v} vs {exact}");
+        assert!(min_angle_degrees(&m).unwrap() > 10.0);
+    }
+
+    #[test]
     fn raw_output_is_closed_and_bad_parameters_fail() {
         let bounds = Aabb {
             min: Point3::new(-1.0, -1.0, -1.0),
