@@ -1,10 +1,405 @@
-//! `balloon two_layer` (being filled in).
+//! `balloon two-layer`: a two-layer elastic object (seed 004, Song) in 1D, 2D or 3D, stepped
+//! with explicit Euler, midpoint, RK4 or symplectic Euler.
+//!
+//! Output folder (`--out DIR`): `frame_NNNNN.obj` every `--frame-every` steps (3D: outer and
+//! inner surface; 2D: the triangles between the layers; 1D: the two particles),
+//! `stats.jsonl` (one line per step, flushed, so a run that blows up leaves a readable file)
+//! and `summary.json` (also written when the run fails, with the error). `--json` prints the
+//! summary as the last stdout line.
+//!
+//! `--pressure` and `--inner-pressure` are the *initial* gas pressures (Pa; N/m in 2D) at the
+//! rest volumes; the gas amount is fixed from them (`nRT = P0 V0`) and the pressure then follows
+//! `P = nRT / V`.
 
-/// Arguments.
+use crate::output::{FrameFormat, OutputDir, print_json_line, progress_bar};
+use anyhow::{Context, Result, bail};
+use balloon::two_layer::{
+    AxisBox, DragTarget, ExplicitMethod, SpringKind, TwoLayerBody, TwoLayerError, TwoLayerStats,
+};
+use nalgebra::{Point3, Vector3};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Sphere construction in 3D.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SphereArg {
+    /// Subdivided octahedron (`--level`), seed Sec. 3.5.2.
+    Octa,
+    /// UV sphere (`--slices`, `--stacks`), seed Sec. 3.5.1.
+    Uv,
+}
+
+/// Arguments of `balloon two-layer`.
 #[derive(Debug, clap::Args)]
-pub struct TwoLayerArgs {}
+pub struct TwoLayerArgs {
+    /// Dimension: 1 (hanging spring), 2 (two-layer circle), 3 (two-layer sphere).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=3))]
+    pub dim: u8,
+    /// 3D sphere construction.
+    #[arg(long, value_enum, default_value_t = SphereArg::Octa)]
+    pub sphere: SphereArg,
+    /// Octahedron subdivision level (3D, `--sphere octa`).
+    #[arg(long, default_value_t = 3)]
+    pub level: u32,
+    /// UV sphere meridians (3D, `--sphere uv`).
+    #[arg(long, default_value_t = 16)]
+    pub slices: usize,
+    /// UV sphere latitude bands (3D, `--sphere uv`).
+    #[arg(long, default_value_t = 12)]
+    pub stacks: usize,
+    /// Particles per layer (2D).
+    #[arg(long, default_value_t = 24)]
+    pub particles: usize,
+    /// Rest length of the spring (1D, m).
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
+    pub length: f64,
+    /// Inner layer radius (m).
+    #[arg(long, default_value_t = 0.8, allow_hyphen_values = true)]
+    pub inner_radius: f64,
+    /// Outer layer radius (m).
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
+    pub outer_radius: f64,
+    /// Mass of each inner particle (kg).
+    #[arg(long, default_value_t = 0.01, allow_hyphen_values = true)]
+    pub inner_mass: f64,
+    /// Mass of each outer particle (kg; the free particle in 1D).
+    #[arg(long, default_value_t = 0.01, allow_hyphen_values = true)]
+    pub outer_mass: f64,
+    /// Structural spring stiffness (N/m).
+    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true)]
+    pub k_structural: f64,
+    /// Radius spring stiffness (N/m).
+    #[arg(long, default_value_t = 50.0, allow_hyphen_values = true)]
+    pub k_radius: f64,
+    /// Shear spring stiffness, left and right (N/m).
+    #[arg(long, default_value_t = 50.0, allow_hyphen_values = true)]
+    pub k_shear: f64,
+    /// Left shear spring stiffness (N/m), overrides --k-shear.
+    #[arg(long, allow_hyphen_values = true)]
+    pub k_shear_left: Option<f64>,
+    /// Right shear spring stiffness (N/m), overrides --k-shear.
+    #[arg(long, allow_hyphen_values = true)]
+    pub k_shear_right: Option<f64>,
+    /// Damping of every spring type (N s/m).
+    #[arg(long, default_value_t = 0.1, allow_hyphen_values = true)]
+    pub damping: f64,
+    /// Damping of the structural springs (N s/m), overrides --damping.
+    #[arg(long, allow_hyphen_values = true)]
+    pub damping_structural: Option<f64>,
+    /// Damping of the radius springs (N s/m), overrides --damping.
+    #[arg(long, allow_hyphen_values = true)]
+    pub damping_radius: Option<f64>,
+    /// Damping of the shear springs (N s/m), overrides --damping.
+    #[arg(long, allow_hyphen_values = true)]
+    pub damping_shear: Option<f64>,
+    /// Initial gas pressure of the outer layer at its rest volume (Pa; N/m in 2D).
+    #[arg(long, default_value_t = 50.0, allow_hyphen_values = true)]
+    pub pressure: f64,
+    /// Initial gas pressure of the inner layer at its rest volume (Pa; N/m in 2D).
+    #[arg(long, default_value_t = 25.0, allow_hyphen_values = true)]
+    pub inner_pressure: f64,
+    /// Gravitational acceleration (m/s^2) pulling along -z (3D), -y (2D), -x (1D).
+    #[arg(long, default_value_t = 9.81, allow_hyphen_values = true)]
+    pub gravity: f64,
+    /// Side of the cubic collision box centred on the body at rest (m).
+    #[arg(long = "box", default_value_t = 4.0, allow_hyphen_values = true)]
+    pub box_size: f64,
+    /// No collision box.
+    #[arg(long)]
+    pub no_box: bool,
+    /// Coefficient of restitution [0, 1] of the walls and of the inner layer against the outer.
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
+    pub restitution: f64,
+    /// Normalise spring forces by valence (seed Sec. 3.5.3).
+    #[arg(long)]
+    pub valence_normalization: bool,
+    /// Integrator.
+    #[arg(long, default_value = "rk4", value_parser = parse_method)]
+    pub integrator: ExplicitMethod,
+    /// Time step (s).
+    #[arg(long, default_value_t = 5e-4, allow_hyphen_values = true)]
+    pub dt: f64,
+    /// Number of steps.
+    #[arg(long, default_value_t = 2000)]
+    pub steps: usize,
+    /// Drag ("mouse") target `X,Y,Z` (m), optionally active only in a time window `@T0:T1` (s).
+    #[arg(long, allow_hyphen_values = true)]
+    pub drag: Option<String>,
+    /// Drag spring stiffness (N/m).
+    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
+    pub drag_stiffness: f64,
+    /// Drag spring damping (N s/m).
+    #[arg(long, default_value_t = 0.1, allow_hyphen_values = true)]
+    pub drag_damping: f64,
+    /// Output folder.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write a frame every N steps (0: only the first and last).
+    #[arg(long, default_value_t = 20)]
+    pub frame_every: usize,
+    /// Frame file format.
+    #[arg(long, value_enum, default_value_t = FrameFormat::Obj)]
+    pub format: FrameFormat,
+    /// Print the summary as one JSON line (the last stdout line).
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_method(s: &str) -> Result<ExplicitMethod, String> {
+    s.parse::<ExplicitMethod>().map_err(|e| e.to_string())
+}
+
+/// A parsed `--drag X,Y,Z[@T0:T1]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct DragSpec {
+    point: Point3<f64>,
+    window: (f64, f64),
+}
+
+fn parse_drag(s: &str) -> Result<DragSpec> {
+    let (pt, window) = match s.split_once('@') {
+        Some((p, w)) => (p, Some(w)),
+        None => (s, None),
+    };
+    let c: Vec<f64> = pt
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--drag `{s}`: the point must be X,Y,Z in metres"))?;
+    if c.len() != 3 || c.iter().any(|v| !v.is_finite()) {
+        bail!("--drag `{s}`: the point must be three finite numbers X,Y,Z");
+    }
+    let window = match window {
+        None => (0.0, f64::INFINITY),
+        Some(w) => {
+            let (a, b) = w
+                .split_once(':')
+                .with_context(|| format!("--drag `{s}`: the time window must be @T0:T1"))?;
+            let t0: f64 = a
+                .trim()
+                .parse()
+                .with_context(|| format!("--drag `{s}`: bad start time `{a}`"))?;
+            let t1: f64 = b
+                .trim()
+                .parse()
+                .with_context(|| format!("--drag `{s}`: bad end time `{b}`"))?;
+            if !(t0.is_finite() && t1 >= t0) {
+                bail!("--drag `{s}`: need finite T0 <= T1");
+            }
+            (t0, t1)
+        }
+    };
+    Ok(DragSpec {
+        point: Point3::new(c[0], c[1], c[2]),
+        window,
+    })
+}
+
+/// The summary of a run (`summary.json`, and the `--json` line).
+#[derive(Debug, Serialize)]
+struct Summary {
+    status: &'static str,
+    error: Option<String>,
+    dim: u8,
+    integrator: ExplicitMethod,
+    particles: usize,
+    springs: usize,
+    steps: usize,
+    dt: f64,
+    time: f64,
+    final_volume_outer: f64,
+    final_volume_inner: f64,
+    energy_initial: f64,
+    energy_final: f64,
+    work_done: f64,
+    min_height: f64,
+    escaped_particles: usize,
+    mean_step_ms: f64,
+    steps_per_second: f64,
+    frames: usize,
+}
+
+fn body_from(args: &TwoLayerArgs) -> Result<TwoLayerBody> {
+    let body = match args.dim {
+        1 => TwoLayerBody::line(args.length),
+        2 => TwoLayerBody::circle(args.particles),
+        _ => match args.sphere {
+            SphereArg::Octa => TwoLayerBody::octahedron_sphere(args.level),
+            SphereArg::Uv => TwoLayerBody::uv_sphere(args.slices, args.stacks),
+        },
+    };
+    let d = args.damping;
+    let collision_box = if args.no_box {
+        None
+    } else {
+        let h = 0.5 * args.box_size;
+        Some(
+            AxisBox::centered(Point3::origin(), Vector3::new(h, h, h))
+                .with_context(|| format!("--box {}", args.box_size))?,
+        )
+    };
+    Ok(body
+        .with_radii(args.inner_radius, args.outer_radius)
+        .with_masses(args.inner_mass, args.outer_mass)
+        .with_spring(
+            SpringKind::Structural,
+            args.k_structural,
+            args.damping_structural.unwrap_or(d),
+        )
+        .with_spring(
+            SpringKind::Radius,
+            args.k_radius,
+            args.damping_radius.unwrap_or(d),
+        )
+        .with_spring(
+            SpringKind::ShearLeft,
+            args.k_shear_left.unwrap_or(args.k_shear),
+            args.damping_shear.unwrap_or(d),
+        )
+        .with_spring(
+            SpringKind::ShearRight,
+            args.k_shear_right.unwrap_or(args.k_shear),
+            args.damping_shear.unwrap_or(d),
+        )
+        .with_pressure(args.pressure, args.inner_pressure)
+        .with_gravity(args.gravity)
+        .with_box(collision_box)
+        .with_restitution(args.restitution)
+        .with_valence_normalization(args.valence_normalization))
+}
 
 /// Runs the subcommand.
-pub fn run(_args: TwoLayerArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`balloon two_layer` is not built yet")
+pub fn run(args: TwoLayerArgs) -> Result<()> {
+    let drag = args.drag.as_deref().map(parse_drag).transpose()?;
+    let body = body_from(&args)?;
+    let mut sim = body.simulate(args.integrator, args.dt)?;
+    let mut out = match &args.out {
+        Some(dir) => Some(OutputDir::create(dir, args.format)?),
+        None => None,
+    };
+    let mut frames = 0;
+    if let Some(o) = &out {
+        o.write_frame(0, &sim.draw_mesh())?;
+        frames += 1;
+    }
+    let pb = progress_bar(args.steps as u64, !args.json);
+    let mut elapsed = 0.0f64;
+    let mut failure: Option<TwoLayerError> = None;
+    let mut last: TwoLayerStats = sim.stats();
+    for step in 1..=args.steps {
+        if let Some(d) = &drag {
+            let active = sim.forces().drag().is_some();
+            let t = sim.time();
+            let inside = t >= d.window.0 && t <= d.window.1;
+            if inside && !active {
+                sim.set_drag(Some(DragTarget {
+                    point: d.point,
+                    stiffness: args.drag_stiffness,
+                    damping: args.drag_damping,
+                    rest_length: 0.0,
+                }))?;
+            } else if !inside && active {
+                sim.set_drag(None)?;
+            }
+        }
+        let t0 = Instant::now();
+        let result = sim.step();
+        elapsed += t0.elapsed().as_secs_f64();
+        match result {
+            Ok(s) => last = s,
+            Err(e) => {
+                failure = Some(e);
+                break;
+            }
+        }
+        if let Some(o) = &mut out {
+            o.append_stats(&last)?;
+            let write = if args.frame_every == 0 {
+                step == args.steps
+            } else {
+                step % args.frame_every == 0 || step == args.steps
+            };
+            if write {
+                o.write_frame(step, &sim.draw_mesh())?;
+                frames += 1;
+            }
+        }
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let taken = sim.step_count().max(1);
+    let summary = Summary {
+        status: if failure.is_some() { "blew_up" } else { "ok" },
+        error: failure.as_ref().map(|e| e.to_string()),
+        dim: args.dim,
+        integrator: args.integrator,
+        particles: sim.model().num_particles(),
+        springs: sim.model().springs.len(),
+        steps: sim.step_count(),
+        dt: args.dt,
+        time: sim.time(),
+        final_volume_outer: last.volume_outer,
+        final_volume_inner: last.volume_inner,
+        energy_initial: sim.energy_initial(),
+        energy_final: last.total,
+        work_done: sim.work_done(),
+        min_height: last.min_height,
+        escaped_particles: if failure.is_some() {
+            0
+        } else {
+            sim.escaped_particles()
+        },
+        mean_step_ms: 1e3 * elapsed / taken as f64,
+        steps_per_second: if elapsed > 0.0 {
+            taken as f64 / elapsed
+        } else {
+            0.0
+        },
+        frames,
+    };
+    if let Some(o) = &out {
+        o.write_json("summary.json", &summary)?;
+    }
+    if let Some(e) = failure {
+        return Err(e.into());
+    }
+    if args.json {
+        print_json_line(&summary)?;
+    } else {
+        println!(
+            "two-layer {}D ({} particles, {} springs), {} x {:e} s with {}: outer volume {:.6}, inner {:.6}, energy {:.6e} -> {:.6e} J, min height {:.4} m, {} escaped, {:.3} ms/step",
+            summary.dim,
+            summary.particles,
+            summary.springs,
+            summary.steps,
+            summary.dt,
+            summary.integrator,
+            summary.final_volume_outer,
+            summary.final_volume_inner,
+            summary.energy_initial,
+            summary.energy_final,
+            summary.min_height,
+            summary.escaped_particles,
+            summary.mean_step_ms
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn drag_spec_parses_point_and_window() {
+        let d = parse_drag("1, -2.5,3").unwrap();
+        assert_eq!(d.point, Point3::new(1.0, -2.5, 3.0));
+        assert_eq!(d.window, (0.0, f64::INFINITY));
+        let d = parse_drag("0,0,2@0.1:0.5").unwrap();
+        assert_eq!(d.window, (0.1, 0.5));
+        for bad in ["1,2", "a,b,c", "1,2,3@0.5", "1,2,3@0.5:0.1", "1,2,nan"] {
+            assert!(parse_drag(bad).is_err(), "{bad} should not parse");
+        }
+    }
 }
