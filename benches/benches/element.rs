@@ -1,5 +1,6 @@
 //! Element kernels: the three-prism's fused forces + 9x9 stiffness (the shell solver's hot path,
-//! called once per element per Newton iteration), its force differential (matrix-free CG), and
+//! called once per element per Newton iteration), its force differential (matrix-free CG; direct
+//! and from a cached linearisation), and
 //! the tetrahedron's forces + 12x12 stiffness. Throughput is in elements, so criterion reports
 //! elements/s; ns/element = 1e9 / throughput.
 
@@ -75,6 +76,16 @@ fn prism_group<M: Material>(c: &mut Criterion, name: &str, m: &M) {
             let mut acc = 0.0;
             for ((p, x, h), d) in data.iter().zip(&dx) {
                 acc += p.force_differential(m, black_box(x), *h, d)[0].x;
+            }
+            acc
+        })
+    });
+    let lins: Vec<_> = data.iter().map(|(p, x, h)| p.linearize(m, x, *h)).collect();
+    g.bench_function("linearized_force_differential", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for (l, d) in lins.iter().zip(&dx) {
+                acc += l.force_differential(m, black_box(d))[0].x;
             }
             acc
         })

@@ -45,7 +45,7 @@ mod tet;
 
 pub use error::ElementError;
 pub use membrane::MembraneTriangle;
-pub use prism::ThreePrism;
+pub use prism::{ThreePrism, ThreePrismLinearization};
 pub use spring::Spring;
 pub use tet::LinearTetrahedron;
 

@@ -42,6 +42,7 @@ pub struct ThreePrism {
 }
 
 /// Current kinematic quantities shared by energy, forces and differentials.
+#[derive(Clone, Copy, Debug)]
 struct Kinematics {
     e12: Vector3<f64>,
     e13: Vector3<f64>,
@@ -54,6 +55,7 @@ struct Kinematics {
 }
 
 /// Stress quantities at the current state.
+#[derive(Clone, Copy, Debug)]
 struct Stress {
     /// `V0 P Dm^-T`: its columns are `dE/d(e12)`, `dE/d(e13)`, `dE/d(h d)` at fixed `d`.
     g: Matrix3<f64>,
@@ -302,6 +304,24 @@ impl ThreePrism {
         [a + b, -a, -b]
     }
 
+    /// Evaluates the kinematics and the stress once at `(x, h)` so that the forces and many
+    /// force differentials (one per CG iteration of a matrix-free Newton solve, seed 000 Eq. 11
+    /// and 23) can reuse them. Assumes a valid state, like the other hot-path methods.
+    pub fn linearize<M: Material>(
+        &self,
+        mat: &M,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+    ) -> ThreePrismLinearization {
+        let kin = self.kinematics(x, h);
+        let stress = self.stress(&kin, &mat.first_piola(&kin.f));
+        ThreePrismLinearization {
+            prism: *self,
+            kin,
+            stress,
+        }
+    }
+
     /// Stiffness `K = -df/dx = d^2E^e/dx^2` (N/m), 9x9, vertex-major `[x1 y1 z1 x2 .. z3]`.
     /// Symmetric (it is a Hessian); not necessarily positive definite (compression, and the
     /// normal-variation term).
@@ -379,5 +399,54 @@ impl ThreePrism {
     pub fn projection_masses(&self, density: f64) -> ([f64; 3], f64) {
         let m = density * self.rest_volume();
         ([m / 6.0; 3], m / 2.0)
+    }
+}
+
+/// A three-prism linearised at one state by [`ThreePrism::linearize`]: the kinematics and the
+/// stress are evaluated once, and [`ThreePrismLinearization::force_differential`] applies
+/// `df = -K dx` without recomputing them (cheaper than [`ThreePrism::force_differential`] when
+/// the same state is used for many products, as in matrix-free CG). The material passed to
+/// `force_differential` must be the one used to linearise.
+#[derive(Clone, Copy, Debug)]
+pub struct ThreePrismLinearization {
+    prism: ThreePrism,
+    kin: Kinematics,
+    stress: Stress,
+}
+
+impl ThreePrismLinearization {
+    /// Deformation gradient at the linearisation state.
+    pub fn deformation_gradient(&self) -> &Matrix3<f64> {
+        &self.kin.f
+    }
+
+    /// Elastic forces `-dE/dx_i` (N) at the linearisation state (same as
+    /// [`ThreePrism::forces`]).
+    pub fn forces(&self) -> [Vector3<f64>; 3] {
+        let (g12, g13) = ThreePrism::edge_gradient(&self.kin, &self.stress);
+        [g12 + g13, -g12, -g13]
+    }
+
+    /// Thickness force `-dE/dh` (N) at the linearisation state (same as
+    /// [`ThreePrism::thickness_force`]).
+    pub fn thickness_force(&self) -> f64 {
+        -self.kin.d.dot(&self.stress.g.column(2))
+    }
+
+    /// Force differential `df = -K dx` (N), same as [`ThreePrism::force_differential`] at the
+    /// linearisation state.
+    pub fn force_differential<M: Material>(
+        &self,
+        mat: &M,
+        dx: &[Vector3<f64>; 3],
+    ) -> [Vector3<f64>; 3] {
+        let (a, b) = self.prism.edge_gradient_differential(
+            mat,
+            &self.kin,
+            &self.stress,
+            &(dx[1] - dx[0]),
+            &(dx[2] - dx[0]),
+        );
+        [a + b, -a, -b]
     }
 }

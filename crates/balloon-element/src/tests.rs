@@ -154,6 +154,19 @@ fn prism_suite<M: Material>(mat: &M) {
                 },
             };
             verify(&e, &flat(&x), l, (10 * case + i) as u64);
+            // The cached linearisation reproduces the direct evaluations.
+            let lin = p.linearize(mat, &x, h);
+            let f = p.forces(mat, &x, h);
+            let fl = lin.forces();
+            let dx = [rvec(&mut rng), rvec(&mut rng), rvec(&mut rng)];
+            let df = p.force_differential(mat, &x, h, &dx);
+            let dfl = lin.force_differential(mat, &dx);
+            for j in 0..3 {
+                assert!((f[j] - fl[j]).norm() <= 1e-14 * f[j].norm().max(1e-300) + 1e-300);
+                assert!((df[j] - dfl[j]).norm() <= 1e-14 * df[j].norm().max(1e-300) + 1e-300);
+            }
+            assert_eq!(lin.thickness_force(), p.thickness_force(mat, &x, h));
+            assert_eq!(*lin.deformation_gradient(), p.deformation_gradient(&x, h));
             // Thickness force: -dE/dh by central differences.
             let dh = 1e-6 * h;
             let fd = -(p.energy(mat, &x, h + dh) - p.energy(mat, &x, h - dh)) / (2.0 * dh);
