@@ -491,6 +491,12 @@ fn tet_suite<M: Material>(mat: &M) {
         let r = rotation(&mut rng);
         let moved = rest.map(|q| r * q);
         assert!(t.energy(mat, &moved).abs() <= 1e-12 * lame().mu() * t.rest_volume());
+        let f_rest = t.forces(mat, &moved);
+        assert!(
+            f_rest
+                .iter()
+                .all(|v| v.norm() <= 1e-9 * lame().mu() * t.rest_volume() / l)
+        );
         let fs = t.forces(mat, &x);
         let fr = t.forces(mat, &x.map(|q| r * q));
         let scale = fs.iter().map(|v| v.norm()).fold(0.0, f64::max);
