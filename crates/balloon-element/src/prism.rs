@@ -24,7 +24,9 @@ pub(crate) const DEGENERACY_TOL: f64 = 1e-12;
 /// where capital letters are rest quantities. The three vertex positions are degrees of freedom;
 /// the current thickness `h` is a *parameter* (changed only by the shell-volume projection of
 /// seed 000 Sec. 7). Because `d` is the current unit normal, `F` depends non-linearly on the
-/// positions and the forces and stiffness include the derivative of `d` (see `docs/elements.md`).
+/// positions and the forces and stiffness include the derivative of `d` (see `docs/elements.md`):
+/// through `dF` always, and through a geometric "normal lever" term that vanishes identically for
+/// isotropic materials (then `P D` is parallel to `d`) but is kept for general ones.
 /// Note `det F = (|e12 x e13| h) / (|E12 x E13| H) > 0`: the element cannot invert.
 ///
 /// Array conventions: positions `x: [Vector3; 3]` in metres (world frame, counter-clockwise seen
