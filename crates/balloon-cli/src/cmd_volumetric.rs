@@ -96,6 +96,9 @@ pub struct VolumetricArgs {
     /// Relative cell-volume tolerance of the impulse iteration.
     #[arg(long, default_value_t = 1e-10)]
     pub tolerance: f64,
+    /// Over-relaxation of the Gauss-Seidel volume sweeps, in (0, 2) (1 = the paper).
+    #[arg(long, default_value_t = 1.0)]
+    pub over_relaxation: f64,
     /// Lumped masses and mass-weighted cell centres instead of equal masses.
     #[arg(long)]
     pub lumped_masses: bool,
@@ -181,6 +184,7 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
         },
         volume: CellVolumeParams {
             tolerance: args.tolerance,
+            over_relaxation: args.over_relaxation,
             centre: if args.lumped_masses {
                 CellCentre::MassWeighted
             } else {
