@@ -39,6 +39,14 @@ pub struct BackwardEulerParams {
     pub stiffness_damping: f64,
     /// Gravitational acceleration, m/s^2, applied as `m_i g` per degree of freedom (default 0).
     pub gravity: [f64; 3],
+    /// What to do when the Newton matrix `A = M + dt C + dt^2 K` is not positive definite (CG meets
+    /// non-positive curvature, or the Cholesky factorisation meets a non-positive pivot), as
+    /// happens when a membrane is compressed (St. Venant-Kirchhoff is not convex in compression,
+    /// and a shell without bending buckles). With `true` (default) the solve is retried with a
+    /// mass shift `A + tau M`, `tau` growing tenfold per retry (Levenberg-Marquardt): the Newton
+    /// step is shortened but the residual it reduces, and so the backward Euler solution, is
+    /// unchanged. With `false` the solver error is returned.
+    pub regularize_indefinite: bool,
 }
 
 impl Default for BackwardEulerParams {
@@ -50,6 +58,7 @@ impl Default for BackwardEulerParams {
             mass_damping: 0.0,
             stiffness_damping: 0.0,
             gravity: [0.0; 3],
+            regularize_indefinite: true,
         }
     }
 }
@@ -68,6 +77,12 @@ pub struct StepInfo {
     /// Whether every linear solve met its tolerance and (if `newton_tolerance > 0`) the Newton
     /// residual fell below `newton_tolerance * ||b_0||`.
     pub converged: bool,
+    /// Linear solves that had to be retried with a mass shift because `A` was indefinite (see
+    /// [`BackwardEulerParams::regularize_indefinite`]).
+    pub regularized_solves: usize,
+    /// Largest mass shift `tau` used in the step (0 when none was needed), relative to the mass
+    /// matrix: the solved matrix was `(1 + dt alpha + tau) M + (dt^2 + dt beta) K`.
+    pub max_regularization: f64,
 }
 
 impl StepInfo {
@@ -135,6 +150,33 @@ pub struct BackwardEuler {
     assembler: SparseAssembler,
     cholesky: SparseCholesky,
     z_scratch: Vec<Vec<f64>>,
+}
+
+/// Retries of an indefinite linear solve with a growing mass shift before giving up.
+const MAX_REGULARIZATION_RETRIES: usize = 14;
+
+/// The next mass shift `tau` after an indefinite solve: from CG's Rayleigh quotient when there
+/// is one (enough to make that direction positive with margin), otherwise 1% of the mass
+/// coefficient, and tenfold the previous shift on later retries.
+fn next_shift(previous: f64, m_coef: f64, err: &LinearSolveError, masses: &[f64]) -> f64 {
+    if previous > 0.0 {
+        return previous * 10.0;
+    }
+    let m_min = masses
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min)
+        .max(f64::MIN_POSITIVE);
+    match err {
+        LinearSolveError::NonPositiveCurvature {
+            curvature,
+            direction_norm_squared,
+            ..
+        } if *direction_norm_squared > 0.0 => {
+            (2.0 * curvature.abs() / (direction_norm_squared * m_min)).max(1e-2 * m_coef)
+        }
+        _ => 1e-2 * m_coef,
+    }
 }
 
 fn first_non_finite(v: &[f64]) -> Option<usize> {
@@ -317,12 +359,28 @@ impl BackwardEuler {
                         source,
                     })?;
             }
-            let lin =
-                self.solve(system, m_coef, k_coef)
-                    .map_err(|source| IntegrateError::Linear {
-                        iteration: k,
-                        source,
-                    })?;
+            let mut shift = 0.0;
+            let mut retries = 0;
+            let lin = loop {
+                match self.solve(system, m_coef + shift, k_coef) {
+                    Ok(lin) => break lin,
+                    Err(
+                        err @ (LinearSolveError::NonPositiveCurvature { .. }
+                        | LinearSolveError::Factorization { .. }),
+                    ) if p.regularize_indefinite && retries < MAX_REGULARIZATION_RETRIES => {
+                        shift = next_shift(shift, m_coef, &err, system.masses());
+                        retries += 1;
+                        info.regularized_solves += 1;
+                        info.max_regularization = info.max_regularization.max(shift);
+                    }
+                    Err(source) => {
+                        return Err(IntegrateError::Linear {
+                            iteration: k,
+                            source,
+                        });
+                    }
+                }
+            };
             info.newton_iterations += 1;
             info.linear_iterations.push(lin.iterations);
             info.linear_residuals.push(lin.relative_residual);
@@ -437,7 +495,7 @@ impl BackwardEuler {
                         .iter()
                         .map(|t| (k_coef * t.coefficient, t.vector.as_slice()))
                         .collect();
-                    let chol = &self.cholesky;
+                    let chol = &mut self.cholesky;
                     solve_with_low_rank(
                         |r| chol.solve_in_place(r),
                         &terms,

@@ -16,10 +16,13 @@
 
 use std::str::FromStr;
 
-use faer::Side;
-use faer::linalg::solvers::SolveCore;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::cholesky::{
+    LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Par, Side};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -317,6 +320,42 @@ impl CsrMatrix {
     pub fn nnz(&self) -> usize {
         self.values.len()
     }
+
+    /// Checks the structure: `row_ptr` of length `n + 1`, non-decreasing, ending at the number
+    /// of entries; column indices in range and strictly increasing within each row.
+    pub fn check(&self) -> Result<(), LinearSolveError> {
+        let n = self.n;
+        let bad = |what: &'static str, len: usize, expected: usize| {
+            Err(LinearSolveError::Dimension {
+                what,
+                len,
+                expected,
+            })
+        };
+        if self.row_ptr.len() != n + 1 {
+            return bad("row_ptr", self.row_ptr.len(), n + 1);
+        }
+        let nnz = self.row_ptr[n];
+        if self.col_idx.len() != nnz {
+            return bad("col_idx", self.col_idx.len(), nnz);
+        }
+        if self.values.len() != nnz {
+            return bad("values", self.values.len(), nnz);
+        }
+        for r in 0..n {
+            let (a, b) = (self.row_ptr[r], self.row_ptr[r + 1]);
+            if a > b || b > nnz {
+                return bad("row_ptr (non-monotone)", b, a);
+            }
+            for k in a..b {
+                let c = self.col_idx[k];
+                if c >= n || (k > a && c <= self.col_idx[k - 1]) {
+                    return Err(LinearSolveError::TripletOutOfRange { row: r, col: c, n });
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Builds `A = diag_scale * diag(d) + scale * sum(triplets)` as a [`CsrMatrix`], caching the
@@ -434,13 +473,28 @@ impl SparseAssembler {
     }
 }
 
-/// Sparse `L L^T` factorisation (faer) whose symbolic analysis is cached and rebuilt only when
-/// the pattern version changes.
-#[derive(Clone, Debug, Default)]
+/// Sparse `L L^T` factorisation (faer, supernodal or simplicial as faer's symbolic analysis
+/// chooses, AMD ordering) whose symbolic analysis, factor storage and workspace are cached and
+/// rebuilt only when the pattern version changes. Runs sequentially (`Par::Seq`): the matrices
+/// of one balloon are small enough that thread start-up costs more than it saves on 2 cores.
+#[derive(Default)]
 pub struct SparseCholesky {
-    symbolic: Option<(u64, SymbolicLlt<usize>)>,
-    numeric: Option<Llt<usize, f64>>,
+    symbolic: Option<(u64, SymbolicCholesky<usize>)>,
+    values: Vec<f64>,
+    workspace: Option<MemBuffer>,
+    factorized: bool,
     n: usize,
+}
+
+impl std::fmt::Debug for SparseCholesky {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SparseCholesky")
+            .field("n", &self.n)
+            .field("pattern_version", &self.symbolic.as_ref().map(|(v, _)| *v))
+            .field("factor_entries", &self.values.len())
+            .field("factorized", &self.factorized)
+            .finish()
+    }
 }
 
 impl SparseCholesky {
@@ -454,54 +508,78 @@ impl SparseCholesky {
         matches!(&self.symbolic, Some((v, _)) if *v == pattern_version)
     }
 
-    /// Factorises the symmetric matrix `a` (both triangles stored; the upper one is read),
-    /// re-using the symbolic factorisation when `pattern_version` matches the cached one.
+    /// Factorises the symmetric matrix `a` (both triangles stored), re-using the symbolic
+    /// factorisation when `pattern_version` matches the cached one. Errors (never panics) on an
+    /// inconsistent [`CsrMatrix`] or a matrix that is not positive definite.
     pub fn factorize(
         &mut self,
         a: &CsrMatrix,
         pattern_version: u64,
     ) -> Result<(), LinearSolveError> {
+        a.check()?;
+        self.factorized = false;
         // CSR of a symmetric matrix read as CSC: column r holds row indices col_idx.
         let sym = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.row_ptr, None, &a.col_idx);
         if !self.has_symbolic_for(pattern_version) {
-            let s = SymbolicLlt::try_new(sym, Side::Lower).map_err(|e| {
-                LinearSolveError::Factorization {
-                    detail: format!("symbolic analysis failed: {e:?}"),
-                }
+            let s = factorize_symbolic_cholesky(
+                sym,
+                Side::Lower,
+                SymmetricOrdering::Amd,
+                Default::default(),
+            )
+            .map_err(|e| LinearSolveError::Factorization {
+                detail: format!("symbolic analysis failed: {e:?}"),
             })?;
+            let req = s
+                .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
+                .or(s.solve_in_place_scratch::<f64>(1, Par::Seq));
+            self.workspace =
+                Some(
+                    MemBuffer::try_new(req).map_err(|_| LinearSolveError::Factorization {
+                        detail: "out of memory for the Cholesky workspace".into(),
+                    })?,
+                );
+            self.values.clear();
+            self.values.resize(s.len_val(), 0.0);
             self.symbolic = Some((pattern_version, s));
         }
-        let symbolic = self
-            .symbolic
-            .as_ref()
-            .map(|(_, s)| s.clone())
-            .ok_or_else(|| LinearSolveError::Factorization {
+        let (Some((_, symbolic)), Some(work)) = (&self.symbolic, &mut self.workspace) else {
+            return Err(LinearSolveError::Factorization {
                 detail: "no symbolic factorisation".into(),
-            })?;
+            });
+        };
         let mat = SparseColMatRef::new(sym, &a.values);
-        self.numeric = None;
-        let llt = Llt::try_new_with_symbolic(symbolic, mat, Side::Lower).map_err(|e| {
-            LinearSolveError::Factorization {
+        symbolic
+            .factorize_numeric_llt(
+                &mut self.values,
+                mat,
+                Side::Lower,
+                LltRegularization::default(),
+                Par::Seq,
+                MemStack::new(work),
+                Default::default(),
+            )
+            .map_err(|e| LinearSolveError::Factorization {
                 detail: format!(
                     "matrix ({n}x{n}, {nnz} entries) is not positive definite: {e:?}",
                     n = a.n,
                     nnz = a.nnz()
                 ),
-            }
-        })?;
-        self.numeric = Some(llt);
+            })?;
+        self.factorized = true;
         self.n = a.n;
         Ok(())
     }
 
     /// Solves `A x = rhs` in place with the last factorisation.
-    pub fn solve_in_place(&self, rhs: &mut [f64]) -> Result<(), LinearSolveError> {
-        let llt = self
-            .numeric
-            .as_ref()
-            .ok_or_else(|| LinearSolveError::Factorization {
+    pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinearSolveError> {
+        let (true, Some((_, symbolic)), Some(work)) =
+            (self.factorized, &self.symbolic, &mut self.workspace)
+        else {
+            return Err(LinearSolveError::Factorization {
                 detail: "solve called before a successful factorisation".into(),
-            })?;
+            });
+        };
         if rhs.len() != self.n {
             return Err(LinearSolveError::Dimension {
                 what: "rhs",
@@ -511,7 +589,12 @@ impl SparseCholesky {
         }
         let n = rhs.len();
         let m = faer::MatMut::from_column_major_slice_mut(rhs, n, 1);
-        llt.solve_in_place_with_conj(faer::Conj::No, m);
+        LltRef::new(symbolic, &self.values).solve_in_place_with_conj(
+            faer::Conj::No,
+            m,
+            Par::Seq,
+            MemStack::new(work),
+        );
         Ok(())
     }
 }
@@ -732,6 +815,22 @@ mod tests {
                 );
             }
         }
+        // An inconsistent user-built matrix is an error, not a panic inside faer.
+        let broken = CsrMatrix {
+            n: 2,
+            row_ptr: vec![0, 2],
+            col_idx: vec![0, 1],
+            values: vec![1.0, 0.0],
+        };
+        assert!(SparseCholesky::new().factorize(&broken, 99).is_err());
+        let unsorted = CsrMatrix {
+            n: 2,
+            row_ptr: vec![0, 2, 3],
+            col_idx: vec![1, 0, 1],
+            values: vec![0.0, 1.0, 1.0],
+        };
+        assert!(unsorted.check().is_err());
+        assert!(SparseCholesky::new().solve_in_place(&mut [1.0]).is_err());
         // A matrix that is not positive definite is reported, not mis-solved.
         let mut bad = t.clone();
         bad.push((4, 4, -100.0));
