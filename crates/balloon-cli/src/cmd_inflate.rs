@@ -1,10 +1,307 @@
-//! `balloon inflate` (being filled in).
+//! `balloon inflate [MESH|builtin]`: the main job, a shell balloon with thickness (seed 000).
 
-/// Arguments.
+use crate::output::{FrameFormat, OutputDir, print_json_line, progress_bar};
+use anyhow::{Context, Result};
+use balloon::gas::GasKind;
+use balloon::integrate::implicit::BackwardEulerParams;
+use balloon::integrate::linear::{LinearSolverKind, LinearSolverParams};
+use balloon::material::{MaterialKind, MaterialModel};
+use balloon::shell::{self, ShellBalloon, ShellStepStats};
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// Volume projection mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ProjectionMode {
+    /// The global shell-volume projection of seed 000 (Eq. 24-28, Algorithm 2).
+    Global,
+    /// No projection: the thickness stays at its rest value.
+    Off,
+}
+
+/// Arguments of `balloon inflate`. Defaults model a latex party balloon.
 #[derive(Debug, clap::Args)]
-pub struct InflateArgs {}
+pub struct InflateArgs {
+    /// Mesh file (.obj, .off, .ply, .stl) or `builtin[:NAME]`; default: the built-in teddy.
+    #[arg(default_value = "builtin")]
+    pub mesh: String,
+    /// Constitutive model: `stvk` (St. Venant-Kirchhoff, the paper's) or `neo-hookean`.
+    #[arg(long, default_value = "stvk")]
+    pub material: MaterialKind,
+    /// Young's modulus E, Pa (latex: about 1 MPa).
+    #[arg(long, default_value_t = shell::DEFAULT_YOUNG)]
+    pub young: f64,
+    /// Poisson's ratio nu, -1 < nu < 0.5.
+    #[arg(long, default_value_t = shell::DEFAULT_POISSON, allow_hyphen_values = true)]
+    pub poisson: f64,
+    /// Shell density, kg/m^3.
+    #[arg(long, default_value_t = shell::DEFAULT_DENSITY, allow_hyphen_values = true)]
+    pub density: f64,
+    /// Rest shell thickness, m (the paper uses 0.3 mm).
+    #[arg(long, default_value_t = shell::DEFAULT_THICKNESS, allow_hyphen_values = true)]
+    pub thickness: f64,
+    /// Gas model: `pump` (ambient air added at --pump-rate from the rest shape: the process of
+    /// inflating), `ideal` (isothermal, fixed amount, Eq. 12-14) or `constant` (fixed pressure).
+    /// The paper's model is `--gas ideal --ambient 0`.
+    #[arg(long, default_value = "pump")]
+    pub gas: GasKind,
+    /// Gauge pressure, Pa: initial for `ideal`, fixed for `constant`, unused by `pump`.
+    #[arg(long, default_value_t = shell::DEFAULT_GAUGE_PRESSURE, allow_hyphen_values = true)]
+    pub pressure: f64,
+    /// Ambient (outside) pressure, Pa.
+    #[arg(long, default_value_t = balloon::gas::STANDARD_ATMOSPHERE, allow_hyphen_values = true)]
+    pub ambient: f64,
+    /// Pump rate for `--gas pump`, m^3/s of ambient air (2e-3 = 2 L/s, about what a person blows).
+    #[arg(long, default_value_t = shell::DEFAULT_PUMP_RATE, allow_hyphen_values = true)]
+    pub pump_rate: f64,
+    /// Mass-proportional damping alpha, 1/s.
+    #[arg(long, default_value_t = shell::DEFAULT_MASS_DAMPING, allow_hyphen_values = true)]
+    pub mass_damping: f64,
+    /// Stiffness-proportional damping beta, s.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub stiffness_damping: f64,
+    /// Time step, s.
+    #[arg(long, default_value_t = shell::DEFAULT_DT, allow_hyphen_values = true)]
+    pub dt: f64,
+    /// Number of steps (the maximum with --until-converged).
+    #[arg(long, default_value_t = 300)]
+    pub steps: usize,
+    /// Stop when the largest vertex speed is below --speed-tol and the per-step relative gas
+    /// volume change is below --volume-tol.
+    #[arg(long)]
+    pub until_converged: bool,
+    /// Speed tolerance for --until-converged, m/s.
+    #[arg(long, default_value_t = 1e-3)]
+    pub speed_tol: f64,
+    /// Relative per-step volume change tolerance for --until-converged.
+    #[arg(long, default_value_t = 1e-6)]
+    pub volume_tol: f64,
+    /// Newton iterations per step (the paper uses 3).
+    #[arg(long, default_value_t = 3)]
+    pub newton_iters: usize,
+    /// Linear solver: `matrix-free-cg` (the paper's), `pcg` (assembled, Jacobi) or `cholesky`.
+    #[arg(long, default_value = "matrix-free-cg")]
+    pub linear_solver: LinearSolverKind,
+    /// Relative tolerance of the CG solvers.
+    #[arg(long, default_value_t = 1e-6)]
+    pub cg_tol: f64,
+    /// Maximum CG iterations per Newton iteration.
+    #[arg(long, default_value_t = 500)]
+    pub cg_max_iters: usize,
+    /// Include the area-normal (follower) term of the pressure tangent (the paper drops it).
+    #[arg(long)]
+    pub follower_term: bool,
+    /// Shell-volume projection: `global` (seed 000, Algorithm 2) or `off`.
+    #[arg(long, value_enum, default_value_t = ProjectionMode::Global)]
+    pub volume_projection: ProjectionMode,
+    /// Multiply mesh coordinates by this factor (mesh units -> metres).
+    #[arg(long, default_value_t = 1.0)]
+    pub scale: f64,
+    /// Output folder: frames, final mesh, stats.jsonl, summary.json.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write a frame every K steps (0: only the first and final frames).
+    #[arg(long, default_value_t = 10)]
+    pub frame_every: usize,
+    /// Frame file format.
+    #[arg(long, value_enum, default_value_t = FrameFormat::Obj)]
+    pub format: FrameFormat,
+    /// Print the summary as one JSON line (the last line on stdout); no progress bar.
+    #[arg(long)]
+    pub json: bool,
+}
 
-/// Runs the subcommand.
-pub fn run(_args: InflateArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`balloon inflate` is not built yet")
+/// The run summary (`summary.json`, and the `--json` line).
+#[derive(Debug, Default, Serialize)]
+pub struct InflateSummary {
+    /// Mesh given on the command line.
+    pub mesh: String,
+    /// Vertices.
+    pub vertices: usize,
+    /// Triangles.
+    pub triangles: usize,
+    /// Steps completed.
+    pub steps: usize,
+    /// Whether --until-converged reached its tolerances.
+    pub converged: bool,
+    /// Simulated time, s.
+    pub sim_time_s: f64,
+    /// Gas volume at rest, m^3.
+    pub initial_gas_volume: f64,
+    /// Gas volume at the end, m^3.
+    pub final_gas_volume: f64,
+    /// Gauge pressure at the end, Pa.
+    pub final_gauge_pressure: f64,
+    /// Shell material volume ratio at the end.
+    pub shell_volume_ratio_final: f64,
+    /// Largest |ratio - 1| over the run.
+    pub shell_volume_ratio_max_deviation: f64,
+    /// Mean wall-clock ms per step.
+    pub mean_step_ms: f64,
+    /// Newton iterations over the run.
+    pub newton_iterations_total: usize,
+    /// Linear iterations over the run.
+    pub linear_iterations_total: usize,
+    /// Mean, min and max final thickness, m.
+    pub final_thickness_mean: f64,
+    /// Minimum final thickness, m.
+    pub final_thickness_min: f64,
+    /// Maximum final thickness, m.
+    pub final_thickness_max: f64,
+    /// Material model.
+    pub material: String,
+    /// Linear solver.
+    pub linear_solver: String,
+    /// The error that stopped the run, if any.
+    pub error: Option<String>,
+}
+
+/// Runs `balloon inflate`.
+pub fn run(args: InflateArgs) -> Result<()> {
+    let mut mesh = balloon::mesh::load(&args.mesh)
+        .with_context(|| format!("cannot load mesh `{}`", args.mesh))?;
+    if !(args.scale.is_finite() && args.scale > 0.0) {
+        anyhow::bail!(
+            "invalid parameter `--scale` = {}: must be a positive finite number",
+            args.scale
+        );
+    }
+    if args.scale != 1.0 {
+        mesh.scale(args.scale);
+    }
+    if args.frame_every == 0 && args.steps == 0 {
+        anyhow::bail!("nothing to do: --steps is 0");
+    }
+    let material = MaterialModel::from_young_poisson(args.material, args.young, args.poisson)
+        .context("invalid --young / --poisson")?;
+    let integrator = BackwardEulerParams {
+        newton_iterations: args.newton_iters,
+        newton_tolerance: 0.0,
+        linear: LinearSolverParams {
+            kind: args.linear_solver,
+            max_iterations: args.cg_max_iters,
+            relative_tolerance: args.cg_tol,
+        },
+        mass_damping: args.mass_damping,
+        stiffness_damping: args.stiffness_damping,
+        ..Default::default()
+    };
+    let projection = match args.volume_projection {
+        ProjectionMode::Global => Some(Default::default()),
+        ProjectionMode::Off => None,
+    };
+    let mut sim = ShellBalloon::new(mesh.clone())
+        .with_material(material)
+        .with_thickness(args.thickness)
+        .with_density(args.density)
+        .with_gas(args.gas)
+        .with_gauge_pressure(args.pressure)
+        .with_ambient_pressure(args.ambient)
+        .with_pump_rate(args.pump_rate)
+        .with_follower_term(args.follower_term)
+        .with_integrator(integrator)
+        .with_projection(projection)
+        .with_dt(args.dt)
+        .build()
+        .with_context(|| format!("cannot set up the balloon for `{}`", args.mesh))?;
+
+    let mut out = match &args.out {
+        Some(dir) => Some(OutputDir::create(dir, args.format)?),
+        None => None,
+    };
+    if let Some(o) = &out {
+        o.write_frame(0, &sim.mesh())?;
+    }
+    let mut summary = InflateSummary {
+        mesh: args.mesh.clone(),
+        vertices: mesh.num_vertices(),
+        triangles: mesh.num_triangles(),
+        initial_gas_volume: sim.rest_gas_volume(),
+        shell_volume_ratio_final: 1.0,
+        material: args.material.to_string(),
+        linear_solver: args.linear_solver.to_string(),
+        ..Default::default()
+    };
+    let pb = progress_bar(args.steps as u64, !args.json);
+    let mut total_ms = 0.0;
+    let mut failure = None;
+    for _ in 0..args.steps {
+        let stats: ShellStepStats = match sim.step() {
+            Ok(s) => s,
+            Err(e) => {
+                failure = Some(e);
+                break;
+            }
+        };
+        total_ms += stats.step_ms;
+        summary.steps += 1;
+        summary.newton_iterations_total += stats.newton_iterations;
+        summary.linear_iterations_total += stats.linear_iterations;
+        summary.shell_volume_ratio_max_deviation = summary
+            .shell_volume_ratio_max_deviation
+            .max((stats.shell_volume_ratio - 1.0).abs());
+        if let Some(o) = &mut out {
+            o.append_stats(&stats)?;
+            if args.frame_every > 0 && summary.steps.is_multiple_of(args.frame_every) {
+                o.write_frame(summary.steps, &sim.mesh())?;
+            }
+        }
+        pb.inc(1);
+        pb.set_message(format!(
+            "V = {:.4e} m^3, p = {:.0} Pa",
+            stats.gas_volume, stats.gauge_pressure
+        ));
+        if args.until_converged
+            && stats.max_speed < args.speed_tol
+            && stats.volume_change < args.volume_tol
+        {
+            summary.converged = true;
+            break;
+        }
+    }
+    pb.finish_and_clear();
+    summary.sim_time_s = sim.time();
+    summary.final_gas_volume = sim.gas_volume();
+    summary.final_gauge_pressure = sim.gauge_pressure();
+    summary.shell_volume_ratio_final = sim.shell_volume() / sim.rest_shell_volume();
+    summary.mean_step_ms = if summary.steps > 0 {
+        total_ms / summary.steps as f64
+    } else {
+        0.0
+    };
+    let th = sim.thickness();
+    summary.final_thickness_mean = th.iter().sum::<f64>() / th.len() as f64;
+    summary.final_thickness_min = th.iter().copied().fold(f64::INFINITY, f64::min);
+    summary.final_thickness_max = th.iter().copied().fold(0.0, f64::max);
+    summary.error = failure.as_ref().map(|e| e.to_string());
+    if let Some(o) = &out {
+        o.write_named_mesh("final", &sim.mesh())?;
+        o.write_json("summary.json", &summary)?;
+    }
+    if args.json {
+        print_json_line(&summary)?;
+    } else {
+        println!(
+            "{} steps, t = {:.3} s: gas volume {:.4e} -> {:.4e} m^3 (x{:.3}), gauge pressure {:.1} Pa, shell volume ratio {:.10}, {:.1} ms/step{}",
+            summary.steps,
+            summary.sim_time_s,
+            summary.initial_gas_volume,
+            summary.final_gas_volume,
+            summary.final_gas_volume / summary.initial_gas_volume,
+            summary.final_gauge_pressure,
+            summary.shell_volume_ratio_final,
+            summary.mean_step_ms,
+            if summary.converged { ", converged" } else { "" }
+        );
+        if let Some(o) = &out {
+            println!("output written to {}", o.path().display());
+        }
+    }
+    match failure {
+        Some(e) => Err(anyhow::Error::new(e).context(format!(
+            "the simulation of `{}` failed; output written so far is complete",
+            args.mesh
+        ))),
+        None => Ok(()),
+    }
 }

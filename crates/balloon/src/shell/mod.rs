@@ -1,0 +1,673 @@
+//! Shell balloons with thickness (seed 000, "Cute Balloons with Thickness"; Algorithms 1 and 2).
+//!
+//! A closed triangle mesh becomes a shell of three-prism elements (Eq. 1-4) of a hyperelastic
+//! material (St. Venant-Kirchhoff, Eq. 6-9, or neo-Hookean), filled with a uniform gas (Eq. 12-17)
+//! and advanced by backward Euler with Newton-Raphson (Eq. 18-23); after each solve the
+//! shell-volume projection (Eq. 24-28, Algorithm 2) restores the material volume of the shell by
+//! moving the vertices and the thickness, and the velocities are set to `(x_new - x_old) / dt`
+//! (Algorithm 1, lines 11-12).
+//!
+//! ```no_run
+//! use balloon::shell::ShellBalloon;
+//! let mesh = balloon::mesh::generate::icosphere(0.1, 3).unwrap();
+//! let mut sim = ShellBalloon::new(mesh).with_gauge_pressure(2000.0).build().unwrap();
+//! for _ in 0..10 {
+//!     let stats = sim.step().unwrap();
+//!     println!("{} {}", stats.time, stats.gas_volume);
+//! }
+//! ```
+//!
+//! Swapping a part is one line: `.with_material(NeoHookean::new(lame))`,
+//! `.with_linear_solver(LinearSolverKind::Cholesky)`, `.with_gas(GasKind::Constant)`,
+//! `.with_projection(None)`.
+
+pub mod analytic;
+mod system;
+
+pub use system::ShellSystem;
+
+use balloon_constraint::shell_volume::{ShellVolumeParams, ShellVolumeProjection, shell_volume};
+use balloon_element::ThreePrism;
+use balloon_gas::{
+    ConstantPressure, Gas, GasKind, GasModel, IdealGas, PressureLoad, STANDARD_ATMOSPHERE,
+};
+use balloon_integrate::ForceSystem;
+use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
+use balloon_integrate::linear::LinearSolverKind;
+use balloon_material::{Lame, Material, MaterialKind, MaterialModel};
+use balloon_mesh::TriMesh;
+use nalgebra::{Point3, Vector3};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Errors of the shell balloon: bad input (before any work) and failures during a run (naming
+/// the step and the element or quantity).
+#[derive(Debug, Error)]
+pub enum ShellError {
+    /// The mesh is not a closed, manifold, outward-oriented surface.
+    #[error("invalid mesh: {0}")]
+    Mesh(#[from] balloon_mesh::MeshError),
+    /// A parameter is out of range.
+    #[error("invalid parameter `{name}` = {value}: {reason}")]
+    InvalidParameter {
+        /// Parameter name (as the CLI flag names it).
+        name: &'static str,
+        /// Its value.
+        value: String,
+        /// The allowed range.
+        reason: String,
+    },
+    /// A material parameter is invalid.
+    #[error("invalid material: {0}")]
+    Material(#[from] balloon_material::MaterialError),
+    /// A rest element is degenerate.
+    #[error("element {element}: {source}")]
+    Element {
+        /// Triangle index.
+        element: usize,
+        /// What is wrong.
+        #[source]
+        source: balloon_element::ElementError,
+    },
+    /// The gas model could not be built or evaluated.
+    #[error("gas: {0}")]
+    Gas(#[from] balloon_gas::GasError),
+    /// The Newton solve failed.
+    #[error("step {step} (t = {time:.6} s): {source}")]
+    Integrate {
+        /// Step index (0-based) that failed.
+        step: usize,
+        /// Simulation time at the start of the step.
+        time: f64,
+        /// What failed.
+        #[source]
+        source: balloon_integrate::implicit::IntegrateError,
+    },
+    /// The volume projection failed.
+    #[error("step {step}: volume projection: {source}")]
+    Projection {
+        /// Step index.
+        step: usize,
+        /// What failed.
+        #[source]
+        source: balloon_constraint::shell_volume::ShellVolumeError,
+    },
+    /// The run diverged (runaway volume, non-finite or inverted state).
+    #[error("step {step} (t = {time:.6} s): diverged: {quantity}: {detail}")]
+    Diverged {
+        /// Step index.
+        step: usize,
+        /// Simulation time at the start of the step.
+        time: f64,
+        /// The quantity that diverged (e.g. "gas volume", "thickness of element 12").
+        quantity: String,
+        /// Numbers that explain it, and what to try.
+        detail: String,
+    },
+}
+
+/// Rest thickness of the shell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Thickness {
+    /// The same thickness for every element, m.
+    Uniform(f64),
+    /// One thickness per triangle, m.
+    PerFace(Vec<f64>),
+}
+
+/// Builder of a [`ShellSimulation`]. Defaults model a latex party balloon: E = 1 MPa,
+/// nu = 0.45, density 950 kg/m^3, thickness 0.3 mm (the paper's), a pump adding 2 L/s of
+/// ambient air (101325 Pa) from the rest shape, dt = 10 ms, 3 Newton iterations with
+/// matrix-free CG, mass damping 10 1/s, global volume projection on. `with_gas(GasKind::Ideal)`
+/// uses a fixed amount of gas at `with_gauge_pressure` (default 2 kPa) over ambient; the paper's
+/// own gas model (Eq. 14, no ambient) is `with_ambient_pressure(0.0)`.
+#[derive(Clone, Debug)]
+pub struct ShellBalloon<M: Material = MaterialModel> {
+    mesh: TriMesh,
+    material: M,
+    thickness: Thickness,
+    density: f64,
+    gas_kind: GasKind,
+    gauge_pressure: f64,
+    ambient_pressure: f64,
+    pump_rate: f64,
+    follower_term: bool,
+    integrator: BackwardEulerParams,
+    projection: Option<ShellVolumeParams>,
+    dt: f64,
+    validate_mesh: bool,
+}
+
+/// Default Young's modulus, Pa (latex rubber).
+pub const DEFAULT_YOUNG: f64 = 1.0e6;
+/// Default Poisson ratio.
+pub const DEFAULT_POISSON: f64 = 0.45;
+/// Default density, kg/m^3 (latex).
+pub const DEFAULT_DENSITY: f64 = 950.0;
+/// Default rest thickness, m (0.3 mm, the paper's Table 1).
+pub const DEFAULT_THICKNESS: f64 = 3.0e-4;
+/// Default gauge pressure, Pa.
+pub const DEFAULT_GAUGE_PRESSURE: f64 = 2000.0;
+/// Default time step, s.
+pub const DEFAULT_DT: f64 = 1.0e-2;
+/// Default pump rate, m^3/s of ambient air.
+pub const DEFAULT_PUMP_RATE: f64 = 2.0e-3;
+/// Default mass damping, 1/s.
+pub const DEFAULT_MASS_DAMPING: f64 = 10.0;
+
+impl ShellBalloon<MaterialModel> {
+    /// A balloon of the given rest mesh (m) with the default parameters.
+    pub fn new(mesh: TriMesh) -> Self {
+        let lame = Lame::try_from_young_poisson(DEFAULT_YOUNG, DEFAULT_POISSON)
+            .expect("default Lame parameters are valid");
+        let integrator = BackwardEulerParams {
+            mass_damping: DEFAULT_MASS_DAMPING,
+            ..Default::default()
+        };
+        Self {
+            mesh,
+            material: MaterialModel::from_lame(MaterialKind::StVenantKirchhoff, lame),
+            thickness: Thickness::Uniform(DEFAULT_THICKNESS),
+            density: DEFAULT_DENSITY,
+            gas_kind: GasKind::Pump,
+            gauge_pressure: DEFAULT_GAUGE_PRESSURE,
+            ambient_pressure: STANDARD_ATMOSPHERE,
+            pump_rate: DEFAULT_PUMP_RATE,
+            follower_term: false,
+            integrator,
+            projection: Some(ShellVolumeParams::default()),
+            dt: DEFAULT_DT,
+            validate_mesh: true,
+        }
+    }
+}
+
+impl<M: Material> ShellBalloon<M> {
+    /// Uses another material (any `Material`, e.g. `NeoHookean::new(lame)`).
+    pub fn with_material<N: Material>(self, material: N) -> ShellBalloon<N> {
+        ShellBalloon {
+            mesh: self.mesh,
+            material,
+            thickness: self.thickness,
+            density: self.density,
+            gas_kind: self.gas_kind,
+            gauge_pressure: self.gauge_pressure,
+            ambient_pressure: self.ambient_pressure,
+            pump_rate: self.pump_rate,
+            follower_term: self.follower_term,
+            integrator: self.integrator,
+            projection: self.projection,
+            dt: self.dt,
+            validate_mesh: self.validate_mesh,
+        }
+    }
+    /// Uniform rest thickness, m.
+    pub fn with_thickness(mut self, thickness: f64) -> Self {
+        self.thickness = Thickness::Uniform(thickness);
+        self
+    }
+    /// Per-face rest thickness, m (one per triangle).
+    pub fn with_thickness_per_face(mut self, thickness: Vec<f64>) -> Self {
+        self.thickness = Thickness::PerFace(thickness);
+        self
+    }
+    /// Shell density, kg/m^3.
+    pub fn with_density(mut self, density: f64) -> Self {
+        self.density = density;
+        self
+    }
+    /// Gas model kind.
+    pub fn with_gas(mut self, kind: GasKind) -> Self {
+        self.gas_kind = kind;
+        self
+    }
+    /// Gauge pressure, Pa: initial for the ideal gas, fixed for constant pressure.
+    pub fn with_gauge_pressure(mut self, pressure: f64) -> Self {
+        self.gauge_pressure = pressure;
+        self
+    }
+    /// Ambient (outside) pressure, Pa.
+    pub fn with_ambient_pressure(mut self, pressure: f64) -> Self {
+        self.ambient_pressure = pressure;
+        self
+    }
+    /// Pump rate for [`GasKind::Pump`] as a flow of ambient air, m^3/s (free-air delivery: a
+    /// person blowing up a balloon manages about 1e-3 m^3/s). The gas content grows by
+    /// `p_ambient * rate` joules of `nRT` per second.
+    pub fn with_pump_rate(mut self, rate: f64) -> Self {
+        self.pump_rate = rate;
+        self
+    }
+    /// Includes the area-normal (follower) term of the pressure tangent (the paper neglects it).
+    pub fn with_follower_term(mut self, enabled: bool) -> Self {
+        self.follower_term = enabled;
+        self
+    }
+    /// Integrator parameters (Newton iterations, linear solver, damping, gravity).
+    pub fn with_integrator(mut self, params: BackwardEulerParams) -> Self {
+        self.integrator = params;
+        self
+    }
+    /// Linear solver behind Newton.
+    pub fn with_linear_solver(mut self, kind: LinearSolverKind) -> Self {
+        self.integrator.linear.kind = kind;
+        self
+    }
+    /// Volume projection parameters; `None` switches the projection off.
+    pub fn with_projection(mut self, params: Option<ShellVolumeParams>) -> Self {
+        self.projection = params;
+        self
+    }
+    /// Time step, s.
+    pub fn with_dt(mut self, dt: f64) -> Self {
+        self.dt = dt;
+        self
+    }
+    /// Skips the closed-manifold validation of the mesh (only for meshes already validated).
+    pub fn with_mesh_validation(mut self, enabled: bool) -> Self {
+        self.validate_mesh = enabled;
+        self
+    }
+
+    fn positive(name: &'static str, value: f64) -> Result<(), ShellError> {
+        if value.is_finite() && value > 0.0 {
+            Ok(())
+        } else {
+            Err(ShellError::InvalidParameter {
+                name,
+                value: value.to_string(),
+                reason: "must be a positive finite number".into(),
+            })
+        }
+    }
+
+    /// Validates everything and builds the simulation (no time step is taken).
+    pub fn build(self) -> Result<ShellSimulation<M>, ShellError> {
+        if self.validate_mesh {
+            balloon_mesh::validate::validate_closed_manifold(&self.mesh)?;
+        }
+        Self::positive("density", self.density)?;
+        Self::positive("dt", self.dt)?;
+        if !(self.ambient_pressure.is_finite() && self.ambient_pressure >= 0.0) {
+            return Err(ShellError::InvalidParameter {
+                name: "ambient",
+                value: self.ambient_pressure.to_string(),
+                reason: "must be a finite pressure >= 0 Pa".into(),
+            });
+        }
+        if !self.gauge_pressure.is_finite() {
+            return Err(ShellError::InvalidParameter {
+                name: "pressure",
+                value: self.gauge_pressure.to_string(),
+                reason: "must be finite".into(),
+            });
+        }
+        let nt = self.mesh.num_triangles();
+        let thickness = match &self.thickness {
+            Thickness::Uniform(h) => {
+                Self::positive("thickness", *h)?;
+                vec![*h; nt]
+            }
+            Thickness::PerFace(v) => {
+                if v.len() != nt {
+                    return Err(ShellError::InvalidParameter {
+                        name: "thickness",
+                        value: format!("{} values", v.len()),
+                        reason: format!("need one per triangle ({nt})"),
+                    });
+                }
+                for h in v {
+                    Self::positive("thickness", *h)?;
+                }
+                v.clone()
+            }
+        };
+        let p = &self.integrator;
+        if p.newton_iterations == 0 {
+            return Err(ShellError::InvalidParameter {
+                name: "newton-iters",
+                value: "0".into(),
+                reason: "at least 1".into(),
+            });
+        }
+        if !(p.mass_damping >= 0.0 && p.stiffness_damping >= 0.0) {
+            return Err(ShellError::InvalidParameter {
+                name: "damping",
+                value: format!("mass {} stiffness {}", p.mass_damping, p.stiffness_damping),
+                reason: "damping coefficients must be >= 0".into(),
+            });
+        }
+        let verts: Vec<Vector3<f64>> = self.mesh.vertices.iter().map(|p| p.coords).collect();
+        let nv = verts.len();
+        let mut elements = Vec::with_capacity(nt);
+        let mut vertex_mass = vec![0.0; nv];
+        let mut vertex_proj_mass = vec![0.0; nv];
+        let mut element_proj_mass = Vec::with_capacity(nt);
+        for (e, t) in self.mesh.triangles.iter().enumerate() {
+            let el = ThreePrism::try_new(t.map(|v| verts[v]), thickness[e])
+                .map_err(|source| ShellError::Element { element: e, source })?;
+            let m = el.lumped_masses(self.density);
+            let (mp, m4) = el.projection_masses(self.density);
+            for c in 0..3 {
+                vertex_mass[t[c]] += m[c];
+                vertex_proj_mass[t[c]] += mp[c];
+            }
+            element_proj_mass.push(m4);
+            elements.push(el);
+        }
+        let x = self.mesh.positions_flat();
+        let rest_gas_volume = balloon_gas::enclosed_volume(&x, &self.mesh.triangles)?;
+        let pump_rate_joules = self.pump_rate * self.ambient_pressure;
+        // Ideal and constant gases are built from the absolute pressure so that a zero ambient
+        // (the paper's model, Eq. 14) is allowed; the pump starts at the ambient pressure.
+        let p_abs = self.ambient_pressure + self.gauge_pressure;
+        let gas = match self.gas_kind {
+            GasKind::Ideal => Gas::Ideal(IdealGas::try_new(p_abs, rest_gas_volume)?),
+            GasKind::Constant => Gas::Constant(ConstantPressure::try_new(p_abs)?),
+            GasKind::Pump => Gas::try_from_kind(
+                GasKind::Pump,
+                rest_gas_volume,
+                self.gauge_pressure,
+                self.ambient_pressure,
+                pump_rate_joules,
+            )?,
+        };
+        let load = PressureLoad::new(gas)
+            .with_ambient_pressure(self.ambient_pressure)?
+            .with_follower_term(self.follower_term);
+        let rest_shell_volume = shell_volume(&self.mesh.triangles, &x, &thickness);
+        let system = ShellSystem::new(
+            nv,
+            self.mesh.triangles.clone(),
+            elements,
+            thickness,
+            self.material,
+            load,
+            &vertex_mass,
+        );
+        let projection = self.projection.map(ShellVolumeProjection::new);
+        Ok(ShellSimulation {
+            v: vec![0.0; x.len()],
+            x_prev: x.clone(),
+            x,
+            system,
+            integrator: BackwardEuler::new(self.integrator),
+            projection,
+            vertex_inv_mass: vertex_proj_mass.iter().map(|m| 1.0 / m).collect(),
+            element_inv_mass: element_proj_mass.iter().map(|m| 1.0 / m).collect(),
+            rest_shell_volume,
+            rest_gas_volume,
+            rest_positions: self.mesh.positions_flat(),
+            time: 0.0,
+            step: 0,
+            dt: self.dt,
+        })
+    }
+}
+
+/// What one step did and where the balloon is.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ShellStepStats {
+    /// Step index (0-based).
+    pub step: usize,
+    /// Simulation time at the end of the step, s.
+    pub time: f64,
+    /// Enclosed gas volume, m^3.
+    pub gas_volume: f64,
+    /// Gauge pressure `p - p_ambient`, Pa.
+    pub gauge_pressure: f64,
+    /// Shell material volume / rest shell material volume (1 when the projection is exact).
+    pub shell_volume_ratio: f64,
+    /// Newton iterations performed.
+    pub newton_iterations: usize,
+    /// Linear (CG) iterations summed over the Newton iterations (0 for Cholesky).
+    pub linear_iterations: usize,
+    /// Relative Newton residual after the last iteration.
+    pub newton_residual: f64,
+    /// Projection iterations.
+    pub projection_iterations: usize,
+    /// Largest vertex speed, m/s.
+    pub max_speed: f64,
+    /// Relative gas-volume change over the step, |dV| / V.
+    pub volume_change: f64,
+    /// Mean / min / max thickness, m.
+    pub thickness_mean: f64,
+    /// Minimum thickness, m.
+    pub thickness_min: f64,
+    /// Maximum thickness, m.
+    pub thickness_max: f64,
+    /// Wall-clock time of the step, ms.
+    pub step_ms: f64,
+}
+
+/// A running shell balloon simulation.
+#[derive(Debug)]
+pub struct ShellSimulation<M: Material = MaterialModel, G: GasModel = Gas> {
+    system: ShellSystem<M, G>,
+    integrator: BackwardEuler,
+    projection: Option<ShellVolumeProjection>,
+    x: Vec<f64>,
+    v: Vec<f64>,
+    x_prev: Vec<f64>,
+    vertex_inv_mass: Vec<f64>,
+    element_inv_mass: Vec<f64>,
+    rest_shell_volume: f64,
+    rest_gas_volume: f64,
+    rest_positions: Vec<f64>,
+    time: f64,
+    step: usize,
+    dt: f64,
+}
+
+/// Gas volume growth beyond this factor of the rest volume is reported as a runaway.
+const RUNAWAY_VOLUME_FACTOR: f64 = 1.0e4;
+
+impl<M: Material, G: GasModel> ShellSimulation<M, G> {
+    /// Advances one time step (Algorithm 1, lines 5-12). On error the state is rolled back to the
+    /// start of the step, so what was written before stays consistent.
+    pub fn step(&mut self) -> Result<ShellStepStats, ShellError> {
+        let start = std::time::Instant::now();
+        let (step, time, dt) = (self.step, self.time, self.dt);
+        let v_old = self.v.clone();
+        self.x_prev.copy_from_slice(&self.x);
+        let thickness_old = self.system.thickness.clone();
+        let volume_old = self.system.gas.state().volume;
+        let result = self.step_inner(step, time, dt);
+        let info = match result {
+            Ok(info) => info,
+            Err(e) => {
+                self.x.copy_from_slice(&self.x_prev);
+                self.v = v_old;
+                self.system.thickness = thickness_old;
+                return Err(e);
+            }
+        };
+        self.time += dt;
+        self.step += 1;
+        let (newton, proj_iters) = info;
+        let gas = self.system.gas.state();
+        let max_speed = self
+            .v
+            .chunks_exact(3)
+            .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
+            .fold(0.0, f64::max);
+        let th = &self.system.thickness;
+        let (tmin, tmax) = th
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &h| (a.min(h), b.max(h)));
+        let volume_now =
+            balloon_gas::enclosed_volume(&self.x, &self.system.triangles).unwrap_or(f64::NAN);
+        Ok(ShellStepStats {
+            step,
+            time: self.time,
+            gas_volume: volume_now,
+            gauge_pressure: gas.gauge_pressure,
+            shell_volume_ratio: self.shell_volume() / self.rest_shell_volume,
+            newton_iterations: newton.newton_iterations,
+            linear_iterations: newton.total_linear_iterations(),
+            newton_residual: newton.newton_residuals.last().copied().unwrap_or(0.0),
+            projection_iterations: proj_iters,
+            max_speed,
+            volume_change: if volume_old > 0.0 {
+                (volume_now - volume_old).abs() / volume_old
+            } else {
+                0.0
+            },
+            thickness_mean: th.iter().sum::<f64>() / th.len() as f64,
+            thickness_min: tmin,
+            thickness_max: tmax,
+            step_ms: start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    fn step_inner(
+        &mut self,
+        step: usize,
+        time: f64,
+        dt: f64,
+    ) -> Result<(balloon_integrate::implicit::StepInfo, usize), ShellError> {
+        let info = self
+            .integrator
+            .step(&mut self.system, time, dt, &mut self.x, &mut self.v, None)
+            .map_err(|source| ShellError::Integrate { step, time, source })?;
+        let mut proj_iters = 0;
+        if let Some(proj) = &mut self.projection {
+            let pi = proj
+                .project(
+                    &self.system.triangles,
+                    &mut self.x,
+                    &mut self.system.thickness,
+                    &self.vertex_inv_mass,
+                    &self.element_inv_mass,
+                    self.rest_shell_volume,
+                )
+                .map_err(|source| ShellError::Projection { step, source })?;
+            proj_iters = pi.iterations;
+        }
+        // Algorithm 1, lines 11-12.
+        for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x_prev) {
+            *v = (x - x0) / dt;
+        }
+        self.check_state(step, time)?;
+        Ok((info, proj_iters))
+    }
+
+    fn check_state(&self, step: usize, time: f64) -> Result<(), ShellError> {
+        if let Some(i) = self.x.iter().position(|v| !v.is_finite()) {
+            return Err(ShellError::Diverged {
+                step,
+                time,
+                quantity: format!("position of vertex {}", i / 3),
+                detail: "became NaN or infinite; reduce --dt".into(),
+            });
+        }
+        if let Some((e, h)) = self
+            .system
+            .thickness
+            .iter()
+            .enumerate()
+            .find(|(_, h)| !(h.is_finite() && **h > 0.0))
+        {
+            return Err(ShellError::Diverged {
+                step,
+                time,
+                quantity: format!("thickness of element {e}"),
+                detail: format!(
+                    "{h:e} m is not positive; the element inverted or degenerated; reduce --dt or the pressure"
+                ),
+            });
+        }
+        let vol = balloon_gas::enclosed_volume(&self.x, &self.system.triangles).unwrap_or(f64::NAN);
+        if !(vol.is_finite() && vol > 0.0 && vol < RUNAWAY_VOLUME_FACTOR * self.rest_gas_volume) {
+            return Err(ShellError::Diverged {
+                step,
+                time,
+                quantity: "gas volume".into(),
+                detail: format!(
+                    "{vol:e} m^3 vs rest {:e} m^3 (runaway above {RUNAWAY_VOLUME_FACTOR}x): the pressure exceeds what the shell can hold (e.g. above the neo-Hookean limit point) or the run is unstable",
+                    self.rest_gas_volume
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// Current positions, flat `[x0, y0, z0, ...]`, m.
+    pub fn positions(&self) -> &[f64] {
+        &self.x
+    }
+    /// Rest positions, flat, m.
+    pub fn rest_positions(&self) -> &[f64] {
+        &self.rest_positions
+    }
+    /// Current velocities, flat, m/s.
+    pub fn velocities(&self) -> &[f64] {
+        &self.v
+    }
+    /// Current thickness per element, m.
+    pub fn thickness(&self) -> &[f64] {
+        &self.system.thickness
+    }
+    /// Triangles.
+    pub fn triangles(&self) -> &[[usize; 3]] {
+        &self.system.triangles
+    }
+    /// The current surface as a mesh.
+    pub fn mesh(&self) -> TriMesh {
+        TriMesh::new(
+            self.x
+                .chunks_exact(3)
+                .map(|c| Point3::new(c[0], c[1], c[2]))
+                .collect(),
+            self.system.triangles.clone(),
+        )
+    }
+    /// Simulation time, s.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+    /// Steps taken.
+    pub fn steps_taken(&self) -> usize {
+        self.step
+    }
+    /// Time step, s.
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+    /// Enclosed gas volume at the rest shape, m^3.
+    pub fn rest_gas_volume(&self) -> f64 {
+        self.rest_gas_volume
+    }
+    /// Current enclosed gas volume, m^3.
+    pub fn gas_volume(&self) -> f64 {
+        balloon_gas::enclosed_volume(&self.x, &self.system.triangles).unwrap_or(f64::NAN)
+    }
+    /// Gauge pressure at the last force evaluation, Pa.
+    pub fn gauge_pressure(&self) -> f64 {
+        self.system.gas.state().gauge_pressure
+    }
+    /// The gas state at the last force evaluation.
+    pub fn gas_state(&self) -> balloon_gas::GasState {
+        self.system.gas.state()
+    }
+    /// Current shell material volume `sum_e A_e h_e` (Eq. 26), m^3.
+    pub fn shell_volume(&self) -> f64 {
+        shell_volume(&self.system.triangles, &self.x, &self.system.thickness)
+    }
+    /// Rest shell material volume, m^3.
+    pub fn rest_shell_volume(&self) -> f64 {
+        self.rest_shell_volume
+    }
+    /// The force system (for diagnostics: energies, forces).
+    pub fn system(&self) -> &ShellSystem<M, G> {
+        &self.system
+    }
+    /// Mutable access to the integrator parameters (e.g. to change the linear solver mid-run).
+    pub fn integrator_params_mut(&mut self) -> &mut BackwardEulerParams {
+        &mut self.integrator.params
+    }
+    /// Vertex lumped masses per degree of freedom, kg.
+    pub fn masses(&self) -> &[f64] {
+        self.system.masses()
+    }
+}

@@ -1,0 +1,233 @@
+//! The shell balloon as a [`ForceSystem`]: three-prism elastic forces (seed 000, Eq. 8, 11) plus
+//! the uniform gas (Eq. 15-17), seen by the implicit integrator.
+
+use balloon_element::ThreePrism;
+use balloon_gas::{GasModel, PressureLoad};
+use balloon_integrate::{ForceSystem, LowRankTerm, SystemError};
+use balloon_material::Material;
+use nalgebra::{SMatrix, Vector3};
+use rayon::prelude::*;
+
+/// Below this many elements the per-element loops run serially (thread start-up would dominate).
+const PARALLEL_THRESHOLD: usize = 2048;
+
+/// One element's inputs (element, triangle, thickness) and outputs (forces, stiffness block).
+type ElementWork<'a> = (
+    ((&'a ThreePrism, &'a [usize; 3]), &'a f64),
+    (&'a mut [Vector3<f64>; 3], &'a mut SMatrix<f64, 9, 9>),
+);
+
+/// Elastic shell + gas, with per-element force and stiffness caches filled at each linearisation.
+#[derive(Debug)]
+pub struct ShellSystem<M: Material, G: GasModel> {
+    pub(crate) triangles: Vec<[usize; 3]>,
+    pub(crate) elements: Vec<ThreePrism>,
+    /// Current thickness per element, m (changed by the volume projection).
+    pub(crate) thickness: Vec<f64>,
+    pub(crate) material: M,
+    pub(crate) gas: PressureLoad<G>,
+    masses: Vec<f64>,
+    /// Vertex -> incident (element, local corner) pairs, CSR layout.
+    incident_offsets: Vec<usize>,
+    incident: Vec<(u32, u8)>,
+    elem_forces: Vec<[Vector3<f64>; 3]>,
+    elem_stiffness: Vec<SMatrix<f64, 9, 9>>,
+    /// Positions of the last linearisation (the gas differential needs them).
+    x_lin: Vec<f64>,
+}
+
+impl<M: Material, G: GasModel> ShellSystem<M, G> {
+    /// Builds the system. `masses` is per vertex (kg); it is expanded to degrees of freedom.
+    pub(crate) fn new(
+        num_vertices: usize,
+        triangles: Vec<[usize; 3]>,
+        elements: Vec<ThreePrism>,
+        thickness: Vec<f64>,
+        material: M,
+        gas: PressureLoad<G>,
+        vertex_masses: &[f64],
+    ) -> Self {
+        let mut counts = vec![0usize; num_vertices + 1];
+        for t in &triangles {
+            for &v in t {
+                counts[v + 1] += 1;
+            }
+        }
+        for i in 0..num_vertices {
+            counts[i + 1] += counts[i];
+        }
+        let mut fill = counts.clone();
+        let mut incident = vec![(0u32, 0u8); counts[num_vertices]];
+        for (e, t) in triangles.iter().enumerate() {
+            for (l, &v) in t.iter().enumerate() {
+                incident[fill[v]] = (e as u32, l as u8);
+                fill[v] += 1;
+            }
+        }
+        let masses = vertex_masses.iter().flat_map(|&m| [m; 3]).collect();
+        let ne = elements.len();
+        Self {
+            triangles,
+            elements,
+            thickness,
+            material,
+            gas,
+            masses,
+            incident_offsets: counts,
+            incident,
+            elem_forces: vec![[Vector3::zeros(); 3]; ne],
+            elem_stiffness: vec![SMatrix::zeros(); ne],
+            x_lin: Vec::new(),
+        }
+    }
+
+    fn corner_positions(x: &[f64], t: &[usize; 3]) -> [Vector3<f64>; 3] {
+        t.map(|v| Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]))
+    }
+
+    /// Total elastic energy at positions `x` (J), for diagnostics and tests.
+    pub fn elastic_energy(&self, x: &[f64]) -> f64 {
+        self.elements
+            .iter()
+            .zip(&self.triangles)
+            .zip(&self.thickness)
+            .map(|((el, t), &h)| el.energy(&self.material, &Self::corner_positions(x, t), h))
+            .sum()
+    }
+
+    /// Gathers per-element corner values into per-vertex sums: `out[3v..3v+3] = sum value(e, l)`.
+    fn gather(&self, out: &mut [f64], value: impl Fn(usize, usize) -> Vector3<f64> + Sync) {
+        let body = |(v, o): (usize, &mut [f64])| {
+            let mut acc = Vector3::zeros();
+            for &(e, l) in &self.incident[self.incident_offsets[v]..self.incident_offsets[v + 1]] {
+                acc += value(e as usize, l as usize);
+            }
+            o[0] += acc.x;
+            o[1] += acc.y;
+            o[2] += acc.z;
+        };
+        if self.elements.len() >= PARALLEL_THRESHOLD {
+            out.par_chunks_mut(3).enumerate().for_each(body);
+        } else {
+            out.chunks_mut(3).enumerate().for_each(body);
+        }
+    }
+
+    /// Elastic part of the force differential, `df += -K_elastic dx`.
+    fn add_elastic_differential(&self, dx: &[f64], df: &mut [f64]) {
+        let tris = &self.triangles;
+        let ks = &self.elem_stiffness;
+        self.gather(df, |e, l| {
+            let t = &tris[e];
+            let mut dxe = SMatrix::<f64, 9, 1>::zeros();
+            for (c, &v) in t.iter().enumerate() {
+                dxe[3 * c] = dx[3 * v];
+                dxe[3 * c + 1] = dx[3 * v + 1];
+                dxe[3 * c + 2] = dx[3 * v + 2];
+            }
+            -(ks[e].fixed_view::<3, 9>(3 * l, 0) * dxe)
+        });
+    }
+}
+
+impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
+    fn num_dofs(&self) -> usize {
+        self.masses.len()
+    }
+
+    fn masses(&self) -> &[f64] {
+        &self.masses
+    }
+
+    fn forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+        let material = &self.material;
+        let triangles = &self.triangles;
+        let work = |(((el, t), &h), (fe, ke)): ElementWork<'_>| {
+            let xs = Self::corner_positions(x, t);
+            let (forces, stiffness) = el.forces_and_stiffness(material, &xs, h);
+            *fe = forces;
+            *ke = stiffness;
+        };
+        let it = self
+            .elements
+            .iter()
+            .zip(triangles.iter())
+            .zip(self.thickness.iter());
+        if self.elements.len() >= PARALLEL_THRESHOLD {
+            self.elements
+                .par_iter()
+                .zip(triangles.par_iter())
+                .zip(self.thickness.par_iter())
+                .zip(
+                    self.elem_forces
+                        .par_iter_mut()
+                        .zip(self.elem_stiffness.par_iter_mut()),
+                )
+                .for_each(work);
+        } else {
+            it.zip(
+                self.elem_forces
+                    .iter_mut()
+                    .zip(self.elem_stiffness.iter_mut()),
+            )
+            .for_each(work);
+        }
+        if let Some(e) = self
+            .elem_forces
+            .iter()
+            .position(|fe| fe.iter().any(|c| !c.iter().all(|v| v.is_finite())))
+        {
+            let xs = Self::corner_positions(x, &self.triangles[e]);
+            let detail = match self.elements[e].check_state(&xs, self.thickness[e]) {
+                Err(err) => err.to_string(),
+                Ok(()) => format!(
+                    "non-finite elastic force (thickness {:.3e} m)",
+                    self.thickness[e]
+                ),
+            };
+            return Err(SystemError::InvertedElement { element: e, detail });
+        }
+        f.iter_mut().for_each(|v| *v = 0.0);
+        let forces = &self.elem_forces;
+        self.gather(f, |e, l| forces[e][l]);
+        self.gas
+            .evaluate(time, x, &self.triangles, f)
+            .map_err(|e| SystemError::Other(format!("gas: {e}")))?;
+        self.x_lin.clear();
+        self.x_lin.extend_from_slice(x);
+        Ok(())
+    }
+
+    fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+        self.add_elastic_differential(dx, df);
+        // Lengths were checked at evaluation; the gas differential cannot fail here.
+        let _ = self
+            .gas
+            .add_differential(&self.x_lin, &self.triangles, dx, df);
+    }
+
+    fn add_stiffness_triplets(
+        &self,
+        triplets: &mut Vec<(usize, usize, f64)>,
+    ) -> Result<(), SystemError> {
+        triplets.reserve(81 * self.elements.len());
+        for (t, k) in self.triangles.iter().zip(&self.elem_stiffness) {
+            for a in 0..3 {
+                for b in 0..3 {
+                    for i in 0..3 {
+                        for j in 0..3 {
+                            triplets.push((3 * t[a] + i, 3 * t[b] + j, k[(3 * a + i, 3 * b + j)]));
+                        }
+                    }
+                }
+            }
+        }
+        self.gas
+            .add_follower_triplets(&self.x_lin, &self.triangles, triplets)
+            .map_err(|e| SystemError::Other(format!("gas: {e}")))
+    }
+
+    fn low_rank_terms(&self) -> &[LowRankTerm] {
+        std::slice::from_ref(self.gas.low_rank_term())
+    }
+}
