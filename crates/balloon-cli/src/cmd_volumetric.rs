@@ -1,7 +1,7 @@
 //! `balloon volumetric [MESH|builtin]`: a volume-conserving impulse-based body generated from a
 //! triangle soup (seed 003, Diziol, Bender and Bayer), optionally in the Fig. 4 drop-sphere scene.
 //!
-//! Output folder (`--out DIR`): `lattice.vtk` (the rest tetrahedral lattice with per-cell rest
+//! Output folder (`--out DIR`): `input_soup.obj` (the soup as read and scaled), `lattice.vtk` (the rest tetrahedral lattice with per-cell rest
 //! volumes and per-particle masses, for ParaView), `frame_NNNNN.obj` (the embedded soup, deformed
 //! with the lattice, every `--frame-every` steps), `lattice_NNNNN.vtk` with `--lattice-frames`,
 //! `stats.jsonl` (one line per step, flushed) and `summary.json`. `--json` prints the summary as
@@ -38,52 +38,29 @@ pub struct VolumetricArgs {
     /// Scale factor applied to the mesh coordinates (to metres).
     #[arg(long, default_value_t = 1.0)]
     pub scale: f64,
-    /// Voxels along the longest side of the bounding box.
-    #[arg(long, default_value_t = 24)]
-    pub resolution: usize,
-    /// Voxels along one side of a lattice cell.
-    #[arg(long, default_value_t = 3)]
-    pub voxels_per_cell: usize,
-    /// Ray directions in the inside/outside vote (6 axes, 14 with body diagonals, 26 all).
-    #[arg(long, default_value_t = 14)]
-    pub rays: usize,
-    /// Distance band in voxels (P = 1 - |d| / band).
-    #[arg(long, default_value_t = 4.0)]
-    pub band_voxels: f64,
-    /// P_in: a ray enters/leaves where P > P_in and dP/dv > 0.
-    #[arg(long, default_value_t = 0.8)]
-    pub p_in: f64,
-    /// P_subs: the next change needs P < P_subs with dP/dv < 0 first.
-    #[arg(long, default_value_t = 0.6)]
-    pub p_subs: f64,
-    /// Pseudo-density threshold m(V)/M(V) for keeping a cell.
-    #[arg(long, default_value_t = 0.5)]
-    pub density_threshold: f64,
-    /// Hole-filling rounds.
-    #[arg(long, default_value_t = 2)]
-    pub fill_iterations: usize,
-    /// Axis-aligned second-order Laplacian smoothing iterations.
-    #[arg(long, default_value_t = 2)]
-    pub smoothing_iterations: usize,
-    /// Weight of one smoothing iteration (0, 0.5].
-    #[arg(long, default_value_t = 0.25)]
-    pub smoothing_weight: f64,
+    /// Lattice generator flags (boxed to keep the subcommand enum small).
+    #[command(flatten)]
+    pub lattice: Box<LatticeArgs>,
     /// Scene.
     #[arg(long, value_enum, default_value_t = SceneArg::DropSphere)]
     pub scene: SceneArg,
-    /// Soft diagonal springs (diagonal stiffness = edge stiffness / 100 unless given).
+    /// Soft diagonal springs (diagonal stiffness = edge stiffness / 20 and diagonal damping =
+    /// edge damping / 2, unless given).
     #[arg(long)]
     pub soft_diagonals: bool,
     /// Edge spring stiffness (N/m); default: m / (50 dt^2) with m the particle mass, which keeps
     /// the explicit spring update stable.
     #[arg(long)]
     pub edge_stiffness: Option<f64>,
-    /// Diagonal spring stiffness (N/m); default: the edge stiffness (/100 with --soft-diagonals).
+    /// Diagonal spring stiffness (N/m); default: the edge stiffness (/20 with --soft-diagonals).
     #[arg(long)]
     pub diagonal_stiffness: Option<f64>,
-    /// Spring damping (N s/m), edges and diagonals; default: m / (1000 dt).
+    /// Edge spring damping (N s/m); default: m / (1000 dt).
     #[arg(long)]
     pub damping: Option<f64>,
+    /// Diagonal spring damping (N s/m); default: the edge damping (/2 with --soft-diagonals).
+    #[arg(long)]
+    pub diagonal_damping: Option<f64>,
     /// Mass density (kg/m^3).
     #[arg(long, default_value_t = 100.0)]
     pub density: f64,
@@ -120,6 +97,41 @@ pub struct VolumetricArgs {
     /// Print the summary as one JSON line (the last stdout line).
     #[arg(long)]
     pub json: bool,
+}
+
+/// Flags of the soup -> lattice generator (seed 003, Sec. 3).
+#[derive(Debug, clap::Args)]
+pub struct LatticeArgs {
+    /// Voxels along the longest side of the bounding box.
+    #[arg(long, default_value_t = 24)]
+    pub resolution: usize,
+    /// Voxels along one side of a lattice cell.
+    #[arg(long, default_value_t = 3)]
+    pub voxels_per_cell: usize,
+    /// Ray directions in the inside/outside vote (6 axes, 14 with body diagonals, 26 all).
+    #[arg(long, default_value_t = 14)]
+    pub rays: usize,
+    /// Distance band in voxels (P = 1 - |d| / band).
+    #[arg(long, default_value_t = 4.0)]
+    pub band_voxels: f64,
+    /// P_in: a ray enters/leaves where P > P_in and dP/dv > 0.
+    #[arg(long, default_value_t = 0.8)]
+    pub p_in: f64,
+    /// P_subs: the next change needs P < P_subs with dP/dv < 0 first.
+    #[arg(long, default_value_t = 0.6)]
+    pub p_subs: f64,
+    /// Pseudo-density threshold m(V)/M(V) for keeping a cell.
+    #[arg(long, default_value_t = 0.5)]
+    pub density_threshold: f64,
+    /// Hole-filling rounds.
+    #[arg(long, default_value_t = 2)]
+    pub fill_iterations: usize,
+    /// Axis-aligned second-order Laplacian smoothing iterations.
+    #[arg(long, default_value_t = 2)]
+    pub smoothing_iterations: usize,
+    /// Weight of one smoothing iteration (0, 0.5].
+    #[arg(long, default_value_t = 0.25)]
+    pub smoothing_weight: f64,
 }
 
 /// The run summary (`summary.json` and the `--json` line).
@@ -171,16 +183,16 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
     soup.scale(args.scale);
     let params = VolumetricParams {
         lattice: LatticeParams {
-            resolution: args.resolution,
-            voxels_per_cell: args.voxels_per_cell,
-            rays: args.rays,
-            band_voxels: args.band_voxels,
-            p_in: args.p_in,
-            p_subs: args.p_subs,
-            density_threshold: args.density_threshold,
-            fill_iterations: args.fill_iterations,
-            smoothing_iterations: args.smoothing_iterations,
-            smoothing_weight: args.smoothing_weight,
+            resolution: args.lattice.resolution,
+            voxels_per_cell: args.lattice.voxels_per_cell,
+            rays: args.lattice.rays,
+            band_voxels: args.lattice.band_voxels,
+            p_in: args.lattice.p_in,
+            p_subs: args.lattice.p_subs,
+            density_threshold: args.lattice.density_threshold,
+            fill_iterations: args.lattice.fill_iterations,
+            smoothing_iterations: args.lattice.smoothing_iterations,
+            smoothing_weight: args.lattice.smoothing_weight,
         },
         volume: CellVolumeParams {
             tolerance: args.tolerance,
@@ -211,17 +223,22 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
         .edge_stiffness
         .unwrap_or(m_particle / (50.0 * args.dt * args.dt));
     let diagonal = args.diagonal_stiffness.unwrap_or(if args.soft_diagonals {
-        edge / 100.0
+        edge / 20.0
     } else {
         edge
     });
     let damping = args.damping.unwrap_or(m_particle / (1000.0 * args.dt));
+    let diagonal_damping = args.diagonal_damping.unwrap_or(if args.soft_diagonals {
+        damping / 2.0
+    } else {
+        damping
+    });
     let body = body
         .with_springs(SpringParams {
             edge_stiffness: edge,
             edge_damping: damping,
             diagonal_stiffness: diagonal,
-            diagonal_damping: damping,
+            diagonal_damping,
         })
         .context("invalid spring parameters")?;
     let scene = match args.scene {
@@ -256,6 +273,7 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
             &[("tet_volume", &cell_volume), ("cell", &cell_of_tet)],
             &[("mass", &masses)],
         )?;
+        out.write_named_mesh("input_soup", &soup)?;
         out.write_frame(0, &sim.embedded_surface())?;
     }
     let total_mass: f64 = sim.masses().iter().sum::<f64>() + sim.sphere().map_or(0.0, |s| s.mass);
