@@ -59,10 +59,9 @@ pub struct LatticeParams {
     /// Width of the distance band in voxels (>= 1.5): `c = 1 / (band_voxels * voxel_size)` in
     /// `P = 1 - c |d|`. Default 4.
     pub band_voxels: f64,
-    /// `P_in` in (0, 1): a ray changes inside/outside where `P > P_in` and `dP/dv > 0`.
-    /// Must exceed `1 - 0.5 / band_voxels` is *not* required, but a surface passing between two
-    /// voxel centres reaches only `P = 1 - 0.5 / band_voxels`, so keep `P_in` below that.
-    /// Default 0.8.
+    /// `P_in` in (0, 1): a ray changes inside/outside where `P > P_in` and `dP/dv > 0`. A
+    /// surface passing midway between two voxel centres only reaches `P = 1 - 0.5 / band_voxels`
+    /// at the nearer centre, so keep `P_in` below that (0.875 for the default band). Default 0.8.
     pub p_in: f64,
     /// `P_subs` in (0, `p_in`]: a subsequent change is only reported after `P < P_subs` with
     /// `dP/dv < 0`. Smaller values merge close surfaces (thin parts). Default 0.6.
