@@ -188,12 +188,16 @@ pub fn polygon_vertex_normals_into(
 /// Keeps the inner layer inside the outer one (seed Sec. 4.6.2): for each pair `j` in
 /// `0..count`, inner particle `inner_offset + j` is tested against the tangent plane of the outer
 /// layer at outer particle `outer_offset + j` with unit outward normal `outer_normals[j]`. An
-/// escaped inner particle is projected onto the plane and its relative normal velocity
-/// `(v_in - v_out) . n`, if outward, is replaced by `-restitution` times itself.
-/// Returns how many inner particles were corrected.
+/// escaped inner particle is projected onto the plane. If the pair still separates along `n`
+/// (relative normal velocity `v_r = (v_in - v_out) . n > 0`), an impulse
+/// `J = (1 + e) v_r / (1/m_in + 1/m_out)` along `n` is exchanged between the two particles
+/// (masses from `masses`, global indices): the relative normal velocity becomes `-e v_r`,
+/// momentum is conserved and kinetic energy never grows for `e <= 1` (a wall that moves must
+/// not pump energy into the inner layer). Returns how many inner particles were corrected.
 pub fn contain_inner_layer(
     positions: &mut [f64],
     velocities: &mut [f64],
+    masses: &[f64],
     inner_offset: usize,
     outer_offset: usize,
     count: usize,
@@ -213,14 +217,16 @@ pub fn contain_inner_layer(
         }
         corrected += 1;
         let vr = (point(velocities, ii) - point(velocities, oo)).dot(&n);
-        let dv = if vr > 0.0 {
-            -(1.0 + restitution) * vr
+        let (wi, wo) = (1.0 / masses[ii], 1.0 / masses[oo]);
+        let impulse = if vr > 0.0 {
+            (1.0 + restitution) * vr / (wi + wo)
         } else {
             0.0
         };
         for d in 0..3 {
             positions[3 * ii + d] -= s * n[d];
-            velocities[3 * ii + d] += dv * n[d];
+            velocities[3 * ii + d] -= impulse * wi * n[d];
+            velocities[3 * oo + d] += impulse * wo * n[d];
         }
     }
     corrected
@@ -375,15 +381,35 @@ mod tests {
             })
             .count();
         assert_eq!(before_inside, n - 1);
-        let fixed = contain_inner_layer(&mut x, &mut v, 0, n, n, &normals, 0.5);
+        // Inner particles weigh 1 kg, outer ones 3 kg.
+        let masses: Vec<f64> = (0..2 * n).map(|i| if i < n { 1.0 } else { 3.0 }).collect();
+        let momentum =
+            |v: &[f64]| -> Vector3<f64> { (0..2 * n).map(|i| point(v, i) * masses[i]).sum() };
+        let kinetic = |v: &[f64]| -> f64 {
+            (0..2 * n)
+                .map(|i| 0.5 * masses[i] * point(v, i).norm_squared())
+                .sum()
+        };
+        let (p0, k0) = (momentum(&v), kinetic(&v));
+        let fixed = contain_inner_layer(&mut x, &mut v, &masses, 0, n, n, &normals, 0.5);
         assert_eq!(fixed, 1);
         // Now on the tangent plane of its partner: at radius 1 along the radial direction.
         assert_relative_eq!(point(&x, 0).norm(), 1.0, epsilon = 1e-12);
-        // Relative normal velocity 1.5 outward becomes 0.75 inward: v = 0.5 - 0.75 = -0.25.
-        assert_relative_eq!(point(&v, 0).dot(&dir), -0.25, epsilon = 1e-12);
+        // Relative normal velocity 1.5 outward becomes 0.75 inward; the impulse
+        // J = 1.5 * 1.5 / (1 + 1/3) = 1.6875 N s changes v_in by -J and v_out by +J/3.
+        assert_relative_eq!(point(&v, 0).dot(&dir), 2.0 - 1.6875, epsilon = 1e-12);
+        assert_relative_eq!(point(&v, n).dot(&dir), 0.5 + 1.6875 / 3.0, epsilon = 1e-12);
+        assert_relative_eq!(
+            (point(&v, 0) - point(&v, n)).dot(&dir),
+            -0.75,
+            epsilon = 1e-12
+        );
+        // A collision between the layers conserves momentum and does not create energy.
+        assert!((momentum(&v) - p0).norm() < 1e-12);
+        assert!(kinetic(&v) < k0);
         // The other inner particles were inside and are untouched.
         assert_eq!(
-            contain_inner_layer(&mut x, &mut v, 0, n, n, &normals, 0.5),
+            contain_inner_layer(&mut x, &mut v, &masses, 0, n, n, &normals, 0.5),
             0
         );
     }

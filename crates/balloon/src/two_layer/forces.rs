@@ -55,11 +55,22 @@ impl EnergyBreakdown {
 pub struct TwoLayerForces {
     model: TwoLayerModel,
     params: [SpringParams; 4],
+    /// Per spring: `(a, b, rest length, stiffness, damping)`, flattened for the hot loop.
+    terms: Vec<SpringTerm>,
     gravity: f64,
     valence_factor: Option<Vec<f64>>,
     drag: Option<(DragTarget, usize)>,
     force: Vec<f64>,
     spring_force: Vec<f64>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct SpringTerm {
+    a: usize,
+    b: usize,
+    rest: f64,
+    stiffness: f64,
+    damping: f64,
 }
 
 fn vec3(x: &[f64], i: usize) -> Vector3<f64> {
@@ -95,9 +106,24 @@ impl TwoLayerForces {
             f
         });
         let dof = 3 * model.num_particles();
+        let terms = model
+            .springs
+            .iter()
+            .map(|s| {
+                let p = body.springs[s.kind as usize];
+                SpringTerm {
+                    a: 3 * s.a,
+                    b: 3 * s.b,
+                    rest: s.rest_length,
+                    stiffness: p.stiffness,
+                    damping: p.damping,
+                }
+            })
+            .collect();
         Self {
             model,
             params: body.springs,
+            terms,
             gravity: body.gravity,
             valence_factor,
             drag: None,
@@ -174,18 +200,25 @@ impl TwoLayerForces {
         } else {
             f
         };
-        for s in &m.springs {
-            let p = &self.params[s.kind as usize];
-            let d = vec3(x, s.b) - vec3(x, s.a);
-            let len = d.norm();
-            if len <= 0.0 {
+        for s in &self.terms {
+            let (xa, xb) = (&x[s.a..s.a + 3], &x[s.b..s.b + 3]);
+            let (va, vb) = (&v[s.a..s.a + 3], &v[s.b..s.b + 3]);
+            let d = [xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]];
+            let len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            if len2 <= 0.0 {
                 continue;
             }
-            let dir = d / len;
-            let rel_v = (vec3(v, s.b) - vec3(v, s.a)).dot(&dir);
-            let fs = dir * (p.stiffness * (len - s.rest_length) + p.damping * rel_v);
-            add3(sf, s.a, fs);
-            add3(sf, s.b, -fs);
+            let len = len2.sqrt();
+            let inv = 1.0 / len;
+            // Relative speed along the spring times its length: (v_b - v_a) . d.
+            let rel = (vb[0] - va[0]) * d[0] + (vb[1] - va[1]) * d[1] + (vb[2] - va[2]) * d[2];
+            // f = [k (l - L) + c (v_b - v_a) . d/l] d/l, pulling a toward b when stretched.
+            let mag = (s.stiffness * (len - s.rest) + s.damping * rel * inv) * inv;
+            for k in 0..3 {
+                let fk = mag * d[k];
+                sf[s.a + k] += fk;
+                sf[s.b + k] -= fk;
+            }
         }
         if let Some(w) = &self.valence_factor {
             for (i, wi) in w.iter().enumerate() {
@@ -249,10 +282,11 @@ impl TwoLayerForces {
             e.kinetic += 0.5 * mass * vec3(v, i).norm_squared();
             e.gravity += mass * self.gravity * x[3 * i + m.dimension.up_axis()];
         }
-        for s in &m.springs {
-            let k = self.params[s.kind as usize].stiffness;
-            let l = (vec3(x, s.b) - vec3(x, s.a)).norm();
-            e.spring += 0.5 * k * (l - s.rest_length).powi(2);
+        for s in &self.terms {
+            let (xa, xb) = (&x[s.a..s.a + 3], &x[s.b..s.b + 3]);
+            let l = ((xb[0] - xa[0]).powi(2) + (xb[1] - xa[1]).powi(2) + (xb[2] - xa[2]).powi(2))
+                .sqrt();
+            e.spring += 0.5 * s.stiffness * (l - s.rest).powi(2);
         }
         if m.has_layers() {
             if m.gas_outer > 0.0 {
@@ -269,15 +303,17 @@ impl TwoLayerForces {
         e
     }
 
-    /// A scale of the body's energies (J) for the blow-up bound: the largest of the spring
-    /// energy at 100% strain `sum 1/2 k L^2`, the gravitational energy of a fall by the body's
-    /// size `M g R`, and the gas constants `sum (nRT)_k`.
+    /// A scale of the body's energies (J) for the blow-up bound: the largest of the
+    /// gravitational energy of a fall by the body's size `M |g| R`, the gas constants
+    /// `sum (nRT)_k` (the gas energy released by doubling the volumes is `ln 2` times that),
+    /// and 1% of the spring energy at 100% strain `sum 1/2 k L^2` (what is left when there is
+    /// neither gravity nor gas).
     pub fn energy_scale(&self) -> f64 {
         let m = &self.model;
-        let springs: f64 = m
-            .springs
+        let springs: f64 = self
+            .terms
             .iter()
-            .map(|s| 0.5 * self.params[s.kind as usize].stiffness * s.rest_length.powi(2))
+            .map(|s| 0.5 * s.stiffness * s.rest * s.rest)
             .sum();
         let size = {
             let n = m.num_particles() as f64;
@@ -290,7 +326,7 @@ impl TwoLayerForces {
                 .fold(0.0, f64::max)
         };
         let total_mass: f64 = m.masses.iter().sum();
-        springs
+        (0.01 * springs)
             .max(total_mass * self.gravity.abs() * size)
             .max(m.gas_outer + m.gas_inner)
             .max(1e-12)

@@ -212,17 +212,18 @@ impl TwoLayerSimulation {
         let x = self.positions();
         let m = self.model();
         let up = m.dimension.up_axis();
-        let (p_out, p_in) = self.forces.pressures(x);
+        let (volume_outer, volume_inner) = (m.layer_volume(x, true), m.layer_volume(x, false));
+        let pressure = |gas: f64, v: f64| if gas == 0.0 { 0.0 } else { gas / v };
         TwoLayerStats {
             step: self.steps,
             time: self.time,
             kinetic: e.kinetic,
             potential: e.potential(),
             total: e.total(),
-            volume_outer: m.layer_volume(x, true),
-            volume_inner: m.layer_volume(x, false),
-            pressure_outer: p_out,
-            pressure_inner: p_in,
+            volume_outer,
+            volume_inner,
+            pressure_outer: pressure(m.gas_outer, volume_outer),
+            pressure_inner: pressure(m.gas_inner, volume_inner),
             min_height: x
                 .iter()
                 .skip(up)
@@ -280,7 +281,7 @@ impl TwoLayerSimulation {
                 _ => polygon_vertex_normals_into(x, n, n, &mut self.normals),
             }
             self.last_contained =
-                contain_inner_layer(x, v, 0, n, n, &self.normals, self.restitution);
+                contain_inner_layer(x, v, &m.masses, 0, n, n, &self.normals, self.restitution);
         }
         let stats = self.stats();
         let m = self.forces.model();
