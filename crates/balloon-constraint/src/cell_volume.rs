@@ -261,6 +261,19 @@ impl CellVolumeConstraints {
         masses: &[f64],
         h: f64,
     ) -> Result<ProjectionInfo, CellVolumeError> {
+        self.project_to_tolerance(preview, velocities, masses, h, self.params.tolerance)
+    }
+
+    /// [`CellVolumeConstraints::project`] with another relative tolerance (e.g. a loose one for
+    /// the intermediate rounds of a contact loop).
+    pub fn project_to_tolerance(
+        &self,
+        preview: &mut [Point3<f64>],
+        velocities: &mut [Vector3<f64>],
+        masses: &[f64],
+        h: f64,
+        tolerance: f64,
+    ) -> Result<ProjectionInfo, CellVolumeError> {
         if let Some(e) = self.find_inverted(preview) {
             return Err(e);
         }
@@ -270,7 +283,7 @@ impl CellVolumeConstraints {
             initial_error,
             final_error: initial_error,
         };
-        if initial_error <= self.params.tolerance {
+        if initial_error <= tolerance {
             return Ok(info);
         }
         for sweep in 1..=self.params.max_sweeps {
@@ -301,7 +314,7 @@ impl CellVolumeConstraints {
             let (err, cell) = self.max_relative_error(preview);
             info.sweeps = sweep;
             info.final_error = err;
-            if err <= self.params.tolerance {
+            if err <= tolerance {
                 return Ok(info);
             }
             if sweep == self.params.max_sweeps {

@@ -607,7 +607,8 @@ impl VolumetricSimulation {
         // 2. Contacts and volume impulses on the preview.
         let e = params.restitution;
         let mut preview = self.positions.clone();
-        for _ in 0..params.contact_iterations {
+        let tight = params.volume.tolerance;
+        for round in 0..params.contact_iterations {
             let mut contacts = 0;
             for plane in &self.planes {
                 contacts +=
@@ -634,14 +635,19 @@ impl VolumetricSimulation {
             {
                 *x = p + v * h;
             }
-            let proj = self.body.constraints.project(
+            // Intermediate rounds (contacts will be re-checked) stop at a loose tolerance; the
+            // last projection of the step is always converged to the tight one.
+            let final_round = contacts == 0 || round + 1 == params.contact_iterations;
+            let tolerance = if final_round { tight } else { tight.max(1e-6) };
+            let proj = self.body.constraints.project_to_tolerance(
                 &mut preview,
                 &mut self.velocities,
                 &self.body.masses,
                 h,
+                tolerance,
             )?;
             info.sweeps += proj.sweeps;
-            if contacts == 0 || proj.sweeps == 0 {
+            if final_round {
                 break;
             }
         }
