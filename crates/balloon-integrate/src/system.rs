@@ -77,6 +77,16 @@ pub trait ForceSystem {
         Err(SystemError::AssemblyUnsupported)
     }
 
+    /// Adds the diagonal of the sparse part of `K` (everything but
+    /// [`ForceSystem::low_rank_terms`]) at the last linearisation point to `diagonal` (length
+    /// [`ForceSystem::num_dofs`]). Optional: when provided, the matrix-free CG uses it for a
+    /// Jacobi preconditioner `diag(A)` instead of the mass diagonal alone, without assembling
+    /// `K`. Systems that cannot return [`SystemError::AssemblyUnsupported`] (the default).
+    fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
+        let _ = diagonal;
+        Err(SystemError::AssemblyUnsupported)
+    }
+
     /// The dense low-rank part of `K` at the last linearisation point (default: none).
     fn low_rank_terms(&self) -> &[LowRankTerm] {
         &[]
