@@ -3,7 +3,8 @@
 //! Three run-time choices ([`LinearSolverKind`]):
 //!
 //! * matrix-free conjugate gradients on `A p` built from force differentials (the paper), with a
-//!   Jacobi preconditioner from the mass diagonal;
+//!   Jacobi preconditioner from the mass diagonal, or from `diag(A)` when the system offers the
+//!   diagonal of its stiffness;
 //! * preconditioned CG on an assembled sparse matrix ([`CsrMatrix`], built by a
 //!   [`SparseAssembler`] that re-uses its pattern), the dense low-rank terms applied matrix-free
 //!   inside the mat-vec;
@@ -31,8 +32,10 @@ use thiserror::Error;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum LinearSolverKind {
-    /// Matrix-free CG on force differentials with a mass-Jacobi preconditioner (the paper;
-    /// `"matrix-free-cg"`). Works with every `ForceSystem`.
+    /// Matrix-free CG on force differentials (the paper; `"matrix-free-cg"`) with a Jacobi
+    /// preconditioner: `diag(A)` when the system implements
+    /// `ForceSystem::add_stiffness_diagonal`, else the mass diagonal. Works with every
+    /// `ForceSystem`.
     #[default]
     MatrixFreeCg,
     /// Jacobi-preconditioned CG on the assembled sparse matrix plus matrix-free low-rank terms
