@@ -81,3 +81,40 @@ fn missing_mesh_file_is_reported() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("/nonexistent/soup.obj"));
 }
+
+#[test]
+fn inversion_stops_with_step_and_cell_and_keeps_written_output() {
+    // Springs far too soft to hold the falling sphere: the body's tetrahedra invert even after
+    // the bounded step halvings; the error names the step and cell, and every stats line written
+    // before it parses.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("fail");
+    let o = run_balloon(&[
+        "volumetric",
+        "builtin:icosphere",
+        "--resolution",
+        "12",
+        "--voxels-per-cell",
+        "2",
+        "--edge-stiffness",
+        "0.01",
+        "--damping",
+        "0",
+        "--steps",
+        "400",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("step") && err.contains("cell") && err.contains("halvings"),
+        "{err}"
+    );
+    let stats = std::fs::read_to_string(out.join("stats.jsonl")).unwrap();
+    assert!(stats.lines().count() > 10);
+    for line in stats.lines() {
+        serde_json::from_str::<serde_json::Value>(line).unwrap();
+    }
+    assert!(out.join("lattice.vtk").is_file());
+}
