@@ -29,7 +29,7 @@ pub struct InflateArgs {
     #[arg(long, default_value = "stvk")]
     pub material: MaterialKind,
     /// Young's modulus E, Pa (latex: about 1 MPa).
-    #[arg(long, default_value_t = shell::DEFAULT_YOUNG)]
+    #[arg(long, default_value_t = shell::DEFAULT_YOUNG, allow_hyphen_values = true)]
     pub young: f64,
     /// Poisson's ratio nu, -1 < nu < 0.5.
     #[arg(long, default_value_t = shell::DEFAULT_POISSON, allow_hyphen_values = true)]

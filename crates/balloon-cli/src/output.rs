@@ -37,14 +37,17 @@ pub struct OutputDir {
 }
 
 impl OutputDir {
-    /// Creates (or reuses) the folder `dir`.
+    /// Creates (or reuses) the folder `dir` and an empty `stats.jsonl` in it, so a run that fails
+    /// at its first step still leaves a (valid, empty) stats file.
     pub fn create(dir: &Path, format: FrameFormat) -> Result<Self> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create output folder {}", dir.display()))?;
+        let path = dir.join("stats.jsonl");
+        let f = File::create(&path).with_context(|| format!("cannot create {}", path.display()))?;
         Ok(Self {
             dir: dir.to_path_buf(),
             format,
-            stats: None,
+            stats: Some(BufWriter::new(f)),
         })
     }
 

@@ -1,1 +1,185 @@
-//! `balloon inflate` end-to-end tests (being filled in).
+//! `balloon inflate` end to end: JSON summary, output folder, bad input, divergence.
+
+use super::{last_json_line, run_balloon};
+use std::path::{Path, PathBuf};
+
+/// A small closed sphere (162 vertices) written as OBJ into `dir`.
+fn small_sphere(dir: &Path) -> PathBuf {
+    let mesh = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
+    let path = dir.join("sphere.obj");
+    balloon_mesh::io::write_obj(&path, &mesh).unwrap();
+    path
+}
+
+const SUMMARY_KEYS: &[&str] = &[
+    "vertices",
+    "triangles",
+    "steps",
+    "converged",
+    "sim_time_s",
+    "initial_gas_volume",
+    "final_gas_volume",
+    "final_gauge_pressure",
+    "shell_volume_ratio_final",
+    "shell_volume_ratio_max_deviation",
+    "mean_step_ms",
+    "newton_iterations_total",
+    "linear_iterations_total",
+];
+
+#[test]
+fn json_summary_has_the_documented_keys_and_sane_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = small_sphere(dir.path());
+    let out = run_balloon(&["inflate", mesh.to_str().unwrap(), "--steps", "5", "--json"]);
+    assert!(
+        out.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s = last_json_line(&out);
+    for k in SUMMARY_KEYS {
+        assert!(s.get(k).is_some(), "summary lacks `{k}`: {s}");
+    }
+    assert_eq!(s["vertices"], 162);
+    assert_eq!(s["triangles"], 320);
+    assert_eq!(s["steps"], 5);
+    assert!(
+        s["final_gas_volume"].as_f64().unwrap() > s["initial_gas_volume"].as_f64().unwrap(),
+        "the pump inflates"
+    );
+    assert!(s["shell_volume_ratio_max_deviation"].as_f64().unwrap() < 1e-9);
+    assert_eq!(
+        s["newton_iterations_total"], 15,
+        "3 Newton iterations per step by default"
+    );
+}
+
+#[test]
+fn out_folder_gets_frames_stats_and_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = small_sphere(dir.path());
+    let out_dir = dir.path().join("run");
+    let out = run_balloon(&[
+        "inflate",
+        mesh.to_str().unwrap(),
+        "--steps",
+        "4",
+        "--frame-every",
+        "2",
+        "--linear-solver",
+        "cholesky",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in [
+        "frame_00000.obj",
+        "frame_00002.obj",
+        "frame_00004.obj",
+        "final.obj",
+        "summary.json",
+        "stats.jsonl",
+    ] {
+        assert!(out_dir.join(f).is_file(), "missing {f}");
+    }
+    let final_mesh = balloon_mesh::io::read_mesh(&out_dir.join("final.obj")).unwrap();
+    assert_eq!(final_mesh.num_vertices(), 162);
+    let stats = std::fs::read_to_string(out_dir.join("stats.jsonl")).unwrap();
+    let rows: Vec<serde_json::Value> = stats
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(rows.len(), 4);
+    assert!(rows.iter().all(|r| r["newton_iterations"] == 3));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary["steps"], 4);
+    assert!(summary["error"].is_null());
+}
+
+#[test]
+fn open_mesh_is_rejected_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("open.obj");
+    std::fs::write(
+        &path,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n",
+    )
+    .unwrap();
+    let out = run_balloon(&["inflate", path.to_str().unwrap(), "--steps", "1"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("open.obj"), "{err}");
+    assert!(err.contains("boundary") || err.contains("open"), "{err}");
+}
+
+#[test]
+fn out_of_range_parameters_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = small_sphere(dir.path());
+    let m = mesh.to_str().unwrap();
+    for (flag, value, word) in [
+        ("--poisson", "0.5", "poisson"),
+        ("--young", "-1", "young"),
+        ("--thickness", "0", "thickness"),
+        ("--density", "-3", "density"),
+        ("--dt", "0", "dt"),
+        ("--scale", "0", "scale"),
+    ] {
+        let out = run_balloon(&["inflate", m, flag, value, "--steps", "1"]);
+        assert!(!out.status.success(), "{flag} {value} should fail");
+        let err = String::from_utf8_lossy(&out.stderr).to_lowercase();
+        assert!(err.contains(word), "{flag} {value}: {err}");
+    }
+}
+
+#[test]
+fn diverging_run_fails_naming_the_step_and_keeps_its_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = small_sphere(dir.path());
+    let out_dir = dir.path().join("run");
+    // Neo-Hookean under a constant pressure far above its limit point: no equilibrium.
+    let out = run_balloon(&[
+        "inflate",
+        mesh.to_str().unwrap(),
+        "--material",
+        "neo-hookean",
+        "--gas",
+        "constant",
+        "--pressure",
+        "20000",
+        "--dt",
+        "0.05",
+        "--steps",
+        "500",
+        "--linear-solver",
+        "cholesky",
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("step "), "{err}");
+    let summary = std::fs::read_to_string(out_dir.join("summary.json"))
+        .unwrap_or_else(|e| panic!("no summary.json ({e}); stderr: {err}"));
+    let summary: serde_json::Value = serde_json::from_str(&summary).unwrap();
+    assert!(summary["error"].as_str().unwrap().contains("step"));
+    let steps = summary["steps"].as_u64().unwrap() as usize;
+    let stats = std::fs::read_to_string(out_dir.join("stats.jsonl")).unwrap();
+    assert_eq!(
+        stats.lines().count(),
+        steps,
+        "one complete stats line per completed step"
+    );
+    for l in stats.lines() {
+        serde_json::from_str::<serde_json::Value>(l).unwrap();
+    }
+    balloon_mesh::io::read_mesh(&out_dir.join("final.obj")).unwrap();
+}
