@@ -515,7 +515,9 @@ impl CellSprings {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use balloon_test_support::{Rng, check_gradient, check_jacobian};
+    use balloon_test_support::{
+        Rng, assert_second_order, check_gradient, check_jacobian, taylor_remainder_orders,
+    };
 
     /// A 2 x 1 x 1 block of unit cells with the five-tet split (parity alternating), built here
     /// so this crate's tests do not depend on the lattice generator.
@@ -726,6 +728,16 @@ mod tests {
             1e-6,
             1e-6,
         );
+        // Taylor remainder of the energy along a random direction falls 4x per halving.
+        let dir = Rng::new(22).vector(flat.len());
+        let ratios = taylor_remainder_orders(
+            |f| s.energy(&unflat(f)),
+            |f| force(f).iter().map(|g| -g).collect(),
+            &flat,
+            &dir,
+            1e-3,
+        );
+        assert_second_order(&ratios);
         check_jacobian(
             force,
             |f, dx| {

@@ -935,6 +935,22 @@ mod tests {
     }
 
     #[test]
+    fn params_round_trip_through_json_and_reject_unknown_fields() {
+        let p = drop_sphere_params(true);
+        let text = serde_json::to_string(&p).unwrap();
+        let back: VolumetricParams = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, p);
+        // Missing fields take their defaults; a typo is an error naming the field.
+        let partial: VolumetricParams =
+            serde_json::from_str(r#"{"dt": 0.002, "lattice": {"resolution": 30}}"#).unwrap();
+        assert_eq!(partial.dt, 0.002);
+        assert_eq!(partial.lattice.resolution, 30);
+        assert_eq!(partial.lattice.rays, LatticeParams::default().rays);
+        let e = serde_json::from_str::<VolumetricParams>(r#"{"dencity": 5.0}"#).unwrap_err();
+        assert!(e.to_string().contains("dencity"), "{e}");
+    }
+
+    #[test]
     fn bad_parameters_are_named() {
         let soup = icosphere(0.5, 1).unwrap();
         let e = VolumetricBody::build(
