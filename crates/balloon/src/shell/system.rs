@@ -227,6 +227,18 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
             .map_err(|e| SystemError::Other(format!("gas: {e}")))
     }
 
+    fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
+        let ks = &self.elem_stiffness;
+        self.gather(diagonal, |e, l| {
+            Vector3::new(
+                ks[e][(3 * l, 3 * l)],
+                ks[e][(3 * l + 1, 3 * l + 1)],
+                ks[e][(3 * l + 2, 3 * l + 2)],
+            )
+        });
+        Ok(())
+    }
+
     fn low_rank_terms(&self) -> &[LowRankTerm] {
         std::slice::from_ref(self.gas.low_rank_term())
     }
