@@ -984,6 +984,21 @@ mod tests {
     }
 
     #[test]
+    fn serial_and_parallel_generation_agree() {
+        // The distance field, the rays and the embedding run on rayon; a one-thread pool must
+        // give the identical lattice.
+        let soup = icosphere(1.0, 2).unwrap();
+        let p = sphere_params(24);
+        let parallel = build_lattice(&soup, &p).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let serial = pool.install(|| build_lattice(&soup, &p).unwrap());
+        assert_eq!(parallel, serial);
+    }
+
+    #[test]
     fn two_components_both_filled() {
         let a = icosphere(0.5, 2).unwrap();
         let mut soup = a.clone();
