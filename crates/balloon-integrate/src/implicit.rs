@@ -17,8 +17,9 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::linear::{
-    CgWorkspace, LinearSolveError, LinearSolveInfo, LinearSolverKind, LinearSolverParams,
-    SparseAssembler, SparseCholesky, cg, solve_with_low_rank,
+    CgWorkspace, IncompleteCholesky, LinearSolveError, LinearSolveInfo, LinearSolverKind,
+    LinearSolverParams, PcgPreconditioner, SparseAssembler, SparseCholesky, cg,
+    solve_with_low_rank,
 };
 use crate::system::{ForceSystem, SystemError};
 
@@ -47,6 +48,8 @@ pub struct BackwardEulerParams {
     /// step is shortened but the residual it reduces, and so the backward Euler solution, is
     /// unchanged. With `false` the solver error is returned.
     pub regularize_indefinite: bool,
+    /// Preconditioner of the assembled PCG solver (default Jacobi; ignored by the others).
+    pub pcg_preconditioner: PcgPreconditioner,
 }
 
 impl Default for BackwardEulerParams {
@@ -59,6 +62,7 @@ impl Default for BackwardEulerParams {
             stiffness_damping: 0.0,
             gravity: [0.0; 3],
             regularize_indefinite: true,
+            pcg_preconditioner: PcgPreconditioner::Jacobi,
         }
     }
 }
@@ -151,6 +155,7 @@ pub struct BackwardEuler {
     cholesky: SparseCholesky,
     z_scratch: Vec<Vec<f64>>,
     stiffness_preconditioned: bool,
+    ic0: IncompleteCholesky,
 }
 
 /// Retries of an indefinite linear solve with a growing mass shift before giving up.
@@ -493,7 +498,12 @@ impl BackwardEuler {
                             direction_norm_squared: 1.0,
                         });
                     }
-                    let diag = &self.diag;
+                    let use_ic =
+                        self.params.pcg_preconditioner == PcgPreconditioner::IncompleteCholesky;
+                    if use_ic {
+                        self.ic0.factorize(a, self.assembler.pattern_version())?;
+                    }
+                    let (diag, ic) = (&self.diag, &self.ic0);
                     cg(
                         |p, out| {
                             a.mul_into(p, out);
@@ -505,8 +515,12 @@ impl BackwardEuler {
                             }
                         },
                         |r, z| {
-                            for i in 0..n {
-                                z[i] = r[i] / diag[i];
+                            if use_ic {
+                                ic.apply(r, z);
+                            } else {
+                                for i in 0..n {
+                                    z[i] = r[i] / diag[i];
+                                }
                             }
                         },
                         &self.b,
@@ -877,21 +891,23 @@ mod tests {
     }
 
     #[test]
-    fn all_three_solvers_agree_on_a_nonlinear_step() {
+    fn all_solvers_and_preconditioners_agree_on_a_nonlinear_step() {
         let nv = 8;
         let x0 = Chain::positions(nv, 8);
         let v0: Vec<f64> = Rng::new(9).vector(3 * nv);
         let mut results = Vec::new();
-        for kind in [
-            LinearSolverKind::MatrixFreeCg,
-            LinearSolverKind::Pcg,
-            LinearSolverKind::Cholesky,
+        for (kind, pre) in [
+            (LinearSolverKind::MatrixFreeCg, PcgPreconditioner::Jacobi),
+            (LinearSolverKind::Pcg, PcgPreconditioner::Jacobi),
+            (LinearSolverKind::Pcg, PcgPreconditioner::IncompleteCholesky),
+            (LinearSolverKind::Cholesky, PcgPreconditioner::Jacobi),
         ] {
             let mut sys = Chain::new(nv, true, 3);
             let mut be = BackwardEuler::new(BackwardEulerParams {
                 mass_damping: 0.5,
                 stiffness_damping: 0.001,
                 gravity: [0.0, -9.81, 0.0],
+                pcg_preconditioner: pre,
                 ..params(kind, 4)
             });
             let (mut x, mut v) = (x0.clone(), v0.clone());
