@@ -1020,6 +1020,44 @@ mod tests {
     }
 
     #[test]
+    fn indefinite_newton_matrix_is_regularized_or_reported() {
+        // A negative stiffness (an unstable, buckling-like mode) makes A = M + dt^2 K indefinite.
+        // With regularization the solve is retried with a mass shift and the step completes;
+        // without it every solver reports the breakdown.
+        let nv = 4;
+        for kind in [
+            LinearSolverKind::MatrixFreeCg,
+            LinearSolverKind::Pcg,
+            LinearSolverKind::Cholesky,
+        ] {
+            for regularize in [true, false] {
+                let mut sys = linear_chain(nv);
+                sys.k0.as_mut().unwrap()[(4, 4)] = -2e3;
+                let mut be = BackwardEuler::new(BackwardEulerParams {
+                    regularize_indefinite: regularize,
+                    ..params(kind, 2)
+                });
+                let (mut x, mut v) = (Chain::positions(nv, 1), Rng::new(2).vector(3 * nv));
+                let r = be.step(&mut sys, 0.0, 0.05, &mut x, &mut v, None);
+                if regularize {
+                    let info = r.unwrap();
+                    assert!(
+                        info.regularized_solves > 0 && info.max_regularization > 0.0,
+                        "{kind}"
+                    );
+                    assert!(x.iter().chain(&v).all(|a| a.is_finite()));
+                } else {
+                    let e = r.unwrap_err();
+                    assert!(
+                        matches!(e, IntegrateError::Linear { iteration: 0, .. }),
+                        "{kind}: {e}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
     fn falling_particle_matches_backward_euler_closed_form() {
         // Free fall: backward Euler gives v_n = v0 + n dt g and x_n = x0 + n dt v0 +
         // dt^2 g n (n + 1) / 2 (it uses the end-of-step velocity); mass damping alpha divides the
