@@ -114,7 +114,7 @@ pub struct TwoLayerArgs {
     /// Normalise spring forces by valence (seed Sec. 3.5.3).
     #[arg(long)]
     pub valence_normalization: bool,
-    /// Integrator.
+    /// Integrator: euler | midpoint | rk4 | symplectic.
     #[arg(long, default_value = "rk4", value_parser = parse_method)]
     pub integrator: ExplicitMethod,
     /// Time step (s).
