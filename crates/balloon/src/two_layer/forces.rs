@@ -60,7 +60,8 @@ pub struct TwoLayerForces {
     gravity: f64,
     valence_factor: Option<Vec<f64>>,
     drag: Option<(DragTarget, usize)>,
-    force: Vec<f64>,
+    /// Per coordinate: `1 / m`, or 0 for fixed particles and axes outside the dimension.
+    inverse_mass: Vec<f64>,
     spring_force: Vec<f64>,
 }
 
@@ -106,6 +107,17 @@ impl TwoLayerForces {
             f
         });
         let dof = 3 * model.num_particles();
+        let free = model.dimension.free_axes();
+        let inverse_mass = (0..dof)
+            .map(|k| {
+                let i = k / 3;
+                if model.fixed[i] || k % 3 >= free {
+                    0.0
+                } else {
+                    1.0 / model.masses[i]
+                }
+            })
+            .collect();
         let terms = model
             .springs
             .iter()
@@ -127,7 +139,7 @@ impl TwoLayerForces {
             gravity: body.gravity,
             valence_factor,
             drag: None,
-            force: vec![0.0; dof],
+            inverse_mass,
             spring_force: vec![0.0; dof],
         }
     }
@@ -277,6 +289,18 @@ impl TwoLayerForces {
     /// Energies at positions `x` and velocities `v`.
     pub fn energies(&self, x: &[f64], v: &[f64]) -> EnergyBreakdown {
         let m = &self.model;
+        self.energies_with_volumes(x, v, m.layer_volume(x, true), m.layer_volume(x, false))
+    }
+
+    /// [`TwoLayerForces::energies`] with the layer volumes already known.
+    pub(crate) fn energies_with_volumes(
+        &self,
+        x: &[f64],
+        v: &[f64],
+        volume_outer: f64,
+        volume_inner: f64,
+    ) -> EnergyBreakdown {
+        let m = &self.model;
         let mut e = EnergyBreakdown::default();
         for (i, mass) in m.masses.iter().enumerate() {
             e.kinetic += 0.5 * mass * vec3(v, i).norm_squared();
@@ -290,10 +314,10 @@ impl TwoLayerForces {
         }
         if m.has_layers() {
             if m.gas_outer > 0.0 {
-                e.gas -= m.gas_outer * (m.layer_volume(x, true) / m.rest_volume_outer).ln();
+                e.gas -= m.gas_outer * (volume_outer / m.rest_volume_outer).ln();
             }
             if m.gas_inner > 0.0 {
-                e.gas -= m.gas_inner * (m.layer_volume(x, false) / m.rest_volume_inner).ln();
+                e.gas -= m.gas_inner * (volume_inner / m.rest_volume_inner).ln();
             }
         }
         if let Some((t, i)) = self.drag {
@@ -358,19 +382,10 @@ impl SecondOrderSystem for TwoLayerForces {
     }
 
     fn acceleration(&mut self, _t: f64, x: &[f64], v: &[f64], a: &mut [f64]) {
-        let mut f = std::mem::take(&mut self.force);
-        self.forces_into(x, v, &mut f);
-        let free = self.model.dimension.free_axes();
-        for (i, mass) in self.model.masses.iter().enumerate() {
-            for d in 0..3 {
-                a[3 * i + d] = if self.model.fixed[i] || d >= free {
-                    0.0
-                } else {
-                    f[3 * i + d] / mass
-                };
-            }
+        self.forces_into(x, v, a);
+        for (ai, wi) in a.iter_mut().zip(&self.inverse_mass) {
+            *ai *= wi;
         }
-        self.force = f;
     }
 }
 

@@ -207,11 +207,13 @@ impl TwoLayerSimulation {
 
     /// Statistics of the current state.
     pub fn stats(&self) -> TwoLayerStats {
-        let e = self.energies();
-        let x = self.positions();
+        let (x, v) = self.state.split_at(self.state.len() / 2);
         let m = self.model();
         let up = m.dimension.up_axis();
         let (volume_outer, volume_inner) = (m.layer_volume(x, true), m.layer_volume(x, false));
+        let e = self
+            .forces
+            .energies_with_volumes(x, v, volume_outer, volume_inner);
         let pressure = |gas: f64, v: f64| if gas == 0.0 { 0.0 } else { gas / v };
         TwoLayerStats {
             step: self.steps,
