@@ -8,7 +8,8 @@ use std::hint::black_box;
 use balloon_gas::{IdealGas, PressureLoad, STANDARD_ATMOSPHERE, enclosed_volume};
 use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
 use balloon_integrate::linear::{
-    CgWorkspace, LinearSolverKind, LinearSolverParams, SparseAssembler, SparseCholesky, cg,
+    CgWorkspace, LinearSolverKind, LinearSolverParams, PcgPreconditioner, SparseAssembler,
+    SparseCholesky, cg,
 };
 use balloon_integrate::{ForceSystem, LowRankTerm, SystemError};
 use balloon_mesh::generate::icosphere;
@@ -133,12 +134,14 @@ fn bench_linear(c: &mut Criterion) {
         let (mut sys, x0) = balloon(subdivisions);
         let mut g = c.benchmark_group(format!("linear_solve/icosphere_{}v", x0.len() / 3));
         g.sample_size(10);
-        for kind in [
-            LinearSolverKind::MatrixFreeCg,
-            LinearSolverKind::Pcg,
-            LinearSolverKind::Cholesky,
+        for (kind, pre) in [
+            (LinearSolverKind::MatrixFreeCg, PcgPreconditioner::Jacobi),
+            (LinearSolverKind::Pcg, PcgPreconditioner::Jacobi),
+            (LinearSolverKind::Pcg, PcgPreconditioner::IncompleteCholesky),
+            (LinearSolverKind::Cholesky, PcgPreconditioner::Jacobi),
         ] {
             let mut be = BackwardEuler::new(BackwardEulerParams {
+                pcg_preconditioner: pre,
                 newton_iterations: 3,
                 newton_tolerance: 0.0,
                 linear: LinearSolverParams {
@@ -148,7 +151,13 @@ fn bench_linear(c: &mut Criterion) {
                 },
                 ..Default::default()
             });
-            g.bench_function(format!("backward_euler_step_{kind}"), |b| {
+            let name = match (kind, pre) {
+                (LinearSolverKind::Pcg, PcgPreconditioner::IncompleteCholesky) => {
+                    "backward_euler_step_pcg_ic0".to_string()
+                }
+                _ => format!("backward_euler_step_{kind}"),
+            };
+            g.bench_function(name, |b| {
                 b.iter_batched(
                     || (x0.clone(), vec![0.0; x0.len()]),
                     |(mut x, mut v)| {
