@@ -2,9 +2,24 @@
 //!
 //! * `cargo xtask ci`: format check, clippy with warnings denied, docs with warnings denied, the
 //!   whole test suite, and every criterion bench once in test mode. `.ci/run` calls exactly this.
+//! * `cargo xtask validate [--quick] [--meshes DIR]`: every validation case (analytic sphere,
+//!   thickness scaling, gas law, pressure equilibrium, volume projection, volumetric bodies,
+//!   two-layer integrators, real meshes); prints a table, writes `docs/validation.md` and
+//!   `docs/figures/*.png`, exits non-zero when a case fails. Runs itself in release.
+//! * `cargo xtask bench [--quick] [--meshes DIR] [--update-docs]`: the paper's Table 1 for a
+//!   folder of meshes and every linear solver, plus cost-vs-size of the volumetric and two-layer
+//!   systems; writes `target/bench/bench.{md,json}` (and `docs/benchmarks.md` on request). Runs
+//!   itself in release.
+
+mod bench;
+mod plot;
+mod render;
+mod report;
+mod validate;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 #[derive(Debug, Parser)]
@@ -21,6 +36,34 @@ enum Task {
         /// Skip clippy and docs (faster local runs).
         #[arg(long)]
         quick: bool,
+    },
+    /// Runs every validation case in release, writes docs/validation.md and docs/figures/.
+    Validate {
+        /// A subset with fewer pressures and shorter runs (about 1-2 minutes).
+        #[arg(long)]
+        quick: bool,
+        /// Folder of meshes (.obj/.off/.ply/.stl) to load, validate and inflate. Default: the
+        /// built-in models plus `../shared/meshes` when present.
+        #[arg(long)]
+        meshes: Option<PathBuf>,
+        /// Do not write docs/validation.md and the figures (only print the table).
+        #[arg(long)]
+        no_write: bool,
+    },
+    /// Benchmarks in release: Table 1 per linear solver, cost growth with size.
+    Bench {
+        /// Fewer runs and smaller sizes (a smoke run).
+        #[arg(long)]
+        quick: bool,
+        /// Folder of meshes for Table 1. Default: built-in models of comparable sizes.
+        #[arg(long)]
+        meshes: Option<PathBuf>,
+        /// Timed runs per (model, solver); the median is reported.
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Also write docs/benchmarks.md.
+        #[arg(long)]
+        update_docs: bool,
     },
 }
 
@@ -64,8 +107,62 @@ fn ci(quick: bool) -> Result<()> {
     Ok(())
 }
 
+/// The workspace root (the parent of this crate's directory).
+pub fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+/// Re-runs this command line with an optimised xtask (`cargo run --release -p xtask -- ...`):
+/// validation and benchmarks measure optimised numerics. Returns the child's exit status.
+fn rerun_in_release() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut full = vec![
+        "run".to_string(),
+        "--quiet".into(),
+        "--release".into(),
+        "--package".into(),
+        "xtask".into(),
+        "--".into(),
+    ];
+    full.extend(args);
+    eprintln!("xtask: re-running in release: cargo {}", full.join(" "));
+    let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .args(&full)
+        .current_dir(workspace_root())
+        .status()
+        .context("failed to start cargo run --release -p xtask")?;
+    if !status.success() {
+        std::process::exit(status.code().unwrap_or(1));
+    }
+    Ok(())
+}
+
 fn main() -> Result<()> {
     match Cli::parse().command {
         Task::Ci { quick } => ci(quick),
+        Task::Validate { .. } | Task::Bench { .. } if cfg!(debug_assertions) => rerun_in_release(),
+        Task::Validate {
+            quick,
+            meshes,
+            no_write,
+        } => validate::run(&validate::Options {
+            quick,
+            meshes,
+            write: !no_write,
+        }),
+        Task::Bench {
+            quick,
+            meshes,
+            runs,
+            update_docs,
+        } => bench::run(&bench::Options {
+            quick,
+            meshes,
+            runs: runs.max(1),
+            update_docs,
+        }),
     }
 }

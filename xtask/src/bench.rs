@@ -1,0 +1,519 @@
+//! `cargo xtask bench`: the paper's Table 1 (seed 000) for a folder of meshes and every linear
+//! solver behind Newton, and the growth of the cost with size for the shell, volumetric and
+//! two-layer systems. Writes `target/bench/bench.{md,json}`; `--update-docs` also writes
+//! `docs/benchmarks.md`.
+
+use crate::report::{loglog_slope, median};
+use crate::validate::meshes;
+use anyhow::{Context, Result};
+use balloon::integrate::implicit::BackwardEulerParams;
+use balloon::integrate::linear::LinearSolverKind;
+use balloon::mesh::TriMesh;
+use balloon::mesh::generate::teddy::{TeddyParams, teddy};
+use balloon::mesh::generate::{icosphere, octahedron_sphere, torus};
+use balloon::mesh::lattice::LatticeParams;
+use balloon::shell::{DEFAULT_MASS_DAMPING, ShellBalloon};
+use balloon::two_layer::{ExplicitMethod, TwoLayerBody};
+use balloon::volumetric::{VolumetricBody, VolumetricParams, VolumetricSimulation};
+use nalgebra::Vector3;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Options of `cargo xtask bench`.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Smaller sizes and fewer steps (a smoke run).
+    pub quick: bool,
+    /// Folder of meshes for Table 1.
+    pub meshes: Option<PathBuf>,
+    /// Timed runs per measurement; the median is reported.
+    pub runs: usize,
+    /// Also write docs/benchmarks.md.
+    pub update_docs: bool,
+}
+
+/// Every linear solver kind. The exhaustive match makes adding a variant to
+/// `LinearSolverKind` a compile error here, so the table cannot silently miss a solver.
+fn all_solvers() -> Vec<LinearSolverKind> {
+    let all = vec![
+        LinearSolverKind::MatrixFreeCg,
+        LinearSolverKind::Pcg,
+        LinearSolverKind::Cholesky,
+        LinearSolverKind::FactorizedPcg,
+    ];
+    for k in &all {
+        match k {
+            LinearSolverKind::MatrixFreeCg
+            | LinearSolverKind::Pcg
+            | LinearSolverKind::Cholesky
+            | LinearSolverKind::FactorizedPcg => {}
+        }
+    }
+    all
+}
+
+/// One row of Table 1.
+#[derive(Clone, Debug, Serialize)]
+struct ShellRow {
+    model: String,
+    vertices: usize,
+    faces: usize,
+    solver: String,
+    /// Median over runs of the mean wall time per step, ms.
+    ms_per_step: f64,
+    /// Smallest and largest run mean, ms.
+    ms_min: f64,
+    ms_max: f64,
+    /// Shell (material) volume ratio after the last step.
+    volume_ratio: f64,
+    /// Largest |ratio - 1| over all timed steps.
+    worst_volume_error: f64,
+    /// Mean CG iterations per step (0 for Cholesky).
+    linear_iterations_per_step: f64,
+    /// Gas volume ratio V / V0 at the end.
+    gas_volume_ratio: f64,
+    /// An error that stopped the run, if any.
+    error: Option<String>,
+}
+
+/// One size of a cost-vs-size study.
+#[derive(Clone, Debug, Serialize)]
+struct SizePoint {
+    label: String,
+    /// Particles or vertices.
+    vertices: usize,
+    ms_per_step: f64,
+    steps_per_second: f64,
+}
+
+/// A cost-vs-size study with its fitted exponent `ms ~ vertices^k`.
+#[derive(Clone, Debug, Serialize)]
+struct Scaling {
+    system: String,
+    setting: String,
+    points: Vec<SizePoint>,
+    exponent: f64,
+}
+
+#[derive(Serialize)]
+struct BenchReport {
+    machine: String,
+    command: String,
+    runs: usize,
+    steps_per_run: usize,
+    table1: Vec<ShellRow>,
+    scaling: Vec<Scaling>,
+}
+
+fn time_shell(
+    model: &str,
+    mesh: &TriMesh,
+    kind: LinearSolverKind,
+    opts: &Options,
+    steps: usize,
+) -> ShellRow {
+    let mut row = ShellRow {
+        model: model.to_string(),
+        vertices: mesh.num_vertices(),
+        faces: mesh.num_triangles(),
+        solver: kind.to_string(),
+        ms_per_step: f64::NAN,
+        ms_min: f64::NAN,
+        ms_max: f64::NAN,
+        volume_ratio: f64::NAN,
+        worst_volume_error: f64::NAN,
+        linear_iterations_per_step: f64::NAN,
+        gas_volume_ratio: f64::NAN,
+        error: None,
+    };
+    let params = BackwardEulerParams {
+        newton_iterations: 3,
+        // Always all three iterations, as the paper's timing.
+        newton_tolerance: 0.0,
+        mass_damping: DEFAULT_MASS_DAMPING,
+        ..Default::default()
+    };
+    let run = |row: &mut ShellRow| -> Result<()> {
+        let mut sim = ShellBalloon::new(mesh.clone())
+            .with_integrator(params)
+            .with_linear_solver(kind)
+            .build()?;
+        for _ in 0..3 {
+            sim.step()?; // warm-up: caches, symbolic factorisation
+        }
+        let mut per_run = Vec::new();
+        let (mut worst, mut lin, mut n) = (0.0f64, 0usize, 0usize);
+        let mut last = 1.0;
+        for _ in 0..opts.runs {
+            let t = Instant::now();
+            for _ in 0..steps {
+                let s = sim.step()?;
+                worst = worst.max((s.shell_volume_ratio - 1.0).abs());
+                lin += s.linear_iterations;
+                n += 1;
+                last = s.shell_volume_ratio;
+            }
+            per_run.push(t.elapsed().as_secs_f64() * 1e3 / steps as f64);
+        }
+        row.ms_per_step = median(&per_run);
+        row.ms_min = per_run.iter().copied().fold(f64::INFINITY, f64::min);
+        row.ms_max = per_run.iter().copied().fold(0.0, f64::max);
+        row.volume_ratio = last;
+        row.worst_volume_error = worst;
+        row.linear_iterations_per_step = lin as f64 / n as f64;
+        row.gas_volume_ratio = sim.gas_volume() / sim.rest_gas_volume();
+        Ok(())
+    };
+    if let Err(e) = run(&mut row) {
+        row.error = Some(format!("{e:#}"));
+    }
+    row
+}
+
+/// Default Table 1 models: built-in shapes of sizes comparable to the paper's (4k-16k vertices).
+fn default_models(quick: bool) -> Result<Vec<(String, TriMesh)>> {
+    let mut v = Vec::new();
+    if quick {
+        v.push(("icosphere L3".to_string(), icosphere(0.15, 3)?));
+        v.push((
+            "teddy (res 14)".to_string(),
+            teddy(&TeddyParams {
+                resolution: 14,
+                ..Default::default()
+            })?,
+        ));
+        return Ok(v);
+    }
+    v.push(("teddy".to_string(), teddy(&TeddyParams::default())?));
+    v.push((
+        "teddy (res 40)".to_string(),
+        teddy(&TeddyParams {
+            resolution: 40,
+            ..Default::default()
+        })?,
+    ));
+    v.push(("icosphere L5".to_string(), icosphere(0.15, 5)?));
+    v.push(("octasphere L5".to_string(), octahedron_sphere(0.15, 5)?));
+    v.push(("torus 128x48".to_string(), torus(0.1, 0.04, 128, 48)?));
+    Ok(v)
+}
+
+fn shell_scaling(opts: &Options) -> Result<Scaling> {
+    let levels: &[u32] = if opts.quick {
+        &[1, 2, 3, 4]
+    } else {
+        &[2, 3, 4, 5]
+    };
+    let mut points = Vec::new();
+    for &l in levels {
+        let mesh = icosphere(0.15, l)?;
+        eprintln!("xtask bench: shell scaling, icosphere L{l}");
+        let row = time_shell(
+            &format!("icosphere L{l}"),
+            &mesh,
+            LinearSolverKind::default(),
+            opts,
+            if opts.quick { 3 } else { 5 },
+        );
+        if let Some(e) = row.error {
+            anyhow::bail!("shell scaling at level {l}: {e}");
+        }
+        points.push(SizePoint {
+            label: format!("icosphere L{l}"),
+            vertices: mesh.num_vertices(),
+            ms_per_step: row.ms_per_step,
+            steps_per_second: 1e3 / row.ms_per_step,
+        });
+    }
+    Ok(finish(
+        "shell",
+        "pump, 3 Newton iterations, matrix-free CG (default solver)",
+        points,
+    ))
+}
+
+fn finish(system: &str, setting: &str, points: Vec<SizePoint>) -> Scaling {
+    let pts: Vec<(f64, f64)> = points
+        .iter()
+        .map(|p| (p.vertices as f64, p.ms_per_step))
+        .collect();
+    Scaling {
+        system: system.into(),
+        setting: setting.into(),
+        exponent: loglog_slope(&pts),
+        points,
+    }
+}
+
+fn volumetric_scaling(opts: &Options) -> Result<Scaling> {
+    let soup = icosphere(0.5, 3)?;
+    let resolutions: &[usize] = if opts.quick {
+        &[12, 16, 24, 32]
+    } else {
+        &[16, 24, 36, 48]
+    };
+    let steps = if opts.quick { 10 } else { 40 };
+    let mut points = Vec::new();
+    for &res in resolutions {
+        eprintln!("xtask bench: volumetric scaling, resolution {res}");
+        let params = VolumetricParams {
+            lattice: LatticeParams {
+                resolution: res,
+                voxels_per_cell: 2,
+                ..LatticeParams::default()
+            },
+            gravity: [0.0; 3],
+            ..VolumetricParams::default()
+        };
+        let body = VolumetricBody::build(&soup, params)?;
+        let mut sim = VolumetricSimulation::new(body);
+        let n = sim.positions().len();
+        // A deforming free body: pseudo-random velocities of 0.25 m/s.
+        let mut state: u64 = 7;
+        let v: Vec<Vector3<f64>> = (0..n)
+            .map(|_| {
+                let mut r = || {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+                };
+                Vector3::new(r(), r(), r()) * 0.5
+            })
+            .collect();
+        sim.set_velocities(&v)?;
+        let mut per_run = Vec::new();
+        for _ in 0..opts.runs {
+            let t = Instant::now();
+            for _ in 0..steps {
+                sim.step()?;
+            }
+            per_run.push(t.elapsed().as_secs_f64() * 1e3 / steps as f64);
+        }
+        let ms = median(&per_run);
+        points.push(SizePoint {
+            label: format!(
+                "icosphere soup, resolution {res}, {} cells",
+                sim.lattice().cells.len()
+            ),
+            vertices: n,
+            ms_per_step: ms,
+            steps_per_second: 1e3 / ms,
+        });
+    }
+    Ok(finish(
+        "volumetric",
+        "free body, dt = 1 ms, random velocities 0.25 m/s, cell-volume tolerance 1e-10",
+        points,
+    ))
+}
+
+fn two_layer_scaling(opts: &Options) -> Result<Scaling> {
+    let levels: &[u32] = if opts.quick {
+        &[1, 2, 3, 4]
+    } else {
+        &[2, 3, 4, 5]
+    };
+    let steps = if opts.quick { 20 } else { 100 };
+    let mut points = Vec::new();
+    for &l in levels {
+        eprintln!("xtask bench: two-layer scaling, octahedron level {l}");
+        let body = TwoLayerBody::octahedron_sphere(l)
+            .with_radii(0.7, 1.0)
+            .with_pressure(40.0, 20.0);
+        let mut sim = body.simulate(ExplicitMethod::Rk4, 1e-4)?;
+        let n = sim.model().num_particles();
+        let mut per_run = Vec::new();
+        for _ in 0..opts.runs {
+            let t = Instant::now();
+            for _ in 0..steps {
+                sim.step()?;
+            }
+            per_run.push(t.elapsed().as_secs_f64() * 1e3 / steps as f64);
+        }
+        let ms = median(&per_run);
+        points.push(SizePoint {
+            label: format!("octahedron sphere level {l}"),
+            vertices: n,
+            ms_per_step: ms,
+            steps_per_second: 1e3 / ms,
+        });
+    }
+    Ok(finish(
+        "two-layer",
+        "RK4, dt = 0.1 ms, gravity, gas in both layers",
+        points,
+    ))
+}
+
+fn machine() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|s| s.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    let n = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
+    format!("{cpu}; nproc = {n}")
+}
+
+fn markdown(r: &BenchReport) -> String {
+    let mut s = String::new();
+    s.push_str("# Benchmarks\n\n");
+    let _ = writeln!(
+        s,
+        "Generated by `{}` (release build; source `xtask/src/bench.rs`). Machine: {}. \
+         Each time is the median over {} runs of the mean wall time of {} consecutive steps, \
+         after 3 warm-up steps.\n",
+        r.command, r.machine, r.runs, r.steps_per_run
+    );
+    s.push_str("## Table 1: shell balloons (seed 000)\n\n");
+    s.push_str(
+        "Pump inflation from the rest shape (2 L/s of ambient air), dt = 10 ms, backward Euler with \
+         exactly 3 Newton iterations (tolerance 0), mass damping 10/s, StVK E = 1 MPa, nu = 0.45, \
+         H = 0.3 mm, volume projection on (tolerance 1e-9). Meshes scaled to 0.3 m. `volume ratio` is \
+         the shell (material) volume ratio after the last step (the paper reports 1.000003); \
+         `worst |r-1|` the largest deviation over all timed steps.\n\n",
+    );
+    s.push_str("| model | vertices | faces | solver | ms / step (min-max) | volume ratio | worst \\|r-1\\| | CG it. / step | V/V0 at end |\n");
+    s.push_str("|---|---|---|---|---|---|---|---|---|\n");
+    for row in &r.table1 {
+        match &row.error {
+            Some(e) => {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | failed: {} | | | | |",
+                    row.model,
+                    row.vertices,
+                    row.faces,
+                    row.solver,
+                    e.replace('|', "\\|")
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {:.1} ({:.1}-{:.1}) | {:.12} | {:.1e} | {:.1} | {:.3} |",
+                    row.model,
+                    row.vertices,
+                    row.faces,
+                    row.solver,
+                    row.ms_per_step,
+                    row.ms_min,
+                    row.ms_max,
+                    row.volume_ratio,
+                    row.worst_volume_error,
+                    row.linear_iterations_per_step,
+                    row.gas_volume_ratio
+                );
+            }
+        }
+    }
+    s.push_str("\n## Cost growth with size\n\n");
+    for sc in &r.scaling {
+        let _ = writeln!(
+            s,
+            "### {} ({})\n\nFitted exponent: ms per step ~ vertices^{:.2}\n",
+            sc.system, sc.setting, sc.exponent
+        );
+        s.push_str("| size | vertices / particles | ms / step | steps / s |\n|---|---|---|---|\n");
+        for p in &sc.points {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.3} | {:.1} |",
+                p.label, p.vertices, p.ms_per_step, p.steps_per_second
+            );
+        }
+        s.push('\n');
+    }
+    s.push_str("## Reproduce\n\n");
+    s.push_str(
+        "* This file: `cargo xtask bench --update-docs` (about 10 minutes on 2 cores; \
+         `--meshes DIR` times every .obj/.off/.ply/.stl in DIR instead of the built-in models, \
+         e.g. the paper's SHREC'07 models; `--quick` for a smoke run; `--runs N`). Raw numbers: \
+         `target/bench/bench.json`.\n",
+    );
+    s.push_str(
+        "* Per-stage criterion benches (material, element forces and stiffness, gas, assembly, \
+         each linear solver, projection, whole step, volumetric, two-layer): \
+         `cargo bench -p balloon-benches` (`-- --test` runs each once, as CI does).\n",
+    );
+    s
+}
+
+/// Runs the benchmarks; see the module docs.
+pub fn run(opts: &Options) -> Result<()> {
+    let root = crate::workspace_root();
+    let steps = if opts.quick { 3 } else { 10 };
+    let models: Vec<(String, TriMesh)> = match &opts.meshes {
+        Some(dir) => {
+            let mut v = Vec::new();
+            for src in meshes::folder(dir)? {
+                let mut m = src.load()?;
+                balloon::mesh::validate::validate_closed_manifold(&m).with_context(|| {
+                    format!("{} is not a closed oriented 2-manifold", src.name())
+                })?;
+                meshes::normalise(&mut m, 0.3);
+                v.push((src.name(), m));
+            }
+            v
+        }
+        None => default_models(opts.quick)?,
+    };
+    let mut table1 = Vec::new();
+    for (name, mesh) in &models {
+        for kind in all_solvers() {
+            eprintln!("xtask bench: {name} ({} v), {kind}", mesh.num_vertices());
+            let row = time_shell(name, mesh, kind, opts, steps);
+            eprintln!(
+                "    {:.1} ms/step{}",
+                row.ms_per_step,
+                row.error
+                    .as_deref()
+                    .map(|e| format!(" ({e})"))
+                    .unwrap_or_default()
+            );
+            table1.push(row);
+        }
+    }
+    let mut scaling = Vec::new();
+    for study in [shell_scaling, volumetric_scaling, two_layer_scaling] {
+        scaling.push(study(opts)?);
+    }
+    let mut command = "cargo xtask bench".to_string();
+    for a in std::env::args().skip(2) {
+        command.push(' ');
+        command.push_str(&a);
+    }
+    let report = BenchReport {
+        machine: machine(),
+        command,
+        runs: opts.runs,
+        steps_per_run: steps,
+        table1,
+        scaling,
+    };
+    let md = markdown(&report);
+    let dir = root.join("target").join("bench");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    std::fs::write(dir.join("bench.md"), &md)?;
+    std::fs::write(
+        dir.join("bench.json"),
+        serde_json::to_string_pretty(&report)?,
+    )?;
+    println!("{md}");
+    println!("wrote {}/bench.{{md,json}}", dir.display());
+    if opts.update_docs {
+        let p = root.join("docs").join("benchmarks.md");
+        std::fs::write(&p, &md).with_context(|| format!("cannot write {}", p.display()))?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}

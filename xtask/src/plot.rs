@@ -1,0 +1,272 @@
+//! PNG line / scatter charts with plotters' bitmap backend. Text uses the pure-Rust `ab_glyph`
+//! rasteriser with the Ubuntu Light font bundled by `epaint_default_fonts` (no system fonts, no
+//! fontconfig).
+
+use anyhow::{Result, anyhow};
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::Once;
+
+/// How a series is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Style {
+    /// A polyline through the points.
+    Line,
+    /// Markers at the points.
+    Points,
+    /// A polyline with markers.
+    LinePoints,
+}
+
+/// One data series of a chart.
+#[derive(Clone, Debug)]
+pub struct Series {
+    /// Legend label.
+    pub label: String,
+    /// `(x, y)` points.
+    pub points: Vec<(f64, f64)>,
+    /// How to draw it.
+    pub style: Style,
+    /// Palette index.
+    pub color: usize,
+}
+
+impl Series {
+    /// A series.
+    pub fn new(
+        label: impl Into<String>,
+        points: Vec<(f64, f64)>,
+        style: Style,
+        color: usize,
+    ) -> Self {
+        Self {
+            label: label.into(),
+            points,
+            style,
+            color,
+        }
+    }
+}
+
+/// A chart: title, axis labels, log axes.
+#[derive(Clone, Debug)]
+pub struct Chart<'a> {
+    /// Caption above the plot.
+    pub title: &'a str,
+    /// Label of the x axis.
+    pub x_label: &'a str,
+    /// Label of the y axis.
+    pub y_label: &'a str,
+    /// Logarithmic x axis.
+    pub log_x: bool,
+    /// Logarithmic y axis.
+    pub log_y: bool,
+}
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        for style in [FontStyle::Normal, FontStyle::Bold] {
+            // The bytes are a valid TrueType font shipped by the crate; failure would only mean
+            // that text is missing from the figures, so it is reported, not fatal.
+            if plotters::style::register_font(
+                "sans-serif",
+                style,
+                epaint_default_fonts::UBUNTU_LIGHT,
+            )
+            .is_err()
+            {
+                eprintln!("xtask: could not register the bundled font; figures will lack text");
+            }
+        }
+    });
+}
+
+/// Colour of palette entry `i`.
+pub fn color(i: usize) -> RGBColor {
+    const P: [RGBColor; 8] = [
+        RGBColor(31, 119, 180),
+        RGBColor(214, 39, 40),
+        RGBColor(44, 160, 44),
+        RGBColor(255, 127, 14),
+        RGBColor(148, 103, 189),
+        RGBColor(140, 86, 75),
+        RGBColor(227, 119, 194),
+        RGBColor(23, 190, 207),
+    ];
+    P[i % P.len()]
+}
+
+fn bounds(series: &[Series], pick: impl Fn(&(f64, f64)) -> f64, log: bool) -> (f64, f64) {
+    let vals = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(&pick))
+        .filter(|v| v.is_finite() && (!log || *v > 0.0));
+    let (mut lo, mut hi) = vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    if !lo.is_finite() {
+        return if log { (0.1, 10.0) } else { (0.0, 1.0) };
+    }
+    if log {
+        (lo / 1.5, hi * 1.5)
+    } else {
+        if hi - lo < 1e-300 {
+            let pad = if lo == 0.0 { 1.0 } else { 0.05 * lo.abs() };
+            lo -= pad;
+            hi += pad;
+        }
+        let pad = 0.05 * (hi - lo);
+        (lo - pad, hi + pad)
+    }
+}
+
+fn draw<X, Y>(
+    area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    chart: &Chart<'_>,
+    series: &[Series],
+    x: X,
+    y: Y,
+) -> Result<()>
+where
+    X: AsRangedCoord<Value = f64>,
+    Y: AsRangedCoord<Value = f64>,
+    X::CoordDescType: ValueFormatter<f64>,
+    Y::CoordDescType: ValueFormatter<f64>,
+{
+    let e = |e: &dyn std::fmt::Display| anyhow!("plotting failed: {e}");
+    let mut c = ChartBuilder::on(area)
+        .caption(chart.title, ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x, y)
+        .map_err(|x| e(&x))?;
+    c.configure_mesh()
+        .x_desc(chart.x_label)
+        .y_desc(chart.y_label)
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
+        .x_label_formatter(&|v| fmt_tick(*v))
+        .y_label_formatter(&|v| fmt_tick(*v))
+        .draw()
+        .map_err(|x| e(&x))?;
+    for s in series {
+        let col = color(s.color);
+        let pts: Vec<(f64, f64)> = s
+            .points
+            .iter()
+            .copied()
+            .filter(|p| {
+                p.0.is_finite()
+                    && p.1.is_finite()
+                    && (!chart.log_x || p.0 > 0.0)
+                    && (!chart.log_y || p.1 > 0.0)
+            })
+            .collect();
+        let anno = match s.style {
+            Style::Line => c
+                .draw_series(LineSeries::new(pts, col.stroke_width(2)))
+                .map_err(|x| e(&x))?,
+            Style::Points => c
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 5, col.filled())))
+                .map_err(|x| e(&x))?,
+            Style::LinePoints => {
+                c.draw_series(LineSeries::new(pts.clone(), col.stroke_width(2)))
+                    .map_err(|x| e(&x))?;
+                c.draw_series(pts.iter().map(|&p| Circle::new(p, 4, col.filled())))
+                    .map_err(|x| e(&x))?
+            }
+        };
+        let thick = if s.style == Style::Points { 5 } else { 1 };
+        anno.label(s.label.clone()).legend(move |(px, py)| {
+            Rectangle::new([(px, py - thick), (px + 20, py + thick)], col.filled())
+        });
+    }
+    c.configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 15))
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(|x| e(&x))?;
+    Ok(())
+}
+
+fn fmt_tick(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if !(1e-3..1e5).contains(&a) {
+        format!("{v:.0e}")
+    } else if a >= 100.0 {
+        format!("{v:.0}")
+    } else {
+        let s = format!("{v:.4}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    }
+}
+
+/// Draws `series` into a `width x height` PNG at `path`.
+pub fn line_chart(
+    path: &Path,
+    chart: &Chart<'_>,
+    series: &[Series],
+    size: (u32, u32),
+) -> Result<()> {
+    register_font();
+    let area = BitMapBackend::new(path, size).into_drawing_area();
+    area.fill(&WHITE)
+        .map_err(|e| anyhow!("plotting failed: {e}"))?;
+    let (x0, x1) = bounds(series, |p| p.0, chart.log_x);
+    let (y0, y1) = bounds(series, |p| p.1, chart.log_y);
+    match (chart.log_x, chart.log_y) {
+        (false, false) => draw(&area, chart, series, x0..x1, y0..y1)?,
+        (true, false) => draw(&area, chart, series, (x0..x1).log_scale(), y0..y1)?,
+        (false, true) => draw(&area, chart, series, x0..x1, (y0..y1).log_scale())?,
+        (true, true) => draw(
+            &area,
+            chart,
+            series,
+            (x0..x1).log_scale(),
+            (y0..y1).log_scale(),
+        )?,
+    }
+    area.present()
+        .map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+    Ok(())
+}
+
+/// Writes an RGB image (`width * height * 3` bytes, row-major from the top) with a caption
+/// strip above it.
+pub fn image_with_caption(
+    path: &Path,
+    rgb: &[u8],
+    size: (u32, u32),
+    captions: &[(i32, &str)],
+) -> Result<()> {
+    register_font();
+    let (w, h) = size;
+    let strip = 36u32;
+    let area = BitMapBackend::new(path, (w, h + strip)).into_drawing_area();
+    area.fill(&WHITE)
+        .map_err(|e| anyhow!("plotting failed: {e}"))?;
+    for y in 0..h {
+        for x in 0..w {
+            let i = 3 * (y * w + x) as usize;
+            area.draw_pixel(
+                (x as i32, (y + strip) as i32),
+                &RGBColor(rgb[i], rgb[i + 1], rgb[i + 2]),
+            )
+            .map_err(|e| anyhow!("plotting failed: {e}"))?;
+        }
+    }
+    for &(x, text) in captions {
+        area.draw_text(text, &("sans-serif", 20).into_font().color(&BLACK), (x, 8))
+            .map_err(|e| anyhow!("plotting failed: {e}"))?;
+    }
+    area.present()
+        .map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+    Ok(())
+}

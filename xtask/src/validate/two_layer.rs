@@ -1,0 +1,213 @@
+//! Two-layer elastic objects (seed 004): measured orders of the explicit integrators, energy
+//! drift of an undamped body, and the settled radii of a pressurised two-layer circle against
+//! the analytic radial force balance (docs/two-layer.md).
+
+use super::{Figures, Options};
+use crate::plot::{Chart, Series, Style, line_chart};
+use crate::report::{Case, loglog_slope};
+use anyhow::Result;
+use balloon::two_layer::{ExplicitMethod, SpringKind, TwoLayerBody};
+
+const G: &str = "two-layer";
+
+/// The 1D hanging spring (seed Sec. 3.3) released at its rest length is a harmonic oscillator
+/// about `L + m g / k`: `x(t) = -L - (m g / k)(1 - cos(omega t))`. The global error at t = 1 s
+/// must fall like `dt^order` (Euler and symplectic Euler 1, midpoint 2, RK4 4; seed Ch. 5).
+fn orders(figs: &mut Figures, cases: &mut Vec<Case>) -> Result<()> {
+    let (mass, k, g, length): (f64, f64, f64, f64) = (1.0, 100.0, 9.81, 0.5);
+    let omega = (k / mass).sqrt();
+    let mut series = Vec::new();
+    for (ci, method) in ExplicitMethod::ALL.into_iter().enumerate() {
+        let mut pts = Vec::new();
+        for dt in [0.004f64, 0.002, 0.001, 0.0005] {
+            let body = TwoLayerBody::line(length)
+                .with_masses(mass, mass)
+                .with_spring(SpringKind::Structural, k, 0.0)
+                .with_gravity(g);
+            let mut sim = body.simulate(method, dt)?;
+            sim.run((1.0 / dt).round() as usize)?;
+            let t = sim.time();
+            let exact = -length - mass * g / k * (1.0 - (omega * t).cos());
+            let exact_v = -mass * g / k * omega * (omega * t).sin();
+            let err = ((sim.positions()[3] - exact).powi(2)
+                + ((sim.velocities()[3] - exact_v) / omega).powi(2))
+            .sqrt();
+            pts.push((dt, err));
+        }
+        let slope = loglog_slope(&pts);
+        cases.push(Case::absolute(
+            G,
+            format!("hanging spring: fitted order of {method} (dt 4e-3 .. 5e-4)"),
+            slope,
+            method.order() as f64,
+            0.3,
+        ));
+        series.push(Series::new(
+            format!("{method} (fitted order {slope:.2})"),
+            pts,
+            Style::LinePoints,
+            ci,
+        ));
+    }
+    figs.add(
+        "integrator_orders.png",
+        "Explicit integrators: error at t = 1 s vs time step (hanging spring)",
+        |p| {
+            line_chart(
+                p,
+                &Chart {
+                    title: "Hanging spring: global error at t = 1 s",
+                    x_label: "time step dt (s)",
+                    y_label: "error (m)",
+                    log_x: true,
+                    log_y: true,
+                },
+                &series,
+                (800, 560),
+            )
+        },
+    )?;
+    Ok(())
+}
+
+/// Largest deviation of the total energy from its start over 1.5 s, and the kinetic peak.
+fn energy_drift(method: ExplicitMethod, dt: f64) -> Result<(f64, f64)> {
+    let body = TwoLayerBody::octahedron_sphere(1)
+        .with_radii(0.7, 1.0)
+        .with_pressure(40.0, 20.0)
+        .with_damping(0.0);
+    let mut sim = body.simulate(method, dt)?;
+    let e0 = sim.energies().total();
+    let (mut drift, mut kmax) = (0.0f64, 0.0f64);
+    for _ in 0..(1.5 / dt).round() as usize {
+        let s = sim.step()?;
+        drift = drift.max((s.total - e0).abs());
+        kmax = kmax.max(s.kinetic);
+    }
+    Ok((drift, kmax))
+}
+
+/// Without damping or collisions every force (gravity, springs, gas `-nRT ln V`) is
+/// conservative, so the total energy is constant up to the integrator's error.
+fn drift(cases: &mut Vec<Case>) -> Result<()> {
+    let (d1, kmax) = energy_drift(ExplicitMethod::Rk4, 1e-3)?;
+    let (d2, _) = energy_drift(ExplicitMethod::Rk4, 5e-4)?;
+    cases.push(Case::at_most(
+        G,
+        format!("undamped sphere, RK4 dt = 5e-4: max |E - E0| / max kinetic ({kmax:.2} J)"),
+        d2 / kmax,
+        1e-4,
+    ));
+    cases.push(Case::at_least(
+        G,
+        "undamped sphere, RK4: energy drift ratio dt 1e-3 / dt 5e-4 (4th order: 16)",
+        d1 / d2,
+        16.0,
+        "16",
+    ));
+    let (ds, _) = energy_drift(ExplicitMethod::Symplectic, 2.5e-4)?;
+    cases.push(Case::at_most(
+        G,
+        "undamped sphere, symplectic Euler dt = 2.5e-4: max |E - E0| / max kinetic",
+        ds / kmax,
+        0.05,
+    ));
+    Ok(())
+}
+
+/// Radial force balance of the 2D two-layer N-gon (docs/two-layer.md): inner radius `a`, outer
+/// `b`, structural sides `2 r sin(pi/N)`, radius springs `b - a`, shear springs
+/// `sqrt(a^2 + b^2 - 2ab cos(2pi/N))`, gas energy `-c ln A` with `A ~ r^2`. Solved by Newton
+/// here; a damped simulation must settle at the root.
+fn settling(cases: &mut Vec<Case>) -> Result<()> {
+    let (nn, a0, b0) = (12usize, 0.6, 1.0);
+    let (ks, kr, ksh) = (100.0, 50.0, 40.0);
+    let (p_out, p_in) = (150.0, 80.0);
+    let body = TwoLayerBody::circle(nn)
+        .with_radii(a0, b0)
+        .with_spring(SpringKind::Structural, ks, 0.4)
+        .with_spring(SpringKind::Radius, kr, 0.4)
+        .with_spring(SpringKind::ShearLeft, ksh, 0.4)
+        .with_spring(SpringKind::ShearRight, ksh, 0.4)
+        .with_pressure(p_out, p_in)
+        .with_gravity(0.0);
+    let nf = nn as f64;
+    let th = std::f64::consts::TAU / nf;
+    let s2 = (2.0 * (std::f64::consts::PI / nf).sin()).powi(2);
+    let area = |r: f64| 0.5 * nf * r * r * th.sin();
+    let (c_out, c_in) = (p_out * area(b0), p_in * area(a0));
+    let shear = |a: f64, b: f64| (a * a + b * b - 2.0 * a * b * th.cos()).sqrt();
+    let l0 = shear(a0, b0);
+    let grad = |a: f64, b: f64| {
+        let l = shear(a, b);
+        let r = (b - a) - (b0 - a0);
+        [
+            nf * (ks * s2 * (a - a0) - kr * r + 2.0 * ksh * (l - l0) * (a - b * th.cos()) / l)
+                - 2.0 * c_in / a,
+            nf * (ks * s2 * (b - b0) + kr * r + 2.0 * ksh * (l - l0) * (b - a * th.cos()) / l)
+                - 2.0 * c_out / b,
+        ]
+    };
+    let (mut a, mut b) = (a0, b0);
+    for _ in 0..50 {
+        let g = grad(a, b);
+        let h = 1e-7;
+        let (gap, gam) = (grad(a + h, b), grad(a - h, b));
+        let (gbp, gbm) = (grad(a, b + h), grad(a, b - h));
+        let j = [
+            [(gap[0] - gam[0]) / (2.0 * h), (gbp[0] - gbm[0]) / (2.0 * h)],
+            [(gap[1] - gam[1]) / (2.0 * h), (gbp[1] - gbm[1]) / (2.0 * h)],
+        ];
+        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+        a -= (j[1][1] * g[0] - j[0][1] * g[1]) / det;
+        b -= (-j[1][0] * g[0] + j[0][0] * g[1]) / det;
+    }
+    let mut sim = body.simulate(ExplicitMethod::Rk4, 1e-3)?;
+    sim.run(5000)?;
+    let x = sim.positions();
+    let mean_radius = |range: std::ops::Range<usize>| {
+        let n = range.len() as f64;
+        let c: [f64; 3] =
+            std::array::from_fn(|k| range.clone().map(|i| x[3 * i + k]).sum::<f64>() / n);
+        range
+            .map(|i| {
+                (0..3)
+                    .map(|k| (x[3 * i + k] - c[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .sum::<f64>()
+            / n
+    };
+    cases.push(Case::relative(
+        G,
+        "pressurised 12-gon, RK4, 5 s damped: outer radius vs force balance",
+        mean_radius(nn..2 * nn),
+        b,
+        1e-4,
+    ));
+    cases.push(Case::relative(
+        G,
+        "pressurised 12-gon: inner radius vs force balance",
+        mean_radius(0..nn),
+        a,
+        1e-4,
+    ));
+    Ok(())
+}
+
+/// All two-layer cases.
+pub fn cases(_opts: &Options, figs: &mut Figures) -> Vec<Case> {
+    let mut cases = Vec::new();
+    eprintln!("xtask validate: two-layer");
+    if let Err(e) = orders(figs, &mut cases) {
+        cases.push(Case::error(G, "integrator orders", e));
+    }
+    if let Err(e) = drift(&mut cases) {
+        cases.push(Case::error(G, "energy drift", e));
+    }
+    if let Err(e) = settling(&mut cases) {
+        cases.push(Case::error(G, "settling radius", e));
+    }
+    cases
+}
