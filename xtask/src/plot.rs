@@ -62,6 +62,8 @@ pub struct Chart<'a> {
     pub log_x: bool,
     /// Logarithmic y axis.
     pub log_y: bool,
+    /// Put the legend in the lower right corner (default upper left).
+    pub legend_lower_right: bool,
 }
 
 fn register_font() {
@@ -188,7 +190,11 @@ where
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .label_font(("sans-serif", 15))
-        .position(SeriesLabelPosition::UpperLeft)
+        .position(if chart.legend_lower_right {
+            SeriesLabelPosition::LowerRight
+        } else {
+            SeriesLabelPosition::UpperLeft
+        })
         .draw()
         .map_err(|x| e(&x))?;
     Ok(())

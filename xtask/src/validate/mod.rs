@@ -197,7 +197,7 @@ fn render_markdown(
     );
     s.push_str(
         "* **meshes**: every mesh is loaded, validated (closed, oriented 2-manifold), scaled to \
-         0.3 m and inflated by the pump with the paper's solver settings.\n\n",
+         0.3 m and inflated by the pump (3 Newton iterations, sparse Cholesky, projection on).\n\n",
     );
     s.push_str("## Results\n\n");
     s.push_str(&markdown_table(cases));

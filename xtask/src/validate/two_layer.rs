@@ -61,6 +61,7 @@ fn orders(figs: &mut Figures, cases: &mut Vec<Case>) -> Result<()> {
                     y_label: "error (m)",
                     log_x: true,
                     log_y: true,
+                    legend_lower_right: true,
                 },
                 &series,
                 (800, 560),
