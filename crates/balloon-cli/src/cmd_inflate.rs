@@ -4,7 +4,7 @@ use crate::output::{FrameFormat, OutputDir, print_json_line, progress_bar};
 use anyhow::{Context, Result};
 use balloon::gas::GasKind;
 use balloon::integrate::implicit::BackwardEulerParams;
-use balloon::integrate::linear::{LinearSolverKind, LinearSolverParams};
+use balloon::integrate::linear::{LinearSolverKind, LinearSolverParams, PcgPreconditioner};
 use balloon::material::{MaterialKind, MaterialModel};
 use balloon::shell::{self, ShellBalloon, ShellStepStats};
 use serde::Serialize;
@@ -79,11 +79,15 @@ pub struct InflateArgs {
     /// Newton iterations per step (the paper uses 3).
     #[arg(long, default_value_t = 3)]
     pub newton_iters: usize,
-    /// Linear solver: `matrix-free-cg` (the paper's), `pcg` (assembled, Jacobi) or `cholesky`.
-    #[arg(long, default_value = "matrix-free-cg")]
+    /// Linear solver: `pcg` (assembled matrix, see --pcg-preconditioner), `matrix-free-cg` (the
+    /// paper's) or `cholesky` (sparse direct, with Sherman-Morrison for the gas term).
+    #[arg(long, default_value = "pcg")]
     pub linear_solver: LinearSolverKind,
-    /// Relative tolerance of the CG solvers.
-    #[arg(long, default_value_t = 1e-6)]
+    /// Preconditioner of `--linear-solver pcg`: `jacobi` or `ic0` (zero-fill incomplete Cholesky).
+    #[arg(long, default_value = "ic0")]
+    pub pcg_preconditioner: PcgPreconditioner,
+    /// Relative tolerance of the CG solvers (inexact Newton).
+    #[arg(long, default_value_t = shell::DEFAULT_LINEAR_TOLERANCE)]
     pub cg_tol: f64,
     /// Maximum CG iterations per Newton iteration.
     #[arg(long, default_value_t = 500)]
@@ -184,6 +188,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
         },
         mass_damping: args.mass_damping,
         stiffness_damping: args.stiffness_damping,
+        pcg_preconditioner: args.pcg_preconditioner,
         ..Default::default()
     };
     let projection = match args.volume_projection {

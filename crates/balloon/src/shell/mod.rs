@@ -33,7 +33,7 @@ use balloon_gas::{
 };
 use balloon_integrate::ForceSystem;
 use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
-use balloon_integrate::linear::LinearSolverKind;
+use balloon_integrate::linear::{LinearSolverKind, PcgPreconditioner};
 use balloon_material::{Lame, Material, MaterialKind, MaterialModel};
 use balloon_mesh::TriMesh;
 use nalgebra::{Point3, Vector3};
@@ -117,8 +117,10 @@ pub enum Thickness {
 
 /// Builder of a [`ShellSimulation`]. Defaults model a latex party balloon: E = 1 MPa,
 /// nu = 0.45, density 950 kg/m^3, thickness 0.3 mm (the paper's), a pump adding 2 L/s of
-/// ambient air (101325 Pa) from the rest shape, dt = 10 ms, 3 Newton iterations with
-/// matrix-free CG, mass damping 10 1/s, global volume projection on. `with_gas(GasKind::Ideal)`
+/// ambient air (101325 Pa) from the rest shape, dt = 10 ms, 3 Newton iterations with CG on the
+/// assembled matrix preconditioned by incomplete Cholesky (relative tolerance 1e-3; the fastest
+/// of the solvers on the built-in teddy, see `docs/benchmarks.md`), mass damping 10 1/s, global
+/// volume projection on. `with_gas(GasKind::Ideal)`
 /// uses a fixed amount of gas at `with_gauge_pressure` (default 2 kPa) over ambient; the paper's
 /// own gas model (Eq. 14, no ambient) is `with_ambient_pressure(0.0)`.
 #[derive(Clone, Debug)]
@@ -152,6 +154,8 @@ pub const DEFAULT_GAUGE_PRESSURE: f64 = 2000.0;
 pub const DEFAULT_DT: f64 = 1.0e-2;
 /// Default pump rate, m^3/s of ambient air.
 pub const DEFAULT_PUMP_RATE: f64 = 2.0e-3;
+/// Default relative tolerance of the CG linear solves inside Newton (inexact Newton).
+pub const DEFAULT_LINEAR_TOLERANCE: f64 = 1e-3;
 /// Default mass damping, 1/s.
 pub const DEFAULT_MASS_DAMPING: f64 = 10.0;
 
@@ -160,10 +164,13 @@ impl ShellBalloon<MaterialModel> {
     pub fn new(mesh: TriMesh) -> Self {
         let lame = Lame::try_from_young_poisson(DEFAULT_YOUNG, DEFAULT_POISSON)
             .expect("default Lame parameters are valid");
-        let integrator = BackwardEulerParams {
+        let mut integrator = BackwardEulerParams {
             mass_damping: DEFAULT_MASS_DAMPING,
+            pcg_preconditioner: PcgPreconditioner::IncompleteCholesky,
             ..Default::default()
         };
+        integrator.linear.kind = LinearSolverKind::Pcg;
+        integrator.linear.relative_tolerance = DEFAULT_LINEAR_TOLERANCE;
         Self {
             mesh,
             material: MaterialModel::from_lame(MaterialKind::StVenantKirchhoff, lame),
