@@ -9,14 +9,22 @@ use std::process::{Command, Output};
 
 /// Runs the `balloon` binary with `args` and returns its output.
 pub fn run_balloon(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_balloon")).args(args).output().expect("failed to start the balloon binary")
+    Command::new(env!("CARGO_BIN_EXE_balloon"))
+        .args(args)
+        .output()
+        .expect("failed to start the balloon binary")
 }
 
 /// The last non-empty line of stdout parsed as JSON (what `--json` prints).
 pub fn last_json_line(out: &Output) -> serde_json::Value {
     let stdout = String::from_utf8_lossy(&out.stdout);
-    let line = stdout.lines().rev().find(|l| !l.trim().is_empty()).expect("no stdout line");
-    serde_json::from_str(line).unwrap_or_else(|e| panic!("last stdout line is not JSON ({e}): {line}"))
+    let line = stdout
+        .lines()
+        .rev()
+        .find(|l| !l.trim().is_empty())
+        .expect("no stdout line");
+    serde_json::from_str(line)
+        .unwrap_or_else(|e| panic!("last stdout line is not JSON ({e}): {line}"))
 }
 
 /// The shared real meshes folder beside the repository, if present.
