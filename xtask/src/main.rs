@@ -49,6 +49,9 @@ enum Task {
         /// Do not write docs/validation.md and the figures (only print the table).
         #[arg(long)]
         no_write: bool,
+        /// Run one group only (shell, volumetric, two-layer, meshes); writes nothing.
+        #[arg(long)]
+        only: Option<String>,
     },
     /// Benchmarks in release: Table 1 per linear solver, cost growth with size.
     Bench {
@@ -59,7 +62,7 @@ enum Task {
         #[arg(long)]
         meshes: Option<PathBuf>,
         /// Timed runs per (model, solver); the median is reported.
-        #[arg(long, default_value_t = 5)]
+        #[arg(long, default_value_t = 3)]
         runs: usize,
         /// Also write docs/benchmarks.md.
         #[arg(long)]
@@ -148,10 +151,12 @@ fn main() -> Result<()> {
             quick,
             meshes,
             no_write,
+            only,
         } => validate::run(&validate::Options {
             quick,
             meshes,
             write: !no_write,
+            only,
         }),
         Task::Bench {
             quick,

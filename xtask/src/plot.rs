@@ -13,8 +13,8 @@ use std::sync::Once;
 pub enum Style {
     /// A polyline through the points.
     Line,
-    /// Markers at the points.
-    Points,
+    /// Filled circle markers of the given radius (pixels) at the points.
+    Points(i32),
     /// A polyline with markers.
     LinePoints,
 }
@@ -171,8 +171,8 @@ where
             Style::Line => c
                 .draw_series(LineSeries::new(pts, col.stroke_width(2)))
                 .map_err(|x| e(&x))?,
-            Style::Points => c
-                .draw_series(pts.iter().map(|&p| Circle::new(p, 5, col.filled())))
+            Style::Points(r) => c
+                .draw_series(pts.iter().map(|&p| Circle::new(p, r, col.filled())))
                 .map_err(|x| e(&x))?,
             Style::LinePoints => {
                 c.draw_series(LineSeries::new(pts.clone(), col.stroke_width(2)))
@@ -181,7 +181,7 @@ where
                     .map_err(|x| e(&x))?
             }
         };
-        let thick = if s.style == Style::Points { 5 } else { 1 };
+        let thick = if let Style::Points(r) = s.style { r } else { 1 };
         anno.label(s.label.clone()).legend(move |(px, py)| {
             Rectangle::new([(px, py - thick), (px + 20, py + thick)], col.filled())
         });
