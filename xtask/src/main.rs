@@ -106,7 +106,20 @@ fn ci(quick: bool) -> Result<()> {
         )?;
     }
     cargo(&["test", "--workspace"], &[])?;
-    cargo(&["bench", "-p", "balloon-benches", "--", "--test"], &[])?;
+    // Every criterion bench once in test mode so none rots; the dev profile reuses the test
+    // build instead of compiling the workspace again in release.
+    cargo(
+        &[
+            "bench",
+            "-p",
+            "balloon-benches",
+            "--profile",
+            "dev",
+            "--",
+            "--test",
+        ],
+        &[],
+    )?;
     Ok(())
 }
 
