@@ -519,37 +519,12 @@ mod tests {
         Rng, assert_second_order, check_gradient, check_jacobian, taylor_remainder_orders,
     };
 
-    /// A 2 x 1 x 1 block of unit cells with the five-tet split (parity alternating), built here
-    /// so this crate's tests do not depend on the lattice generator.
+    /// A row of `nx` unit cells with the lattice's five-tet split (parity alternating), built
+    /// from the lattice's corner and tetrahedron tables without running the generator.
     type Block = (Vec<Point3<f64>>, Vec<[usize; 8]>, Vec<[[usize; 4]; 5]>);
 
     fn block(nx: usize) -> Block {
-        const C: [[usize; 3]; 8] = [
-            [0, 0, 0],
-            [1, 0, 0],
-            [1, 1, 0],
-            [0, 1, 0],
-            [0, 0, 1],
-            [1, 0, 1],
-            [1, 1, 1],
-            [0, 1, 1],
-        ];
-        const T: [[[usize; 4]; 5]; 2] = [
-            [
-                [1, 3, 4, 6],
-                [0, 1, 3, 4],
-                [2, 3, 1, 6],
-                [5, 4, 6, 1],
-                [7, 3, 4, 6],
-            ],
-            [
-                [0, 2, 5, 7],
-                [1, 0, 2, 5],
-                [3, 2, 0, 7],
-                [4, 5, 7, 0],
-                [6, 7, 5, 2],
-            ],
-        ];
+        use balloon_mesh::lattice::{CELL_TETS as T, CORNERS as C};
         let vid = |i: usize, j: usize, k: usize| i + (nx + 1) * (j + 2 * k);
         let mut x = Vec::new();
         for k in 0..2 {
