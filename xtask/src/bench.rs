@@ -435,7 +435,7 @@ fn markdown(r: &BenchReport) -> String {
     }
     s.push_str("## Reproduce\n\n");
     s.push_str(
-        "* This file: `cargo xtask bench --update-docs` (about 10 minutes on 2 cores; \
+        "* This file: `cargo xtask bench --update-docs` (about 5 minutes on 2 cores; \
          `--meshes DIR` times every .obj/.off/.ply/.stl in DIR instead of the built-in models, \
          e.g. the paper's SHREC'07 models; `--quick` for a smoke run; `--runs N`). Raw numbers: \
          `target/bench/bench.json`.\n",
