@@ -146,6 +146,8 @@ pub struct InflateSummary {
     pub newton_iterations_total: usize,
     /// Linear iterations over the run.
     pub linear_iterations_total: usize,
+    /// Steps that had to be split into smaller sub-steps after a numerical failure.
+    pub split_steps: usize,
     /// Mean, min and max final thickness, m.
     pub final_thickness_mean: f64,
     /// Minimum final thickness, m.
@@ -242,6 +244,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
         summary.steps += 1;
         summary.newton_iterations_total += stats.newton_iterations;
         summary.linear_iterations_total += stats.linear_iterations;
+        summary.split_steps += usize::from(stats.substeps > 1);
         summary.shell_volume_ratio_max_deviation = summary
             .shell_volume_ratio_max_deviation
             .max((stats.shell_volume_ratio - 1.0).abs());

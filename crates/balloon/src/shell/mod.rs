@@ -138,6 +138,7 @@ pub struct ShellBalloon<M: Material = MaterialModel> {
     projection: Option<ShellVolumeParams>,
     dt: f64,
     validate_mesh: bool,
+    max_step_halvings: usize,
 }
 
 /// Default Young's modulus, Pa (latex rubber).
@@ -156,6 +157,8 @@ pub const DEFAULT_DT: f64 = 1.0e-2;
 pub const DEFAULT_PUMP_RATE: f64 = 2.0e-3;
 /// Default relative tolerance of the CG linear solves inside Newton (inexact Newton).
 pub const DEFAULT_LINEAR_TOLERANCE: f64 = 1e-3;
+/// Default number of times a step that fails numerically may be halved (dt / 2^4 at most).
+pub const DEFAULT_MAX_STEP_HALVINGS: usize = 4;
 /// Default mass damping, 1/s.
 pub const DEFAULT_MASS_DAMPING: f64 = 10.0;
 
@@ -185,6 +188,7 @@ impl ShellBalloon<MaterialModel> {
             projection: Some(ShellVolumeParams::default()),
             dt: DEFAULT_DT,
             validate_mesh: true,
+            max_step_halvings: DEFAULT_MAX_STEP_HALVINGS,
         }
     }
 }
@@ -206,6 +210,7 @@ impl<M: Material> ShellBalloon<M> {
             projection: self.projection,
             dt: self.dt,
             validate_mesh: self.validate_mesh,
+            max_step_halvings: self.max_step_halvings,
         }
     }
     /// Uniform rest thickness, m.
@@ -268,6 +273,12 @@ impl<M: Material> ShellBalloon<M> {
     /// Time step, s.
     pub fn with_dt(mut self, dt: f64) -> Self {
         self.dt = dt;
+        self
+    }
+    /// How many times a failing step may be halved before the failure is reported (default
+    /// [`DEFAULT_MAX_STEP_HALVINGS`]; 0 reports the first failure).
+    pub fn with_max_step_halvings(mut self, halvings: usize) -> Self {
+        self.max_step_halvings = halvings;
         self
     }
     /// Skips the closed-manifold validation of the mesh (only for meshes already validated).
@@ -408,6 +419,7 @@ impl<M: Material> ShellBalloon<M> {
             time: 0.0,
             step: 0,
             dt: self.dt,
+            max_step_halvings: self.max_step_halvings,
         })
     }
 }
@@ -433,6 +445,9 @@ pub struct ShellStepStats {
     pub newton_residual: f64,
     /// Projection iterations.
     pub projection_iterations: usize,
+    /// Sub-steps the step took: 1 normally, more when it had to be halved after a numerical
+    /// failure (see `ShellBalloon::with_max_step_halvings`).
+    pub substeps: usize,
     /// Largest vertex speed, m/s.
     pub max_speed: f64,
     /// Relative gas-volume change over the step, |dV| / V.
@@ -445,6 +460,16 @@ pub struct ShellStepStats {
     pub thickness_max: f64,
     /// Wall-clock time of the step, ms.
     pub step_ms: f64,
+}
+
+/// Work summed over the sub-steps of one step.
+#[derive(Debug, Default)]
+struct StepTotals {
+    newton_iterations: usize,
+    linear_iterations: usize,
+    newton_residual: f64,
+    projection_iterations: usize,
+    substeps: usize,
 }
 
 /// A running shell balloon simulation.
@@ -464,6 +489,7 @@ pub struct ShellSimulation<M: Material = MaterialModel, G: GasModel = Gas> {
     time: f64,
     step: usize,
     dt: f64,
+    max_step_halvings: usize,
 }
 
 /// Gas volume growth beyond this factor of the rest volume is reported as a runaway.
@@ -475,23 +501,11 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
     pub fn step(&mut self) -> Result<ShellStepStats, ShellError> {
         let start = std::time::Instant::now();
         let (step, time, dt) = (self.step, self.time, self.dt);
-        let v_old = self.v.clone();
-        self.x_prev.copy_from_slice(&self.x);
-        let thickness_old = self.system.thickness.clone();
         let volume_old = self.system.gas.state().volume;
-        let result = self.step_inner(step, time, dt);
-        let info = match result {
-            Ok(info) => info,
-            Err(e) => {
-                self.x.copy_from_slice(&self.x_prev);
-                self.v = v_old;
-                self.system.thickness = thickness_old;
-                return Err(e);
-            }
-        };
-        self.time += dt;
+        let mut totals = StepTotals::default();
+        self.advance(step, time, dt, 0, &mut totals)?;
+        self.time = time + dt;
         self.step += 1;
-        let (newton, proj_iters) = info;
         let gas = self.system.gas.state();
         let max_speed = self
             .v
@@ -510,10 +524,11 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
             gas_volume: volume_now,
             gauge_pressure: gas.gauge_pressure,
             shell_volume_ratio: self.shell_volume() / self.rest_shell_volume,
-            newton_iterations: newton.newton_iterations,
-            linear_iterations: newton.total_linear_iterations(),
-            newton_residual: newton.newton_residuals.last().copied().unwrap_or(0.0),
-            projection_iterations: proj_iters,
+            newton_iterations: totals.newton_iterations,
+            linear_iterations: totals.linear_iterations,
+            newton_residual: totals.newton_residual,
+            projection_iterations: totals.projection_iterations,
+            substeps: totals.substeps,
             max_speed,
             volume_change: if volume_old > 0.0 {
                 (volume_now - volume_old).abs() / volume_old
@@ -525,6 +540,47 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
             thickness_max: tmax,
             step_ms: start.elapsed().as_secs_f64() * 1e3,
         })
+    }
+
+    /// Advances from `time` by `dt`; on a numerical failure (Newton or linear-solver breakdown,
+    /// a non-finite state, an element or thickness that degenerates in the projection) the state
+    /// is rolled back and the interval is covered by two half steps, recursively, at most
+    /// `max_step_halvings` times (the remedy of seed 003, Sec. 4, applied to the shell). A
+    /// physical runaway of the gas volume is not retried.
+    fn advance(
+        &mut self,
+        step: usize,
+        time: f64,
+        dt: f64,
+        depth: usize,
+        totals: &mut StepTotals,
+    ) -> Result<(), ShellError> {
+        let x_old = self.x.clone();
+        let v_old = self.v.clone();
+        let thickness_old = self.system.thickness.clone();
+        self.x_prev.copy_from_slice(&self.x);
+        match self.step_inner(step, time, dt) {
+            Ok((info, proj_iters)) => {
+                totals.newton_iterations += info.newton_iterations;
+                totals.linear_iterations += info.total_linear_iterations();
+                totals.newton_residual = info.newton_residuals.last().copied().unwrap_or(0.0);
+                totals.projection_iterations += proj_iters;
+                totals.substeps += 1;
+                Ok(())
+            }
+            Err(e) => {
+                self.x = x_old;
+                self.v = v_old;
+                self.system.thickness = thickness_old;
+                let runaway =
+                    matches!(&e, ShellError::Diverged { quantity, .. } if quantity == "gas volume");
+                if runaway || depth >= self.max_step_halvings {
+                    return Err(e);
+                }
+                self.advance(step, time, 0.5 * dt, depth + 1, totals)?;
+                self.advance(step, time + 0.5 * dt, 0.5 * dt, depth + 1, totals)
+            }
+        }
     }
 
     fn step_inner(
