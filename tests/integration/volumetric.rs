@@ -1,7 +1,9 @@
 //! Volume-conserving impulse-based bodies (seed 003) across crates: lattice generation from real
 //! and procedural soups, the constraint crate and the facade together.
 
-use balloon::constraint::cell_volume::{CellCentre, CellVolumeParams, SpringParams};
+use balloon::constraint::cell_volume::{
+    CellCentre, CellCorrection, CellVolumeParams, SpringParams,
+};
 use balloon::volumetric::{MassModel, VolumetricBody, VolumetricParams, VolumetricSimulation};
 use balloon_mesh::generate::icosphere;
 use balloon_mesh::lattice::{LatticeParams, build_lattice};
@@ -153,4 +155,46 @@ fn lattice_and_simulation_are_deterministic() {
     let a = build_lattice(&soup, &p).unwrap();
     let b = build_lattice(&soup, &p).unwrap();
     assert_eq!(a, b);
+}
+
+#[test]
+fn gradient_correction_never_creates_energy_in_a_free_body() {
+    // The same free body as above with the correction along the mass-weighted volume gradient
+    // (`CellCorrection::Gradient`): its velocity change is the M-orthogonal projection removing
+    // the volume-changing motion, so the kinetic energy must not grow in any step (round-off
+    // aside), distorted cells or not.
+    let soup = icosphere(0.5, 2).unwrap();
+    let params = VolumetricParams {
+        lattice: LatticeParams {
+            resolution: 20,
+            ..LatticeParams::default()
+        },
+        springs: SpringParams {
+            edge_stiffness: 0.0,
+            edge_damping: 0.0,
+            diagonal_stiffness: 0.0,
+            diagonal_damping: 0.0,
+        },
+        volume: CellVolumeParams {
+            correction: CellCorrection::Gradient,
+            ..CellVolumeParams::default()
+        },
+        gravity: [0.0; 3],
+        ..VolumetricParams::default()
+    };
+    let body = VolumetricBody::build(&soup, params).unwrap();
+    let mut sim = VolumetricSimulation::new(body);
+    let v = random_velocities(sim.positions().len(), 21, 0.2);
+    sim.set_velocities(&v).unwrap();
+    let p0 = sim.momentum();
+    let mut ke = sim.kinetic_energy();
+    let ke0 = ke;
+    for step in 0..20 {
+        sim.step().unwrap();
+        let now = sim.kinetic_energy();
+        assert!(now <= ke * (1.0 + 1e-12), "step {step}: {ke} -> {now}");
+        ke = now;
+    }
+    assert!(ke < ke0);
+    assert!((sim.momentum() - p0).norm() < 1e-12 * ke0.sqrt().max(1.0));
 }

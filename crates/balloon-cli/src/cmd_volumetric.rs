@@ -12,7 +12,7 @@ use anyhow::{Context, Result};
 use balloon::volumetric::{
     MassModel, StepStats, VolumetricBody, VolumetricParams, VolumetricScene,
 };
-use balloon_constraint::cell_volume::{CellCentre, CellVolumeParams, SpringParams};
+use balloon_constraint::cell_volume::{CellCentre, CellCorrection, CellVolumeParams, SpringParams};
 use balloon_mesh::lattice::LatticeParams;
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -29,6 +29,15 @@ pub enum SceneArg {
 }
 
 /// Arguments of `balloon volumetric`.
+/// Cell-volume correction (`--correction`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Correction {
+    /// Scale the cell about its centre (seed 003, Sec. 4).
+    Scaling,
+    /// Move along the mass-weighted volume gradient.
+    Gradient,
+}
+
 #[derive(Debug, clap::Args)]
 pub struct VolumetricArgs {
     /// Mesh file (.obj, .off, .ply, .stl; any triangle soup), `builtin` (the teddy) or
@@ -79,6 +88,10 @@ pub struct VolumetricArgs {
     /// Lumped masses and mass-weighted cell centres instead of equal masses.
     #[arg(long)]
     pub lumped_masses: bool,
+    /// Volume correction: `scaling` (the paper's scaling about the cell centre) or `gradient`
+    /// (along the mass-weighted volume gradient: never adds kinetic energy to first order).
+    #[arg(long, value_enum, default_value_t = Correction::Scaling)]
+    pub correction: Correction,
     /// Time step (s).
     #[arg(long, default_value_t = 5e-4)]
     pub dt: f64,
@@ -201,6 +214,10 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
                 CellCentre::MassWeighted
             } else {
                 CellCentre::Arithmetic
+            },
+            correction: match args.correction {
+                Correction::Scaling => CellCorrection::Scaling,
+                Correction::Gradient => CellCorrection::Gradient,
             },
             ..CellVolumeParams::default()
         },
