@@ -387,7 +387,7 @@ impl CellVolumeConstraints {
             .zip(&grad)
             .map(|(&i, g)| g.norm_squared() / masses[i])
             .sum();
-        if !(denom > 0.0) {
+        if denom.is_nan() || denom <= 0.0 {
             return;
         }
         let s = self.params.over_relaxation * (v - self.rest_volumes[c]) / denom;
