@@ -33,6 +33,7 @@
 //! undamped model conserves energy. Pressures are given as *initial* pressures at the rest
 //! volume: `(nRT)_k = P_k0 V_k0`.
 
+pub mod analytic;
 mod forces;
 mod model;
 mod sim;

@@ -5,7 +5,8 @@
 use super::{Figures, Options};
 use crate::plot::{Chart, Series, Style, line_chart};
 use crate::report::{Case, loglog_slope};
-use anyhow::Result;
+use anyhow::{Context, Result};
+use balloon::two_layer::analytic::CircleBody;
 use balloon::two_layer::{ExplicitMethod, SpringKind, TwoLayerBody};
 
 const G: &str = "two-layer";
@@ -132,37 +133,18 @@ fn settling(cases: &mut Vec<Case>) -> Result<()> {
         .with_spring(SpringKind::ShearRight, ksh, 0.4)
         .with_pressure(p_out, p_in)
         .with_gravity(0.0);
-    let nf = nn as f64;
-    let th = std::f64::consts::TAU / nf;
-    let s2 = (2.0 * (std::f64::consts::PI / nf).sin()).powi(2);
-    let area = |r: f64| 0.5 * nf * r * r * th.sin();
-    let (c_out, c_in) = (p_out * area(b0), p_in * area(a0));
-    let shear = |a: f64, b: f64| (a * a + b * b - 2.0 * a * b * th.cos()).sqrt();
-    let l0 = shear(a0, b0);
-    let grad = |a: f64, b: f64| {
-        let l = shear(a, b);
-        let r = (b - a) - (b0 - a0);
-        [
-            nf * (ks * s2 * (a - a0) - kr * r + 2.0 * ksh * (l - l0) * (a - b * th.cos()) / l)
-                - 2.0 * c_in / a,
-            nf * (ks * s2 * (b - b0) + kr * r + 2.0 * ksh * (l - l0) * (b - a * th.cos()) / l)
-                - 2.0 * c_out / b,
-        ]
-    };
-    let (mut a, mut b) = (a0, b0);
-    for _ in 0..50 {
-        let g = grad(a, b);
-        let h = 1e-7;
-        let (gap, gam) = (grad(a + h, b), grad(a - h, b));
-        let (gbp, gbm) = (grad(a, b + h), grad(a, b - h));
-        let j = [
-            [(gap[0] - gam[0]) / (2.0 * h), (gbp[0] - gbm[0]) / (2.0 * h)],
-            [(gap[1] - gam[1]) / (2.0 * h), (gbp[1] - gbm[1]) / (2.0 * h)],
-        ];
-        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-        a -= (j[1][1] * g[0] - j[0][1] * g[1]) / det;
-        b -= (-j[1][0] * g[0] + j[0][0] * g[1]) / det;
+    let (a, b) = CircleBody {
+        particles: nn,
+        inner_radius: a0,
+        outer_radius: b0,
+        structural: ks,
+        radius: kr,
+        shear: ksh,
+        outer_pressure: p_out,
+        inner_pressure: p_in,
     }
+    .equilibrium_radii()
+    .context("the analytic N-gon equilibrium did not converge")?;
     let mut sim = body.simulate(ExplicitMethod::Rk4, 1e-3)?;
     sim.run(5000)?;
     let x = sim.positions();

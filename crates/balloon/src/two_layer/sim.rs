@@ -512,48 +512,18 @@ mod tests {
             .with_spring(SpringKind::ShearRight, ksh, 0.4)
             .with_pressure(p_out, p_in)
             .with_gravity(0.0);
-        let nf = nn as f64;
-        let th = std::f64::consts::TAU / nf;
-        let s2 = (2.0 * (std::f64::consts::PI / nf).sin()).powi(2);
-        let area = |r: f64| 0.5 * nf * r * r * th.sin();
-        let (c_out, c_in) = (p_out * area(b0), p_in * area(a0));
-        let l = |a: f64, b: f64| (a * a + b * b - 2.0 * a * b * th.cos()).sqrt();
-        let l0 = l(a0, b0);
-        let grad = |a: f64, b: f64| {
-            let ll = l(a, b);
-            let r = (b - a) - (b0 - a0);
-            [
-                nf * (ks * s2 * (a - a0) - kr * r
-                    + 2.0 * ksh * (ll - l0) * (a - b * th.cos()) / ll)
-                    - 2.0 * c_in / a,
-                nf * (ks * s2 * (b - b0)
-                    + kr * r
-                    + 2.0 * ksh * (ll - l0) * (b - a * th.cos()) / ll)
-                    - 2.0 * c_out / b,
-            ]
-        };
-        // Newton on the 2x2 system with a central-difference Jacobian.
-        let (mut a, mut b) = (a0, b0);
-        for _ in 0..50 {
-            let g = grad(a, b);
-            let h = 1e-7;
-            let (ga_p, ga_m) = (grad(a + h, b), grad(a - h, b));
-            let (gb_p, gb_m) = (grad(a, b + h), grad(a, b - h));
-            let j = [
-                [
-                    (ga_p[0] - ga_m[0]) / (2.0 * h),
-                    (gb_p[0] - gb_m[0]) / (2.0 * h),
-                ],
-                [
-                    (ga_p[1] - ga_m[1]) / (2.0 * h),
-                    (gb_p[1] - gb_m[1]) / (2.0 * h),
-                ],
-            ];
-            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-            a -= (j[1][1] * g[0] - j[0][1] * g[1]) / det;
-            b -= (-j[1][0] * g[0] + j[0][0] * g[1]) / det;
+        let (a, b) = crate::two_layer::analytic::CircleBody {
+            particles: nn,
+            inner_radius: a0,
+            outer_radius: b0,
+            structural: ks,
+            radius: kr,
+            shear: ksh,
+            outer_pressure: p_out,
+            inner_pressure: p_in,
         }
-        assert!(grad(a, b)[0].abs() < 1e-9 && grad(a, b)[1].abs() < 1e-9);
+        .equilibrium_radii()
+        .expect("Newton converges");
         assert!(
             b > 1.05 * b0,
             "pressure should inflate the body noticeably (b = {b})"
