@@ -350,22 +350,6 @@ fn two_layer_scaling(opts: &Options) -> Result<Scaling> {
     ))
 }
 
-fn machine() -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split(':').nth(1))
-                .map(|s| s.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown CPU".into());
-    let n = std::thread::available_parallelism()
-        .map(|n| n.get())
-        .unwrap_or(1);
-    format!("{cpu}; nproc = {n}")
-}
-
 fn markdown(r: &BenchReport) -> String {
     let mut s = String::new();
     s.push_str("# Benchmarks\n\n");
@@ -496,7 +480,7 @@ pub fn run(opts: &Options) -> Result<()> {
         command.push_str(&a);
     }
     let report = BenchReport {
-        machine: machine(),
+        machine: crate::report::machine(),
         command,
         runs: opts.runs,
         steps_per_run: steps,

@@ -58,22 +58,6 @@ const BUILTIN_MODELS: &[&str] = &[
     "box",
 ];
 
-fn machine() -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split(':').nth(1))
-                .map(|s| s.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown CPU".into());
-    let n = std::thread::available_parallelism()
-        .map(|n| n.get())
-        .unwrap_or(1);
-    format!("{cpu}, {n} threads available")
-}
-
 /// Runs every case; see the module docs.
 pub fn run(opts: &Options) -> Result<()> {
     let root = crate::workspace_root();
@@ -186,7 +170,7 @@ fn render_markdown(
         if opts.quick { " --quick" } else { "" },
         cases.len(),
         cases.len() - failed,
-        machine()
+        crate::report::machine()
     );
     s.push_str("## What is checked\n\n");
     s.push_str(
