@@ -200,10 +200,11 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
 
     fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
         self.add_elastic_differential(dx, df);
-        // Lengths were checked at evaluation; the gas differential cannot fail here.
-        let _ = self
+        // Lengths and indices were checked by the evaluation at `x_lin`, so this cannot fail.
+        let checked = self
             .gas
             .add_differential(&self.x_lin, &self.triangles, dx, df);
+        debug_assert!(checked.is_ok(), "gas differential: {checked:?}");
     }
 
     fn add_stiffness_triplets(
