@@ -1,7 +1,8 @@
 //! The `balloon` command-line tool.
 //!
 //! Subcommands: `mesh info` (inspect a mesh), `inflate` (shell balloons, seed 000),
-//! `volumetric` (volume-conserving bodies, seed 003) and `two-layer` (two-layer objects, seed 004).
+//! `volumetric` (volume-conserving bodies, seed 003) and `two-layer` (two-layer objects, seed 004) and `view`
+//! (a live viewer in the browser).
 //! Run `balloon <subcommand> --help` for the flags and their defaults.
 
 use clap::{Parser, Subcommand};
@@ -9,6 +10,7 @@ use clap::{Parser, Subcommand};
 mod cmd_inflate;
 mod cmd_mesh;
 mod cmd_two_layer;
+mod cmd_view;
 mod cmd_volumetric;
 mod output;
 
@@ -32,6 +34,8 @@ enum Command {
     Volumetric(cmd_volumetric::VolumetricArgs),
     /// Simulate a two-layer elastic object (seed 004).
     TwoLayer(cmd_two_layer::TwoLayerArgs),
+    /// Watch and steer a simulation live in the browser (local server, loopback only).
+    View(cmd_view::ViewArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -41,6 +45,7 @@ fn main() -> std::process::ExitCode {
         Command::Inflate(a) => cmd_inflate::run(a),
         Command::Volumetric(a) => cmd_volumetric::run(a),
         Command::TwoLayer(a) => cmd_two_layer::run(a),
+        Command::View(a) => cmd_view::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,0 +1,1 @@
+//! Software rendering of simulation frames (placeholder; being written for issue 7).

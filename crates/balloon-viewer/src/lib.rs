@@ -1,0 +1,1 @@
+//! Live browser viewer (placeholder; being written for issue 7).
