@@ -2,7 +2,9 @@
 
 mod inflate;
 mod mesh;
+mod render;
 mod two_layer;
+mod view;
 mod volumetric;
 
 use std::process::{Command, Output};

@@ -1,0 +1,1 @@
+//! Tests of `balloon render` (issue 7; being written).

@@ -1,0 +1,1 @@
+//! Tests of `balloon view` (issue 7; being written).
