@@ -121,6 +121,7 @@ fn sphere_curve<M: Material>(
         let r = effective_radius(&mesh);
         let mut points = Vec::new();
         let mut level_worst: f64 = 0.0;
+        let mut level_spread: f64 = 0.0;
         for &p in pressures {
             let case = format!(
                 "{name} sphere stretch, p = {p} Pa, icosphere L{level} ({} v)",
@@ -133,6 +134,7 @@ fn sphere_curve<M: Material>(
             match sphere_stretch_sim(material, &mesh, H0, p) {
                 Ok((lambda, spread, h_spread)) => {
                     level_worst = level_worst.max((lambda / expected - 1.0).abs());
+                    level_spread = level_spread.max(spread);
                     points.push((lambda, p));
                     // 0.5% on the stretch: the discrete sphere is not uniformly stretched
                     // (valence-5 vertices), which the analytic curve ignores.
@@ -149,23 +151,27 @@ fn sphere_curve<M: Material>(
                 Err(e) => cases.push(Case::error(G, case, e)),
             }
         }
-        worst.push((level, mesh.num_vertices(), level_worst));
+        worst.push((level, level_worst, level_spread));
         runs.push(CurveRun {
             label: format!("{name}, L{level} ({} vertices)", mesh.num_vertices()),
             points,
         });
     }
     if worst.len() == 2 {
+        // The stretch itself is a global measure (cube root of the gas volume ratio) whose error
+        // is already at the settling tolerance (~1e-6) on both levels, so it cannot show the
+        // discretisation error; the radius spread (how far the equilibrium is from a sphere,
+        // caused by the irregular valence-5 vertices) can, and it must shrink on refinement.
         let (c, f) = (worst[0], worst[1]);
         cases.push(Case::check(
             G,
             format!(
-                "{name} sphere: max stretch error shrinks with refinement (L{} -> L{})",
-                c.0, f.0
+                "{name} sphere: radius spread shrinks with refinement (L{} -> L{}; stretch errors {:.1e} -> {:.1e})",
+                c.0, f.0, c.1, f.1
             ),
-            f.2 <= c.2,
+            f.2 < c.2,
             format!("{:.2e} -> {:.2e}", c.2, f.2),
-            "fine <= coarse",
+            "fine < coarse",
         ));
     }
     runs
