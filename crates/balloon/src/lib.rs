@@ -9,6 +9,7 @@
 //! | volume-conserving impulse-based bodies | `volumetric::VolumetricBody` | 003 (Diziol, Bender, Bayer) |
 //! | two-layer elastic objects | `two_layer::TwoLayerBody` | 004 (Song) |
 
+pub mod fields;
 pub mod shell;
 pub mod two_layer;
 pub mod volumetric;
