@@ -333,6 +333,8 @@ pub struct VolumetricSimulation {
     time: f64,
     total_halvings: u64,
     forces: Vec<Vector3<f64>>,
+    /// External forces per particle (N) added in step 1 of every step; empty = none.
+    external: Vec<Vector3<f64>>,
 }
 
 #[derive(Default)]
@@ -358,6 +360,7 @@ impl VolumetricSimulation {
             time: 0.0,
             total_halvings: 0,
             forces: vec![Vector3::zeros(); n],
+            external: Vec::new(),
         }
     }
 
@@ -593,6 +596,9 @@ impl VolumetricSimulation {
         self.body
             .springs
             .add_forces(&self.positions, &self.velocities, &mut self.forces);
+        for (f, e) in self.forces.iter_mut().zip(&self.external) {
+            *f += e;
+        }
         for ((v, f), m) in self
             .velocities
             .iter_mut()
@@ -657,6 +663,145 @@ impl VolumetricSimulation {
             s.position += s.velocity * h;
         }
         Ok(())
+    }
+}
+
+impl VolumetricSimulation {
+    /// Sets external forces (N), one per particle, added to the cell-spring forces in step 1 of
+    /// every following step (Eq. 1: `v += h F / m`, i.e. an impulse `h F` per step) until
+    /// changed; `None` removes them. The live viewer drags the body with a spring force computed
+    /// before each step. Every component must be finite.
+    pub fn set_external_forces(
+        &mut self,
+        forces: Option<&[Vector3<f64>]>,
+    ) -> Result<(), VolumetricError> {
+        match forces {
+            None => self.external.clear(),
+            Some(f) => {
+                if f.len() != self.positions.len() {
+                    return Err(VolumetricError::InvalidParameter {
+                        name: "external forces",
+                        value: f.len().to_string(),
+                        reason: format!("expected {} particle forces", self.positions.len()),
+                    });
+                }
+                if let Some(i) = f.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
+                    return Err(VolumetricError::InvalidParameter {
+                        name: "external forces",
+                        value: format!("{:?}", f[i]),
+                        reason: format!("the force on particle {i} must be finite"),
+                    });
+                }
+                self.external.clear();
+                self.external.extend_from_slice(f);
+            }
+        }
+        Ok(())
+    }
+
+    /// The external forces set by [`VolumetricSimulation::set_external_forces`] (empty when none).
+    pub fn external_forces(&self) -> &[Vector3<f64>] {
+        &self.external
+    }
+
+    /// Changes gravity (m/s^2, finite) for the following steps.
+    pub fn set_gravity(&mut self, gravity: [f64; 3]) -> Result<(), VolumetricError> {
+        let mut params = self.body.params.clone();
+        params.gravity = gravity;
+        params.validate()?;
+        self.body.params.gravity = gravity;
+        Ok(())
+    }
+
+    /// Changes the time step (s, in (0, 1]) for the following steps.
+    pub fn set_dt(&mut self, dt: f64) -> Result<(), VolumetricError> {
+        let mut params = self.body.params.clone();
+        params.dt = dt;
+        params.validate()?;
+        self.body.params.dt = dt;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod viewer_api_tests {
+    use super::*;
+
+    fn free_cube() -> VolumetricSimulation {
+        let params = VolumetricParams {
+            lattice: LatticeParams {
+                resolution: 8,
+                voxels_per_cell: 2,
+                smoothing_iterations: 0,
+                ..LatticeParams::default()
+            },
+            gravity: [0.0; 3],
+            ..VolumetricParams::default()
+        };
+        VolumetricScene::Free
+            .build(Some(&cube_soup(Point3::origin(), 1.0)), params)
+            .unwrap()
+    }
+
+    #[test]
+    fn constant_external_force_accelerates_the_body_by_f_over_m() {
+        let mut sim = free_cube();
+        let mass = sim.body().mass();
+        let n = sim.positions().len();
+        // 10 N in total along +y, shared by mass (equal accelerations).
+        let f: Vec<Vector3<f64>> = sim
+            .masses()
+            .iter()
+            .map(|m| Vector3::new(0.0, 10.0 * m / mass, 0.0))
+            .collect();
+        sim.set_external_forces(Some(&f)).unwrap();
+        assert_eq!(sim.external_forces().len(), n);
+        for _ in 0..20 {
+            sim.step().unwrap();
+        }
+        let p = sim.momentum();
+        let want = 10.0 * sim.time();
+        assert!(
+            (p.y - want).abs() < 1e-9 * want,
+            "momentum {p:?} vs F t = {want}"
+        );
+        sim.set_external_forces(None).unwrap();
+        sim.step().unwrap();
+        assert!((sim.momentum().y - want).abs() < 1e-9 * want);
+    }
+
+    #[test]
+    fn a_spring_drag_pulls_the_grabbed_particle_towards_the_target() {
+        let mut sim = free_cube();
+        let i = 0;
+        let start = sim.positions()[i];
+        let target = start + Vector3::new(-0.5, 0.0, 0.0);
+        let k = 2e3;
+        for _ in 0..100 {
+            let mut f = vec![Vector3::zeros(); sim.positions().len()];
+            f[i] = k * (target - sim.positions()[i]);
+            sim.set_external_forces(Some(&f)).unwrap();
+            sim.step().unwrap();
+        }
+        let d0 = (target - start).norm();
+        let d1 = (target - sim.positions()[i]).norm();
+        assert!(d1 < 0.8 * d0, "distance to the target {d0} -> {d1}");
+    }
+
+    #[test]
+    fn bad_forces_gravity_and_dt_are_rejected() {
+        let mut sim = free_cube();
+        assert!(sim.set_external_forces(Some(&[Vector3::zeros()])).is_err());
+        let mut f = vec![Vector3::zeros(); sim.positions().len()];
+        f[3].x = f64::INFINITY;
+        let e = sim.set_external_forces(Some(&f)).unwrap_err().to_string();
+        assert!(e.contains("particle 3"), "{e}");
+        assert!(sim.set_gravity([0.0, f64::NAN, 0.0]).is_err());
+        sim.set_gravity([0.0, 0.0, -1.0]).unwrap();
+        assert_eq!(sim.body().params.gravity, [0.0, 0.0, -1.0]);
+        assert!(sim.set_dt(-1.0).is_err());
+        sim.set_dt(5e-4).unwrap();
+        assert_eq!(sim.body().params.dt, 5e-4);
     }
 }
 

@@ -420,6 +420,7 @@ impl<M: Material> ShellBalloon<M> {
             step: 0,
             dt: self.dt,
             max_step_halvings: self.max_step_halvings,
+            external_forces: Vec::new(),
         })
     }
 }
@@ -490,6 +491,8 @@ pub struct ShellSimulation<M: Material = MaterialModel, G: GasModel = Gas> {
     step: usize,
     dt: f64,
     max_step_halvings: usize,
+    /// External forces per degree of freedom (N), held constant over each step; empty = none.
+    external_forces: Vec<f64>,
 }
 
 /// Gas volume growth beyond this factor of the rest volume is reported as a runaway.
@@ -591,7 +594,14 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
     ) -> Result<(balloon_integrate::implicit::StepInfo, usize), ShellError> {
         let info = self
             .integrator
-            .step(&mut self.system, time, dt, &mut self.x, &mut self.v, None)
+            .step(
+                &mut self.system,
+                time,
+                dt,
+                &mut self.x,
+                &mut self.v,
+                (!self.external_forces.is_empty()).then_some(&self.external_forces[..]),
+            )
             .map_err(|source| ShellError::Integrate { step, time, source })?;
         let mut proj_iters = 0;
         if let Some(proj) = &mut self.projection {
@@ -732,5 +742,221 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
     /// Vertex lumped masses per degree of freedom, kg.
     pub fn masses(&self) -> &[f64] {
         self.system.masses()
+    }
+}
+
+impl<M: Material, G: GasModel> ShellSimulation<M, G> {
+    /// Sets external forces (N) per degree of freedom, flat `[fx0, fy0, fz0, ...]`, applied in
+    /// every following step as the `f_ext` of backward Euler (Eq. 18-19) until changed; `None`
+    /// removes them. Used by the live viewer for grabbing and pinching. The length must be
+    /// `3 * vertices` and every value finite.
+    pub fn set_external_forces(&mut self, forces: Option<&[f64]>) -> Result<(), ShellError> {
+        match forces {
+            None => self.external_forces.clear(),
+            Some(f) => {
+                if f.len() != self.x.len() {
+                    return Err(ShellError::InvalidParameter {
+                        name: "external forces",
+                        value: format!("{} values", f.len()),
+                        reason: format!("need 3 per vertex ({})", self.x.len()),
+                    });
+                }
+                if let Some(i) = f.iter().position(|v| !v.is_finite()) {
+                    return Err(ShellError::InvalidParameter {
+                        name: "external forces",
+                        value: f[i].to_string(),
+                        reason: format!("component {i} must be finite"),
+                    });
+                }
+                self.external_forces.clear();
+                self.external_forces.extend_from_slice(f);
+            }
+        }
+        Ok(())
+    }
+
+    /// The external forces set by [`ShellSimulation::set_external_forces`] (empty when none).
+    pub fn external_forces(&self) -> &[f64] {
+        &self.external_forces
+    }
+
+    /// Changes the time step (s, positive and finite) for the following steps.
+    pub fn set_dt(&mut self, dt: f64) -> Result<(), ShellError> {
+        ShellBalloon::<MaterialModel>::positive("dt", dt)?;
+        self.dt = dt;
+        Ok(())
+    }
+}
+
+impl<M: Material> ShellSimulation<M, Gas> {
+    /// Changes the gas while the simulation runs (the pressure control of the live viewer):
+    /// for a constant-pressure gas the held gauge pressure becomes `gauge` (Pa); for the ideal
+    /// gas the amount `nRT = p0 V0` (Eq. 12, 14) is set so that the gas would have gauge pressure
+    /// `gauge` at the rest volume, `nRT = (p_ambient + gauge) V_rest`; for the pump it is an
+    /// error (use [`ShellSimulation::set_pump_rate`]). The absolute pressure must stay positive.
+    pub fn set_gauge_pressure(&mut self, gauge: f64) -> Result<(), ShellError> {
+        let ambient = self.system.gas.ambient_pressure();
+        let p_abs = ambient + gauge;
+        if !(gauge.is_finite() && p_abs > 0.0) {
+            return Err(ShellError::InvalidParameter {
+                name: "pressure",
+                value: gauge.to_string(),
+                reason: format!("the absolute pressure {ambient} Pa + gauge must be positive"),
+            });
+        }
+        let rest_volume = self.rest_gas_volume;
+        match self.system.gas.gas_mut() {
+            Gas::Constant(c) => c.pressure = p_abs,
+            Gas::Ideal(g) => g.initial_pressure = p_abs * rest_volume / g.initial_volume,
+            Gas::Pump(_) => {
+                return Err(ShellError::InvalidParameter {
+                    name: "pressure",
+                    value: gauge.to_string(),
+                    reason: "the pump gas has no set pressure; change its pump rate".into(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Changes the pump rate (m^3/s of ambient air, >= 0) of a [`GasKind::Pump`] gas from now
+    /// on: the gas content pumped so far is kept and grows by `p_ambient * rate` J/s from the
+    /// current time. Errors for the other gases.
+    pub fn set_pump_rate(&mut self, rate: f64) -> Result<(), ShellError> {
+        if !(rate.is_finite() && rate >= 0.0) {
+            return Err(ShellError::InvalidParameter {
+                name: "pump-rate",
+                value: rate.to_string(),
+                reason: "must be a finite flow >= 0 m^3/s".into(),
+            });
+        }
+        let now = self.time;
+        let ambient = self.system.gas.ambient_pressure();
+        match self.system.gas.gas_mut() {
+            Gas::Pump(p) => {
+                p.initial_amount = p.amount(now);
+                p.start_time = now;
+                p.rate = rate * ambient;
+                Ok(())
+            }
+            _ => Err(ShellError::InvalidParameter {
+                name: "pump-rate",
+                value: rate.to_string(),
+                reason: "only the pump gas has a pump rate".into(),
+            }),
+        }
+    }
+
+    /// The gas model (its kind and parameters).
+    pub fn gas(&self) -> &Gas {
+        self.system.gas.gas()
+    }
+}
+
+#[cfg(test)]
+mod viewer_api_tests {
+    use super::*;
+
+    fn small() -> ShellSimulation {
+        let mesh = balloon_mesh::generate::icosphere(0.1, 1).unwrap();
+        ShellBalloon::new(mesh)
+            .with_gas(GasKind::Constant)
+            .with_gauge_pressure(0.0)
+            .with_projection(None)
+            .build()
+            .unwrap()
+    }
+
+    #[test]
+    fn constant_external_force_accelerates_a_free_shell_by_f_over_m() {
+        let mut sim = small();
+        sim.integrator_params_mut().mass_damping = 0.0;
+        let n = sim.positions().len();
+        let total_mass: f64 = sim.masses().iter().step_by(3).sum();
+        // 1 N in total along +x, shared by mass so every vertex gets the same acceleration.
+        let f: Vec<f64> = sim
+            .masses()
+            .iter()
+            .enumerate()
+            .map(|(i, m)| if i % 3 == 0 { m / total_mass } else { 0.0 })
+            .collect();
+        sim.set_external_forces(Some(&f)).unwrap();
+        assert_eq!(sim.external_forces().len(), n);
+        let steps = 5;
+        for _ in 0..steps {
+            sim.step().unwrap();
+        }
+        let mean_vx = sim.velocities().iter().step_by(3).sum::<f64>() / (n / 3) as f64;
+        let expected = sim.time() / total_mass;
+        assert!(
+            (mean_vx - expected).abs() < 1e-3 * expected,
+            "mean vx {mean_vx} vs F t / m = {expected}"
+        );
+        sim.set_external_forces(None).unwrap();
+        assert!(sim.external_forces().is_empty());
+    }
+
+    #[test]
+    fn bad_external_forces_are_rejected() {
+        let mut sim = small();
+        assert!(sim.set_external_forces(Some(&[1.0])).is_err());
+        let mut f = vec![0.0; sim.positions().len()];
+        f[4] = f64::NAN;
+        let e = sim.set_external_forces(Some(&f)).unwrap_err().to_string();
+        assert!(e.contains("component 4"), "{e}");
+        assert!(sim.set_dt(0.0).is_err());
+        sim.set_dt(0.005).unwrap();
+        assert_eq!(sim.dt(), 0.005);
+    }
+
+    #[test]
+    fn gas_setters_act_live() {
+        let mut sim = small();
+        sim.set_gauge_pressure(1500.0).unwrap();
+        match sim.gas() {
+            Gas::Constant(c) => assert!((c.pressure - (STANDARD_ATMOSPHERE + 1500.0)).abs() < 1e-9),
+            g => panic!("{g:?}"),
+        }
+        sim.step().unwrap();
+        assert!((sim.gauge_pressure() - 1500.0).abs() < 1e-6);
+        assert!(sim.set_gauge_pressure(-2.0 * STANDARD_ATMOSPHERE).is_err());
+        assert!(sim.set_pump_rate(1e-3).is_err());
+
+        let mesh = balloon_mesh::generate::icosphere(0.1, 1).unwrap();
+        let mut ideal = ShellBalloon::new(mesh.clone())
+            .with_gas(GasKind::Ideal)
+            .build()
+            .unwrap();
+        ideal.set_gauge_pressure(500.0).unwrap();
+        match ideal.gas() {
+            Gas::Ideal(g) => {
+                let want = (STANDARD_ATMOSPHERE + 500.0) * ideal.rest_gas_volume();
+                assert!((g.amount() - want).abs() < 1e-9 * want);
+            }
+            g => panic!("{g:?}"),
+        }
+
+        let mut pump = ShellBalloon::new(mesh).with_pump_rate(0.0).build().unwrap();
+        pump.step().unwrap();
+        let v0 = pump.gas_volume();
+        pump.set_pump_rate(2e-3).unwrap();
+        let amount_then = match pump.gas() {
+            Gas::Pump(p) => p.amount(pump.time()),
+            g => panic!("{g:?}"),
+        };
+        for _ in 0..3 {
+            pump.step().unwrap();
+        }
+        match pump.gas() {
+            Gas::Pump(p) => {
+                let added = p.amount(pump.time()) - amount_then;
+                let want = 2e-3 * STANDARD_ATMOSPHERE * 3.0 * pump.dt();
+                assert!((added - want).abs() < 1e-9 * want, "{added} vs {want}");
+            }
+            g => panic!("{g:?}"),
+        }
+        assert!(pump.gas_volume() > v0);
+        assert!(pump.set_pump_rate(-1.0).is_err());
+        assert!(pump.set_gauge_pressure(100.0).is_err());
     }
 }

@@ -366,6 +366,174 @@ impl TwoLayerSimulation {
     }
 }
 
+impl TwoLayerSimulation {
+    /// Sets the drag spring (seed Sec. 4.4, Eq. 4.7) on a chosen particle instead of the one
+    /// nearest to the target (what the live viewer needs: the user picks a vertex, then moves the
+    /// target). The particle must be an outer-layer particle (a free particle in 1D) that is not
+    /// fixed. The work bookkeeping is that of [`TwoLayerSimulation::set_drag`]. Returns the
+    /// particle.
+    pub fn set_drag_particle(
+        &mut self,
+        particle: usize,
+        target: DragTarget,
+    ) -> Result<usize, TwoLayerError> {
+        let m = self.forces.model();
+        let allowed = if m.has_layers() {
+            m.layer_size..2 * m.layer_size
+        } else {
+            0..m.num_particles()
+        };
+        if !allowed.contains(&particle) || m.fixed[particle] {
+            return Err(TwoLayerError::InvalidParameter {
+                name: "drag particle",
+                value: particle.to_string(),
+                reason: format!(
+                    "must be a free particle of the outer layer ({}..{})",
+                    allowed.start, allowed.end
+                ),
+            });
+        }
+        positive("drag stiffness", target.stiffness)?;
+        non_negative("drag damping", target.damping)?;
+        non_negative("drag rest length", target.rest_length)?;
+        if !target.point.coords.iter().all(|c| c.is_finite()) {
+            return Err(TwoLayerError::InvalidParameter {
+                name: "drag point",
+                value: format!("{:?}", target.point),
+                reason: "must be finite".into(),
+            });
+        }
+        // `TwoLayerForces::set_drag` picks the particle nearest to the target: hand it a copy
+        // of the positions with the chosen particle on the target, so that particle is picked.
+        let n3 = self.state.len() / 2;
+        let mut probe = self.state[..n3].to_vec();
+        for (c, p) in probe[3 * particle..3 * particle + 3]
+            .iter_mut()
+            .zip(target.point.iter())
+        {
+            *c = *p;
+        }
+        let before = self.energies().drag;
+        let previous = self.forces.drag();
+        let picked = self.forces.set_drag(Some(target), &probe);
+        if picked != Some(particle) {
+            // Another particle sits exactly on the target: keep the previous drag.
+            let restore = previous.map(|(t, i)| {
+                let mut x = self.state[..n3].to_vec();
+                x[3 * i..3 * i + 3].copy_from_slice(t.point.coords.as_slice());
+                (t, x)
+            });
+            match restore {
+                Some((t, x)) => self.forces.set_drag(Some(t), &x),
+                None => self.forces.set_drag(None, &probe),
+            };
+            return Err(TwoLayerError::InvalidParameter {
+                name: "drag particle",
+                value: particle.to_string(),
+                reason: "another particle lies exactly on the target".into(),
+            });
+        }
+        // The energy the spring stores now (real positions) is work done on the body.
+        self.work += self.energies().drag - before;
+        Ok(particle)
+    }
+
+    /// Changes the integration method for the following steps (seed Ch. 5).
+    pub fn set_method(&mut self, method: ExplicitMethod) {
+        self.integrator.set_method(method);
+    }
+
+    /// Changes the time step (s, positive and finite) for the following steps.
+    pub fn set_dt(&mut self, dt: f64) -> Result<(), TwoLayerError> {
+        self.dt = positive("dt", dt)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod viewer_api_tests {
+    use super::*;
+
+    fn sphere() -> TwoLayerSimulation {
+        TwoLayerBody::octahedron_sphere(1)
+            .with_radii(0.8, 1.0)
+            .with_pressure(200.0, 200.0)
+            .with_gravity(0.0)
+            .simulate(ExplicitMethod::Rk4, 1e-3)
+            .unwrap()
+    }
+
+    fn pos(sim: &TwoLayerSimulation, i: usize) -> Vector3<f64> {
+        let x = sim.positions();
+        Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2])
+    }
+
+    #[test]
+    fn drag_on_a_chosen_particle_pulls_it_towards_the_target() {
+        let mut sim = sphere();
+        let n = sim.model().layer_size;
+        let particle = n + 3;
+        let start = pos(&sim, particle);
+        // A target beyond the particle, farther from it than from several other particles'
+        // positions would not matter: the chosen particle is the one pulled.
+        let target = Point3::from(start * 1.6);
+        let drag = DragTarget {
+            point: target,
+            stiffness: 50.0,
+            damping: 0.5,
+            rest_length: 0.0,
+        };
+        assert_eq!(sim.set_drag_particle(particle, drag).unwrap(), particle);
+        assert_eq!(sim.forces().drag().map(|(_, i)| i), Some(particle));
+        assert!(sim.work_done() > 0.0);
+        let d0 = (target.coords - start).norm();
+        sim.run(200).unwrap();
+        let d1 = (target.coords - pos(&sim, particle)).norm();
+        assert!(d1 < 0.8 * d0, "distance to the target {d0} -> {d1}");
+        // Moving the target keeps the same particle even when another one is nearer to it.
+        let other = pos(&sim, n + 10);
+        let moved = DragTarget {
+            point: Point3::from(other + Vector3::new(1e-3, 0.0, 0.0)),
+            ..drag
+        };
+        sim.set_drag_particle(particle, moved).unwrap();
+        assert_eq!(sim.forces().drag().map(|(_, i)| i), Some(particle));
+    }
+
+    #[test]
+    fn bad_drag_particles_and_dt_are_rejected() {
+        let mut sim = sphere();
+        let n = sim.model().layer_size;
+        let drag = DragTarget {
+            point: Point3::new(0.0, 0.0, 2.0),
+            stiffness: 50.0,
+            damping: 0.0,
+            rest_length: 0.0,
+        };
+        let e = sim.set_drag_particle(0, drag).unwrap_err().to_string();
+        assert!(e.contains("outer layer"), "{e}");
+        assert!(sim.set_drag_particle(2 * n, drag).is_err());
+        let bad = DragTarget {
+            stiffness: -1.0,
+            ..drag
+        };
+        assert!(sim.set_drag_particle(n, bad).is_err());
+        // A particle already on the target of another: the target is at particle n + 1.
+        let on = DragTarget {
+            point: Point3::from(pos(&sim, n + 1)),
+            ..drag
+        };
+        assert!(sim.set_drag_particle(n + 2, on).is_err());
+        assert!(sim.forces().drag().is_none());
+        assert!(sim.set_dt(0.0).is_err());
+        sim.set_dt(5e-4).unwrap();
+        assert_eq!(sim.dt(), 5e-4);
+        sim.set_method(ExplicitMethod::Symplectic);
+        assert_eq!(sim.method(), ExplicitMethod::Symplectic);
+        sim.step().unwrap();
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::model::SpringKind;
