@@ -1,0 +1,229 @@
+// End-to-end test of `balloon view`, driven the way a person uses it: start the real server,
+// open the page in headless Chromium, watch the frame counter advance, drag the body with the
+// mouse and check in the server's own state (GET /api/state) that the body moved, pause and
+// resume, type an invalid control value and expect a visible error, and save a screenshot per
+// system to target/e2e/viewer-<system>.png. Run by `cargo xtask e2e` (which builds the binary).
+//
+//   node e2e.mjs [--balloon PATH] [--systems shell,volumetric,two-layer] [--out DIR]
+//                [--chromium PATH] [--mock]
+//
+// --mock runs the page against mock-server.mjs instead of the binary (page development only).
+// Prints one line per system and closes with "N passed, M failed"; exits 1 on any failure.
+
+import { chromium } from 'playwright-core';
+import { spawn } from 'node:child_process';
+import { mkdirSync } from 'node:fs';
+import { dirname, join, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const here = dirname(fileURLToPath(import.meta.url));
+const root = resolve(here, '..', '..', '..');
+const opt = (name, dflt) => {
+  const i = process.argv.indexOf(`--${name}`);
+  return i > 0 && process.argv[i + 1] ? process.argv[i + 1] : dflt;
+};
+const mock = process.argv.includes('--mock');
+const balloon = resolve(opt('balloon', join(root, 'target', 'debug', 'balloon')));
+const systems = opt('systems', 'shell,volumetric,two-layer').split(',').filter(Boolean);
+const outDir = resolve(opt('out', join(root, 'target', 'e2e')));
+const chromiumPath = opt('chromium', '/usr/bin/chromium');
+// Software WebGL: headless without a GPU (SwiftShader through ANGLE).
+const CHROMIUM_ARGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+  '--disable-background-networking', '--disable-component-update', '--disable-sync',
+  '--use-angle=swiftshader', '--enable-unsafe-swiftshader'];
+
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+const sub = (a, b) => a.map((x, i) => x - b[i]);
+const dot = (a, b) => a.reduce((s, x, i) => s + x * b[i], 0);
+const norm = (a) => Math.sqrt(dot(a, a));
+const mm = (m) => `${(m * 1000).toFixed(2)} mm`;
+
+class Failure extends Error {}
+function check(cond, what) {
+  if (!cond) throw new Failure(what);
+}
+
+/** Polls `fn` until it returns a truthy value; fails naming `what` after `ms`. */
+async function until(what, fn, ms = 15000, every = 100) {
+  const end = Date.now() + ms;
+  for (;;) {
+    const v = await fn();
+    if (v) return v;
+    if (Date.now() > end) throw new Failure(`timed out after ${ms / 1000} s waiting for ${what}`);
+    await sleep(every);
+  }
+}
+
+const servers = new Set();
+function killAll() {
+  for (const s of servers) s.kill('SIGKILL');
+}
+process.on('exit', killAll);
+for (const sig of ['SIGINT', 'SIGTERM']) process.on(sig, () => { killAll(); process.exit(130); });
+
+/** Starts the server and resolves with { child, url } once it printed its URL line. */
+function startServer(system) {
+  const cmd = mock ? process.execPath : balloon;
+  // --exit-after: a server the test fails to kill still goes away by itself.
+  const args = mock ? [join(here, 'mock-server.mjs'), system]
+    : ['view', system, '--no-open', '--port', '0', '--exit-after', '120'];
+  const child = spawn(cmd, args, { stdio: ['ignore', 'pipe', 'pipe'] });
+  servers.add(child);
+  child.on('exit', () => servers.delete(child));
+  let out = '';
+  let err = '';
+  child.stderr.on('data', (d) => { err += d; });
+  return new Promise((res, rej) => {
+    const timer = setTimeout(() => rej(new Failure(`${cmd} ${args.join(' ')} printed no URL within 30 s; stderr:\n${err}`)), 30000);
+    child.on('error', (e) => { clearTimeout(timer); rej(new Failure(`cannot start ${cmd}: ${e.message}`)); });
+    child.on('exit', (code) => { clearTimeout(timer); rej(new Failure(`${cmd} ${args.join(' ')} exited (${code}) before serving; stderr:\n${err}`)); });
+    child.stdout.on('data', (d) => {
+      out += d;
+      const m = out.match(/^balloon view: serving (\S+) at (http:\/\/\S+)$/m);
+      if (m) {
+        clearTimeout(timer);
+        res({ child, url: m[2], stderr: () => err });
+      }
+    });
+  });
+}
+
+async function state(url, vertex) {
+  const res = await fetch(new URL(vertex === undefined ? 'api/state' : `api/state?vertex=${vertex}`, url));
+  check(res.ok, `GET /api/state answered ${res.status}`);
+  return res.json();
+}
+
+const frameOf = async (page) => Number(await page.textContent('#frame'));
+
+/** One system: everything a person would try. Returns a one-line summary. */
+async function testSystem(browser, system) {
+  const { child, url, stderr } = await startServer(system);
+  const context = await browser.newContext({ viewport: { width: 1200, height: 760 } });
+  const page = await context.newPage();
+  const problems = [];
+  page.on('console', (m) => { if (m.type() === 'error') problems.push(`console error: ${m.text()}`); });
+  page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
+  page.on('requestfailed', (r) => problems.push(`request failed: ${r.url()} (${r.failure()?.errorText})`));
+  const notes = [];
+  try {
+    // 1. The page loads and the frame counter advances.
+    await page.goto(url);
+    await until('the first frame (#frame shows a number)', async () => Number.isFinite(await frameOf(page)));
+    const f0 = await frameOf(page);
+    const f1 = await until('#frame to advance', async () => { const f = await frameOf(page); return f > f0 && f; });
+    notes.push(`frames ${f0}->${f1}`);
+    check(await page.isVisible('#legend'), 'the colour legend is not shown');
+
+    // 2. Pause stops the counter, resume restarts it.
+    await page.click('#pause');
+    await until('the server to report paused', async () => (await state(url)).paused);
+    const fp = await frameOf(page);
+    await sleep(500);
+    check((await frameOf(page)) === fp, 'the frame counter moved while paused');
+    check((await page.textContent('#pause')).trim() === 'resume', '#pause does not offer "resume" while paused');
+    await page.click('#pause');
+    await until('the frame counter to advance after resume', async () => (await frameOf(page)) > fp);
+
+    // 3. Drag the body: find a point of the canvas over the body (the cursor changes there), press,
+    //    move, and check in the server's state that the grabbed vertex moved towards the target
+    //    relative to the body's centroid (so a body that inflates or falls does not count).
+    const box = await page.locator('#canvas').boundingBox();
+    const cx = box.x + box.width / 2;
+    const cy = box.y + box.height / 2;
+    let start = null;
+    for (const [dx, dy] of [[0, 0], [0.1, 0], [-0.1, 0], [0, 0.1], [0, -0.1], [0.2, 0.1], [-0.2, -0.1]]) {
+      const p = [cx + dx * box.width, cy + dy * box.height];
+      await page.mouse.move(p[0], p[1]);
+      const over = await page.waitForFunction(() => document.getElementById('canvas').classList.contains('over-body'),
+        null, { timeout: 1000 }).then(() => true, () => false);
+      if (over) { start = p; break; }
+    }
+    check(start, 'no point of the canvas near its centre is over the body');
+    await page.mouse.down();
+    const grabbed = await until('the drag to reach the server (/api/state drag)', async () => (await state(url)).drag);
+    const vertex = grabbed.vertex;
+    const s0 = await state(url, vertex);
+    const p0 = sub(s0.vertex.position, s0.centroid);
+    const size = norm(sub(s0.bbox_max, s0.bbox_min));
+    const pull = Math.min(box.width, box.height) * 0.2;
+    await page.mouse.move(start[0] + pull, start[1] - pull, { steps: 8 });
+    const target = await until('the drag target to move', async () => {
+      const d = (await state(url)).drag;
+      return d && norm(sub(d.target, grabbed.target)) > 1e-6 * size && d.target;
+    }, 5000);
+    const want = sub(target, s0.vertex.position);
+    let moved = 0;
+    await until(`vertex ${vertex} to move towards the drag target by 2% of the body's size`, async () => {
+      const s = await state(url, vertex);
+      const d = sub(sub(s.vertex.position, s.centroid), p0);
+      moved = dot(d, want) / norm(want);
+      return moved > 0.02 * size;
+    }, 20000, 200);
+    notes.push(`drag moved vertex ${vertex} ${mm(moved)} towards the target (body ${mm(size)})`);
+    await page.screenshot({ path: join(outDir, `viewer-${system}.png`) });
+    await page.mouse.up();
+    await until('the drag to be released', async () => (await state(url)).drag === null, 5000);
+
+    // 4. An invalid control value shows an error naming the control; the server keeps its value.
+    const control = await page.evaluate(() => {
+      const box = [...document.querySelectorAll('#controls input[type=number]')].find((b) => b.max !== '');
+      return box && { id: box.id, name: box.closest('.control').dataset.name, max: Number(box.max) };
+    });
+    check(control, 'the page shows no bounded number control');
+    const bad = control.max * 10 + 1;
+    await page.fill(`#${control.id}`, String(bad));
+    await page.press(`#${control.id}`, 'Enter');
+    await page.locator('#error').waitFor({ state: 'visible', timeout: 5000 })
+      .catch(() => { throw new Failure(`no visible error after setting ${control.name} to ${bad}`); });
+    const message = await page.textContent('#error');
+    check(message.includes(control.name) || message.toLowerCase().includes(control.name.replaceAll('_', ' ')),
+      `the error "${message}" does not name the control ${control.name}`);
+    check((await state(url)).controls[control.name] !== bad, `the server accepted ${control.name} = ${bad}`);
+    notes.push(`invalid ${control.name}=${bad}: "${message}"`);
+
+    check(problems.length === 0, problems.join('\n'));
+    return notes.join('; ');
+  } catch (e) {
+    await page.screenshot({ path: join(outDir, `viewer-${system}-failed.png`) }).catch(() => {});
+    if (problems.length) e.message += `\n${problems.join('\n')}`;
+    e.message += `\nserver stderr:\n${stderr().slice(-2000)}`;
+    throw e;
+  } finally {
+    await context.close();
+    child.kill('SIGTERM');
+  }
+}
+
+async function main() {
+  mkdirSync(outDir, { recursive: true });
+  const t0 = Date.now();
+  const browser = await chromium.launch({ executablePath: chromiumPath, args: CHROMIUM_ARGS, timeout: 30000 });
+  let passed = 0;
+  let failed = 0;
+  try {
+    for (const system of systems) {
+      const t = Date.now();
+      try {
+        const summary = await testSystem(browser, system);
+        console.log(`e2e ${system}: ok in ${((Date.now() - t) / 1000).toFixed(1)} s (${summary})`);
+        passed += 1;
+      } catch (e) {
+        console.log(`e2e ${system}: FAILED in ${((Date.now() - t) / 1000).toFixed(1)} s: ${e.message}`);
+        failed += 1;
+      }
+    }
+  } finally {
+    await browser.close();
+    killAll();
+  }
+  console.log(`e2e: screenshots in ${outDir}; ${((Date.now() - t0) / 1000).toFixed(1)} s in all`);
+  console.log(`${passed} passed, ${failed} failed`);
+  process.exit(failed ? 1 : 0);
+}
+
+main().catch((e) => {
+  console.error(`e2e: ${e.message}`);
+  killAll();
+  process.exit(1);
+});
