@@ -10,8 +10,11 @@
 //!   folder of meshes and every linear solver, plus cost-vs-size of the volumetric and two-layer
 //!   systems; writes `target/bench/bench.{md,json}` (and `docs/benchmarks.md` on request). Runs
 //!   itself in release.
+//! * `cargo xtask e2e [--systems LIST]`: the live viewer's end-to-end test in headless Chromium
+//!   (installs its prerequisites: `npm ci`, Debian's chromium when root); see `docs/viewer.md`.
 
 mod bench;
+mod e2e;
 mod plot;
 mod render;
 mod report;
@@ -31,7 +34,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Task {
-    /// fmt --check, clippy -D warnings, doc -D warnings, tests, benches in test mode.
+    /// fmt --check, clippy -D warnings, doc -D warnings, tests, the viewer's end-to-end test,
+    /// benches in test mode.
     Ci {
         /// Skip clippy and docs (faster local runs).
         #[arg(long)]
@@ -67,6 +71,12 @@ enum Task {
         /// Also write docs/benchmarks.md.
         #[arg(long)]
         update_docs: bool,
+    },
+    /// The live viewer's end-to-end test: `balloon view` driven in headless Chromium.
+    E2e {
+        /// Comma-separated systems to test (default: shell,volumetric,two-layer).
+        #[arg(long)]
+        systems: Option<String>,
     },
 }
 
@@ -106,6 +116,7 @@ fn ci(quick: bool) -> Result<()> {
         )?;
     }
     cargo(&["test", "--workspace"], &[])?;
+    e2e::run(&e2e::Options::default())?;
     // Every criterion bench once in test mode so none rots; the dev profile reuses the test
     // build instead of compiling the workspace again in release.
     cargo(
@@ -159,6 +170,7 @@ fn rerun_in_release() -> Result<()> {
 fn main() -> Result<()> {
     match Cli::parse().command {
         Task::Ci { quick } => ci(quick),
+        Task::E2e { systems } => e2e::run(&e2e::Options { systems }),
         Task::Validate { .. } | Task::Bench { .. } if cfg!(debug_assertions) => rerun_in_release(),
         Task::Validate {
             quick,
