@@ -38,6 +38,7 @@ $('legend-bar').style.background = `linear-gradient(to right, ${VIRIDIS.map(
 
 /** Short human formatting of a statistic or a legend value. */
 function fmt(v) {
+  if (v !== null && typeof v === 'object') return JSON.stringify(v);
   if (typeof v !== 'number') return String(v);
   if (!Number.isFinite(v)) return String(v);
   const a = Math.abs(v);
@@ -204,6 +205,7 @@ function onHello(h) {
   endDrag(false);
 
   fillSelect($('scalar'), h.scalar_fields || []);
+  if (h.scalar && (h.scalar_fields || []).includes(h.scalar)) $('scalar').value = h.scalar;
   fillSelect($('drag-mode'), h.drag_modes || []);
   buildControls(h.controls || []);
   requestRender();
