@@ -123,6 +123,26 @@ pub enum ProjectionWeighting {
     PaperEq27,
 }
 
+/// Which material volume is conserved.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ProjectionScope {
+    /// The paper's constraint (Eq. 24): the total material volume of the shell, one global
+    /// constraint solved by position-based corrections of all real and virtual vertices. How the
+    /// correction is shared between elements depends on the weighting, so individual elements
+    /// do not keep their own volume: over a long inflation the thickness drifts away from
+    /// `H A0 / A` per element (measured in `cargo xtask validate`: up to 5% on a uniformly
+    /// stretched StVK sphere at stretch 1.25).
+    #[default]
+    Global,
+    /// Every element keeps its own rest material volume: `h_e = V0_e / A_e` in closed form
+    /// (rubber is incompressible locally, so this is the thickness of the analytic membrane
+    /// model, `h = H / lambda^2` on a uniformly stretched sphere). Positions are not moved, so the
+    /// step's velocities are untouched. Needs the rest element volumes
+    /// ([`ShellVolumeProjection::with_rest_element_volumes`]).
+    PerElement,
+}
+
 /// Parameters of [`ShellVolumeProjection`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -133,6 +153,8 @@ pub struct ShellVolumeParams {
     pub max_iterations: usize,
     /// Weighting of the correction (default mass-weighted).
     pub weighting: ProjectionWeighting,
+    /// Which volume is conserved (default: the paper's global constraint).
+    pub scope: ProjectionScope,
 }
 
 impl Default for ShellVolumeParams {
@@ -141,6 +163,7 @@ impl Default for ShellVolumeParams {
             relative_tolerance: 1e-9,
             max_iterations: 50,
             weighting: ProjectionWeighting::MassWeighted,
+            scope: ProjectionScope::Global,
         }
     }
 }
@@ -316,6 +339,7 @@ pub struct ShellVolumeProjection {
     grad_real: Vec<f64>,
     grad_virtual: Vec<Vector3<f64>>,
     x_backup: Vec<f64>,
+    rest_element_volumes: Vec<f64>,
 }
 
 impl ShellVolumeProjection {
@@ -325,6 +349,62 @@ impl ShellVolumeProjection {
             params,
             ..Default::default()
         }
+    }
+
+    /// Sets the rest material volume of every element, `V0_e = A0_e H_e` (m^3), which
+    /// [`ProjectionScope::PerElement`] conserves (the global scope ignores them).
+    pub fn with_rest_element_volumes(mut self, volumes: Vec<f64>) -> Self {
+        self.rest_element_volumes = volumes;
+        self
+    }
+
+    /// [`ProjectionScope::PerElement`]: `h_e = V0_e / A_e`, positions unchanged. On error the
+    /// thicknesses are left unchanged.
+    fn project_per_element(
+        &mut self,
+        triangles: &[[usize; 3]],
+        x: &[f64],
+        thickness: &mut [f64],
+        rest_shell_volume: f64,
+    ) -> Result<ProjectionInfo, ShellVolumeError> {
+        if self.rest_element_volumes.len() != triangles.len() {
+            return Err(ShellVolumeError::LengthMismatch {
+                name: "rest_element_volumes (set with with_rest_element_volumes)",
+                len: self.rest_element_volumes.len(),
+                expected: triangles.len(),
+            });
+        }
+        // Stage the new thicknesses in the (reused) scratch so nothing is written on error.
+        self.x_backup.clear();
+        let (mut before, mut after) = (0.0, 0.0);
+        for (e, t) in triangles.iter().enumerate() {
+            let v0 = self.rest_element_volumes[e];
+            if !(v0.is_finite() && v0 > 0.0) {
+                return Err(ShellVolumeError::InvalidParameter {
+                    name: format!("rest_element_volumes[{e}]"),
+                    value: v0,
+                    requirement: "must be positive and finite",
+                });
+            }
+            let area = 0.5 * doubled_area_normal(x, t, e)?.norm();
+            let h = v0 / area;
+            if !h.is_finite() {
+                return Err(ShellVolumeError::DegenerateElement {
+                    element: e,
+                    detail: format!("thickness would become {h:e} m (area {area:e} m^2)"),
+                });
+            }
+            before += area * thickness[e];
+            after += area * h;
+            self.x_backup.push(h);
+        }
+        let changed = thickness.iter().zip(&self.x_backup).any(|(a, b)| a != b);
+        thickness.copy_from_slice(&self.x_backup);
+        Ok(ProjectionInfo {
+            iterations: usize::from(changed),
+            initial_ratio: before / rest_shell_volume,
+            final_ratio: after / rest_shell_volume,
+        })
     }
 
     /// The virtual vertices `x4_e` (m) after the last successful projection with at least one
@@ -416,6 +496,9 @@ impl ShellVolumeProjection {
                 value: p.relative_tolerance,
                 requirement: "must be positive and finite",
             });
+        }
+        if p.scope == ProjectionScope::PerElement {
+            return self.project_per_element(triangles, x, thickness, rest_shell_volume);
         }
         // Alg. 2, line 2: virtual vertices at the centre of the upper faces.
         self.virtual_vertices.clear();
@@ -815,5 +898,83 @@ mod tests {
         assert!(shell_volume(&s.tris, &s.x, &s.h[1..]).is_nan());
         let e = try_shell_volume(&[[0, 1, 400]], &s.x, &[1e-3]).unwrap_err();
         assert!(e.to_string().contains("vertex 400"), "{e}");
+    }
+
+    /// Rest volumes `A0_e H_e` of a [`rest_shell`].
+    fn element_volumes(s: &Shell) -> Vec<f64> {
+        s.tris
+            .iter()
+            .enumerate()
+            .map(|(e, t)| 0.5 * doubled_area_normal(&s.x, t, e).unwrap().norm() * s.h[e])
+            .collect()
+    }
+
+    #[test]
+    fn per_element_scope_keeps_every_element_volume_and_leaves_positions() {
+        let mut s = rest_shell(2);
+        let v0e = element_volumes(&s);
+        // A non-uniform stretch: elements grow by different factors.
+        let mut rng = Rng::new(5);
+        for i in 0..s.x.len() / 3 {
+            let k = 1.2 + 0.4 * s.x[3 * i + 2].abs() / 0.1;
+            for c in 0..3 {
+                s.x[3 * i + c] = k * s.x[3 * i + c] + 0.001 * rng.next_f64();
+            }
+        }
+        let x_before = s.x.clone();
+        let mut proj = ShellVolumeProjection::new(ShellVolumeParams {
+            scope: ProjectionScope::PerElement,
+            ..Default::default()
+        })
+        .with_rest_element_volumes(v0e.clone());
+        let info = proj
+            .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
+            .unwrap();
+        assert_eq!(s.x, x_before, "positions are not moved");
+        assert!(info.initial_ratio > 1.4, "{info:?}");
+        assert!((info.final_ratio - 1.0).abs() < 1e-12, "{info:?}");
+        assert_eq!(info.iterations, 1);
+        for (e, t) in s.tris.iter().enumerate() {
+            let a = 0.5 * doubled_area_normal(&s.x, t, e).unwrap().norm();
+            assert!((a * s.h[e] / v0e[e] - 1.0).abs() < 1e-13, "element {e}");
+        }
+        // The thickness follows the local stretch: the most stretched element is the thinnest.
+        let (hmin, hmax) =
+            s.h.iter()
+                .fold((f64::INFINITY, 0.0f64), |(a, b), &h| (a.min(h), b.max(h)));
+        assert!(hmax / hmin > 1.5, "{hmin} {hmax}");
+        // Already satisfied: a no-op.
+        let h = s.h.clone();
+        let info = proj
+            .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
+            .unwrap();
+        assert_eq!(info.iterations, 0);
+        assert_eq!(s.h, h);
+    }
+
+    #[test]
+    fn per_element_scope_without_rest_volumes_or_with_a_degenerate_element_is_an_error() {
+        let mut s = rest_shell(1);
+        let params = ShellVolumeParams {
+            scope: ProjectionScope::PerElement,
+            ..Default::default()
+        };
+        let h0 = s.h.clone();
+        let e = ShellVolumeProjection::new(params)
+            .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
+            .unwrap_err();
+        assert!(e.to_string().contains("rest_element_volumes"), "{e}");
+        let mut proj =
+            ShellVolumeProjection::new(params).with_rest_element_volumes(element_volumes(&s));
+        // Collapse element 3 onto a line.
+        let t = s.tris[3];
+        for c in 0..3 {
+            s.x[3 * t[2] + c] = 0.5 * (s.x[3 * t[0] + c] + s.x[3 * t[1] + c]);
+        }
+        let e = proj
+            .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
+            .unwrap_err();
+        assert!(e.to_string().contains("element"), "{e}");
+        assert_eq!(s.h, h0, "thickness untouched on failure");
     }
 }
