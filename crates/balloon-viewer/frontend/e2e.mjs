@@ -146,7 +146,7 @@ async function testSystem(browser, system) {
     const s0 = await state(url, vertex);
     const p0 = sub(s0.vertex.position, s0.centroid);
     const size = norm(sub(s0.bbox_max, s0.bbox_min));
-    const pull = Math.min(box.width, box.height) * 0.2;
+    const pull = Math.min(box.width, box.height) * Number(opt('pull', '0.2'));
     await page.mouse.move(start[0] + pull, start[1] - pull, { steps: 8 });
     const target = await until('the drag target to move', async () => {
       const d = (await state(url)).drag;
@@ -156,6 +156,7 @@ async function testSystem(browser, system) {
     let moved = 0;
     await until(`vertex ${vertex} to move towards the drag target by 2% of the body's size`, async () => {
       const s = await state(url, vertex);
+      check(!s.last_error, `the simulation failed during the drag: ${s.last_error}`);
       const d = sub(sub(s.vertex.position, s.centroid), p0);
       moved = dot(d, want) / norm(want);
       return moved > 0.02 * size;
@@ -187,6 +188,8 @@ async function testSystem(browser, system) {
   } catch (e) {
     await page.screenshot({ path: join(outDir, `viewer-${system}-failed.png`) }).catch(() => {});
     if (problems.length) e.message += `\n${problems.join('\n')}`;
+    const last = await state(url).catch(() => null);
+    if (last) e.message += `\nserver state: frame ${last.frame}, time ${last.time}, paused ${last.paused}, last_error ${JSON.stringify(last.last_error)}`;
     e.message += `\nserver stderr:\n${stderr().slice(-2000)}`;
     throw e;
   } finally {

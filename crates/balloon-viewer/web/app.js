@@ -69,10 +69,12 @@ let vertexCount = 0;
 
 // Drag marker: a small sphere at the target and a line from the grabbed vertex to it.
 const marker = new THREE.Group();
+// Drawn last and without depth test, so the body never hides them.
 const markerBall = new THREE.Mesh(new THREE.SphereGeometry(1, 16, 12),
-  new THREE.MeshBasicMaterial({ color: 0xff8040 }));
+  new THREE.MeshBasicMaterial({ color: 0xff8040, depthTest: false }));
 const markerLine = new THREE.Line(new THREE.BufferGeometry().setAttribute('position',
-  new THREE.BufferAttribute(new Float32Array(6), 3)), new THREE.LineBasicMaterial({ color: 0xff8040 }));
+  new THREE.BufferAttribute(new Float32Array(6), 3)), new THREE.LineBasicMaterial({ color: 0xff8040, depthTest: false }));
+markerBall.renderOrder = markerLine.renderOrder = 1;
 markerLine.frustumCulled = false; // its vertices change every frame
 marker.add(markerBall, markerLine);
 marker.visible = false;
@@ -186,6 +188,7 @@ function onHello(h) {
   const bad = index.findIndex((i) => i >= n);
   if (bad >= 0) throw new Error(`triangle index ${index[bad]} is not below vertex_count ${n}`);
 
+  hideError();
   view.system = h.system;
   $('system').textContent = h.system || '';
   document.title = `balloon view: ${h.system}`;
@@ -287,16 +290,23 @@ function showStats(stats) {
 
 // ---------------------------------------------------------------------------------------------
 // Errors from the server (rejected messages, simulation failures) and from the page itself.
+// An error stays visible while the simulation is paused (a failed simulation pauses itself until
+// reset), otherwise for 12 s; a click dismisses it, a new hello (reset) clears it.
 let errorTimer = null;
+function hideError() {
+  clearTimeout(errorTimer);
+  $('error').hidden = true;
+}
 function showError(message) {
   const el = $('error');
   el.textContent = message;
   el.hidden = false;
   clearTimeout(errorTimer);
-  errorTimer = setTimeout(() => { el.hidden = true; }, 12000);
+  const expire = () => { if (view.paused) errorTimer = setTimeout(expire, 2000); else el.hidden = true; };
+  errorTimer = setTimeout(expire, 12000);
   syncControlValues(); // a rejected control keeps the server's value: show that one again
 }
-$('error').addEventListener('click', (ev) => { ev.currentTarget.hidden = true; });
+$('error').addEventListener('click', hideError);
 
 // ---------------------------------------------------------------------------------------------
 // Controls generated from hello's list: numbers (slider + box), choices (select), booleans.
