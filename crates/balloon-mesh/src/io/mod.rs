@@ -14,14 +14,18 @@
 pub mod obj;
 pub mod off;
 pub mod ply;
+pub mod pvd;
 pub mod stl;
 mod text;
 pub mod vtk;
+pub mod vtp;
 
 pub use obj::parse_obj;
 pub use off::parse_off;
 pub use ply::parse_ply;
+pub use pvd::{PvdEntry, PvdWriter, read_pvd};
 pub use stl::parse_stl;
+pub use vtp::{VtkEncoding, VtpArray, VtpData, read_vtp, write_vtp};
 
 use crate::{MeshError, TriMesh};
 use std::io::Write;

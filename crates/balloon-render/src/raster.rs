@@ -1,0 +1,628 @@
+//! The z-buffer triangle rasteriser, shading, legend and title.
+
+use crate::camera::{self, Framing, Projection, ViewTransform};
+use crate::colormap::ColorScale;
+use crate::font::{self, GLYPH_HEIGHT};
+use crate::image::check_size;
+use crate::{Camera, Image, RenderError};
+
+/// A triangle surface to draw: flat positions (3 per vertex, m), triangles, and optionally one
+/// scalar per vertex to colour it by (see [`RenderOptions::color_scale`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Surface<'a> {
+    /// Flat positions `[x0, y0, z0, x1, ...]`.
+    pub positions: &'a [f64],
+    /// Triangles (vertex indices). Both sides are drawn; back faces are lit from their side.
+    pub triangles: &'a [[usize; 3]],
+    /// One value per vertex, mapped through the colour scale; NaN draws as the lowest colour.
+    pub scalars: Option<&'a [f64]>,
+}
+
+impl<'a> Surface<'a> {
+    /// A surface without scalars.
+    pub fn new(positions: &'a [f64], triangles: &'a [[usize; 3]]) -> Self {
+        Self {
+            positions,
+            triangles,
+            scalars: None,
+        }
+    }
+
+    /// The same surface coloured by `scalars` (one per vertex).
+    pub fn with_scalars(mut self, scalars: &'a [f64]) -> Self {
+        self.scalars = Some(scalars);
+        self
+    }
+
+    fn validate(&self) -> Result<usize, RenderError> {
+        if !self.positions.len().is_multiple_of(3) {
+            return Err(RenderError::BadSurface(format!(
+                "positions has length {}, not a multiple of 3",
+                self.positions.len()
+            )));
+        }
+        let n = self.positions.len() / 3;
+        for (t, tri) in self.triangles.iter().enumerate() {
+            if let Some(&v) = tri.iter().find(|&&v| v >= n) {
+                return Err(RenderError::BadSurface(format!(
+                    "triangle {t} refers to vertex {v}, but there are only {n} vertices"
+                )));
+            }
+        }
+        if let Some(s) = self.scalars
+            && s.len() != n
+        {
+            return Err(RenderError::BadSurface(format!(
+                "{} scalars for {n} vertices (need one per vertex)",
+                s.len()
+            )));
+        }
+        Ok(n)
+    }
+}
+
+/// What to draw and how.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// Image width, pixels (1..=16384).
+    pub width: u32,
+    /// Image height, pixels (1..=16384).
+    pub height: u32,
+    /// The camera.
+    pub camera: Camera,
+    /// Background colour.
+    pub background: [u8; 3],
+    /// Surface colour when there is no colour scale (or no scalars).
+    pub base_color: [u8; 3],
+    /// Colour the surface by its scalars over this range and draw a legend bar on the right.
+    pub color_scale: Option<ColorScale>,
+    /// Text drawn at the top left.
+    pub title: Option<String>,
+    /// Smooth (interpolated vertex normals, Phong) or flat (per-face) shading.
+    pub smooth: bool,
+    /// Strength of the Blinn-Phong highlight, `0..=1`.
+    pub specular: f32,
+}
+
+impl RenderOptions {
+    /// Defaults for a `width x height` image: default camera, light background, balloon red,
+    /// smooth shading, a moderate highlight, no colour scale, no title.
+    pub fn new(width: u32, height: u32) -> Self {
+        Self {
+            width,
+            height,
+            camera: Camera::default(),
+            background: [236, 239, 243],
+            base_color: [214, 58, 52],
+            color_scale: None,
+            title: None,
+            smooth: true,
+            specular: 0.35,
+        }
+    }
+}
+
+/// Reusable buffers for rendering many frames (depth buffer, projected vertices, normals, the
+/// image): after the first frame of a given size, rendering allocates only the vertex normals.
+#[derive(Debug)]
+pub struct Renderer {
+    depth: Vec<f32>,
+    screen: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    tvals: Vec<f32>,
+    image: Image,
+}
+
+impl Default for Renderer {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Screen layout in pixels.
+struct Layout {
+    scale: u32,
+    pad: i64,
+    title_h: i64,
+    legend_w: i64,
+    ticks: Vec<(f64, String)>,
+}
+
+const TICKS: usize = 5;
+
+impl Layout {
+    fn new(opts: &RenderOptions) -> Self {
+        let scale = (opts.width.min(opts.height) / 240).clamp(1, 4);
+        let pad = 4 * scale as i64;
+        let th = (GLYPH_HEIGHT * scale) as i64;
+        let title_h = if opts.title.is_some() {
+            th + 2 * pad
+        } else {
+            0
+        };
+        let (legend_w, ticks) = match &opts.color_scale {
+            None => (0, Vec::new()),
+            Some(cs) => {
+                let ticks: Vec<(f64, String)> = (0..TICKS)
+                    .map(|i| {
+                        let t = i as f64 / (TICKS - 1) as f64;
+                        (t, crate::format_tick(cs.min + t * (cs.max - cs.min)))
+                    })
+                    .collect();
+                let label_w = ticks
+                    .iter()
+                    .map(|(_, s)| font::text_width(s, scale))
+                    .max()
+                    .unwrap_or(0) as i64;
+                let bar_w = 10 * scale as i64;
+                (3 * pad + bar_w + label_w, ticks)
+            }
+        };
+        Self {
+            scale,
+            pad,
+            title_h,
+            legend_w,
+            ticks,
+        }
+    }
+}
+
+/// Lights in view space (x right, y up, z towards the eye).
+const KEY: [f32; 3] = [-0.40, 0.55, 0.73];
+const FILL: [f32; 3] = [0.60, -0.25, 0.76];
+const AMBIENT: f32 = 0.16;
+const SHININESS: i32 = 32;
+
+impl Renderer {
+    /// A renderer with empty buffers.
+    pub fn new() -> Self {
+        Self {
+            depth: Vec::new(),
+            screen: Vec::new(),
+            normals: Vec::new(),
+            tvals: Vec::new(),
+            image: Image::new(1, 1, [0; 3]).expect("1x1 is a valid size"),
+        }
+    }
+
+    /// Renders `surface` and returns the image (valid until the next call). `framing` fixes
+    /// the region shown (e.g. [`Framing::union`] over all frames of an animation, so that the
+    /// scale is the same in every frame); `None` frames this surface's own finite vertices.
+    /// Triangles with a non-finite vertex are skipped.
+    pub fn render(
+        &mut self,
+        surface: &Surface<'_>,
+        opts: &RenderOptions,
+        framing: Option<&Framing>,
+    ) -> Result<&Image, RenderError> {
+        check_size(opts.width, opts.height)?;
+        camera::validate(&opts.camera)?;
+        let n = surface.validate()?;
+        if let Some(cs) = &opts.color_scale {
+            cs.validate()?;
+        }
+        let framing = match framing {
+            Some(f) => {
+                if !(f.radius.is_finite()
+                    && f.radius > 0.0
+                    && f.center.iter().all(|c| c.is_finite()))
+                {
+                    return Err(RenderError::invalid(
+                        "framing",
+                        format!("{f:?}"),
+                        "needs a finite centre and a positive radius",
+                    ));
+                }
+                *f
+            }
+            None => Framing::of_points(surface.positions).ok_or_else(|| {
+                RenderError::BadSurface("no vertex has finite coordinates".into())
+            })?,
+        };
+        let layout = Layout::new(opts);
+        let (w, h) = (opts.width as i64, opts.height as i64);
+        let (vx0, vy0) = (0i64, layout.title_h);
+        let (vw, vh) = (w - layout.legend_w, h - layout.title_h);
+        if vw < 8 || vh < 8 {
+            return Err(RenderError::invalid(
+                "width x height",
+                format!("{}x{}", opts.width, opts.height),
+                "too small for the title and legend; use a larger image",
+            ));
+        }
+        self.image.reset(opts.width, opts.height, opts.background);
+        self.depth.clear();
+        self.depth
+            .resize((opts.width * opts.height) as usize, f32::NEG_INFINITY);
+
+        // Project the vertices.
+        let view = ViewTransform::new(&opts.camera, &framing);
+        let (cx, cy) = (vx0 as f64 + 0.5 * vw as f64, vy0 as f64 + 0.5 * vh as f64);
+        let r = framing.radius;
+        let persp = match opts.camera.projection {
+            Projection::Perspective { fov_y_deg } => {
+                let half_y = 0.5 * fov_y_deg.to_radians();
+                let half_x = (half_y.tan() * vw as f64 / vh as f64).atan();
+                let dist = 1.04 * r / half_y.min(half_x).sin();
+                let focal = 0.5 * vh as f64 / half_y.tan();
+                Some((dist, focal))
+            }
+            Projection::Orthographic => None,
+        };
+        let ortho_scale = 0.96 * 0.5 * (vw.min(vh) as f64) / r;
+        self.screen.clear();
+        self.screen
+            .extend(surface.positions.chunks_exact(3).map(|p| {
+                let v = view.apply([p[0], p[1], p[2]]);
+                match persp {
+                    Some((dist, focal)) => {
+                        let z = dist - v[2];
+                        if z.is_nan() || z <= 1e-6 * dist {
+                            return [f32::NAN; 3];
+                        }
+                        [
+                            (cx + focal * v[0] / z) as f32,
+                            (cy - focal * v[1] / z) as f32,
+                            (1.0 / z) as f32,
+                        ]
+                    }
+                    None => [
+                        (cx + ortho_scale * v[0]) as f32,
+                        (cy - ortho_scale * v[1]) as f32,
+                        v[2] as f32,
+                    ],
+                }
+            }));
+        // Vertex normals (balloon::fields) in view space.
+        self.normals.clear();
+        if opts.smooth && !surface.triangles.is_empty() {
+            let nrm = balloon::fields::vertex_normals(surface.positions, surface.triangles)
+                .map_err(|e| RenderError::BadSurface(e.to_string()))?;
+            self.normals.extend(nrm.chunks_exact(3).map(|c| {
+                let v = view.rotate([c[0], c[1], c[2]]);
+                [v[0] as f32, v[1] as f32, v[2] as f32]
+            }));
+        }
+        // Colour coordinates.
+        self.tvals.clear();
+        let lut = opts.color_scale.as_ref().map(|cs| cs.map.table());
+        if let (Some(cs), Some(s)) = (&opts.color_scale, surface.scalars) {
+            self.tvals.extend(s.iter().map(|&v| {
+                let t = cs.normalize(v);
+                if t.is_nan() { 0.0 } else { t as f32 }
+            }));
+        }
+        let base = opts.base_color.map(|c| c as f32 / 255.0);
+        let key = normalize(KEY);
+        let fill = normalize(FILL);
+        let half = normalize([key[0], key[1], key[2] + 1.0]);
+        let spec = opts.specular.clamp(0.0, 1.0);
+        let width = opts.width as usize;
+        let (xmin_vp, xmax_vp) = (vx0 as f32, (vx0 + vw - 1) as f32);
+        let (ymin_vp, ymax_vp) = (vy0 as f32, (vy0 + vh - 1) as f32);
+        debug_assert_eq!(self.screen.len(), n);
+
+        for tri in surface.triangles {
+            let [a, b, c] = *tri;
+            let (p0, p1, p2) = (self.screen[a], self.screen[b], self.screen[c]);
+            if !(p0.iter().chain(&p1).chain(&p2).all(|v| v.is_finite())) {
+                continue;
+            }
+            let area = (p1[0] - p0[0]) * (p2[1] - p0[1]) - (p2[0] - p0[0]) * (p1[1] - p0[1]);
+            if area.abs() < 1e-9 {
+                continue;
+            }
+            // Screen y points down, so a counter-clockwise (outward, towards the eye) triangle
+            // has negative signed area here.
+            let front = area < 0.0;
+            let sign = if front { 1.0f32 } else { -1.0 };
+            // Face normal in view space for flat shading and as a fallback.
+            let face_n = {
+                let pa = &surface.positions[3 * a..3 * a + 3];
+                let pb = &surface.positions[3 * b..3 * b + 3];
+                let pc = &surface.positions[3 * c..3 * c + 3];
+                let e1 = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]];
+                let e2 = [pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]];
+                let v = view.rotate(camera::cross(e1, e2));
+                let nn = normalize([v[0] as f32, v[1] as f32, v[2] as f32]);
+                nn.map(|q| q * sign)
+            };
+            let (n0, n1, n2) = if self.normals.is_empty() {
+                (face_n, face_n, face_n)
+            } else {
+                let f = |v: [f32; 3]| v.map(|q| q * sign);
+                (f(self.normals[a]), f(self.normals[b]), f(self.normals[c]))
+            };
+            let colored = !self.tvals.is_empty();
+            let (t0, t1, t2) = if colored {
+                (self.tvals[a], self.tvals[b], self.tvals[c])
+            } else {
+                (0.0, 0.0, 0.0)
+            };
+            let bx0 = p0[0].min(p1[0]).min(p2[0]).floor().max(xmin_vp);
+            let bx1 = p0[0].max(p1[0]).max(p2[0]).ceil().min(xmax_vp);
+            let by0 = p0[1].min(p1[1]).min(p2[1]).floor().max(ymin_vp);
+            let by1 = p0[1].max(p1[1]).max(p2[1]).ceil().min(ymax_vp);
+            if bx0 > bx1 || by0 > by1 {
+                continue;
+            }
+            // Barycentric weights as affine functions of the pixel centre: w_i = a_i x + b_i y + c_i.
+            let inv = 1.0 / area;
+            let edge = |q: [f32; 3], r: [f32; 3]| {
+                let ea = (q[1] - r[1]) * inv;
+                let eb = (r[0] - q[0]) * inv;
+                let ec = (q[0] * r[1] - q[1] * r[0]) * inv;
+                (ea, eb, ec)
+            };
+            let (a0, b0, c0) = edge(p1, p2);
+            let (a1, b1, c1) = edge(p2, p0);
+            let (a2, b2, c2) = edge(p0, p1);
+            let eps = -1e-5f32;
+            for py in by0 as i64..=by1 as i64 {
+                let sy = py as f32 + 0.5;
+                let row = py as usize * width;
+                let sx0 = bx0 + 0.5;
+                let mut w0 = a0 * sx0 + b0 * sy + c0;
+                let mut w1 = a1 * sx0 + b1 * sy + c1;
+                let mut w2 = a2 * sx0 + b2 * sy + c2;
+                for px in bx0 as usize..=bx1 as usize {
+                    if w0 >= eps && w1 >= eps && w2 >= eps {
+                        let depth = w0 * p0[2] + w1 * p1[2] + w2 * p2[2];
+                        let idx = row + px;
+                        if depth > self.depth[idx] {
+                            self.depth[idx] = depth;
+                            let mut nrm = [
+                                w0 * n0[0] + w1 * n1[0] + w2 * n2[0],
+                                w0 * n0[1] + w1 * n1[1] + w2 * n2[1],
+                                w0 * n0[2] + w1 * n1[2] + w2 * n2[2],
+                            ];
+                            let l2 = nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2];
+                            if l2 > 1e-12 {
+                                let il = 1.0 / l2.sqrt();
+                                nrm = nrm.map(|q| q * il);
+                            } else {
+                                nrm = face_n;
+                            }
+                            let albedo = match &lut {
+                                Some(lut) if colored => {
+                                    let t = (w0 * t0 + w1 * t1 + w2 * t2).clamp(0.0, 1.0);
+                                    lut[(t * 255.0 + 0.5) as usize]
+                                }
+                                _ => base,
+                            };
+                            let kd = dot3(nrm, key).max(0.0);
+                            let fd = dot3(nrm, fill).max(0.0);
+                            let diffuse = AMBIENT + 0.72 * kd + 0.22 * fd;
+                            let sh = dot3(nrm, half).max(0.0);
+                            let highlight = if kd > 0.0 {
+                                spec * sh.powi(SHININESS)
+                            } else {
+                                0.0
+                            };
+                            let o = 3 * idx;
+                            let px_rgb = &mut self.image.pixels_mut()[o..o + 3];
+                            for k in 0..3 {
+                                let v = albedo[k] * diffuse + highlight;
+                                px_rgb[k] = (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+                            }
+                        }
+                    }
+                    w0 += a0;
+                    w1 += a1;
+                    w2 += a2;
+                }
+            }
+        }
+        self.draw_overlays(opts, &layout);
+        Ok(&self.image)
+    }
+
+    fn draw_overlays(&mut self, opts: &RenderOptions, layout: &Layout) {
+        let bg = opts.background;
+        let luma = 0.299 * bg[0] as f32 + 0.587 * bg[1] as f32 + 0.114 * bg[2] as f32;
+        let ink = if luma > 128.0 {
+            [20, 20, 24]
+        } else {
+            [235, 235, 235]
+        };
+        let s = layout.scale;
+        let th = (GLYPH_HEIGHT * s) as i64;
+        let (w, h) = (opts.width as i64, opts.height as i64);
+        let pad = layout.pad;
+        let img = &mut self.image;
+        if let Some(title) = &opts.title {
+            font::draw_text(img, pad, pad, title, s, ink);
+        }
+        if let Some(cs) = &opts.color_scale {
+            let x0 = w - layout.legend_w + pad;
+            let bar_w = 10 * s as i64;
+            // Caption above the bar, right-aligned to the image edge.
+            let cap_w = font::text_width(&cs.label, s) as i64;
+            let cap_y = layout.title_h + pad;
+            font::draw_text(img, (w - pad - cap_w).max(pad), cap_y, &cs.label, s, ink);
+            let y0 = cap_y + th + 2 * pad;
+            let y1 = h - pad - th / 2;
+            if y1 - y0 < 4 {
+                return;
+            }
+            for y in y0..=y1 {
+                let t = 1.0 - (y - y0) as f64 / (y1 - y0) as f64;
+                let col = cs.map.eval_u8(t);
+                img.fill_rect(x0, y, bar_w, 1, col);
+            }
+            // Frame.
+            img.fill_rect(x0 - 1, y0 - 1, bar_w + 2, 1, ink);
+            img.fill_rect(x0 - 1, y1 + 1, bar_w + 2, 1, ink);
+            img.fill_rect(x0 - 1, y0 - 1, 1, y1 - y0 + 3, ink);
+            img.fill_rect(x0 + bar_w, y0 - 1, 1, y1 - y0 + 3, ink);
+            for (t, label) in &layout.ticks {
+                let y = y1 - (t * (y1 - y0) as f64).round() as i64;
+                img.fill_rect(x0 + bar_w, y, pad / 2 + 1, 1, ink);
+                font::draw_text(img, x0 + bar_w + pad, y - th / 2, label, s, ink);
+            }
+        }
+    }
+}
+
+#[inline]
+fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[inline]
+fn normalize(a: [f32; 3]) -> [f32; 3] {
+    let l = dot3(a, a).sqrt();
+    if l > 0.0 { a.map(|q| q / l) } else { a }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{ColorScale, UpAxis};
+    use std::collections::HashSet;
+
+    fn sphere(sub: u32) -> (Vec<f64>, Vec<[usize; 3]>) {
+        let m = balloon_mesh::generate::icosphere(1.0, sub).unwrap();
+        (m.positions_flat(), m.triangles)
+    }
+
+    fn covered(img: &Image, bg: [u8; 3]) -> usize {
+        img.pixels().chunks(3).filter(|p| p != &bg).count()
+    }
+
+    #[test]
+    fn a_sphere_covers_a_disc_of_the_expected_size() {
+        let (x, t) = sphere(3);
+        let mut opts = RenderOptions::new(200, 200);
+        opts.camera.projection = Projection::Orthographic;
+        let mut r = Renderer::new();
+        let img = r
+            .render(&Surface::new(&x, &t), &opts, None)
+            .unwrap()
+            .clone();
+        // Orthographic: radius 0.96 * 100 px, so area pi * 96^2 (minus polygon facets).
+        let expect = std::f64::consts::PI * 96.0f64.powi(2);
+        let got = covered(&img, opts.background) as f64;
+        assert!((got / expect - 1.0).abs() < 0.03, "{got} vs {expect}");
+        // Centre pixel is the body, corners are background.
+        assert_ne!(img.get(100, 100), Some(opts.background));
+        assert_eq!(img.get(1, 1), Some(opts.background));
+        // Shading varies: many distinct colours.
+        let colours: HashSet<&[u8]> = img.pixels().chunks(3).collect();
+        assert!(colours.len() > 50, "{} colours", colours.len());
+        // The lit side (upper left, towards KEY) is brighter than the lower right.
+        let lum = |p: [u8; 3]| p.iter().map(|&c| c as u32).sum::<u32>();
+        assert!(lum(img.get(70, 70).unwrap()) > lum(img.get(135, 135).unwrap()));
+    }
+
+    #[test]
+    fn the_nearer_surface_wins_the_depth_test() {
+        // Two parallel squares facing the eye (+y eye side is -y for UpAxis::Z at azimuth 0):
+        // red at y = -1 (near), blue at y = +1 (far), drawn far-last.
+        let quad = |y: f64| vec![-1.0, y, -1.0, 1.0, y, -1.0, 1.0, y, 1.0, -1.0, y, 1.0];
+        for projection in [
+            Projection::Orthographic,
+            Projection::Perspective { fov_y_deg: 40.0 },
+        ] {
+            let mut x = quad(-1.0);
+            x.extend(quad(1.0));
+            let t = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]];
+            let s = [0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0];
+            let opts = RenderOptions {
+                camera: Camera {
+                    azimuth_deg: 0.0,
+                    elevation_deg: 0.0,
+                    up: UpAxis::Z,
+                    projection,
+                },
+                color_scale: Some(ColorScale::new(0.0, 1.0, "s")),
+                specular: 0.0,
+                ..RenderOptions::new(100, 100)
+            };
+            let mut r = Renderer::new();
+            let img = r
+                .render(&Surface::new(&x, &t).with_scalars(&s), &opts, None)
+                .unwrap();
+            // The legend takes the right part; the square is centred in the rest.
+            let vw = 100 - Layout::new(&opts).legend_w as u32;
+            let p = img.get(vw / 2, 50).unwrap();
+            // Near square has scalar 0: viridis' dark violet, blue > green.
+            assert!(
+                p[2] > p[1],
+                "{projection:?}: got {p:?}, expected the near (violet) square"
+            );
+        }
+    }
+
+    #[test]
+    fn legend_and_title_are_drawn_and_bad_input_is_reported() {
+        let (x, t) = sphere(2);
+        let s: Vec<f64> = x.chunks(3).map(|p| p[2]).collect();
+        let opts = RenderOptions {
+            color_scale: Some(ColorScale::from_values(&s, "height (m)")),
+            title: Some("step 10".into()),
+            ..RenderOptions::new(320, 240)
+        };
+        let mut r = Renderer::new();
+        let img = r
+            .render(&Surface::new(&x, &t).with_scalars(&s), &opts, None)
+            .unwrap()
+            .clone();
+        let lay = Layout::new(&opts);
+        // Legend bar: a column inside the bar, top is yellow-ish, bottom violet.
+        let bx = (320 - lay.legend_w + lay.pad + 3) as u32;
+        let top = img.get(bx, 60).unwrap();
+        let bottom = img.get(bx, 225).unwrap();
+        assert!(top[1] > 150 && bottom[1] < 100, "{top:?} {bottom:?}");
+        // Title strip has ink.
+        let ink = (0..100)
+            .any(|xp| (0..lay.title_h as u32).any(|yp| img.get(xp, yp) == Some([20, 20, 24])));
+        assert!(ink);
+        // Errors.
+        let e = r
+            .render(&Surface::new(&x, &t).with_scalars(&s[1..]), &opts, None)
+            .unwrap_err();
+        assert!(e.to_string().contains("scalars"), "{e}");
+        let e = r
+            .render(&Surface::new(&x, &[[0, 1, 99999]]), &opts, None)
+            .unwrap_err();
+        assert!(e.to_string().contains("99999"), "{e}");
+        let e = r
+            .render(&Surface::new(&x, &t), &RenderOptions::new(12, 12), None)
+            .map(|_| ());
+        assert!(e.is_ok(), "no legend, no title: a tiny image is fine");
+        let small = RenderOptions {
+            width: 30,
+            height: 20,
+            ..opts.clone()
+        };
+        assert!(r.render(&Surface::new(&x, &t), &small, None).is_err());
+        let nan = vec![f64::NAN; 9];
+        assert!(
+            r.render(&Surface::new(&nan, &[[0, 1, 2]]), &opts, None)
+                .is_err()
+        );
+    }
+
+    #[test]
+    fn a_common_framing_shows_growth() {
+        let (x, t) = sphere(2);
+        let big: Vec<f64> = x.iter().map(|c| 2.0 * c).collect();
+        let f = Framing::of_points(&x)
+            .unwrap()
+            .union(&Framing::of_points(&big).unwrap());
+        let opts = RenderOptions::new(160, 160);
+        let mut r = Renderer::new();
+        let small_px = covered(
+            r.render(&Surface::new(&x, &t), &opts, Some(&f)).unwrap(),
+            opts.background,
+        );
+        let big_px = covered(
+            r.render(&Surface::new(&big, &t), &opts, Some(&f)).unwrap(),
+            opts.background,
+        );
+        let ratio = big_px as f64 / small_px as f64;
+        assert!(ratio > 3.0 && ratio < 5.5, "area ratio {ratio}");
+    }
+}
