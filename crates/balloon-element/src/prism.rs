@@ -346,6 +346,52 @@ impl ThreePrism {
         x: &[Vector3<f64>; 3],
         h: f64,
     ) -> ([Vector3<f64>; 3], SMatrix<f64, 9, 9>) {
+        let (f, ke) = self.forces_and_edge_hessian(mat, x, h);
+        (f, edge_to_vertex_hessian::<6, 9>(&ke))
+    }
+
+    /// Forces and the *projected* (positive semi-definite) stiffness, for projected Newton.
+    ///
+    /// The exact stiffness `K = S^T Ke S` ([`ThreePrism::forces_and_stiffness`]) is built from
+    /// the 6x6 Hessian `Ke` with respect to the two edge vectors, `S` the (onto) map from vertex
+    /// to edge displacements; `K` is PSD exactly when `Ke` is. `Ke` is indefinite when the
+    /// element is compressed (St. Venant-Kirchhoff is not convex in compression; the geometric
+    /// term `S : dF^T dF` with a negative principal stress, and the normal-variation terms). This
+    /// returns `S^T Ke+ S` with `Ke+ = Q max(Lambda, 0) Q^T` the nearest PSD matrix to `Ke` in
+    /// the Frobenius norm (eigenvalues clamped at zero). When `Ke` is positive definite (a
+    /// Cholesky factorisation of the 6x6 succeeds, the usual case for a stretched element) the
+    /// exact stiffness is returned unchanged and no eigen-decomposition is done. The forces are
+    /// the exact ones; only the Newton matrix changes, so Newton converges to the same backward
+    /// Euler solution (seed 000 Eq. 18), linearly rather than quadratically where elements are
+    /// compressed.
+    pub fn forces_and_projected_stiffness<M: Material>(
+        &self,
+        mat: &M,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+    ) -> ([Vector3<f64>; 3], SMatrix<f64, 9, 9>) {
+        let (f, ke) = self.forces_and_edge_hessian(mat, x, h);
+        (f, edge_to_vertex_hessian::<6, 9>(&project_psd(ke)))
+    }
+
+    /// Projected stiffness alone (see [`ThreePrism::forces_and_projected_stiffness`]).
+    pub fn projected_stiffness<M: Material>(
+        &self,
+        mat: &M,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+    ) -> SMatrix<f64, 9, 9> {
+        self.forces_and_projected_stiffness(mat, x, h).1
+    }
+
+    /// Forces and the 6x6 Hessian with respect to the edge vectors `(e12, e13)`.
+    #[inline]
+    fn forces_and_edge_hessian<M: Material>(
+        &self,
+        mat: &M,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+    ) -> ([Vector3<f64>; 3], SMatrix<f64, 6, 6>) {
         let k = self.kinematics(x, h);
         let s = self.stress(&k, &mat.first_piola(&k.f));
         let (g12, g13) = Self::edge_gradient(&k, &s);
@@ -377,7 +423,7 @@ impl ThreePrism {
             ke.fixed_view_mut::<3, 1>(0, c).copy_from(&a);
             ke.fixed_view_mut::<3, 1>(3, c).copy_from(&b);
         }
-        ([g12 + g13, -g12, -g13], edge_to_vertex_hessian::<6, 9>(&ke))
+        ([g12 + g13, -g12, -g13], ke)
     }
 
     /// Generalised force on the thickness, `-dE^e/dh` (N): positive when the material pushes the
@@ -402,6 +448,35 @@ impl ThreePrism {
         let m = density * self.rest_volume();
         ([m / 6.0; 3], m / 2.0)
     }
+}
+
+/// The nearest positive semi-definite matrix to the symmetric part of `a` (Frobenius norm):
+/// eigenvalues clamped at zero. Returns `a` unchanged (up to symmetrisation) when it is positive
+/// semi-definite up to `1e-10` of its mean diagonal, detected by a Cholesky factorisation, which
+/// is much cheaper than the eigen-solve.
+pub(crate) fn project_psd<const N: usize>(a: SMatrix<f64, N, N>) -> SMatrix<f64, N, N>
+where
+    nalgebra::Const<N>: nalgebra::DimMin<nalgebra::Const<N>, Output = nalgebra::Const<N>>
+        + nalgebra::DimSub<nalgebra::U1>,
+    nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<
+            <nalgebra::Const<N> as nalgebra::DimSub<nalgebra::U1>>::Output,
+        >,
+{
+    let sym = (a + a.transpose()) * 0.5;
+    // Positive definite up to a negligible shift: keep it as it is. The shift (1e-10 of the
+    // mean diagonal) lets near-rest elements, whose rigid-rotation modes are zero up to
+    // rounding, skip the eigen-solve; their eigenvalues are >= -1e-10 trace / N.
+    let mut shifted = sym;
+    let eps = 1e-10 * sym.trace().abs() / N as f64;
+    for i in 0..N {
+        shifted[(i, i)] += eps;
+    }
+    if shifted.cholesky().is_some() {
+        return sym;
+    }
+    let mut eig = sym.symmetric_eigen();
+    eig.eigenvalues.iter_mut().for_each(|l| *l = l.max(0.0));
+    eig.recompose()
 }
 
 /// A three-prism linearised at one state by [`ThreePrism::linearize`]: the kinematics and the

@@ -683,3 +683,81 @@ fn three_prism_degenerate_sweep_and_stiffness_covariance() {
     }
     assert!((big_r * k * big_r.transpose() - kr).norm() <= 1e-10 * k.norm());
 }
+
+/// Eigenvalues of a symmetric 9x9 stiffness, ascending.
+fn eigenvalues9(k: &nalgebra::SMatrix<f64, 9, 9>) -> Vec<f64> {
+    let mut ev: Vec<f64> = k.symmetric_eigen().eigenvalues.iter().copied().collect();
+    ev.sort_by(f64::total_cmp);
+    ev
+}
+
+#[test]
+fn three_prism_projected_stiffness_is_psd_and_exact_when_stretched() {
+    let rest = [
+        Vector3::zeros(),
+        Vector3::new(0.01, 0.0, 0.0),
+        Vector3::new(0.004, 0.01, 0.0),
+    ];
+    let big_h = 3e-4;
+    let p = ThreePrism::try_new(rest, big_h).unwrap();
+    let stvk = StVenantKirchhoff::new(lame());
+    let neo = NeoHookean::new(lame());
+    let mut rng = Rng::new(17);
+    let r = rotation(&mut rng);
+    let t = rvec(&mut rng) * 0.01;
+    // In-plane compression to 70 % (a buckling state for a membrane): the exact stiffness has a
+    // clearly negative eigenvalue, the projected one none; forces are untouched.
+    let compressed = rest.map(|q| r * (q * 0.7) + t);
+    for (name, k, kp, f, fp) in [
+        {
+            let (f, k) = p.forces_and_stiffness(&stvk, &compressed, big_h);
+            let (fp, kp) = p.forces_and_projected_stiffness(&stvk, &compressed, big_h);
+            ("stvk", k, kp, f, fp)
+        },
+        {
+            let (f, k) = p.forces_and_stiffness(&neo, &compressed, big_h);
+            let (fp, kp) = p.forces_and_projected_stiffness(&neo, &compressed, big_h);
+            ("neo-hookean", k, kp, f, fp)
+        },
+    ] {
+        let ev = eigenvalues9(&k);
+        let evp = eigenvalues9(&kp);
+        let scale = ev.last().unwrap().abs();
+        assert!(
+            ev[0] < -1e-3 * scale,
+            "{name}: exact K is not indefinite: {ev:?}"
+        );
+        assert!(
+            evp[0] >= -1e-10 * scale,
+            "{name}: projected K not PSD: {evp:?}"
+        );
+        assert!((kp - kp.transpose()).norm() <= 1e-12 * kp.norm(), "{name}");
+        assert_eq!(f, fp, "{name}: forces must be the exact ones");
+        // Still translation invariant (rows of each 3-column block sum to zero).
+        for c in 0..3 {
+            let mut u = nalgebra::SVector::<f64, 9>::zeros();
+            for v in 0..3 {
+                u[3 * v + c] = 1.0;
+            }
+            assert!((kp * u).norm() <= 1e-10 * kp.norm(), "{name}: translation");
+        }
+        // The positive part is kept: K+ - K is PSD and K+ differs from K.
+        let diff = eigenvalues9(&(kp - k));
+        assert!(diff[0] >= -1e-10 * scale, "{name}: {diff:?}");
+        assert!((kp - k).norm() > 1e-6 * k.norm(), "{name}");
+        assert_eq!(
+            p.projected_stiffness(&stvk, &compressed, big_h) == kp,
+            name == "stvk"
+        );
+    }
+    // Stretched (as in an inflated balloon): the exact stiffness is already positive definite
+    // on the edge space, and the projected one equals it.
+    for s in [1.1, 1.5, 2.5] {
+        let r = rotation(&mut rng);
+        let stretched = rest.map(|q| r * (q * s) + t);
+        let k = p.stiffness(&stvk, &stretched, big_h / (s * s));
+        let kp = p.projected_stiffness(&stvk, &stretched, big_h / (s * s));
+        assert!(eigenvalues9(&k)[0] > -1e-10 * k.norm(), "s = {s}");
+        assert!((kp - k).norm() <= 1e-12 * k.norm(), "s = {s}");
+    }
+}

@@ -21,7 +21,7 @@ use crate::linear::{
     LinearSolverParams, PcgPreconditioner, SparseAssembler, SparseCholesky, cg,
     solve_with_low_rank,
 };
-use crate::system::{ForceSystem, SystemError};
+use crate::system::{ForceSystem, SystemError, TangentKind};
 
 /// Parameters of [`BackwardEuler`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -50,6 +50,18 @@ pub struct BackwardEulerParams {
     pub regularize_indefinite: bool,
     /// Preconditioner of the assembled PCG solver (default Jacobi; ignored by the others).
     pub pcg_preconditioner: PcgPreconditioner,
+    /// Which tangent stiffness the system linearises with (default [`TangentKind::Exact`];
+    /// [`TangentKind::Projected`] is projected Newton: an SPD Newton matrix at every iterate, so
+    /// no regularisation retries). Passed to [`ForceSystem::set_tangent`] at every step.
+    pub tangent: TangentKind,
+    /// [`LinearSolverKind::FactorizedPcg`] only: refactorise the Cholesky preconditioner before
+    /// the next solve when a solve took more than this many CG iterations (default 8). A solve
+    /// with a stale factor that does not converge within `4 x refactor_iterations` iterations (or
+    /// breaks down) is continued with a fresh factorisation of the current matrix.
+    pub refactor_iterations: usize,
+    /// Run the numeric sparse Cholesky factorisation (Cholesky and factorized PCG) on the rayon
+    /// thread pool (default `false`: sequential).
+    pub parallel_factorization: bool,
 }
 
 impl Default for BackwardEulerParams {
@@ -63,6 +75,9 @@ impl Default for BackwardEulerParams {
             gravity: [0.0; 3],
             regularize_indefinite: true,
             pcg_preconditioner: PcgPreconditioner::Jacobi,
+            tangent: TangentKind::Exact,
+            refactor_iterations: 8,
+            parallel_factorization: false,
         }
     }
 }
@@ -87,6 +102,9 @@ pub struct StepInfo {
     /// Largest mass shift `tau` used in the step (0 when none was needed), relative to the mass
     /// matrix: the solved matrix was `(1 + dt alpha + tau) M + (dt^2 + dt beta) K`.
     pub max_regularization: f64,
+    /// Numeric sparse Cholesky factorisations done in the step (Cholesky: one per solve;
+    /// factorized PCG: only when the lagged preconditioner was refreshed).
+    pub factorizations: usize,
 }
 
 impl StepInfo {
@@ -156,6 +174,12 @@ pub struct BackwardEuler {
     z_scratch: Vec<Vec<f64>>,
     stiffness_preconditioned: bool,
     ic0: IncompleteCholesky,
+    /// Pattern version of the factor in `cholesky` (factorized PCG reuses it across solves).
+    factor_version: Option<u64>,
+    /// Factorized PCG: the last solve was slow, refactorise before the next one.
+    refactor_next: bool,
+    /// Factorisations since the start of the current step.
+    factorizations: usize,
 }
 
 /// Retries of an indefinite linear solve with a growing mass shift before giving up.
@@ -287,6 +311,12 @@ impl BackwardEuler {
         let n = system.num_dofs();
         self.validate(n, dt, x, v, system.masses(), external_forces)?;
         let p = self.params;
+        system
+            .set_tangent(p.tangent)
+            .map_err(|source| IntegrateError::System {
+                iteration: 0,
+                source,
+            })?;
         let (alpha, beta) = (p.mass_damping, p.stiffness_damping);
         let m_coef = 1.0 + dt * alpha;
         let k_coef = dt * dt + dt * beta;
@@ -316,6 +346,7 @@ impl BackwardEuler {
             converged: true,
             ..Default::default()
         };
+        self.factorizations = 0;
         let mut b0 = 0.0;
         let mut newton_converged = p.newton_tolerance == 0.0;
         for k in 0..p.newton_iterations {
@@ -421,6 +452,7 @@ impl BackwardEuler {
             });
         }
         info.converged &= newton_converged;
+        info.factorizations = self.factorizations;
         Ok(info)
     }
 
@@ -434,6 +466,8 @@ impl BackwardEuler {
     ) -> Result<LinearSolveInfo, LinearSolveError> {
         let lp = self.params.linear;
         let n = self.b.len();
+        self.cholesky
+            .set_parallel(self.params.parallel_factorization);
         let masses = system.masses();
         self.dv.fill(0.0);
         match lp.kind {
@@ -479,12 +513,84 @@ impl BackwardEuler {
                     &mut self.cg_ws,
                 )
             }
-            LinearSolverKind::Pcg | LinearSolverKind::Cholesky => {
+            LinearSolverKind::Pcg
+            | LinearSolverKind::Cholesky
+            | LinearSolverKind::FactorizedPcg => {
                 self.assembler
                     .assemble(masses, m_coef, &self.triplets, k_coef)?;
                 let a = self.assembler.matrix();
                 let low_rank = system.low_rank_terms();
-                if lp.kind == LinearSolverKind::Pcg {
+                if lp.kind == LinearSolverKind::FactorizedPcg {
+                    let version = self.assembler.pattern_version();
+                    let mut fresh = false;
+                    if self.refactor_next
+                        || !self.cholesky.is_factorized()
+                        || self.factor_version != Some(version)
+                    {
+                        self.factor_version = None;
+                        self.cholesky.factorize(a, version)?;
+                        self.factor_version = Some(version);
+                        self.factorizations += 1;
+                        self.refactor_next = false;
+                        fresh = true;
+                    }
+                    let threshold = self.params.refactor_iterations.max(1);
+                    let mut total = 0;
+                    loop {
+                        let cap = if fresh {
+                            lp.max_iterations
+                        } else {
+                            lp.max_iterations.min(4 * threshold)
+                        };
+                        let chol = &mut self.cholesky;
+                        let res = cg(
+                            |p, out| {
+                                a.mul_into(p, out);
+                                for t in low_rank {
+                                    let s = k_coef * t.coefficient * dot(&t.vector, p);
+                                    for i in 0..n {
+                                        out[i] += s * t.vector[i];
+                                    }
+                                }
+                            },
+                            |r, z| {
+                                z.copy_from_slice(r);
+                                // Cannot fail: factorised above for this size.
+                                let solved = chol.solve_in_place(z);
+                                debug_assert!(solved.is_ok(), "{solved:?}");
+                            },
+                            &self.b,
+                            &mut self.dv,
+                            cap,
+                            lp.relative_tolerance,
+                            &mut self.cg_ws,
+                        );
+                        match res {
+                            Ok(mut info) if info.converged || fresh => {
+                                self.refactor_next = info.iterations > threshold;
+                                total += info.iterations;
+                                info.iterations = total;
+                                return Ok(info);
+                            }
+                            Err(e) if fresh => return Err(e),
+                            other => {
+                                // The stale factor is no longer a good preconditioner (or the
+                                // matrix moved too far): refactorise the current matrix and
+                                // continue from the iterate reached (or from zero after a
+                                // breakdown).
+                                match other {
+                                    Ok(info) => total += info.iterations,
+                                    Err(_) => self.dv.fill(0.0),
+                                }
+                                self.factor_version = None;
+                                self.cholesky.factorize(a, version)?;
+                                self.factor_version = Some(version);
+                                self.factorizations += 1;
+                                fresh = true;
+                            }
+                        }
+                    }
+                } else if lp.kind == LinearSolverKind::Pcg {
                     a.diagonal_into(&mut self.diag);
                     for t in low_rank {
                         for i in 0..n.min(t.vector.len()) {
@@ -531,7 +637,10 @@ impl BackwardEuler {
                     )
                 } else {
                     let version = self.assembler.pattern_version();
+                    self.factor_version = None;
                     self.cholesky.factorize(a, version)?;
+                    self.factor_version = Some(version);
+                    self.factorizations += 1;
                     let terms: Vec<(f64, &[f64])> = low_rank
                         .iter()
                         .map(|t| (k_coef * t.coefficient, t.vector.as_slice()))
@@ -901,6 +1010,7 @@ mod tests {
             (LinearSolverKind::Pcg, PcgPreconditioner::Jacobi),
             (LinearSolverKind::Pcg, PcgPreconditioner::IncompleteCholesky),
             (LinearSolverKind::Cholesky, PcgPreconditioner::Jacobi),
+            (LinearSolverKind::FactorizedPcg, PcgPreconditioner::Jacobi),
         ] {
             let mut sys = Chain::new(nv, true, 3);
             let mut be = BackwardEuler::new(BackwardEulerParams {
@@ -947,6 +1057,7 @@ mod tests {
             LinearSolverKind::MatrixFreeCg,
             LinearSolverKind::Pcg,
             LinearSolverKind::Cholesky,
+            LinearSolverKind::FactorizedPcg,
         ] {
             let mut sys = linear_chain(nv);
             let k0 = sys.k0.clone().unwrap();
@@ -1029,6 +1140,7 @@ mod tests {
             LinearSolverKind::MatrixFreeCg,
             LinearSolverKind::Pcg,
             LinearSolverKind::Cholesky,
+            LinearSolverKind::FactorizedPcg,
         ] {
             for regularize in [true, false] {
                 let mut sys = linear_chain(nv);
@@ -1140,6 +1252,80 @@ mod tests {
             assert!(damped.last().unwrap() < undamped.last().unwrap());
         }
         assert!(undamped.windows(2).all(|w| w[1] <= w[0] + 1e-12));
+    }
+
+    #[test]
+    fn factorized_pcg_reuses_its_factor_and_refreshes_it_when_stale() {
+        // A chain whose stiffness barely changes: the factor of the first Newton matrix
+        // preconditions all later solves, and the answer is the Cholesky one.
+        let nv = 12;
+        let x0 = Chain::positions(nv, 5);
+        let v0: Vec<f64> = Rng::new(4).vector(3 * nv);
+        let run = |kind: LinearSolverKind, dts: &[f64]| {
+            let mut sys = Chain::new(nv, true, 7);
+            let mut p = params(kind, 3);
+            p.linear.relative_tolerance = 1e-11;
+            p.refactor_iterations = 6;
+            let mut be = BackwardEuler::new(p);
+            let (mut x, mut v) = (x0.clone(), v0.clone());
+            let mut infos = Vec::new();
+            let mut t = 0.0;
+            for &dt in dts {
+                let info = be.step(&mut sys, t, dt, &mut x, &mut v, None).unwrap();
+                assert!(info.converged, "{kind}: {info:?}");
+                t += dt;
+                infos.push(info);
+            }
+            (x, v, infos)
+        };
+        let dts = [0.002; 8];
+        let (xc, vc, ic) = run(LinearSolverKind::Cholesky, &dts);
+        let (xf, vf, inf) = run(LinearSolverKind::FactorizedPcg, &dts);
+        assert!(ic.iter().all(|i| i.factorizations == 3));
+        let total: usize = inf.iter().map(|i| i.factorizations).sum();
+        assert!(inf[0].factorizations >= 1);
+        assert!(total <= 2, "factorisations {total} of 24 solves");
+        for i in 0..xc.len() {
+            assert!((xf[i] - xc[i]).abs() < 1e-10, "x[{i}]");
+            assert!((vf[i] - vc[i]).abs() < 1e-8 * (1.0 + vc[i].abs()), "v[{i}]");
+        }
+        // The time step jumps 100-fold: the old factor (of M + dt^2 K at the small dt) is a poor
+        // preconditioner, so the solver refactorises and still converges.
+        let (_, _, jumped) = run(LinearSolverKind::FactorizedPcg, &[0.0005, 0.0005, 0.05]);
+        assert!(jumped[2].factorizations >= 1, "{:?}", jumped[2]);
+    }
+
+    #[test]
+    fn projected_tangent_is_passed_to_the_system_or_refused() {
+        // The test chain only has the exact tangent: asking for the projected one is a clear
+        // error before any work, not a silent fallback.
+        let nv = 4;
+        let mut sys = Chain::new(nv, true, 3);
+        let mut be = BackwardEuler::new(BackwardEulerParams {
+            tangent: TangentKind::Projected,
+            ..params(LinearSolverKind::Cholesky, 2)
+        });
+        let (mut x, mut v) = (Chain::positions(nv, 1), vec![0.0; 3 * nv]);
+        let e = be
+            .step(&mut sys, 0.0, 0.01, &mut x, &mut v, None)
+            .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                IntegrateError::System {
+                    source: SystemError::TangentUnsupported(TangentKind::Projected),
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.to_string().contains("projected"), "{e}");
+        assert_eq!(
+            "Projected ".parse::<TangentKind>(),
+            Ok(TangentKind::Projected)
+        );
+        assert_eq!(TangentKind::Exact.to_string(), "exact");
+        assert!("psd".parse::<TangentKind>().unwrap_err().contains("psd"));
     }
 
     #[test]

@@ -12,4 +12,4 @@ pub mod implicit;
 pub mod linear;
 pub mod system;
 
-pub use system::{ForceSystem, LowRankTerm, SystemError};
+pub use system::{ForceSystem, LowRankTerm, SystemError, TangentKind};

@@ -44,6 +44,14 @@ pub enum LinearSolverKind {
     /// Sparse Cholesky (faer) plus Sherman-Morrison / Woodbury for the low-rank terms
     /// (`"cholesky"`). Needs `ForceSystem::add_stiffness_triplets`; the sparse part must be SPD.
     Cholesky,
+    /// CG on the assembled matrix plus matrix-free low-rank terms, preconditioned by a sparse
+    /// Cholesky factorisation of an *earlier* Newton matrix (`"factorized-pcg"`), kept across
+    /// Newton iterations and steps and refreshed only when CG needs more than
+    /// `BackwardEulerParams::refactor_iterations` iterations (or fails). Needs
+    /// `ForceSystem::add_stiffness_triplets` and an SPD sparse part: use it with the projected
+    /// tangent (`TangentKind::Projected`); with the exact tangent an indefinite matrix makes the
+    /// factorisation fail and the regularisation retries are costly.
+    FactorizedPcg,
 }
 
 impl FromStr for LinearSolverKind {
@@ -54,6 +62,7 @@ impl FromStr for LinearSolverKind {
             "matrix-free-cg" => Ok(Self::MatrixFreeCg),
             "pcg" => Ok(Self::Pcg),
             "cholesky" => Ok(Self::Cholesky),
+            "factorized-pcg" => Ok(Self::FactorizedPcg),
             _ => Err(LinearSolveError::UnknownKind(s.to_string())),
         }
     }
@@ -65,6 +74,7 @@ impl std::fmt::Display for LinearSolverKind {
             Self::MatrixFreeCg => "matrix-free-cg",
             Self::Pcg => "pcg",
             Self::Cholesky => "cholesky",
+            Self::FactorizedPcg => "factorized-pcg",
         })
     }
 }
@@ -185,7 +195,7 @@ pub enum LinearSolveError {
     },
     /// The solver name could not be parsed.
     #[error(
-        "unknown linear solver `{0}`; expected one of \"matrix-free-cg\", \"pcg\", \"cholesky\""
+        "unknown linear solver `{0}`; expected one of \"matrix-free-cg\", \"pcg\", \"cholesky\", \"factorized-pcg\""
     )]
     UnknownKind(String),
 }
@@ -668,6 +678,7 @@ pub struct SparseCholesky {
     workspace: Option<MemBuffer>,
     factorized: bool,
     n: usize,
+    parallel: bool,
 }
 
 impl std::fmt::Debug for SparseCholesky {
@@ -715,8 +726,8 @@ impl SparseCholesky {
                 detail: format!("symbolic analysis failed: {e:?}"),
             })?;
             let req = s
-                .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
-                .or(s.solve_in_place_scratch::<f64>(1, Par::Seq));
+                .factorize_numeric_llt_scratch::<f64>(Par::rayon(0), Default::default())
+                .or(s.solve_in_place_scratch::<f64>(1, Par::rayon(0)));
             self.workspace =
                 Some(
                     MemBuffer::try_new(req).map_err(|_| LinearSolveError::Factorization {
@@ -727,6 +738,7 @@ impl SparseCholesky {
             self.values.resize(s.len_val(), 0.0);
             self.symbolic = Some((pattern_version, s));
         }
+        let par = self.par();
         let (Some((_, symbolic)), Some(work)) = (&self.symbolic, &mut self.workspace) else {
             return Err(LinearSolveError::Factorization {
                 detail: "no symbolic factorisation".into(),
@@ -739,7 +751,7 @@ impl SparseCholesky {
                 mat,
                 Side::Lower,
                 LltRegularization::default(),
-                Par::Seq,
+                par,
                 MemStack::new(work),
                 Default::default(),
             )
@@ -753,6 +765,31 @@ impl SparseCholesky {
         self.factorized = true;
         self.n = a.n;
         Ok(())
+    }
+
+    /// Runs the numeric factorisation on the rayon thread pool (`true`) or on the calling
+    /// thread (`false`, the default).
+    pub fn set_parallel(&mut self, parallel: bool) {
+        self.parallel = parallel;
+    }
+
+    fn par(&self) -> Par {
+        if self.parallel {
+            Par::rayon(0)
+        } else {
+            Par::Seq
+        }
+    }
+
+    /// Whether the last [`SparseCholesky::factorize`] succeeded (a factor is available).
+    pub fn is_factorized(&self) -> bool {
+        self.factorized
+    }
+
+    /// Forgets the numeric factor (keeps the symbolic analysis): the next solve needs a new
+    /// [`SparseCholesky::factorize`].
+    pub fn invalidate(&mut self) {
+        self.factorized = false;
     }
 
     /// Solves `A x = rhs` in place with the last factorisation.
@@ -1109,6 +1146,7 @@ mod tests {
             LinearSolverKind::MatrixFreeCg,
             LinearSolverKind::Pcg,
             LinearSolverKind::Cholesky,
+            LinearSolverKind::FactorizedPcg,
         ] {
             assert_eq!(k.to_string().parse::<LinearSolverKind>().unwrap(), k);
         }

@@ -3,7 +3,51 @@
 //! Degrees of freedom are flat: `x = [x0, y0, z0, x1, y1, z1, ...]` (metres), forces in newtons,
 //! masses in kilograms per degree of freedom (a lumped, diagonal mass matrix).
 
+use serde::{Deserialize, Serialize};
 use thiserror::Error;
+
+/// Which stiffness matrix `K` a [`ForceSystem`] hands to Newton (through
+/// [`ForceSystem::add_force_differential`], [`ForceSystem::add_stiffness_triplets`] and
+/// [`ForceSystem::add_stiffness_diagonal`]). The forces are always the exact ones, so the
+/// backward Euler solution Newton converges to does not depend on this choice; only the path
+/// (and the speed) does.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TangentKind {
+    /// The exact Hessian of the energy (`"exact"`, default): quadratic Newton convergence, but
+    /// indefinite where elements are compressed, so the solvers may need a mass-shift retry
+    /// (`BackwardEulerParams::regularize_indefinite`).
+    #[default]
+    Exact,
+    /// Per-element Hessians projected onto the positive semi-definite cone (`"projected"`,
+    /// projected Newton): the Newton matrix `M + dt^2 K` is then symmetric positive definite at
+    /// every iterate (up to non-symmetric or indefinite terms a system adds outside its
+    /// elements, such as a pressure follower term) and no regularisation retry is needed.
+    Projected,
+}
+
+impl std::str::FromStr for TangentKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "exact" => Ok(Self::Exact),
+            "projected" => Ok(Self::Projected),
+            _ => Err(format!(
+                "unknown tangent `{s}`; expected \"exact\" or \"projected\""
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for TangentKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Exact => "exact",
+            Self::Projected => "projected",
+        })
+    }
+}
 
 /// A dense symmetric rank-1 term `coefficient * u u^T` of a stiffness matrix that must never be
 /// assembled (the uniform-gas coupling of seed 000, Eq. 16-17).
@@ -37,6 +81,9 @@ pub enum SystemError {
     /// Any other physical failure, described in words.
     #[error("{0}")]
     Other(String),
+    /// The system cannot provide the requested kind of tangent stiffness.
+    #[error("this force system does not support the `{0}` tangent; use the exact tangent")]
+    TangentUnsupported(TangentKind),
     /// The system does not provide an assembled stiffness matrix; choose the matrix-free solver.
     #[error(
         "this force system cannot assemble its stiffness matrix; use the matrix-free CG solver"
@@ -85,6 +132,16 @@ pub trait ForceSystem {
     fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
         let _ = diagonal;
         Err(SystemError::AssemblyUnsupported)
+    }
+
+    /// Selects the tangent stiffness used from the next [`ForceSystem::forces`] call on. The
+    /// default implementation supports only [`TangentKind::Exact`] and returns
+    /// [`SystemError::TangentUnsupported`] for anything else.
+    fn set_tangent(&mut self, kind: TangentKind) -> Result<(), SystemError> {
+        match kind {
+            TangentKind::Exact => Ok(()),
+            other => Err(SystemError::TangentUnsupported(other)),
+        }
     }
 
     /// The dense low-rank part of `K` at the last linearisation point (default: none).
