@@ -1,1 +1,378 @@
-//! Live browser viewer (placeholder; being written for issue 7).
+//! Live browser viewer of the balloon simulations (issue 7, `balloon view`).
+//!
+//! [`Viewer::start`] binds a loopback TCP port, builds the chosen simulation and starts it on a
+//! background thread; [`Viewer::serve`] then answers HTTP (the embedded page, `/api/state`) and
+//! WebSocket (`/ws`) connections, one thread each, until a deadline. The protocol between the
+//! server and the page is in `docs/viewer.md`; [`protocol`] parses and validates what the page
+//! sends.
+//!
+//! * The simulation thread steps in (roughly) real time: it steps while the simulated time is
+//!   behind the wall clock since the last (re)start and forgets a lag of more than 0.1 s (a slow
+//!   system then runs as fast as it can). It publishes the latest frame at most every 33 ms;
+//!   each connection sends the newest frame when its socket has room, so a slow client drops
+//!   frames instead of queueing them.
+//! * A failing step pauses the simulation and sends an `error` message to every client; the
+//!   server keeps running and `reset` rebuilds.
+//! * Drags (seed 004 Sec. 4.4's mouse spring): the shell gets per-vertex spring forces on the
+//!   picked vertex's neighbourhood as the external forces of backward Euler; the volumetric
+//!   body a damped spring on the picked surface point, spread to the four particles that carry
+//!   it by their barycentric weights and applied as an impulse `h F` in each step (Eq. 1); the
+//!   two-layer object seed 004's drag spring on the picked outer particle.
+
+pub mod protocol;
+mod runner;
+mod server;
+mod systems;
+
+pub use systems::{DragRequest, ShellView, TwoLayerView, ViewSystem, VolumetricView};
+
+use balloon_mesh::TriMesh;
+use runner::{Command, Runner, Shared};
+use std::net::{IpAddr, SocketAddr, TcpListener, ToSocketAddrs};
+use std::str::FromStr;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::{self, Sender};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+use thiserror::Error;
+
+/// Which simulation to view.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SystemKind {
+    /// Shell balloon with thickness (seed 000).
+    Shell,
+    /// Volume-conserving lattice body (seed 003).
+    Volumetric,
+    /// Two-layer elastic sphere (seed 004).
+    TwoLayer,
+}
+
+impl SystemKind {
+    /// The protocol / command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Shell => "shell",
+            Self::Volumetric => "volumetric",
+            Self::TwoLayer => "two-layer",
+        }
+    }
+}
+
+impl FromStr for SystemKind {
+    type Err = ViewerError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "shell" => Ok(Self::Shell),
+            "volumetric" => Ok(Self::Volumetric),
+            "two-layer" | "two_layer" | "twolayer" => Ok(Self::TwoLayer),
+            _ => Err(ViewerError::UnknownSystem(s.to_string())),
+        }
+    }
+}
+
+/// Errors of the viewer (before serving; later failures are sent to the page).
+#[derive(Debug, Error)]
+pub enum ViewerError {
+    /// Unknown system name.
+    #[error("unknown system `{0}` (expected shell, volumetric or two-layer)")]
+    UnknownSystem(String),
+    /// The port is taken.
+    #[error("port {port} on {host} is already in use; pass another --port (or --port 0)")]
+    PortInUse {
+        /// Host.
+        host: String,
+        /// Port.
+        port: u16,
+    },
+    /// A non-loopback host without `allow_remote`.
+    #[error(
+        "refusing to listen on {0}: it is not a loopback address, and anyone who can reach it could control the simulation; pass --allow-remote to allow it"
+    )]
+    NotLoopback(String),
+    /// The host does not resolve.
+    #[error("cannot resolve host `{host}`: {reason}")]
+    BadHost {
+        /// Host.
+        host: String,
+        /// Why.
+        reason: String,
+    },
+    /// Binding failed for another reason.
+    #[error("cannot listen on {host}:{port}: {source}")]
+    Bind {
+        /// Host.
+        host: String,
+        /// Port.
+        port: u16,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The mesh could not be loaded.
+    #[error("mesh `{spec}`: {source}")]
+    Mesh {
+        /// The mesh argument.
+        spec: String,
+        /// What failed.
+        source: balloon_mesh::MeshError,
+    },
+    /// The simulation could not be built.
+    #[error("cannot build the {system} simulation: {reason}")]
+    Build {
+        /// System.
+        system: &'static str,
+        /// What failed.
+        reason: String,
+    },
+    /// The two-layer system takes no mesh.
+    #[error("the two-layer viewer simulates its own sphere and takes no MESH (got `{0}`)")]
+    MeshNotUsed(String),
+}
+
+/// Where and what to serve.
+#[derive(Clone, Debug)]
+pub struct ViewerOptions {
+    /// The simulation.
+    pub system: SystemKind,
+    /// Mesh spec (file or `builtin:NAME`), `None` for the default of the system.
+    pub mesh: Option<String>,
+    /// Bind address (default `127.0.0.1`).
+    pub host: String,
+    /// Port (0: the OS picks one).
+    pub port: u16,
+    /// Allow a non-loopback host.
+    pub allow_remote: bool,
+}
+
+impl ViewerOptions {
+    /// Options for `system` on `127.0.0.1`, an OS-chosen port, the default mesh.
+    pub fn new(system: SystemKind) -> Self {
+        Self {
+            system,
+            mesh: None,
+            host: "127.0.0.1".into(),
+            port: 0,
+            allow_remote: false,
+        }
+    }
+}
+
+/// The default mesh of a system: a coarse teddy (shell: ~1.2k vertices, fast enough to step
+/// interactively; volumetric: the soup of the lattice body).
+pub fn default_mesh(system: SystemKind) -> Result<TriMesh, balloon_mesh::MeshError> {
+    let params = balloon_mesh::generate::TeddyParams {
+        resolution: 14,
+        ..Default::default()
+    };
+    match system {
+        SystemKind::Shell | SystemKind::Volumetric => balloon_mesh::generate::teddy(&params),
+        SystemKind::TwoLayer => balloon_mesh::generate::icosphere(1.0, 0),
+    }
+}
+
+/// Builds the simulation of `options` (no server).
+pub fn build_system(options: &ViewerOptions) -> Result<Box<dyn ViewSystem>, ViewerError> {
+    let mesh = match (&options.mesh, options.system) {
+        (Some(spec), SystemKind::TwoLayer) => return Err(ViewerError::MeshNotUsed(spec.clone())),
+        (Some(spec), _) => {
+            balloon_mesh::builtin::load(spec).map_err(|source| ViewerError::Mesh {
+                spec: spec.clone(),
+                source,
+            })?
+        }
+        (None, s) => default_mesh(s).map_err(|source| ViewerError::Mesh {
+            spec: "default".into(),
+            source,
+        })?,
+    };
+    let build = |r: Result<Box<dyn ViewSystem>, String>| {
+        r.map_err(|reason| ViewerError::Build {
+            system: options.system.name(),
+            reason,
+        })
+    };
+    match options.system {
+        SystemKind::Shell => build(ShellView::new(mesh).map(|s| Box::new(s) as _)),
+        SystemKind::Volumetric => build(VolumetricView::new(mesh).map(|s| Box::new(s) as _)),
+        SystemKind::TwoLayer => build(TwoLayerView::new().map(|s| Box::new(s) as _)),
+    }
+}
+
+/// Checks the host and binds the listener.
+pub fn bind(host: &str, port: u16, allow_remote: bool) -> Result<TcpListener, ViewerError> {
+    let addrs: Vec<SocketAddr> = match host.parse::<IpAddr>() {
+        Ok(ip) => vec![SocketAddr::new(ip, port)],
+        Err(_) => (host, port)
+            .to_socket_addrs()
+            .map_err(|e| ViewerError::BadHost {
+                host: host.into(),
+                reason: e.to_string(),
+            })?
+            .collect(),
+    };
+    if addrs.is_empty() {
+        return Err(ViewerError::BadHost {
+            host: host.into(),
+            reason: "no address".into(),
+        });
+    }
+    if !allow_remote && addrs.iter().any(|a| !a.ip().is_loopback()) {
+        return Err(ViewerError::NotLoopback(host.into()));
+    }
+    TcpListener::bind(&addrs[..]).map_err(|source| {
+        if source.kind() == std::io::ErrorKind::AddrInUse {
+            ViewerError::PortInUse {
+                host: host.into(),
+                port,
+            }
+        } else {
+            ViewerError::Bind {
+                host: host.into(),
+                port,
+                source,
+            }
+        }
+    })
+}
+
+/// A running viewer: the listener and the simulation thread.
+pub struct Viewer {
+    listener: TcpListener,
+    url: String,
+    shared: Arc<Shared>,
+    commands: Sender<Command>,
+    sim_thread: Option<JoinHandle<()>>,
+}
+
+impl Viewer {
+    /// Binds, builds the simulation and starts it (the page can connect once
+    /// [`Viewer::serve`] runs).
+    pub fn start(options: &ViewerOptions) -> Result<Self, ViewerError> {
+        let listener = bind(&options.host, options.port, options.allow_remote)?;
+        let port = listener
+            .local_addr()
+            .map_err(|source| ViewerError::Bind {
+                host: options.host.clone(),
+                port: options.port,
+                source,
+            })?
+            .port();
+        let system = build_system(options)?;
+        let shared = Arc::new(Shared::default());
+        let runner = Runner::new(system, shared.clone());
+        let (tx, rx) = mpsc::channel();
+        let sim_thread = std::thread::Builder::new()
+            .name("balloon-view-sim".into())
+            .spawn(move || runner.run(rx))
+            .map_err(|source| ViewerError::Bind {
+                host: options.host.clone(),
+                port,
+                source,
+            })?;
+        let host = if options.host.contains(':') {
+            format!("[{}]", options.host)
+        } else {
+            options.host.clone()
+        };
+        Ok(Self {
+            listener,
+            url: format!("http://{host}:{port}/"),
+            shared,
+            commands: tx,
+            sim_thread: Some(sim_thread),
+        })
+    }
+
+    /// The page's URL, `http://HOST:PORT/`.
+    pub fn url(&self) -> &str {
+        &self.url
+    }
+
+    /// Serves connections until `exit_after` has passed (forever with `None`), then stops the
+    /// simulation thread.
+    pub fn serve(mut self, exit_after: Option<Duration>) -> std::io::Result<()> {
+        let deadline = exit_after.map(|d| Instant::now() + d);
+        self.listener.set_nonblocking(true)?;
+        while deadline.is_none_or(|d| Instant::now() < d) {
+            match self.listener.accept() {
+                Ok((stream, _)) => {
+                    let _ = stream.set_nonblocking(false);
+                    let (shared, commands) = (self.shared.clone(), self.commands.clone());
+                    let _ = std::thread::Builder::new()
+                        .name("balloon-view-conn".into())
+                        .spawn(move || server::handle_connection(stream, shared, commands));
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                Err(e) => eprintln!("balloon view: accept failed: {e}"),
+            }
+        }
+        self.stop();
+        Ok(())
+    }
+
+    fn stop(&mut self) {
+        self.shared.shutdown.store(true, Ordering::SeqCst);
+        let _ = self.commands.send(Command::Shutdown);
+        if let Some(t) = self.sim_thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for Viewer {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn system_names_parse() {
+        assert_eq!("shell".parse::<SystemKind>().unwrap(), SystemKind::Shell);
+        assert_eq!(
+            "Two-Layer".parse::<SystemKind>().unwrap(),
+            SystemKind::TwoLayer
+        );
+        let e = "cloth".parse::<SystemKind>().unwrap_err().to_string();
+        assert!(e.contains("unknown system `cloth`"), "{e}");
+    }
+
+    #[test]
+    fn binding_checks_the_host_and_the_port() {
+        let e = bind("0.0.0.0", 0, false).unwrap_err().to_string();
+        assert!(
+            e.contains("not a loopback") && e.contains("--allow-remote"),
+            "{e}"
+        );
+        let l = bind("127.0.0.1", 0, false).unwrap();
+        let port = l.local_addr().unwrap().port();
+        let e = bind("127.0.0.1", port, false).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "port {port} on 127.0.0.1 is already in use; pass another --port (or --port 0)"
+            )
+        );
+        assert!(bind("localhost", 0, false).is_ok());
+        assert!(matches!(
+            bind("no-such-host.invalid", 0, false),
+            Err(ViewerError::BadHost { .. })
+        ));
+    }
+
+    #[test]
+    fn two_layer_takes_no_mesh() {
+        let mut o = ViewerOptions::new(SystemKind::TwoLayer);
+        o.mesh = Some("builtin:box".into());
+        assert!(matches!(build_system(&o), Err(ViewerError::MeshNotUsed(_))));
+        let mut o = ViewerOptions::new(SystemKind::Shell);
+        o.mesh = Some("/no/such/mesh.obj".into());
+        let e = build_system(&o).err().unwrap().to_string();
+        assert!(e.contains("/no/such/mesh.obj"), "{e}");
+    }
+}

@@ -1,0 +1,429 @@
+//! The HTTP side: one thread per connection, embedded assets, `/api/state`, and the WebSocket
+//! session that forwards client messages to the simulation thread and streams frames back.
+
+use crate::protocol::{error_message, parse_client_message};
+use crate::runner::{Command, FRAME_INTERVAL, Shared};
+use include_dir::{Dir, include_dir};
+use serde_json::Value;
+use std::io::{ErrorKind, Read, Write};
+use std::net::TcpStream;
+use std::sync::Arc;
+use std::sync::mpsc::{self, Sender};
+use std::time::{Duration, Instant};
+use tungstenite::{Message, WebSocket};
+
+/// The page's files (index.html, app.js, style.css, vendor/...), embedded at build time.
+static WEB: Dir<'_> = include_dir!("$CARGO_MANIFEST_DIR/web");
+
+/// Largest accepted HTTP request head, bytes.
+const MAX_HEAD: usize = 16 * 1024;
+
+/// The content type of a served file, by extension.
+pub fn content_type(path: &str) -> &'static str {
+    let ext = path.rsplit_once('.').map(|(_, e)| e).unwrap_or("");
+    match ext.to_ascii_lowercase().as_str() {
+        "html" | "htm" => "text/html; charset=utf-8",
+        "js" | "mjs" => "text/javascript; charset=utf-8",
+        "css" => "text/css; charset=utf-8",
+        "json" | "map" => "application/json",
+        "svg" => "image/svg+xml",
+        "png" => "image/png",
+        "ico" => "image/x-icon",
+        "wasm" => "application/wasm",
+        "woff2" => "font/woff2",
+        "txt" | "md" => "text/plain; charset=utf-8",
+        _ => "application/octet-stream",
+    }
+}
+
+/// An embedded asset by URL path (`/` is `index.html`); `None` when there is no such file or the
+/// path tries to leave the folder.
+pub fn asset(path: &str) -> Option<&'static [u8]> {
+    let rel = path.trim_start_matches('/');
+    let rel = if rel.is_empty() { "index.html" } else { rel };
+    if rel.split('/').any(|s| s == ".." || s.is_empty()) {
+        return None;
+    }
+    WEB.get_file(rel).map(|f| f.contents())
+}
+
+/// A parsed request line and headers.
+#[derive(Debug, PartialEq)]
+pub struct RequestHead {
+    /// Method (`GET`).
+    pub method: String,
+    /// Path without the query.
+    pub path: String,
+    /// Query string (after `?`), empty when none.
+    pub query: String,
+    /// Whether it asks for a WebSocket upgrade.
+    pub upgrade: bool,
+    /// Length of the head in bytes (up to and including the blank line).
+    pub length: usize,
+}
+
+/// Parses an HTTP/1.x request head from `buf`. `Ok(None)`: incomplete; `Err`: malformed (the
+/// text says why).
+pub fn parse_head(buf: &[u8]) -> Result<Option<RequestHead>, String> {
+    let Some(end) = buf.windows(4).position(|w| w == b"\r\n\r\n") else {
+        if buf.len() >= MAX_HEAD {
+            return Err(format!("request head longer than {MAX_HEAD} bytes"));
+        }
+        return Ok(None);
+    };
+    let head = std::str::from_utf8(&buf[..end]).map_err(|_| "request head is not UTF-8")?;
+    let mut lines = head.split("\r\n");
+    let line = lines.next().unwrap_or("");
+    let parts: Vec<&str> = line.split(' ').collect();
+    let [method, target, version] = parts[..] else {
+        return Err(format!("malformed request line `{line}`"));
+    };
+    if !version.starts_with("HTTP/1.") {
+        return Err(format!("unsupported protocol `{version}`"));
+    }
+    if !target.starts_with('/') {
+        return Err(format!("malformed request target `{target}`"));
+    }
+    let (path, query) = target.split_once('?').unwrap_or((target, ""));
+    let mut upgrade = false;
+    for h in lines {
+        let Some((k, v)) = h.split_once(':') else {
+            return Err(format!("malformed header line `{h}`"));
+        };
+        if k.trim().eq_ignore_ascii_case("upgrade") && v.trim().eq_ignore_ascii_case("websocket") {
+            upgrade = true;
+        }
+    }
+    Ok(Some(RequestHead {
+        method: method.to_string(),
+        path: path.to_string(),
+        query: query.to_string(),
+        upgrade,
+        length: end + 4,
+    }))
+}
+
+fn respond(stream: &mut TcpStream, status: &str, ctype: &str, body: &[u8]) {
+    let head = format!(
+        "HTTP/1.1 {status}\r\nContent-Type: {ctype}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n",
+        body.len()
+    );
+    let _ = stream
+        .write_all(head.as_bytes())
+        .and_then(|()| stream.write_all(body))
+        .and_then(|()| stream.flush());
+}
+
+fn respond_error(stream: &mut TcpStream, status: &str, message: &str) {
+    let body = serde_json::json!({"error": message}).to_string();
+    respond(stream, status, "application/json", body.as_bytes());
+}
+
+/// The `/api/state` body for `query` (`vertex=I` adds that vertex), or a 400 message.
+pub fn state_json(shared: &Shared, query: &str) -> Result<String, String> {
+    let p = shared.lock();
+    let mut state = p.state.clone();
+    let positions = p.positions.clone();
+    drop(p);
+    for pair in query.split('&').filter(|s| !s.is_empty()) {
+        let (k, v) = pair.split_once('=').unwrap_or((pair, ""));
+        match k {
+            "vertex" => {
+                let n = positions.len() / 3;
+                let i: usize = v.parse().map_err(|_| {
+                    format!(
+                        "query `vertex={v}`: expected a vertex index 0..{}",
+                        n.max(1) - 1
+                    )
+                })?;
+                if i >= n {
+                    return Err(format!(
+                        "query `vertex={i}`: out of range (the body has {n} vertices)"
+                    ));
+                }
+                state.insert(
+                    "vertex".into(),
+                    serde_json::json!({
+                        "index": i,
+                        "position": [positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]],
+                    }),
+                );
+            }
+            other => return Err(format!("unknown query parameter `{other}` (known: vertex)")),
+        }
+    }
+    Ok(Value::Object(state).to_string())
+}
+
+/// Serves one connection (run on its own thread).
+pub fn handle_connection(mut stream: TcpStream, shared: Arc<Shared>, commands: Sender<Command>) {
+    let _ = stream.set_read_timeout(Some(Duration::from_secs(5)));
+    let _ = stream.set_write_timeout(Some(Duration::from_secs(5)));
+    // Peek the head (the WebSocket handshake reads it again itself).
+    let mut buf = vec![0u8; MAX_HEAD];
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let head = loop {
+        let n = match stream.peek(&mut buf) {
+            Ok(0) => return,
+            Ok(n) => n,
+            Err(_) => return,
+        };
+        match parse_head(&buf[..n]) {
+            Ok(Some(h)) => break h,
+            Ok(None) if Instant::now() < deadline && n < MAX_HEAD => {
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            Ok(None) => {
+                respond_error(&mut stream, "400 Bad Request", "incomplete request head");
+                return;
+            }
+            Err(e) => {
+                respond_error(&mut stream, "400 Bad Request", &e);
+                return;
+            }
+        }
+    };
+    if head.path == "/ws" {
+        if !head.upgrade || head.method != "GET" {
+            let _ = stream.read_exact(&mut buf[..head.length]);
+            respond_error(
+                &mut stream,
+                "400 Bad Request",
+                "/ws expects a WebSocket upgrade (GET with `Upgrade: websocket`)",
+            );
+            return;
+        }
+        match tungstenite::accept(stream) {
+            Ok(ws) => websocket_session(ws, &shared, &commands),
+            Err(e) => eprintln!("balloon view: WebSocket handshake failed: {e}"),
+        }
+        return;
+    }
+    let _ = stream.read_exact(&mut buf[..head.length]);
+    if head.method != "GET" && head.method != "HEAD" {
+        respond_error(
+            &mut stream,
+            "405 Method Not Allowed",
+            &format!("method {} is not supported (use GET)", head.method),
+        );
+        return;
+    }
+    if head.path == "/api/state" {
+        match state_json(&shared, &head.query) {
+            Ok(body) => respond(&mut stream, "200 OK", "application/json", body.as_bytes()),
+            Err(e) => respond_error(&mut stream, "400 Bad Request", &e),
+        }
+        return;
+    }
+    match asset(&head.path) {
+        Some(body) => {
+            let path = if head.path == "/" {
+                "index.html"
+            } else {
+                &head.path
+            };
+            let body = if head.method == "HEAD" { &[][..] } else { body };
+            respond(&mut stream, "200 OK", content_type(path), body);
+        }
+        None => respond_error(
+            &mut stream,
+            "404 Not Found",
+            &format!("no such file `{}`", head.path),
+        ),
+    }
+}
+
+fn is_timeout(e: &tungstenite::Error) -> bool {
+    matches!(e, tungstenite::Error::Io(io) if matches!(io.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut))
+}
+
+/// Sends `text`; `Ok(false)` when the socket is congested (the message stays buffered and is
+/// flushed later, newer frames are dropped meanwhile); `Err` when the connection is gone.
+fn send(ws: &mut WebSocket<TcpStream>, text: &str) -> Result<bool, ()> {
+    match ws.send(Message::text(text)) {
+        Ok(()) => Ok(true),
+        Err(e) if is_timeout(&e) => Ok(false),
+        Err(_) => Err(()),
+    }
+}
+
+fn websocket_session(mut ws: WebSocket<TcpStream>, shared: &Shared, commands: &Sender<Command>) {
+    let _ = ws
+        .get_mut()
+        .set_read_timeout(Some(Duration::from_millis(10)));
+    let _ = ws
+        .get_mut()
+        .set_write_timeout(Some(Duration::from_millis(200)));
+    let (reply_tx, reply_rx) = mpsc::channel::<String>();
+    let mut hello_generation = 0;
+    let mut frame_number = 0;
+    let mut broadcast_seq = shared.lock().broadcasts.last().map_or(0, |b| b.0);
+    let mut last_frame = Instant::now() - FRAME_INTERVAL;
+    let mut congested = false;
+    loop {
+        if shared.stopping() {
+            let _ = ws.close(None);
+            let _ = ws.flush();
+            return;
+        }
+        if congested {
+            match ws.flush() {
+                Ok(()) => congested = false,
+                Err(e) if is_timeout(&e) => {}
+                Err(_) => return,
+            }
+        }
+        if !congested {
+            let mut out: Vec<Arc<String>> = Vec::new();
+            while let Ok(r) = reply_rx.try_recv() {
+                out.push(Arc::new(r));
+            }
+            {
+                let p = shared.lock();
+                if p.hello_generation != hello_generation {
+                    hello_generation = p.hello_generation;
+                    out.push(p.hello.clone());
+                    frame_number = 0;
+                }
+                for (seq, b) in &p.broadcasts {
+                    if *seq > broadcast_seq {
+                        broadcast_seq = *seq;
+                        out.push(b.clone());
+                    }
+                }
+                if p.frame_number > frame_number && last_frame.elapsed() >= FRAME_INTERVAL {
+                    frame_number = p.frame_number;
+                    last_frame = Instant::now();
+                    out.push(p.frame.clone());
+                }
+            }
+            for m in out {
+                match send(&mut ws, &m) {
+                    Ok(true) => {}
+                    Ok(false) => congested = true,
+                    Err(()) => return,
+                }
+            }
+        }
+        match ws.read() {
+            Ok(Message::Text(t)) => match parse_client_message(t.as_str()) {
+                Ok(message) => {
+                    let cmd = Command::Client {
+                        message,
+                        reply: reply_tx.clone(),
+                    };
+                    if commands.send(cmd).is_err() {
+                        return;
+                    }
+                }
+                Err(e) => {
+                    let _ = reply_tx.send(error_message(&e));
+                }
+            },
+            Ok(Message::Binary(_)) => {
+                let _ = reply_tx.send(error_message(
+                    "binary messages are not supported; send JSON text",
+                ));
+            }
+            Ok(Message::Close(_)) => {
+                let _ = ws.flush();
+                return;
+            }
+            Ok(_) => {}
+            Err(e) if is_timeout(&e) => {}
+            Err(tungstenite::Error::Protocol(p)) => {
+                eprintln!("balloon view: WebSocket protocol error: {p}");
+                return;
+            }
+            Err(_) => return,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn request_heads_parse() {
+        let raw = b"GET /api/state?vertex=3 HTTP/1.1\r\nHost: x\r\n\r\nrest";
+        let h = parse_head(raw).unwrap().unwrap();
+        assert_eq!(h.method, "GET");
+        assert_eq!(h.path, "/api/state");
+        assert_eq!(h.query, "vertex=3");
+        assert!(!h.upgrade);
+        assert_eq!(h.length, raw.len() - 4);
+        let ws = parse_head(b"GET /ws HTTP/1.1\r\nUpgrade: WebSocket\r\n\r\n")
+            .unwrap()
+            .unwrap();
+        assert!(ws.upgrade);
+        assert_eq!(parse_head(b"GET / HTTP/1.1\r\nHost: x\r\n").unwrap(), None);
+    }
+
+    #[test]
+    fn malformed_heads_are_rejected() {
+        for (raw, want) in [
+            (&b"GARBAGE\r\n\r\n"[..], "malformed request line"),
+            (b"GET / HTTP/1.1 extra\r\n\r\n", "malformed request line"),
+            (b"GET / SPDY/3\r\n\r\n", "unsupported protocol"),
+            (
+                b"GET index.html HTTP/1.1\r\n\r\n",
+                "malformed request target",
+            ),
+            (
+                b"GET / HTTP/1.1\r\nno colon here\r\n\r\n",
+                "malformed header",
+            ),
+            (b"GET / HTTP/1.1\r\n\xff\xfe: x\r\n\r\n", "not UTF-8"),
+        ] {
+            let e = parse_head(raw).unwrap_err();
+            assert!(e.contains(want), "{e}");
+        }
+        let long = vec![b'a'; MAX_HEAD];
+        assert!(parse_head(&long).unwrap_err().contains("longer"));
+    }
+
+    #[test]
+    fn assets_and_content_types() {
+        assert!(asset("/").is_some(), "web/index.html must be embedded");
+        assert_eq!(asset("/"), asset("/index.html"));
+        assert!(asset("/../Cargo.toml").is_none());
+        assert!(asset("/nope.js").is_none());
+        assert!(asset("/vendor//index.html").is_none());
+        assert_eq!(content_type("a/b.js"), "text/javascript; charset=utf-8");
+        assert_eq!(content_type("index.html"), "text/html; charset=utf-8");
+        assert_eq!(content_type("s.CSS"), "text/css; charset=utf-8");
+        assert_eq!(content_type("x.bin"), "application/octet-stream");
+    }
+
+    #[test]
+    fn state_queries_are_validated() {
+        let shared = Shared::default();
+        {
+            let mut p = shared.lock();
+            p.positions = Arc::new(vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+            p.state.insert("frame".into(), Value::from(4));
+        }
+        let v: Value = serde_json::from_str(&state_json(&shared, "").unwrap()).unwrap();
+        assert_eq!(v["frame"], 4);
+        assert!(v.get("vertex").is_none());
+        let v: Value = serde_json::from_str(&state_json(&shared, "vertex=1").unwrap()).unwrap();
+        assert_eq!(v["vertex"]["index"], 1);
+        assert_eq!(v["vertex"]["position"], serde_json::json!([3.0, 4.0, 5.0]));
+        assert!(
+            state_json(&shared, "vertex=2")
+                .unwrap_err()
+                .contains("out of range")
+        );
+        assert!(
+            state_json(&shared, "vertex=x")
+                .unwrap_err()
+                .contains("vertex index")
+        );
+        assert!(
+            state_json(&shared, "colour=red")
+                .unwrap_err()
+                .contains("unknown query")
+        );
+    }
+}

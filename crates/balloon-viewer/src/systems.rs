@@ -1,0 +1,932 @@
+//! The three simulations behind one interface: controls, stepping, positions, scalar fields and
+//! drags, as the server needs them.
+
+use crate::protocol::{ControlSpec, ControlValue, DragMode};
+use balloon::fields;
+use balloon::gas::GasKind;
+use balloon::integrate::linear::LinearSolverKind;
+use balloon::material::{Lame, MaterialKind, MaterialModel};
+use balloon::mesh::TriMesh;
+use balloon::mesh::lattice::LatticeParams;
+use balloon::shell::{ShellBalloon, ShellSimulation};
+use balloon::two_layer::{
+    AxisBox, DragTarget, ExplicitMethod, SpringKind, TwoLayerBody, TwoLayerSimulation,
+};
+use balloon::volumetric::{VolumetricBody, VolumetricParams, VolumetricSimulation};
+use nalgebra::{Point3, Vector3};
+use serde_json::{Map, Value, json};
+
+/// A drag as the page asked for it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DragRequest {
+    /// Picked vertex (of the frames' vertices).
+    pub vertex: usize,
+    /// Target, m.
+    pub target: [f64; 3],
+    /// Mode.
+    pub mode: DragMode,
+}
+
+/// One simulation as the viewer drives it.
+pub trait ViewSystem: Send {
+    /// `shell`, `volumetric` or `two-layer`.
+    fn name(&self) -> &'static str;
+    /// The controls with their current values.
+    fn controls(&self) -> Vec<ControlSpec>;
+    /// Applies a validated value. Returns `true` when the simulation must be rebuilt.
+    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String>;
+    /// Rebuilds the simulation from the current control values (back to the start).
+    fn rebuild(&mut self) -> Result<(), String>;
+    /// Triangles of the drawn surface.
+    fn triangles(&self) -> Vec<[usize; 3]>;
+    /// Positions of the drawn vertices, flat, m.
+    fn positions(&self) -> Vec<f64>;
+    /// Simulated time, s.
+    fn time(&self) -> f64;
+    /// Steps since the last rebuild.
+    fn steps(&self) -> usize;
+    /// Time step, s.
+    fn dt(&self) -> f64;
+    /// Advances one step (the drag forces set by `apply_drag` act on it).
+    fn step(&mut self) -> Result<(), String>;
+    /// Numbers for the page's statistics panel.
+    fn stats(&self) -> Map<String, Value>;
+    /// Names of the per-vertex scalar fields, the default first.
+    fn scalar_fields(&self) -> Vec<&'static str>;
+    /// One scalar per drawn vertex.
+    fn scalar(&self, name: &str) -> Result<Vec<f64>, String>;
+    /// Supported drag modes.
+    fn drag_modes(&self) -> Vec<&'static str>;
+    /// The up direction of the scene (gravity points the other way).
+    fn up(&self) -> [f64; 3] {
+        [0.0, 1.0, 0.0]
+    }
+    /// Sets (or removes) the drag; called again before every step so forces follow the body.
+    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String>;
+}
+
+fn vertex_count(x: &[f64]) -> usize {
+    x.len() / 3
+}
+
+fn p3(x: &[f64], i: usize) -> Vector3<f64> {
+    Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2])
+}
+
+fn bbox_diagonal(x: &[f64]) -> f64 {
+    let mut lo = Vector3::repeat(f64::INFINITY);
+    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+    for c in x.chunks_exact(3) {
+        let p = Vector3::new(c[0], c[1], c[2]);
+        lo = lo.inf(&p);
+        hi = hi.sup(&p);
+    }
+    (hi - lo).norm()
+}
+
+fn field_err(e: fields::FieldError) -> String {
+    format!("scalar field: {e}")
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shell (seed 000).
+
+/// Settings of the shell view (the controls).
+#[derive(Clone, Debug)]
+struct ShellSettings {
+    gas: &'static str,
+    pressure: f64,
+    pump_rate: f64,
+    thickness_mm: f64,
+    material: &'static str,
+    young_mpa: f64,
+    dt: f64,
+    solver: &'static str,
+}
+
+/// Grab/pinch state of the shell: the picked vertex, its neighbourhood with weights and rest
+/// offsets (taken when the drag starts).
+#[derive(Clone, Debug)]
+struct ShellDrag {
+    vertex: usize,
+    mode: DragMode,
+    /// (vertex, weight, offset from the picked vertex at the start).
+    neighbours: Vec<(usize, f64, Vector3<f64>)>,
+}
+
+/// A shell balloon (seed 000) in the viewer.
+pub struct ShellView {
+    mesh: TriMesh,
+    settings: ShellSettings,
+    sim: ShellSimulation,
+    drag: Option<ShellDrag>,
+    /// Drag neighbourhood radius, m (a fraction of the rest bounding-box diagonal).
+    drag_radius: f64,
+}
+
+/// Relative stiffness of the shell drag spring: `k_i = DRAG_GAIN w_i m_i / dt^2` per vertex. The
+/// spring is an external force, explicit in backward Euler, so it is only stable for
+/// `dt sqrt(k / m) < 2`; 1 keeps a margin.
+const SHELL_DRAG_GAIN: f64 = 1.0;
+/// A pinch pulls the neighbourhood to this fraction of its size around the target.
+const PINCH_SCALE: f64 = 0.3;
+
+impl ShellView {
+    /// A shell view of `mesh` (closed, outward, m) with the default controls.
+    pub fn new(mesh: TriMesh) -> Result<Self, String> {
+        let settings = ShellSettings {
+            gas: "constant",
+            pressure: 2000.0,
+            pump_rate: 1e-3,
+            thickness_mm: 0.3,
+            material: "stvk",
+            young_mpa: 1.0,
+            dt: 0.01,
+            solver: "pcg",
+        };
+        let sim = Self::build(&mesh, &settings)?;
+        let drag_radius = 0.12 * bbox_diagonal(sim.positions());
+        Ok(Self {
+            mesh,
+            settings,
+            sim,
+            drag: None,
+            drag_radius,
+        })
+    }
+
+    fn build(mesh: &TriMesh, s: &ShellSettings) -> Result<ShellSimulation, String> {
+        let gas: GasKind = s.gas.parse().map_err(|e| format!("{e}"))?;
+        let kind: MaterialKind = s.material.parse().map_err(|e| format!("{e}"))?;
+        let solver: LinearSolverKind = s.solver.parse().map_err(|e| format!("{e}"))?;
+        let lame = Lame::try_from_young_poisson(s.young_mpa * 1e6, balloon::shell::DEFAULT_POISSON)
+            .map_err(|e| format!("young: {e}"))?;
+        ShellBalloon::new(mesh.clone())
+            .with_material(MaterialModel::from_lame(kind, lame))
+            .with_gas(gas)
+            .with_gauge_pressure(s.pressure)
+            .with_pump_rate(s.pump_rate)
+            .with_thickness(s.thickness_mm * 1e-3)
+            .with_dt(s.dt)
+            .with_linear_solver(solver)
+            .build()
+            .map_err(|e| e.to_string())
+    }
+}
+
+impl ViewSystem for ShellView {
+    fn name(&self) -> &'static str {
+        "shell"
+    }
+
+    fn controls(&self) -> Vec<ControlSpec> {
+        let s = &self.settings;
+        vec![
+            ControlSpec::choice(
+                "gas",
+                "Gas model",
+                s.gas,
+                &["ideal", "constant", "pump"],
+                true,
+            ),
+            ControlSpec::number(
+                "pressure",
+                "Gauge pressure (constant gas; ideal gas: at the rest volume)",
+                s.pressure,
+                (0.0, 20000.0, 50.0),
+                "Pa",
+                false,
+            ),
+            ControlSpec::number(
+                "pump_rate",
+                "Pump rate (pump gas)",
+                s.pump_rate,
+                (0.0, 0.01, 1e-4),
+                "m^3/s",
+                false,
+            ),
+            ControlSpec::number(
+                "thickness",
+                "Thickness",
+                s.thickness_mm,
+                (0.05, 5.0, 0.05),
+                "mm",
+                true,
+            ),
+            ControlSpec::choice(
+                "material",
+                "Material",
+                s.material,
+                &["stvk", "neo-hookean"],
+                true,
+            ),
+            ControlSpec::number(
+                "young",
+                "Young's modulus",
+                s.young_mpa,
+                (0.05, 100.0, 0.05),
+                "MPa",
+                true,
+            ),
+            ControlSpec::number("dt", "Time step", s.dt, (1e-4, 0.05, 1e-3), "s", false),
+            ControlSpec::choice(
+                "solver",
+                "Linear solver",
+                s.solver,
+                &["pcg", "cholesky", "matrix-free-cg"],
+                false,
+            ),
+        ]
+    }
+
+    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
+        let s = &mut self.settings;
+        match name {
+            "gas" => s.gas = value.choice(),
+            "pressure" => {
+                if s.gas != "pump" {
+                    self.sim
+                        .set_gauge_pressure(value.number())
+                        .map_err(|e| e.to_string())?;
+                }
+                s.pressure = value.number();
+                return Ok(false);
+            }
+            "pump_rate" => {
+                if s.gas == "pump" {
+                    self.sim
+                        .set_pump_rate(value.number())
+                        .map_err(|e| e.to_string())?;
+                }
+                s.pump_rate = value.number();
+                return Ok(false);
+            }
+            "thickness" => s.thickness_mm = value.number(),
+            "material" => s.material = value.choice(),
+            "young" => s.young_mpa = value.number(),
+            "dt" => {
+                self.sim.set_dt(value.number()).map_err(|e| e.to_string())?;
+                s.dt = value.number();
+                return Ok(false);
+            }
+            "solver" => {
+                let kind: LinearSolverKind = value.choice().parse().map_err(|e| format!("{e}"))?;
+                self.sim.integrator_params_mut().linear.kind = kind;
+                s.solver = value.choice();
+                return Ok(false);
+            }
+            other => return Err(format!("unknown control `{other}`")),
+        }
+        Ok(true)
+    }
+
+    fn rebuild(&mut self) -> Result<(), String> {
+        self.sim = Self::build(&self.mesh, &self.settings)?;
+        self.drag = None;
+        Ok(())
+    }
+
+    fn triangles(&self) -> Vec<[usize; 3]> {
+        self.sim.triangles().to_vec()
+    }
+
+    fn positions(&self) -> Vec<f64> {
+        self.sim.positions().to_vec()
+    }
+
+    fn time(&self) -> f64 {
+        self.sim.time()
+    }
+
+    fn steps(&self) -> usize {
+        self.sim.steps_taken()
+    }
+
+    fn dt(&self) -> f64 {
+        self.sim.dt()
+    }
+
+    fn step(&mut self) -> Result<(), String> {
+        self.sim.step().map(|_| ()).map_err(|e| e.to_string())
+    }
+
+    fn stats(&self) -> Map<String, Value> {
+        let th = self.sim.thickness();
+        let mean = th.iter().sum::<f64>() / th.len().max(1) as f64;
+        let m = json!({
+            "gas_volume": self.sim.gas_volume(),
+            "rest_gas_volume": self.sim.rest_gas_volume(),
+            "gauge_pressure": self.sim.gauge_pressure(),
+            "thickness_mean": mean,
+            "shell_volume_ratio": self.sim.shell_volume() / self.sim.rest_shell_volume(),
+            "dt": self.sim.dt(),
+        });
+        m.as_object().cloned().unwrap_or_default()
+    }
+
+    fn scalar_fields(&self) -> Vec<&'static str> {
+        vec!["thickness", "stretch", "max_stretch", "speed"]
+    }
+
+    fn scalar(&self, name: &str) -> Result<Vec<f64>, String> {
+        let (x, t) = (self.sim.positions(), self.sim.triangles());
+        let per_face = match name {
+            "thickness" => self.sim.thickness().to_vec(),
+            "stretch" => {
+                fields::face_area_stretch(self.sim.rest_positions(), x, t).map_err(field_err)?
+            }
+            "max_stretch" => {
+                fields::face_max_stretch(self.sim.rest_positions(), x, t).map_err(field_err)?
+            }
+            "speed" => return fields::vertex_speeds(self.sim.velocities()).map_err(field_err),
+            other => return Err(format!("unknown scalar field `{other}`")),
+        };
+        fields::face_to_vertex(x, t, &per_face).map_err(field_err)
+    }
+
+    fn drag_modes(&self) -> Vec<&'static str> {
+        vec!["grab", "pinch"]
+    }
+
+    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
+        let Some(d) = drag else {
+            self.drag = None;
+            return self
+                .sim
+                .set_external_forces(None)
+                .map_err(|e| e.to_string());
+        };
+        let x = self.sim.positions();
+        let restart = self
+            .drag
+            .as_ref()
+            .is_none_or(|s| s.vertex != d.vertex || s.mode != d.mode);
+        if restart {
+            let c = p3(x, d.vertex);
+            let r = self.drag_radius;
+            let neighbours = (0..vertex_count(x))
+                .filter_map(|i| {
+                    let o = p3(x, i) - c;
+                    let q = o.norm() / r;
+                    (q < 1.0).then(|| (i, (1.0 - q * q).powi(2), o))
+                })
+                .collect();
+            self.drag = Some(ShellDrag {
+                vertex: d.vertex,
+                mode: d.mode,
+                neighbours,
+            });
+        }
+        let state = self.drag.as_ref().expect("drag set above");
+        let target = Vector3::from(d.target);
+        let scale = match state.mode {
+            DragMode::Grab => 1.0,
+            DragMode::Pinch => PINCH_SCALE,
+        };
+        let dt = self.sim.dt();
+        let m = self.sim.masses();
+        let mut f = vec![0.0; x.len()];
+        for &(i, w, o) in &state.neighbours {
+            let k = SHELL_DRAG_GAIN * w * m[3 * i] / (dt * dt);
+            let pull = k * (target + o * scale - p3(x, i));
+            f[3 * i..3 * i + 3].copy_from_slice(pull.as_slice());
+        }
+        self.sim
+            .set_external_forces(Some(&f))
+            .map_err(|e| e.to_string())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Volumetric (seed 003).
+
+#[derive(Clone, Debug)]
+struct VolumetricSettings {
+    stiffness: f64,
+    correction: &'static str,
+    gravity: f64,
+    dt: f64,
+}
+
+/// A volume-conserving lattice body (seed 003) on a floor in the viewer.
+pub struct VolumetricView {
+    soup: TriMesh,
+    settings: VolumetricSettings,
+    sim: VolumetricSimulation,
+    drag: Option<DragRequest>,
+}
+
+/// Volumetric drag spring: `k = VOLUMETRIC_DRAG_GAIN m / dt^2` with `m` the mass of the four
+/// particles that carry the picked surface vertex (explicit, so below the stability limit 4).
+const VOLUMETRIC_DRAG_GAIN: f64 = 0.05;
+
+/// Relative cell-volume tolerance of the volumetric view.
+const VOLUME_TOLERANCE: f64 = 1e-6;
+/// Lattice resolution (voxels along the longest side) and voxels per cell of the volumetric view.
+const LATTICE: (usize, usize) = (36, 3);
+
+impl VolumetricView {
+    /// A volumetric view of the soup `soup` (m) with the default controls.
+    pub fn new(soup: TriMesh) -> Result<Self, String> {
+        let settings = VolumetricSettings {
+            stiffness: 0.04,
+            // The paper's scaling correction gains energy on the floor and inverts cells of the
+            // coarse teddy within a second; the gradient correction does not (measured with the
+            // `volumetric_view_*` tests).
+            correction: "gradient",
+            gravity: 9.81,
+            dt: 5e-4,
+        };
+        let sim = Self::build(&soup, &settings)?;
+        Ok(Self {
+            soup,
+            settings,
+            sim,
+            drag: None,
+        })
+    }
+
+    fn build(soup: &TriMesh, s: &VolumetricSettings) -> Result<VolumetricSimulation, String> {
+        let mut params = VolumetricParams {
+            lattice: LatticeParams {
+                resolution: LATTICE.0,
+                voxels_per_cell: LATTICE.1,
+                ..LatticeParams::default()
+            },
+            gravity: [0.0, -s.gravity, 0.0],
+            dt: s.dt,
+            ..VolumetricParams::default()
+        };
+        // Interactive rates: cells within 1e-6 of their rest volume (the library's 1e-10 costs
+        // many more Gauss-Seidel sweeps per step).
+        params.volume.tolerance = VOLUME_TOLERANCE;
+        params.volume.correction = match s.correction {
+            "gradient" => balloon::constraint::cell_volume::CellCorrection::Gradient,
+            _ => balloon::constraint::cell_volume::CellCorrection::Scaling,
+        };
+        let body = VolumetricBody::build(soup, params).map_err(|e| e.to_string())?;
+        // Springs relative to the particle mass and the time step, as `balloon volumetric`
+        // does: `k = s m / dt^2` (explicit, stable for s well below 1), damping `m / (1000 dt)`.
+        let m = body.mass() / body.masses.len() as f64;
+        let (k, c) = (s.stiffness * m / (s.dt * s.dt), m / (1000.0 * s.dt));
+        let body = body
+            .with_springs(balloon::constraint::cell_volume::SpringParams {
+                edge_stiffness: k,
+                edge_damping: c,
+                diagonal_stiffness: k,
+                diagonal_damping: c,
+            })
+            .map_err(|e| e.to_string())?;
+        let sim = VolumetricSimulation::new(body);
+        let lowest = sim
+            .positions()
+            .iter()
+            .map(|p| p.y)
+            .fold(f64::INFINITY, f64::min);
+        // The floor just below the body (a drop would invert the coarse cells on impact).
+        let height = bbox_diagonal(&flat(sim.positions()));
+        let floor = balloon::constraint::rigid::Plane::new(
+            Point3::new(0.0, lowest - 1e-3 * height, 0.0),
+            Vector3::y(),
+        )
+        .ok_or("cannot place the floor")?;
+        Ok(sim.with_plane(floor))
+    }
+
+    fn surface_positions(&self) -> Vec<Point3<f64>> {
+        self.sim.lattice().embedding.positions(self.sim.positions())
+    }
+}
+
+fn flat(p: &[Point3<f64>]) -> Vec<f64> {
+    p.iter().flat_map(|p| [p.x, p.y, p.z]).collect()
+}
+
+impl ViewSystem for VolumetricView {
+    fn name(&self) -> &'static str {
+        "volumetric"
+    }
+
+    fn controls(&self) -> Vec<ControlSpec> {
+        let s = &self.settings;
+        vec![
+            ControlSpec::number(
+                "stiffness",
+                "Cell spring stiffness k dt^2 / m",
+                s.stiffness,
+                (0.002, 0.1, 0.002),
+                "",
+                true,
+            ),
+            ControlSpec::choice(
+                "correction",
+                "Volume correction",
+                s.correction,
+                &["scaling", "gradient"],
+                true,
+            ),
+            ControlSpec::number(
+                "gravity",
+                "Gravity",
+                s.gravity,
+                (0.0, 30.0, 0.1),
+                "m/s^2",
+                false,
+            ),
+            ControlSpec::number("dt", "Time step", s.dt, (1e-4, 1e-3, 1e-4), "s", false),
+        ]
+    }
+
+    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
+        let s = &mut self.settings;
+        match name {
+            "stiffness" => s.stiffness = value.number(),
+            "correction" => s.correction = value.choice(),
+            "gravity" => {
+                self.sim
+                    .set_gravity([0.0, -value.number(), 0.0])
+                    .map_err(|e| e.to_string())?;
+                s.gravity = value.number();
+                return Ok(false);
+            }
+            "dt" => {
+                self.sim.set_dt(value.number()).map_err(|e| e.to_string())?;
+                s.dt = value.number();
+                return Ok(false);
+            }
+            other => return Err(format!("unknown control `{other}`")),
+        }
+        Ok(true)
+    }
+
+    fn rebuild(&mut self) -> Result<(), String> {
+        self.sim = Self::build(&self.soup, &self.settings)?;
+        self.drag = None;
+        Ok(())
+    }
+
+    fn triangles(&self) -> Vec<[usize; 3]> {
+        self.sim.lattice().embedding.triangles.clone()
+    }
+
+    fn positions(&self) -> Vec<f64> {
+        flat(&self.surface_positions())
+    }
+
+    fn time(&self) -> f64 {
+        self.sim.time()
+    }
+
+    fn steps(&self) -> usize {
+        self.sim.steps()
+    }
+
+    fn dt(&self) -> f64 {
+        self.sim.body().params.dt
+    }
+
+    fn step(&mut self) -> Result<(), String> {
+        self.sim.step().map(|_| ()).map_err(|e| e.to_string())
+    }
+
+    fn stats(&self) -> Map<String, Value> {
+        let m = json!({
+            "volume_ratio": self.sim.total_volume() / self.sim.body().rest_volume(),
+            "kinetic_energy": self.sim.kinetic_energy(),
+            "max_strain": self.sim.max_strain(),
+            "particles": self.sim.positions().len(),
+            "halvings": self.sim.total_halvings(),
+            "dt": self.sim.body().params.dt,
+        });
+        m.as_object().cloned().unwrap_or_default()
+    }
+
+    fn scalar_fields(&self) -> Vec<&'static str> {
+        vec!["speed", "stretch"]
+    }
+
+    fn scalar(&self, name: &str) -> Result<Vec<f64>, String> {
+        let emb = &self.sim.lattice().embedding;
+        match name {
+            "speed" => {
+                let v: Vec<f64> = emb
+                    .vertices
+                    .iter()
+                    .flat_map(|e| {
+                        let mut s = Vector3::zeros();
+                        for (&i, &w) in e.particles.iter().zip(&e.weights) {
+                            s += self.sim.velocities()[i] * w;
+                        }
+                        [s.x, s.y, s.z]
+                    })
+                    .collect();
+                fields::vertex_speeds(&v).map_err(field_err)
+            }
+            "stretch" => {
+                let rest = flat(&emb.positions(&self.sim.lattice().tet_mesh.vertices));
+                let x = self.positions();
+                let f = fields::face_area_stretch(&rest, &x, &emb.triangles).map_err(field_err)?;
+                fields::face_to_vertex(&x, &emb.triangles, &f).map_err(field_err)
+            }
+            other => Err(format!("unknown scalar field `{other}`")),
+        }
+    }
+
+    fn drag_modes(&self) -> Vec<&'static str> {
+        vec!["grab"]
+    }
+
+    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
+        self.drag = drag.copied();
+        let Some(d) = drag else {
+            return self
+                .sim
+                .set_external_forces(None)
+                .map_err(|e| e.to_string());
+        };
+        let e = self
+            .sim
+            .lattice()
+            .embedding
+            .vertices
+            .get(d.vertex)
+            .ok_or_else(|| format!("vertex {} is out of range", d.vertex))?;
+        let (x, v, m) = (
+            self.sim.positions(),
+            self.sim.velocities(),
+            self.sim.masses(),
+        );
+        let mut p = Vector3::zeros();
+        let mut vel = Vector3::zeros();
+        let mut mass = 0.0;
+        for (&i, &w) in e.particles.iter().zip(&e.weights) {
+            p += x[i].coords * w;
+            vel += v[i] * w;
+            mass += m[i];
+        }
+        let dt = self.sim.body().params.dt;
+        let k = VOLUMETRIC_DRAG_GAIN * mass / (dt * dt);
+        // Critically damped for the pulled mass.
+        let c = 2.0 * (k * mass).sqrt();
+        let force = k * (Vector3::from(d.target) - p) - c * vel;
+        let mut f = vec![Vector3::zeros(); x.len()];
+        for (&i, &w) in e.particles.iter().zip(&e.weights) {
+            f[i] += force * w;
+        }
+        self.sim
+            .set_external_forces(Some(&f))
+            .map_err(|e| e.to_string())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Two-layer (seed 004).
+
+#[derive(Clone, Debug)]
+struct TwoLayerSettings {
+    pressure: f64,
+    integrator: &'static str,
+    gravity: f64,
+    dt: f64,
+    wall_box: bool,
+}
+
+/// A two-layer sphere (seed 004) in a box in the viewer.
+pub struct TwoLayerView {
+    settings: TwoLayerSettings,
+    sim: TwoLayerSimulation,
+    drag: Option<DragRequest>,
+}
+
+/// Drag spring of the two-layer view (seed Sec. 4.4): stiffness N/m and damping N s/m.
+const TWO_LAYER_DRAG: (f64, f64) = (20.0, 0.2);
+
+impl TwoLayerView {
+    /// A two-layer octahedron sphere (level 3) with the default controls.
+    pub fn new() -> Result<Self, String> {
+        let settings = TwoLayerSettings {
+            pressure: 50.0,
+            integrator: "rk4",
+            gravity: 9.81,
+            dt: 5e-4,
+            wall_box: true,
+        };
+        let sim = Self::build(&settings)?;
+        Ok(Self {
+            settings,
+            sim,
+            drag: None,
+        })
+    }
+
+    fn build(s: &TwoLayerSettings) -> Result<TwoLayerSimulation, String> {
+        let method: ExplicitMethod = s.integrator.parse().map_err(|e| format!("{e}"))?;
+        let collision_box = if s.wall_box {
+            Some(
+                AxisBox::centered(Point3::origin(), Vector3::new(2.0, 2.0, 2.0))
+                    .map_err(|e| e.to_string())?,
+            )
+        } else {
+            None
+        };
+        TwoLayerBody::octahedron_sphere(3)
+            .with_radii(0.8, 1.0)
+            .with_damping(0.1)
+            .with_spring(SpringKind::Structural, 100.0, 0.1)
+            .with_pressure(s.pressure, 0.5 * s.pressure)
+            .with_gravity(s.gravity)
+            .with_box(collision_box)
+            .simulate(method, s.dt)
+            .map_err(|e| e.to_string())
+    }
+}
+
+impl ViewSystem for TwoLayerView {
+    fn name(&self) -> &'static str {
+        "two-layer"
+    }
+
+    fn controls(&self) -> Vec<ControlSpec> {
+        let s = &self.settings;
+        vec![
+            ControlSpec::number(
+                "pressure",
+                "Gas amount (outer pressure at rest; inner half of it)",
+                s.pressure,
+                (0.0, 500.0, 5.0),
+                "Pa",
+                true,
+            ),
+            ControlSpec::choice(
+                "integrator",
+                "Integrator",
+                s.integrator,
+                &["euler", "midpoint", "rk4", "symplectic"],
+                false,
+            ),
+            ControlSpec::number(
+                "gravity",
+                "Gravity",
+                s.gravity,
+                (0.0, 30.0, 0.1),
+                "m/s^2",
+                true,
+            ),
+            ControlSpec::number("dt", "Time step", s.dt, (1e-5, 5e-3, 1e-5), "s", false),
+            ControlSpec::boolean("box", "Wall box (4 m cube)", s.wall_box, true),
+        ]
+    }
+
+    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
+        let s = &mut self.settings;
+        match name {
+            "pressure" => s.pressure = value.number(),
+            "gravity" => s.gravity = value.number(),
+            "box" => s.wall_box = value.boolean(),
+            "integrator" => {
+                let m: ExplicitMethod = value.choice().parse().map_err(|e| format!("{e}"))?;
+                self.sim.set_method(m);
+                s.integrator = value.choice();
+                return Ok(false);
+            }
+            "dt" => {
+                self.sim.set_dt(value.number()).map_err(|e| e.to_string())?;
+                s.dt = value.number();
+                return Ok(false);
+            }
+            other => return Err(format!("unknown control `{other}`")),
+        }
+        Ok(true)
+    }
+
+    fn rebuild(&mut self) -> Result<(), String> {
+        self.sim = Self::build(&self.settings)?;
+        self.drag = None;
+        Ok(())
+    }
+
+    fn triangles(&self) -> Vec<[usize; 3]> {
+        self.sim.model().draw_triangles()
+    }
+
+    fn positions(&self) -> Vec<f64> {
+        self.sim.positions().to_vec()
+    }
+
+    fn time(&self) -> f64 {
+        self.sim.time()
+    }
+
+    fn steps(&self) -> usize {
+        self.sim.step_count()
+    }
+
+    fn dt(&self) -> f64 {
+        self.sim.dt()
+    }
+
+    fn step(&mut self) -> Result<(), String> {
+        self.sim.step().map(|_| ()).map_err(|e| e.to_string())
+    }
+
+    fn stats(&self) -> Map<String, Value> {
+        let s = self.sim.stats();
+        let m = json!({
+            "volume_outer": s.volume_outer,
+            "volume_inner": s.volume_inner,
+            "pressure_outer": s.pressure_outer,
+            "pressure_inner": s.pressure_inner,
+            "kinetic": s.kinetic,
+            "total_energy": s.total,
+            "collisions": s.collisions,
+            "dt": self.sim.dt(),
+        });
+        m.as_object().cloned().unwrap_or_default()
+    }
+
+    fn scalar_fields(&self) -> Vec<&'static str> {
+        vec!["speed", "layer"]
+    }
+
+    fn scalar(&self, name: &str) -> Result<Vec<f64>, String> {
+        match name {
+            "speed" => fields::vertex_speeds(self.sim.velocities()).map_err(field_err),
+            "layer" => {
+                let n = self.sim.model().layer_size;
+                Ok((0..self.sim.model().num_particles())
+                    .map(|i| if i < n { 0.0 } else { 1.0 })
+                    .collect())
+            }
+            other => Err(format!("unknown scalar field `{other}`")),
+        }
+    }
+
+    fn drag_modes(&self) -> Vec<&'static str> {
+        vec!["grab"]
+    }
+
+    fn up(&self) -> [f64; 3] {
+        [0.0, 0.0, 1.0]
+    }
+
+    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
+        let Some(d) = drag else {
+            self.drag = None;
+            return self
+                .sim
+                .set_drag(None)
+                .map(|_| ())
+                .map_err(|e| e.to_string());
+        };
+        // The target moves only when the page sends a new one; the spring itself acts every
+        // step without being set again.
+        if self.drag.as_ref() == Some(d) {
+            return Ok(());
+        }
+        let n = self.sim.model().layer_size;
+        // An inner particle picked through the mesh pulls its outer partner.
+        let particle = if d.vertex < n { d.vertex + n } else { d.vertex };
+        let (k, c) = TWO_LAYER_DRAG;
+        self.sim
+            .set_drag_particle(
+                particle,
+                DragTarget {
+                    point: Point3::from(d.target),
+                    stiffness: k,
+                    damping: c,
+                    rest_length: 0.0,
+                },
+            )
+            .map_err(|e| e.to_string())?;
+        self.drag = Some(*d);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(sys: &mut dyn ViewSystem, seconds: f64) -> Result<(), String> {
+        let t0 = std::time::Instant::now();
+        while sys.time() < seconds {
+            sys.step()
+                .map_err(|e| format!("{e} after {:?}", t0.elapsed()))?;
+        }
+        eprintln!(
+            "{}: {} steps in {:.2} s wall",
+            sys.name(),
+            sys.steps(),
+            t0.elapsed().as_secs_f64()
+        );
+        Ok(())
+    }
+
+    #[test]
+    fn volumetric_view_lands_without_failing() {
+        let mut v =
+            VolumetricView::new(crate::default_mesh(crate::SystemKind::Volumetric).unwrap())
+                .unwrap();
+        run(&mut v, 0.25).unwrap();
+    }
+}
