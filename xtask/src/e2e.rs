@@ -45,7 +45,9 @@ pub fn run(opts: &Options) -> Result<()> {
         "node vendor.mjs --check",
     )?;
     ensure_chromium()?;
+    let t = Instant::now();
     crate::cargo(&["build", "-p", "balloon-cli", "--bin", "balloon"], &[])?;
+    eprintln!("xtask e2e: build: {:.1} s", t.elapsed().as_secs_f64());
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| root.join("target"));
@@ -68,25 +70,23 @@ pub fn run(opts: &Options) -> Result<()> {
     if let Some(s) = &opts.systems {
         cmd.args(["--systems", s]);
     }
-    let t = Instant::now();
     run_checked(&mut cmd, "node e2e.mjs")?;
-    eprintln!(
-        "xtask e2e: browser test {:.1} s, whole task {:.1} s",
-        t.elapsed().as_secs_f64(),
-        t0.elapsed().as_secs_f64()
-    );
+    eprintln!("xtask e2e: whole task {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())
 }
 
-/// Runs a command with inherited output; an error names it and its exit status.
+/// Runs a command with inherited output and says how long it took; an error names it and its
+/// exit status.
 fn run_checked(cmd: &mut Command, what: &str) -> Result<()> {
     eprintln!("xtask e2e: {what}");
+    let t = Instant::now();
     let status = cmd
         .status()
         .with_context(|| format!("failed to start `{what}`"))?;
     if !status.success() {
         bail!("`{what}` failed ({status})");
     }
+    eprintln!("xtask e2e: {what}: {:.1} s", t.elapsed().as_secs_f64());
     Ok(())
 }
 
