@@ -57,11 +57,11 @@ pub fn run(args: ViewArgs) -> Result<()> {
         writeln!(out, "balloon view: serving {} at {url}", system.name())?;
         out.flush()?;
     }
-    if !args.no_open {
-        if let Err(e) = open_browser(args.browser.as_deref(), &url) {
-            eprintln!("balloon view: could not open a browser: {e:#}");
-            eprintln!("balloon view: open {url} by hand (the server keeps running)");
-        }
+    if !args.no_open
+        && let Err(e) = open_browser(args.browser.as_deref(), &url)
+    {
+        eprintln!("balloon view: could not open a browser: {e:#}");
+        eprintln!("balloon view: open {url} by hand (the server keeps running)");
     }
     viewer.serve(exit_after).context("serving")?;
     Ok(())
@@ -93,10 +93,10 @@ fn open_browser(browser: Option<&str>, url: &str) -> Result<()> {
     // An opener that fails at once (no display, unknown browser) is reported; one that keeps
     // running is the browser itself.
     std::thread::sleep(Duration::from_millis(300));
-    if let Some(status) = child.try_wait()? {
-        if !status.success() {
-            anyhow::bail!("`{command}` exited with {status}");
-        }
+    if let Some(status) = child.try_wait()?
+        && !status.success()
+    {
+        anyhow::bail!("`{command}` exited with {status}");
     }
     Ok(())
 }

@@ -174,10 +174,14 @@ pub fn handle_connection(mut stream: TcpStream, shared: Arc<Shared>, commands: S
                 std::thread::sleep(Duration::from_millis(5));
             }
             Ok(None) => {
+                let _ = stream.read(&mut buf[..n]);
                 respond_error(&mut stream, "400 Bad Request", "incomplete request head");
                 return;
             }
             Err(e) => {
+                // Consume what was peeked, so closing does not reset the connection before the
+                // client reads the answer.
+                let _ = stream.read(&mut buf[..n]);
                 respond_error(&mut stream, "400 Bad Request", &e);
                 return;
             }
