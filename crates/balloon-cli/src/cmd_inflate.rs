@@ -1,12 +1,16 @@
 //! `balloon inflate [MESH|builtin]`: the main job, a shell balloon with thickness (seed 000).
 
-use crate::output::{FrameFormat, OutputDir, print_json_line, progress_bar};
+use crate::output::{
+    ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
+    print_json_line, progress_bar,
+};
 use anyhow::{Context, Result};
 use balloon::gas::GasKind;
 use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::integrate::linear::{LinearSolverKind, LinearSolverParams, PcgPreconditioner};
 use balloon::material::{MaterialKind, MaterialModel};
-use balloon::shell::{self, ShellBalloon, ShellStepStats};
+use balloon::shell::{self, ShellBalloon, ShellSimulation, ShellStepStats};
+use balloon_render::UpAxis;
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -107,9 +111,13 @@ pub struct InflateArgs {
     /// Write a frame every K steps (0: only the first and final frames).
     #[arg(long, default_value_t = 10)]
     pub frame_every: usize,
-    /// Frame file format.
+    /// Frame file format: obj, ply, or vtk (`.vtp` frames with velocity, speed, pressure force,
+    /// thickness, stretch and max_stretch, listed with their times in `series.pvd`).
     #[arg(long, value_enum, default_value_t = FrameFormat::Obj)]
     pub format: FrameFormat,
+    /// Pictures: --render, --gif, --pov, --color, --image-size.
+    #[command(flatten)]
+    pub pictures: PictureArgs,
     /// Print the summary as one JSON line (the last line on stdout); no progress bar.
     #[arg(long)]
     pub json: bool,
@@ -162,8 +170,41 @@ pub struct InflateSummary {
     pub error: Option<String>,
 }
 
+/// How shell balloons are drawn: the mesh's +y is up (the teddy stands along +y).
+const STYLE_FIELDS: &[ColorField] = &[
+    ColorField::Thickness,
+    ColorField::Stretch,
+    ColorField::Speed,
+];
+
+fn style() -> PictureStyle {
+    PictureStyle::new("inflate", UpAxis::Y, ColorField::Thickness, STYLE_FIELDS)
+}
+
+/// The current state as a frame with its fields: velocity, speed, pressure force (Eq. 15),
+/// thickness, stretch and max_stretch against the rest shape.
+fn shell_frame<M: balloon::material::Material>(
+    sim: &ShellSimulation<M>,
+    step: usize,
+) -> Result<Frame> {
+    let x = sim.positions();
+    let tris = sim.triangles();
+    let force = balloon::fields::pressure_forces(x, tris, sim.gauge_pressure())?;
+    let mut f = Frame::new(step, sim.time(), x.to_vec(), tris.to_vec())
+        .with_velocity(sim.velocities().to_vec())?
+        .with_stretch(sim.rest_positions())?;
+    f.point_data
+        .push(crate::output::Field::vector("pressure_force", force));
+    f.cell_data.push(crate::output::Field::scalar(
+        "thickness",
+        sim.thickness().to_vec(),
+    ));
+    Ok(f)
+}
+
 /// Runs `balloon inflate`.
 pub fn run(args: InflateArgs) -> Result<()> {
+    let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
     let mut mesh = balloon::mesh::load(&args.mesh)
         .with_context(|| format!("cannot load mesh `{}`", args.mesh))?;
     if !(args.scale.is_finite() && args.scale > 0.0) {
@@ -213,11 +254,15 @@ pub fn run(args: InflateArgs) -> Result<()> {
         .with_context(|| format!("cannot set up the balloon for `{}`", args.mesh))?;
 
     let mut out = match &args.out {
-        Some(dir) => Some(OutputDir::create(dir, args.format)?),
+        Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
+            &args.pictures,
+            render_spec,
+            style(),
+        )?),
         None => None,
     };
-    if let Some(o) = &out {
-        o.write_frame(0, &sim.mesh())?;
+    if let Some(o) = &mut out {
+        o.frame(&shell_frame(&sim, 0)?, true)?;
     }
     let mut summary = InflateSummary {
         mesh: args.mesh.clone(),
@@ -250,8 +295,9 @@ pub fn run(args: InflateArgs) -> Result<()> {
             .max((stats.shell_volume_ratio - 1.0).abs());
         if let Some(o) = &mut out {
             o.append_stats(&stats)?;
-            if args.frame_every > 0 && summary.steps.is_multiple_of(args.frame_every) {
-                o.write_frame(summary.steps, &sim.mesh())?;
+            let regular = args.frame_every > 0 && summary.steps.is_multiple_of(args.frame_every);
+            if regular || o.wants_step(summary.steps) {
+                o.frame(&shell_frame(&sim, summary.steps)?, regular)?;
             }
         }
         pb.inc(1);
@@ -282,9 +328,16 @@ pub fn run(args: InflateArgs) -> Result<()> {
     summary.final_thickness_min = th.iter().copied().fold(f64::INFINITY, f64::min);
     summary.final_thickness_max = th.iter().copied().fold(0.0, f64::max);
     summary.error = failure.as_ref().map(|e| e.to_string());
-    if let Some(o) = &out {
-        o.write_named_mesh("final", &sim.mesh())?;
+    if let Some(o) = &mut out {
+        let last = shell_frame(&sim, summary.steps)?;
+        o.write_named_frame("final", &last)?;
         o.write_json("summary.json", &summary)?;
+        match o.finish(&last) {
+            Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
+            // Do not hide the simulation error behind a picture error.
+            Err(e) if failure.is_some() => eprintln!("warning: {e:#}"),
+            Err(e) => return Err(e),
+        }
     }
     if args.json {
         print_json_line(&summary)?;

@@ -5,17 +5,22 @@
 //! inner surface; 2D: the triangles between the layers; 1D: the two particles),
 //! `stats.jsonl` (one line per step, flushed, so a run that blows up leaves a readable file)
 //! and `summary.json` (also written when the run fails, with the error). `--json` prints the
-//! summary as the last stdout line.
+//! summary as the last stdout line. `--format vtk` writes `.vtp` frames with fields and
+//! `series.pvd`; `--render`, `--gif` and `--pov` write pictures (see `output.rs`).
 //!
 //! `--pressure` and `--inner-pressure` are the *initial* gas pressures (Pa; N/m in 2D) at the
 //! rest volumes; the gas amount is fixed from them (`nRT = P0 V0`) and the pressure then follows
 //! `P = nRT / V`.
 
-use crate::output::{FrameFormat, OutputDir, print_json_line, progress_bar};
+use crate::output::{
+    ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
+    print_json_line, progress_bar,
+};
 use anyhow::{Context, Result, bail};
 use balloon::two_layer::{
     AxisBox, DragTarget, ExplicitMethod, SpringKind, TwoLayerBody, TwoLayerError, TwoLayerStats,
 };
+use balloon_render::{Camera, Projection, UpAxis};
 use nalgebra::{Point3, Vector3};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -138,9 +143,13 @@ pub struct TwoLayerArgs {
     /// Write a frame every N steps (0: only the first and last).
     #[arg(long, default_value_t = 20)]
     pub frame_every: usize,
-    /// Frame file format.
+    /// Frame file format: obj, ply, or vtk (`.vtp` frames with velocity, speed, and per-face
+    /// stretch and max_stretch against the initial shape, listed in `series.pvd`).
     #[arg(long, value_enum, default_value_t = FrameFormat::Obj)]
     pub format: FrameFormat,
+    /// Pictures (dimensions 2 and 3): --render, --gif, --pov, --color, --image-size.
+    #[command(flatten)]
+    pub pictures: PictureArgs,
     /// Print the summary as one JSON line (the last stdout line).
     #[arg(long)]
     pub json: bool,
@@ -269,18 +278,60 @@ fn body_from(args: &TwoLayerArgs) -> Result<TwoLayerBody> {
         .with_valence_normalization(args.valence_normalization))
 }
 
+const STYLE_FIELDS: &[ColorField] = &[ColorField::Speed, ColorField::Stretch];
+
+/// 3D: perspective with +z up (gravity along -z); 2D: the xy plane seen from +z, +y up.
+fn style(dim: u8) -> PictureStyle {
+    let mut s = PictureStyle::new("two-layer", UpAxis::Z, ColorField::Speed, STYLE_FIELDS);
+    if dim == 2 {
+        s.camera = Camera {
+            azimuth_deg: 0.0,
+            elevation_deg: 0.0,
+            up: UpAxis::Y,
+            projection: Projection::Orthographic,
+        };
+    }
+    s
+}
+
+/// All particles with the drawing triangles (3D: outer and inner surface; 2D: the band between
+/// the layers), velocity, speed, and stretch against the initial positions `rest`.
+fn layer_frame(
+    sim: &balloon::two_layer::TwoLayerSimulation,
+    rest: &[f64],
+    step: usize,
+) -> Result<Frame> {
+    Frame::new(
+        step,
+        sim.time(),
+        sim.positions().to_vec(),
+        sim.model().draw_triangles(),
+    )
+    .with_velocity(sim.velocities().to_vec())?
+    .with_stretch(rest)
+}
+
 /// Runs the subcommand.
 pub fn run(args: TwoLayerArgs) -> Result<()> {
+    let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style(args.dim))?;
+    if args.dim == 1 && (render_spec.is_some() || args.pictures.gif || args.pictures.pov) {
+        bail!("--render, --gif and --pov need a surface: use --dim 2 or 3 (1D has two particles)");
+    }
     let drag = args.drag.as_deref().map(parse_drag).transpose()?;
     let body = body_from(&args)?;
     let mut sim = body.simulate(args.integrator, args.dt)?;
+    let rest = sim.positions().to_vec();
     let mut out = match &args.out {
-        Some(dir) => Some(OutputDir::create(dir, args.format)?),
+        Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
+            &args.pictures,
+            render_spec,
+            style(args.dim),
+        )?),
         None => None,
     };
     let mut frames = 0;
-    if let Some(o) = &out {
-        o.write_frame(0, &sim.draw_mesh())?;
+    if let Some(o) = &mut out {
+        o.frame(&layer_frame(&sim, &rest, 0)?, true)?;
         frames += 1;
     }
     let pb = progress_bar(args.steps as u64, !args.json);
@@ -320,9 +371,9 @@ pub fn run(args: TwoLayerArgs) -> Result<()> {
             } else {
                 step % args.frame_every == 0 || step == args.steps
             };
-            if write {
-                o.write_frame(step, &sim.draw_mesh())?;
-                frames += 1;
+            if write || o.wants_step(step) {
+                o.frame(&layer_frame(&sim, &rest, step)?, write)?;
+                frames += usize::from(write);
             }
         }
         pb.inc(1);
@@ -358,8 +409,15 @@ pub fn run(args: TwoLayerArgs) -> Result<()> {
         },
         frames,
     };
-    if let Some(o) = &out {
+    if let Some(o) = &mut out {
         o.write_json("summary.json", &summary)?;
+        let last = layer_frame(&sim, &rest, sim.step_count())?;
+        match o.finish(&last) {
+            Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
+            // Do not hide the simulation error behind a picture error.
+            Err(e) if failure.is_some() => eprintln!("warning: {e:#}"),
+            Err(e) => return Err(e),
+        }
     }
     if let Some(e) = failure {
         return Err(e.into());

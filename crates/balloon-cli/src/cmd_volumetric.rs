@@ -5,16 +5,21 @@
 //! volumes and per-particle masses, for ParaView), `frame_NNNNN.obj` (the embedded soup, deformed
 //! with the lattice, every `--frame-every` steps), `lattice_NNNNN.vtk` with `--lattice-frames`,
 //! `stats.jsonl` (one line per step, flushed) and `summary.json`. `--json` prints the summary as
-//! the last stdout line.
+//! the last stdout line. `--format vtk` writes `.vtp` frames with fields and `series.pvd`;
+//! `--render`, `--gif` and `--pov` write pictures (see `output.rs`).
 
-use crate::output::{FrameFormat, OutputDir, print_json_line, progress_bar};
+use crate::output::{
+    ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
+    print_json_line, progress_bar,
+};
 use anyhow::{Context, Result};
 use balloon::volumetric::{
-    MassModel, StepStats, VolumetricBody, VolumetricParams, VolumetricScene,
+    MassModel, StepStats, VolumetricBody, VolumetricParams, VolumetricScene, VolumetricSimulation,
 };
 use balloon_constraint::cell_volume::{CellCentre, CellCorrection, CellVolumeParams, SpringParams};
 use balloon_mesh::lattice::LatticeParams;
-use nalgebra::Vector3;
+use balloon_render::UpAxis;
+use nalgebra::{Point3, Vector3};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -107,6 +112,13 @@ pub struct VolumetricArgs {
     /// Also write the deformed lattice as VTK with each frame.
     #[arg(long)]
     pub lattice_frames: bool,
+    /// Surface frame format: obj, ply, or vtk (`.vtp` frames of the embedded surface with
+    /// velocity, speed, stretch and max_stretch, listed with their times in `series.pvd`).
+    #[arg(long, value_enum, default_value_t = FrameFormat::Obj)]
+    pub format: FrameFormat,
+    /// Pictures: --render, --gif, --pov, --color, --image-size.
+    #[command(flatten)]
+    pub pictures: PictureArgs,
     /// Print the summary as one JSON line (the last stdout line).
     #[arg(long)]
     pub json: bool,
@@ -183,8 +195,31 @@ pub struct Summary {
     pub max_strain: f64,
 }
 
+const STYLE_FIELDS: &[ColorField] = &[ColorField::Stretch, ColorField::Speed];
+
+/// Volumetric scenes have gravity along z, so +z is up in pictures.
+fn style() -> PictureStyle {
+    PictureStyle::new("volumetric", UpAxis::Z, ColorField::Stretch, STYLE_FIELDS)
+}
+
+/// The embedded surface (the soup deformed with the lattice) as a frame: velocity and speed
+/// interpolated from the lattice particles with the embedding weights, stretch and max_stretch
+/// against the rest soup `rest`.
+fn surface_frame(sim: &VolumetricSimulation, rest: &[f64], step: usize) -> Result<Frame> {
+    let emb = &sim.lattice().embedding;
+    let flat =
+        |p: Vec<Point3<f64>>| -> Vec<f64> { p.iter().flat_map(|q| [q.x, q.y, q.z]).collect() };
+    let x = flat(emb.positions(sim.positions()));
+    let vel: Vec<Point3<f64>> = sim.velocities().iter().map(|v| Point3::from(*v)).collect();
+    let v = flat(emb.positions(&vel));
+    Frame::new(step, sim.time(), x, emb.triangles.clone())
+        .with_velocity(v)?
+        .with_stretch(rest)
+}
+
 /// Runs the subcommand.
 pub fn run(args: VolumetricArgs) -> Result<()> {
+    let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
     if !(args.scale.is_finite() && args.scale > 0.0) {
         anyhow::bail!("invalid --scale {}: must be > 0", args.scale);
     }
@@ -266,8 +301,18 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
     };
     let mut sim = scene.setup(body)?;
     let lattice = sim.lattice().clone();
+    let rest_soup: Vec<f64> = lattice
+        .embedding
+        .positions(&lattice.tet_mesh.vertices)
+        .iter()
+        .flat_map(|q| [q.x, q.y, q.z])
+        .collect();
     let mut out = match &args.out {
-        Some(dir) => Some(OutputDir::create(dir, FrameFormat::Obj)?),
+        Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
+            &args.pictures,
+            render_spec,
+            style(),
+        )?),
         None => None,
     };
     if let Some(out) = &out {
@@ -291,7 +336,9 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
             &[("mass", &masses)],
         )?;
         out.write_named_mesh("input_soup", &soup)?;
-        out.write_frame(0, &sim.embedded_surface())?;
+    }
+    if let Some(out) = &mut out {
+        out.frame(&surface_frame(&sim, &rest_soup, 0)?, true)?;
     }
     let total_mass: f64 = sim.masses().iter().sum::<f64>() + sim.sphere().map_or(0.0, |s| s.mass);
     let p0 = sim.momentum();
@@ -300,37 +347,55 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
     let mut max_strain = 0.0f64;
     let mut last: Option<StepStats> = None;
     let mut step_time = 0.0;
+    let mut failure = None;
     for k in 0..args.steps {
         let t = Instant::now();
-        let stats = sim.step().with_context(|| {
-            format!(
-                "simulation stopped at step {k}; output written so far is in {}",
-                args.out
-                    .as_ref()
-                    .map_or("(no --out)".into(), |p| p.display().to_string())
-            )
-        })?;
+        let stats = match sim.step() {
+            Ok(s) => s,
+            Err(e) => {
+                failure = Some(anyhow::Error::new(e).context(format!(
+                    "simulation stopped at step {k}; output written so far is in {}",
+                    args.out
+                        .as_ref()
+                        .map_or("(no --out)".into(), |p| p.display().to_string())
+                )));
+                break;
+            }
+        };
         step_time += t.elapsed().as_secs_f64();
         max_err = max_err.max(stats.max_cell_volume_error);
         max_strain = max_strain.max(stats.max_strain);
         if let Some(out) = &mut out {
             out.append_stats(&stats)?;
-            if (k + 1) % args.frame_every == 0 {
-                out.write_frame(k + 1, &sim.embedded_surface())?;
-                if args.lattice_frames {
-                    balloon_mesh::io::vtk::write_tet_vtk(
-                        &out.path().join(format!("lattice_{:05}.vtk", k + 1)),
-                        &sim.tet_mesh(),
-                        &[],
-                        &[],
-                    )?;
-                }
+            let regular = (k + 1) % args.frame_every == 0;
+            if regular || out.wants_step(k + 1) {
+                out.frame(&surface_frame(&sim, &rest_soup, k + 1)?, regular)?;
+            }
+            if regular && args.lattice_frames {
+                balloon_mesh::io::vtk::write_tet_vtk(
+                    &out.path().join(format!("lattice_{:05}.vtk", k + 1)),
+                    &sim.tet_mesh(),
+                    &[],
+                    &[],
+                )?;
             }
         }
         pb.inc(1);
         last = Some(stats);
     }
     pb.finish_and_clear();
+    if let Some(out) = &mut out {
+        let last = surface_frame(&sim, &rest_soup, sim.steps())?;
+        match out.finish(&last) {
+            Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
+            // Do not hide the simulation error behind a picture error.
+            Err(e) if failure.is_some() => eprintln!("warning: {e:#}"),
+            Err(e) => return Err(e),
+        }
+    }
+    if let Some(e) = failure {
+        return Err(e);
+    }
     let gravity_impulse = Vector3::new(0.0, 0.0, args.gravity) * (total_mass * sim.time());
     let summary = Summary {
         mesh: args.mesh.clone(),

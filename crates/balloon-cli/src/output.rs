@@ -1,11 +1,24 @@
 //! Shared output of the subcommands: an output folder with frames, `stats.jsonl` (one JSON object
 //! per step, flushed line by line so a failed run leaves a readable file), `summary.json` (written
 //! atomically: temporary file, then rename), a JSON summary line on stdout, and a progress bar.
+//!
+//! Frames are OBJ, PLY or VTK XML PolyData (`.vtp`, with per-vertex and per-face fields, listed
+//! with their times in `series.pvd`, rewritten after every frame). Pictures (issue 7): PNG
+//! renders of chosen frames in `renders/` (`--render`), an animated `run.gif` of the written
+//! frames (`--gif`) and a POV-Ray scene `final.pov` of the last frame (`--pov`), made with
+//! `balloon-render`. Every file is written atomically, and [`OutputDir::finish`] is also called
+//! when a run fails, so everything written so far stays valid.
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
+use balloon::fields;
 use balloon_mesh::TriMesh;
+use balloon_mesh::io::{PvdWriter, VtkEncoding, VtpArray};
+use balloon_render::{
+    Camera, ColorScale, Framing, GifWriter, Projection, RenderOptions, Renderer, Surface, UpAxis,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
+use std::collections::BTreeSet;
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -18,6 +31,9 @@ pub enum FrameFormat {
     Obj,
     /// Binary little-endian PLY.
     Ply,
+    /// VTK XML PolyData `.vtp` with the fields (velocity, thickness, stretch, ...) and a
+    /// `series.pvd` time series for ParaView.
+    Vtk,
 }
 
 impl FrameFormat {
@@ -25,8 +41,308 @@ impl FrameFormat {
         match self {
             FrameFormat::Obj => "obj",
             FrameFormat::Ply => "ply",
+            FrameFormat::Vtk => "vtp",
         }
     }
+}
+
+/// The field that colours renders, the GIF and the POV scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ColorField {
+    /// Shell thickness per face (inflate only), shown in mm.
+    Thickness,
+    /// Mean in-plane stretch sqrt(A/A0) per face, against the rest (or initial) shape.
+    Stretch,
+    /// Vertex speed |v|, m/s.
+    Speed,
+    /// Plain shaded surface, no legend.
+    None,
+}
+
+impl ColorField {
+    fn name(self) -> &'static str {
+        match self {
+            ColorField::Thickness => "thickness",
+            ColorField::Stretch => "stretch",
+            ColorField::Speed => "speed",
+            ColorField::None => "none",
+        }
+    }
+}
+
+/// Picture flags shared by `inflate`, `volumetric` and `two-layer`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PictureArgs {
+    /// Write PNG images of chosen steps into OUT/renders/: `last`, `all` (every written frame)
+    /// or a comma list of step numbers and `last` (e.g. `0,100,last`). Needs --out.
+    #[arg(long, value_name = "SPEC")]
+    pub render: Option<String>,
+    /// Colour of renders, GIF and POV scene: thickness | stretch | speed | none (default:
+    /// thickness for inflate, stretch for volumetric, speed for two-layer).
+    #[arg(long, value_enum)]
+    pub color: Option<ColorField>,
+    /// Write OUT/run.gif, an animation of the written frames (same framing and colour range in
+    /// every frame). Needs --out.
+    #[arg(long)]
+    pub gif: bool,
+    /// Write OUT/final.pov, a POV-Ray scene of the last frame. Needs --out.
+    #[arg(long)]
+    pub pov: bool,
+    /// Size of the PNG renders and GIF frames, WxH pixels.
+    #[arg(long, value_name = "WxH", default_value = "640x480", value_parser = parse_image_size)]
+    pub image_size: (u32, u32),
+}
+
+/// Parses `WxH`.
+pub fn parse_image_size(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("`{s}`: expected WxH in pixels, e.g. 640x480 (each side 32..=8192)");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if !(32..=8192).contains(&w) || !(32..=8192).contains(&h) {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
+/// Which steps `--render` asks for.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RenderSpec {
+    /// Every written frame.
+    pub all: bool,
+    /// The final state.
+    pub last: bool,
+    /// Explicit step numbers.
+    pub steps: BTreeSet<usize>,
+}
+
+impl RenderSpec {
+    /// Parses `last`, `all` or a comma list of step numbers and `last`.
+    pub fn parse(s: &str) -> Result<Self> {
+        let mut spec = RenderSpec::default();
+        let help = "expected `last`, `all`, or a comma list of step numbers and `last` (e.g. `0,100,last`)";
+        if s.trim().is_empty() {
+            bail!("invalid --render ``: {help}");
+        }
+        for item in s.split(',').map(str::trim) {
+            match item {
+                "last" => spec.last = true,
+                "all" => spec.all = true,
+                _ => {
+                    let n: usize = item.parse().map_err(|_| {
+                        anyhow::anyhow!(
+                            "invalid --render `{s}`: `{item}` is not a step number; {help}"
+                        )
+                    })?;
+                    spec.steps.insert(n);
+                }
+            }
+        }
+        Ok(spec)
+    }
+}
+
+/// A named per-vertex or per-face array of a frame.
+#[derive(Clone, Debug)]
+pub struct Field {
+    /// Name in the `.vtp` file.
+    pub name: &'static str,
+    /// 1 (scalar) or 3 (vector).
+    pub components: usize,
+    /// Flat values.
+    pub values: Vec<f64>,
+}
+
+impl Field {
+    /// A scalar field.
+    pub fn scalar(name: &'static str, values: Vec<f64>) -> Self {
+        Self {
+            name,
+            components: 1,
+            values,
+        }
+    }
+
+    /// A vector field (3 per tuple).
+    pub fn vector(name: &'static str, values: Vec<f64>) -> Self {
+        Self {
+            name,
+            components: 3,
+            values,
+        }
+    }
+}
+
+/// One frame of a run: the surface and its fields.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// Step number.
+    pub step: usize,
+    /// Simulated time, s.
+    pub time: f64,
+    /// Flat positions.
+    pub positions: Vec<f64>,
+    /// Triangles.
+    pub triangles: Vec<[usize; 3]>,
+    /// Per-vertex fields (velocity, speed, pressure force, ...).
+    pub point_data: Vec<Field>,
+    /// Per-face fields (thickness, stretch, ...).
+    pub cell_data: Vec<Field>,
+}
+
+impl Frame {
+    /// A frame with no fields.
+    pub fn new(step: usize, time: f64, positions: Vec<f64>, triangles: Vec<[usize; 3]>) -> Self {
+        Self {
+            step,
+            time,
+            positions,
+            triangles,
+            point_data: Vec::new(),
+            cell_data: Vec::new(),
+        }
+    }
+
+    /// Adds velocity (vector) and speed (scalar) from flat velocities.
+    pub fn with_velocity(mut self, v: Vec<f64>) -> Result<Self> {
+        let speed = fields::vertex_speeds(&v)?;
+        self.point_data.push(Field::vector("velocity", v));
+        self.point_data.push(Field::scalar("speed", speed));
+        Ok(self)
+    }
+
+    /// Adds per-face `stretch` (sqrt(A/A0)) and `max_stretch` (largest principal stretch)
+    /// against `rest`. A degenerate rest triangle (possible in a triangle soup) gets NaN.
+    pub fn with_stretch(mut self, rest: &[f64]) -> Result<Self> {
+        let area = per_face_or_nan(
+            rest,
+            &self.positions,
+            &self.triangles,
+            fields::face_area_stretch,
+        )?;
+        let max = per_face_or_nan(
+            rest,
+            &self.positions,
+            &self.triangles,
+            fields::face_max_stretch,
+        )?;
+        self.cell_data.push(Field::scalar("stretch", area));
+        self.cell_data.push(Field::scalar("max_stretch", max));
+        Ok(self)
+    }
+
+    fn field<'a>(list: &'a [Field], name: &str) -> Option<&'a [f64]> {
+        list.iter()
+            .find(|f| f.name == name)
+            .map(|f| f.values.as_slice())
+    }
+
+    /// Per-vertex values for `color` and the legend label, or `None` for [`ColorField::None`].
+    fn color_values(&self, color: ColorField) -> Result<Option<(Vec<f64>, &'static str)>> {
+        let face = |name: &str| -> Result<Vec<f64>> {
+            let v = Self::field(&self.cell_data, name).with_context(|| {
+                format!("--color {}: this run has no `{name}` field", color.name())
+            })?;
+            Ok(fields::face_to_vertex(&self.positions, &self.triangles, v)?)
+        };
+        Ok(match color {
+            ColorField::None => None,
+            ColorField::Thickness => Some((
+                face("thickness")?.into_iter().map(|t| 1e3 * t).collect(),
+                "thickness (mm)",
+            )),
+            ColorField::Stretch => Some((face("stretch")?, "stretch sqrt(A/A0)")),
+            ColorField::Speed => Some((
+                Self::field(&self.point_data, "speed")
+                    .context("--color speed: this run has no velocities")?
+                    .to_vec(),
+                "speed (m/s)",
+            )),
+        })
+    }
+}
+
+/// A per-face field of `(rest, x, triangles)`, such as [`fields::face_area_stretch`].
+type FaceField = fn(&[f64], &[f64], &[[usize; 3]]) -> Result<Vec<f64>, fields::FieldError>;
+
+/// `f(rest, x, tris)` for all faces; if a rest triangle is degenerate, face by face with NaN
+/// for the degenerate ones.
+fn per_face_or_nan(
+    rest: &[f64],
+    x: &[f64],
+    tris: &[[usize; 3]],
+    f: FaceField,
+) -> Result<Vec<f64>> {
+    match f(rest, x, tris) {
+        Ok(v) => Ok(v),
+        Err(fields::FieldError::DegenerateRestTriangle { .. }) => Ok(tris
+            .iter()
+            .map(|t| f(rest, x, std::slice::from_ref(t)).map_or(f64::NAN, |v| v[0]))
+            .collect()),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// How a system is drawn.
+#[derive(Clone, Copy, Debug)]
+pub struct PictureStyle {
+    /// System name for titles.
+    pub system: &'static str,
+    /// Camera.
+    pub camera: Camera,
+    /// Colour when none is asked.
+    pub default_color: ColorField,
+    /// Colours this system can provide.
+    pub available: &'static [ColorField],
+}
+
+impl PictureStyle {
+    /// Perspective view from the front-left, slightly above, with `up` as the up axis.
+    pub fn new(
+        system: &'static str,
+        up: UpAxis,
+        default_color: ColorField,
+        available: &'static [ColorField],
+    ) -> Self {
+        Self {
+            system,
+            camera: Camera {
+                azimuth_deg: 30.0,
+                elevation_deg: 20.0,
+                up,
+                projection: Projection::Perspective { fov_y_deg: 30.0 },
+            },
+            default_color,
+            available,
+        }
+    }
+}
+
+/// A frame kept for the GIF: positions and colour values.
+struct GifFrame {
+    step: usize,
+    time: f64,
+    positions: Vec<f64>,
+    colors: Option<Vec<f64>>,
+}
+
+/// Most frames kept for the GIF; beyond, every other one is dropped.
+const MAX_GIF_FRAMES: usize = 120;
+
+struct Pictures {
+    spec: Option<RenderSpec>,
+    gif: bool,
+    pov: bool,
+    color: ColorField,
+    label: &'static str,
+    size: (u32, u32),
+    style: PictureStyle,
+    renderer: Renderer,
+    triangles: Vec<[usize; 3]>,
+    gif_frames: Vec<GifFrame>,
+    gif_stride: usize,
+    gif_seen: usize,
+    rendered: BTreeSet<usize>,
 }
 
 /// An output folder for one run.
@@ -34,21 +350,102 @@ pub struct OutputDir {
     dir: PathBuf,
     format: FrameFormat,
     stats: Option<BufWriter<File>>,
+    pvd: Option<PvdWriter>,
+    pictures: Option<Pictures>,
+}
+
+/// Checks that picture flags come with `--out`, parses `--render` and checks `--color` is
+/// available, before any simulation work. Returns the parsed spec.
+pub fn check_picture_args(
+    args: &PictureArgs,
+    out: Option<&Path>,
+    style: &PictureStyle,
+) -> Result<Option<RenderSpec>> {
+    let spec = args.render.as_deref().map(RenderSpec::parse).transpose()?;
+    let wants = spec.is_some() || args.gif || args.pov;
+    if wants && out.is_none() {
+        let flag = if spec.is_some() {
+            "--render"
+        } else if args.gif {
+            "--gif"
+        } else {
+            "--pov"
+        };
+        bail!("{flag} needs --out DIR (images are written into the output folder)");
+    }
+    if let Some(c) = args.color
+        && c != ColorField::None
+        && !style.available.contains(&c)
+    {
+        bail!(
+            "invalid --color {}: `{}` has no such field (available: {}, none)",
+            c.name(),
+            style.system,
+            style
+                .available
+                .iter()
+                .map(|c| c.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(spec)
 }
 
 impl OutputDir {
     /// Creates (or reuses) the folder `dir` and an empty `stats.jsonl` in it, so a run that fails
-    /// at its first step still leaves a (valid, empty) stats file.
+    /// at its first step still leaves a (valid, empty) stats file. With the VTK format, also an
+    /// empty `series.pvd`.
     pub fn create(dir: &Path, format: FrameFormat) -> Result<Self> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create output folder {}", dir.display()))?;
         let path = dir.join("stats.jsonl");
         let f = File::create(&path).with_context(|| format!("cannot create {}", path.display()))?;
+        let pvd = match format {
+            FrameFormat::Vtk => Some(PvdWriter::create(&dir.join("series.pvd"))?),
+            _ => None,
+        };
         Ok(Self {
             dir: dir.to_path_buf(),
             format,
             stats: Some(BufWriter::new(f)),
+            pvd,
+            pictures: None,
         })
+    }
+
+    /// Enables the picture outputs of `args` (checked by [`check_picture_args`]).
+    pub fn with_pictures(
+        mut self,
+        args: &PictureArgs,
+        spec: Option<RenderSpec>,
+        style: PictureStyle,
+    ) -> Result<Self> {
+        if spec.is_none() && !args.gif && !args.pov {
+            return Ok(self);
+        }
+        if spec.is_some() {
+            let r = self.dir.join("renders");
+            std::fs::create_dir_all(&r)
+                .with_context(|| format!("cannot create {}", r.display()))?;
+        }
+        let color = args.color.unwrap_or(style.default_color);
+        self.pictures = Some(Pictures {
+            spec,
+            gif: args.gif,
+            pov: args.pov,
+            color,
+            label: "",
+            size: args.image_size,
+            style,
+            renderer: Renderer::new(),
+            triangles: Vec::new(),
+            gif_frames: Vec::new(),
+            gif_stride: 1,
+            gif_seen: 0,
+            rendered: BTreeSet::new(),
+        });
+        Ok(self)
     }
 
     /// The folder.
@@ -56,28 +453,152 @@ impl OutputDir {
         &self.dir
     }
 
-    /// Writes surface frame `index` as `frame_NNNNN.<ext>` and returns its path.
-    pub fn write_frame(&self, index: usize, mesh: &TriMesh) -> Result<PathBuf> {
-        let path = self
-            .dir
-            .join(format!("frame_{index:05}.{}", self.format.extension()));
-        self.write_mesh(&path, mesh)?;
-        Ok(path)
+    /// Whether step `step` must be captured as a frame for `--render` even if it is not a
+    /// regular frame step.
+    pub fn wants_step(&self, step: usize) -> bool {
+        self.pictures
+            .as_ref()
+            .and_then(|p| p.spec.as_ref())
+            .is_some_and(|s| s.steps.contains(&step))
     }
 
-    /// Writes `mesh` to `name` inside the folder (format from the frame format).
+    /// Handles frame `frame`: writes `frame_NNNNN.<ext>` when `as_file` (and adds it to
+    /// `series.pvd` for VTK), renders it when `--render` asks for its step (or `all` and
+    /// `as_file`), and keeps it for the GIF when `as_file`.
+    pub fn frame(&mut self, frame: &Frame, as_file: bool) -> Result<()> {
+        if as_file {
+            let name = format!("frame_{:05}.{}", frame.step, self.format.extension());
+            let path = self.dir.join(&name);
+            self.write_frame_file(&path, frame)?;
+            if let Some(pvd) = &mut self.pvd {
+                pvd.push(frame.time, &name)?;
+            }
+        }
+        let Some(p) = &mut self.pictures else {
+            return Ok(());
+        };
+        let explicit = p
+            .spec
+            .as_ref()
+            .is_some_and(|s| s.steps.contains(&frame.step));
+        let all = p.spec.as_ref().is_some_and(|s| s.all) && as_file;
+        if (explicit || all) && !p.rendered.contains(&frame.step) {
+            render_png(p, &self.dir, frame)?;
+        }
+        if as_file && p.gif {
+            keep_for_gif(p, frame)?;
+        }
+        Ok(())
+    }
+
+    /// Writes the final outputs of the pictures: `--render last` of `last`, `run.gif` of the
+    /// kept frames and `final.pov` of `last`. Called on success and on failure (with the last
+    /// state), so the pictures of what was computed exist either way. Returns warnings (e.g.
+    /// asked steps never reached) for the caller to print.
+    pub fn finish(&mut self, last: &Frame) -> Result<Vec<String>> {
+        let mut warnings = Vec::new();
+        let dir = self.dir.clone();
+        let Some(p) = &mut self.pictures else {
+            return Ok(warnings);
+        };
+        if let Some(spec) = p.spec.clone() {
+            if spec.last && !p.rendered.contains(&last.step) {
+                render_png(p, &dir, last)?;
+            }
+            for s in spec.steps.iter().filter(|s| !p.rendered.contains(s)) {
+                warnings.push(format!(
+                    "--render: step {s} was not reached (the run ended at step {})",
+                    last.step
+                ));
+            }
+        }
+        if p.gif {
+            if p.gif_frames.last().is_none_or(|g| g.step != last.step) {
+                keep_for_gif(p, last)?;
+            }
+            write_gif(p, &dir.join("run.gif"))?;
+        }
+        if p.pov {
+            if p.triangles.is_empty() {
+                p.triangles = last.triangles.clone();
+            }
+            let colors = last.color_values(p.color)?;
+            let opts = render_options(p, last, colors.as_ref().map(|c| &c.0), None);
+            let mut surface = Surface::new(&last.positions, &last.triangles);
+            if let Some((c, _)) = &colors {
+                surface = surface.with_scalars(c);
+            }
+            let path = dir.join("final.pov");
+            balloon_render::pov::write_scene(&path, &surface, &opts, None)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        Ok(warnings)
+    }
+
+    /// Writes `mesh` to `stem.<ext>` inside the folder (format from the frame format; a VTK
+    /// file then has no fields).
     pub fn write_named_mesh(&self, stem: &str, mesh: &TriMesh) -> Result<PathBuf> {
         let path = self.dir.join(format!("{stem}.{}", self.format.extension()));
-        self.write_mesh(&path, mesh)?;
+        let frame = Frame::new(0, 0.0, mesh.positions_flat(), mesh.triangles.clone());
+        self.write_frame_file(&path, &frame)?;
         Ok(path)
     }
 
-    fn write_mesh(&self, path: &Path, mesh: &TriMesh) -> Result<()> {
+    /// Writes `frame` to `stem.<ext>` with its fields (VTK) or as a plain mesh (OBJ / PLY).
+    pub fn write_named_frame(&self, stem: &str, frame: &Frame) -> Result<PathBuf> {
+        let path = self.dir.join(format!("{stem}.{}", self.format.extension()));
+        self.write_frame_file(&path, frame)?;
+        Ok(path)
+    }
+
+    fn write_frame_file(&self, path: &Path, frame: &Frame) -> Result<()> {
+        if self.format == FrameFormat::Vtk {
+            let pd: Vec<VtpArray<'_>> = frame
+                .point_data
+                .iter()
+                .map(|f| VtpArray {
+                    name: f.name,
+                    components: f.components,
+                    values: &f.values,
+                })
+                .collect();
+            let cd: Vec<VtpArray<'_>> = if frame.triangles.is_empty() {
+                Vec::new()
+            } else {
+                frame
+                    .cell_data
+                    .iter()
+                    .map(|f| VtpArray {
+                        name: f.name,
+                        components: f.components,
+                        values: &f.values,
+                    })
+                    .collect()
+            };
+            balloon_mesh::io::write_vtp(
+                path,
+                &frame.positions,
+                &frame.triangles,
+                &pd,
+                &cd,
+                VtkEncoding::Base64,
+            )?;
+            return Ok(());
+        }
+        let mesh = TriMesh::new(
+            frame
+                .positions
+                .chunks_exact(3)
+                .map(|c| nalgebra::Point3::new(c[0], c[1], c[2]))
+                .collect(),
+            frame.triangles.clone(),
+        );
         // Write to a temporary name and rename, so a frame is either complete or absent.
         let tmp = path.with_extension("tmp");
         match self.format {
-            FrameFormat::Obj => balloon_mesh::io::write_obj(&tmp, mesh)?,
-            FrameFormat::Ply => balloon_mesh::io::write_ply_binary(&tmp, mesh)?,
+            FrameFormat::Obj => balloon_mesh::io::write_obj(&tmp, &mesh)?,
+            FrameFormat::Ply => balloon_mesh::io::write_ply_binary(&tmp, &mesh)?,
+            FrameFormat::Vtk => unreachable!("handled above"),
         }
         std::fs::rename(&tmp, path)
             .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
@@ -110,6 +631,131 @@ impl OutputDir {
     }
 }
 
+fn render_options(
+    p: &Pictures,
+    frame: &Frame,
+    colors: Option<&Vec<f64>>,
+    range: Option<(f64, f64)>,
+) -> RenderOptions {
+    let color_scale = colors.map(|c| {
+        let label = if p.label.is_empty() {
+            p.color.name()
+        } else {
+            p.label
+        };
+        match range {
+            Some((lo, hi)) => ColorScale::new(lo, hi, label),
+            None => ColorScale::from_values(c, label),
+        }
+    });
+    RenderOptions {
+        camera: p.style.camera,
+        color_scale,
+        title: Some(format!(
+            "{}  step {}  t = {} s",
+            p.style.system,
+            frame.step,
+            balloon_render::format_tick(frame.time)
+        )),
+        ..RenderOptions::new(p.size.0, p.size.1)
+    }
+}
+
+fn render_png(p: &mut Pictures, dir: &Path, frame: &Frame) -> Result<()> {
+    let colors = frame.color_values(p.color)?;
+    if let Some((_, label)) = &colors {
+        p.label = label;
+    }
+    let opts = render_options(p, frame, colors.as_ref().map(|c| &c.0), None);
+    let mut surface = Surface::new(&frame.positions, &frame.triangles);
+    if let Some((c, _)) = &colors {
+        surface = surface.with_scalars(c);
+    }
+    let path = dir
+        .join("renders")
+        .join(format!("frame_{:05}.png", frame.step));
+    p.renderer
+        .render(&surface, &opts, None)
+        .and_then(|img| img.write_png(&path))
+        .with_context(|| format!("cannot render {}", path.display()))?;
+    p.rendered.insert(frame.step);
+    Ok(())
+}
+
+fn keep_for_gif(p: &mut Pictures, frame: &Frame) -> Result<()> {
+    p.gif_seen += 1;
+    if !(p.gif_seen - 1).is_multiple_of(p.gif_stride) {
+        return Ok(());
+    }
+    if p.triangles.is_empty() {
+        p.triangles = frame.triangles.clone();
+    }
+    let colors = frame.color_values(p.color)?;
+    if let Some((_, label)) = &colors {
+        p.label = label;
+    }
+    p.gif_frames.push(GifFrame {
+        step: frame.step,
+        time: frame.time,
+        positions: frame.positions.clone(),
+        colors: colors.map(|c| c.0),
+    });
+    if p.gif_frames.len() >= MAX_GIF_FRAMES {
+        // Keep every other frame (always the first), and from now on every other new one.
+        let mut k = 0;
+        p.gif_frames.retain(|_| {
+            k += 1;
+            (k - 1) % 2 == 0
+        });
+        p.gif_stride *= 2;
+    }
+    Ok(())
+}
+
+fn write_gif(p: &mut Pictures, path: &Path) -> Result<()> {
+    if p.gif_frames.is_empty() {
+        return Ok(());
+    }
+    // One framing and one colour range for the whole animation.
+    let framing = p
+        .gif_frames
+        .iter()
+        .filter_map(|g| Framing::of_points(&g.positions))
+        .reduce(|a, b| a.union(&b))
+        .context("--gif: no frame has finite coordinates")?;
+    let range = p
+        .gif_frames
+        .iter()
+        .filter_map(|g| g.colors.as_ref())
+        .flatten()
+        .filter(|v| v.is_finite())
+        .fold(None, |r: Option<(f64, f64)>, &v| {
+            Some(r.map_or((v, v), |(a, b)| (a.min(v), b.max(v))))
+        });
+    let n = p.gif_frames.len();
+    // About 6 s for the whole run, between 4 and 20 hundredths per frame.
+    let delay = (600 / n.max(1)).clamp(4, 20) as u16;
+    let mut gif = GifWriter::create(path, p.size.0, p.size.1)?;
+    let frames = std::mem::take(&mut p.gif_frames);
+    for g in &frames {
+        let f = Frame::new(g.step, g.time, Vec::new(), Vec::new());
+        let opts = render_options(p, &f, g.colors.as_ref(), range);
+        let mut surface = Surface::new(&g.positions, &p.triangles);
+        if let Some(c) = &g.colors {
+            surface = surface.with_scalars(c);
+        }
+        let img = p
+            .renderer
+            .render(&surface, &opts, Some(&framing))
+            .with_context(|| format!("cannot render GIF frame of step {}", g.step))?;
+        gif.add_frame(img, delay)?;
+    }
+    p.gif_frames = frames;
+    gif.finish()
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
 /// Prints `value` as one JSON line on stdout (the last line a `--json` run prints).
 pub fn print_json_line<T: Serialize>(value: &T) -> Result<()> {
     let mut out = std::io::stdout().lock();
@@ -132,4 +778,35 @@ pub fn progress_bar(len: u64, enabled: bool) -> ProgressBar {
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     pb
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn render_specs_and_sizes_parse_or_explain() {
+        let s = RenderSpec::parse("0, 50,last").unwrap();
+        assert!(s.last && !s.all);
+        assert_eq!(s.steps.into_iter().collect::<Vec<_>>(), vec![0, 50]);
+        assert!(RenderSpec::parse("all").unwrap().all);
+        for bad in ["", "first", "1,,2", "-3", "1.5"] {
+            let e = RenderSpec::parse(bad).unwrap_err().to_string();
+            assert!(e.contains("--render") && e.contains("last"), "{bad}: {e}");
+        }
+        assert_eq!(parse_image_size("320x200"), Ok((320, 200)));
+        assert!(parse_image_size("320").is_err());
+        assert!(parse_image_size("10x10").unwrap_err().contains("640x480"));
+    }
+
+    #[test]
+    fn stretch_of_a_soup_with_a_degenerate_triangle_is_nan_there() {
+        let rest = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.0, 0.0];
+        let x: Vec<f64> = rest.iter().map(|c| 2.0 * c).collect();
+        let f = Frame::new(0, 0.0, x, vec![[0, 1, 2], [0, 1, 3]])
+            .with_stretch(&rest)
+            .unwrap();
+        let s = &f.cell_data[0].values;
+        assert!((s[0] - 2.0).abs() < 1e-12 && s[1].is_nan());
+    }
 }

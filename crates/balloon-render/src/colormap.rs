@@ -158,6 +158,52 @@ pub fn format_tick(v: f64) -> String {
     }
 }
 
+/// Labels for `n >= 2` evenly spaced ticks from `min` to `max`, with enough digits that
+/// neighbouring labels differ (fixed point for magnitudes in `1e-3..1e5`, else scientific).
+pub fn tick_labels(min: f64, max: f64, n: usize) -> Vec<String> {
+    let n = n.max(2);
+    let values: Vec<f64> = (0..n)
+        .map(|i| min + (max - min) * i as f64 / (n - 1) as f64)
+        .collect();
+    let step = (max - min).abs() / (n - 1) as f64;
+    let mag = min.abs().max(max.abs());
+    if !(step > 0.0 && step.is_finite() && mag.is_finite()) {
+        return values.iter().map(|&v| format_tick(v)).collect();
+    }
+    // Digits after the point needed to resolve the step, with one to spare.
+    let needed = (1 - step.log10().floor() as i32).max(0);
+    if (1e-3..1e5).contains(&mag) && needed <= 8 {
+        let d = needed.max(0) as usize;
+        values
+            .iter()
+            .map(|v| {
+                let s = format!("{v:.d$}");
+                if s.trim_start_matches('-')
+                    .chars()
+                    .all(|c| c == '0' || c == '.')
+                {
+                    "0".into()
+                } else {
+                    s
+                }
+            })
+            .collect()
+    } else {
+        // Mantissa digits: enough to resolve the step relative to the magnitude.
+        let d = ((mag / step).log10().ceil() as i32).clamp(1, 8) as usize;
+        values
+            .iter()
+            .map(|&v| {
+                if v == 0.0 {
+                    "0".into()
+                } else {
+                    format!("{v:.d$e}")
+                }
+            })
+            .collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -191,5 +237,20 @@ mod tests {
         assert_eq!(format_tick(1234.56), "1235");
         assert_eq!(format_tick(0.000_25), "2.50e-4");
         assert_eq!(format_tick(-0.012_345), "-0.01235");
+        assert_eq!(
+            tick_labels(0.0, 1.0, 5),
+            ["0", "0.25", "0.50", "0.75", "1.00"]
+        );
+        assert_eq!(tick_labels(-1.0, 1.0, 3), ["-1.0", "0", "1.0"]);
+        // A narrow range around a large value still gives distinct labels.
+        for (lo, hi) in [
+            (0.275_08, 0.275_12),
+            (2.75e-4, 2.750_4e-4),
+            (1.0e6, 1.0e6 + 3.0),
+        ] {
+            let l = tick_labels(lo, hi, 5);
+            let distinct: std::collections::HashSet<&String> = l.iter().collect();
+            assert_eq!(distinct.len(), 5, "{l:?}");
+        }
     }
 }

@@ -226,6 +226,44 @@ impl Drop for GifWriter {
     }
 }
 
+/// Reads every frame of a GIF as a full RGB image (frames composed onto the canvas as a viewer
+/// shows them) and the frame delays in hundredths of a second, e.g. to check an animation.
+pub fn read_gif(path: &Path) -> Result<Vec<(Image, u16)>, RenderError> {
+    let dec_err = |message: String| RenderError::Encode {
+        path: path.to_path_buf(),
+        format: "GIF",
+        message,
+    };
+    let file = File::open(path).map_err(|source| RenderError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut opts = gif::DecodeOptions::new();
+    opts.set_color_output(gif::ColorOutput::RGBA);
+    let mut d = opts
+        .read_info(std::io::BufReader::new(file))
+        .map_err(|e| dec_err(e.to_string()))?;
+    let (w, h) = (d.width() as u32, d.height() as u32);
+    let mut canvas = Image::new(w, h, [0; 3])?;
+    let mut out = Vec::new();
+    while let Some(f) = d.read_next_frame().map_err(|e| dec_err(e.to_string()))? {
+        for y in 0..f.height as u32 {
+            for x in 0..f.width as u32 {
+                let i = 4 * (y as usize * f.width as usize + x as usize);
+                if f.buffer[i + 3] > 0 {
+                    canvas.set(
+                        (f.left as u32 + x) as i64,
+                        (f.top as u32 + y) as i64,
+                        [f.buffer[i], f.buffer[i + 1], f.buffer[i + 2]],
+                    );
+                }
+            }
+        }
+        out.push((canvas.clone(), f.delay));
+    }
+    Ok(out)
+}
+
 fn encode_err(path: &Path, e: gif::EncodingError) -> RenderError {
     RenderError::Encode {
         path: path.to_path_buf(),
@@ -297,6 +335,10 @@ mod tests {
         }
         assert_eq!(blues.len(), 3);
         assert!(blues[0] < 10 && blues[2] > 230, "{blues:?}");
+        let frames = read_gif(&path).unwrap();
+        assert_eq!(frames.len(), 3);
+        assert_eq!(frames[2].1, 10);
+        assert_eq!(frames[2].0.get(0, 0).unwrap()[2], blues[2]);
         // An unfinished writer leaves nothing behind.
         let p2 = dir.path().join("b.gif");
         drop(GifWriter::create(&p2, 8, 8).unwrap());

@@ -103,6 +103,43 @@ impl Image {
         Ok(())
     }
 
+    /// Reads an 8-bit RGB or RGBA PNG file (alpha is dropped), e.g. to check a render.
+    pub fn read_png(path: &Path) -> Result<Self, RenderError> {
+        let dec_err = |message: String| RenderError::Encode {
+            path: path.to_path_buf(),
+            format: "PNG",
+            message,
+        };
+        let file = std::fs::File::open(path).map_err(|source| RenderError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+            .read_info()
+            .map_err(|e| dec_err(e.to_string()))?;
+        let size = reader
+            .output_buffer_size()
+            .ok_or_else(|| dec_err("image too large".into()))?;
+        let mut buf = vec![0; size];
+        let info = reader
+            .next_frame(&mut buf)
+            .map_err(|e| dec_err(e.to_string()))?;
+        let channels = match (info.color_type, info.bit_depth) {
+            (png::ColorType::Rgb, png::BitDepth::Eight) => 3,
+            (png::ColorType::Rgba, png::BitDepth::Eight) => 4,
+            (c, d) => return Err(dec_err(format!("unsupported PNG layout {c:?} {d:?}"))),
+        };
+        let mut img = Image::new(info.width, info.height, [0; 3])?;
+        for (dst, src) in img
+            .rgb
+            .chunks_exact_mut(3)
+            .zip(buf[..info.buffer_size()].chunks_exact(channels))
+        {
+            dst.copy_from_slice(&src[..3]);
+        }
+        Ok(img)
+    }
+
     /// Writes the image as a PNG file, atomically: to a temporary name beside `path`, then
     /// renamed, so `path` is either the complete new image or untouched.
     pub fn write_png(&self, path: &Path) -> Result<(), RenderError> {
@@ -171,6 +208,17 @@ mod tests {
         assert_eq!(&buf[..info.buffer_size()], img.pixels());
         assert_eq!(img.get(3, 2), Some([255, 0, 128]));
         assert_eq!(img.get(7, 0), None);
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.png");
+        img.write_png(&p).unwrap();
+        assert_eq!(Image::read_png(&p).unwrap(), img);
+        std::fs::write(&p, b"not a png").unwrap();
+        assert!(
+            Image::read_png(&p)
+                .unwrap_err()
+                .to_string()
+                .contains("a.png")
+        );
     }
 
     #[test]

@@ -40,8 +40,8 @@ pub mod pov;
 mod raster;
 
 pub use camera::{Camera, Framing, Projection, UpAxis};
-pub use colormap::{ColorMap, ColorScale, format_tick};
+pub use colormap::{ColorMap, ColorScale, format_tick, tick_labels};
 pub use error::RenderError;
-pub use gif_out::{GifWriter, quantize};
+pub use gif_out::{GifWriter, quantize, read_gif};
 pub use image::Image;
 pub use raster::{RenderOptions, Renderer, Surface};

@@ -143,11 +143,10 @@ impl Layout {
         let (legend_w, ticks) = match &opts.color_scale {
             None => (0, Vec::new()),
             Some(cs) => {
-                let ticks: Vec<(f64, String)> = (0..TICKS)
-                    .map(|i| {
-                        let t = i as f64 / (TICKS - 1) as f64;
-                        (t, crate::format_tick(cs.min + t * (cs.max - cs.min)))
-                    })
+                let ticks: Vec<(f64, String)> = crate::colormap::tick_labels(cs.min, cs.max, TICKS)
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, label)| (i as f64 / (TICKS - 1) as f64, label))
                     .collect();
                 let label_w = ticks
                     .iter()
