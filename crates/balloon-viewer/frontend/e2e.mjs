@@ -126,8 +126,11 @@ async function testSystem(browser, system) {
     await until('#pause to offer "pause"', async () => (await page.textContent('#pause')).trim() === 'pause', 3000);
 
     // 3. Drag the body: find a point of the canvas over the body (the cursor changes there), press,
-    //    move, and check in the server's state that the grabbed vertex moved towards the target
-    //    relative to the body's centroid (so a body that inflates or falls does not count).
+    //    move up and right, and check in the server's state that the grabbed vertex moved towards
+    //    the target. The target is above the grabbed point (world +y is up on the screen), so
+    //    gravity (-y) cannot make this pass; inflation moves a vertex facing the camera mostly
+    //    along the view direction, which the drag plane is perpendicular to. The body may follow
+    //    as a whole (a free body does), so this is not measured relative to the centroid.
     const box = await page.locator('#canvas').boundingBox();
     const cx = box.x + box.width / 2;
     const cy = box.y + box.height / 2;
@@ -144,7 +147,7 @@ async function testSystem(browser, system) {
     const grabbed = await until('the drag to reach the server (/api/state drag)', async () => (await state(url)).drag);
     const vertex = grabbed.vertex;
     const s0 = await state(url, vertex);
-    const p0 = sub(s0.vertex.position, s0.centroid);
+    const p0 = s0.vertex.position;
     const size = norm(sub(s0.bbox_max, s0.bbox_min));
     const pull = Math.min(box.width, box.height) * Number(opt('pull', '0.2'));
     await page.mouse.move(start[0] + pull, start[1] - pull, { steps: 8 });
@@ -152,13 +155,13 @@ async function testSystem(browser, system) {
       const d = (await state(url)).drag;
       return d && norm(sub(d.target, grabbed.target)) > 1e-6 * size && d.target;
     }, 5000);
-    const want = sub(target, s0.vertex.position);
+    const want = sub(target, p0);
+    check(want[1] > 0, `the drag target ${target} is not above the grabbed point ${p0}`);
     let moved = 0;
     await until(`vertex ${vertex} to move towards the drag target by 2% of the body's size`, async () => {
       const s = await state(url, vertex);
       check(!s.last_error, `the simulation failed during the drag: ${s.last_error}`);
-      const d = sub(sub(s.vertex.position, s.centroid), p0);
-      moved = dot(d, want) / norm(want);
+      moved = dot(sub(s.vertex.position, p0), want) / norm(want);
       return moved > 0.02 * size;
     }, 20000, 200);
     notes.push(`drag moved vertex ${vertex} ${mm(moved)} towards the target (body ${mm(size)})`);
@@ -182,6 +185,21 @@ async function testSystem(browser, system) {
       `the error "${message}" does not name the control ${control.name}`);
     check((await state(url)).controls[control.name] !== bad, `the server accepted ${control.name} = ${bad}`);
     notes.push(`invalid ${control.name}=${bad}: "${message}"`);
+
+    // 5. Another colour field: the legend follows the server.
+    const fields = await page.$$eval('#scalar option', (os) => os.map((o) => o.value));
+    const shown = await page.textContent('#legend-name');
+    const field = fields.find((f) => f !== shown) ?? fields[0];
+    check(field, 'the colour select offers no scalar field');
+    await page.selectOption('#scalar', field);
+    await until(`the legend to show ${field}`, async () => (await page.textContent('#legend-name')) === field, 10000);
+    notes.push(`colour ${field}`);
+
+    // 6. Reset: the simulated time starts again.
+    const before = (await state(url)).time;
+    await page.click('#reset');
+    await until('the simulated time to restart after #reset', async () => (await state(url)).time < before, 10000);
+    await until('#frame to advance after #reset', async () => { const f = await frameOf(page); return f > 0; });
 
     check(problems.length === 0, problems.join('\n'));
     return notes.join('; ');
