@@ -169,6 +169,20 @@ async function testSystem(browser, system) {
     await page.mouse.up();
     await until('the drag to be released', async () => (await state(url)).drag === null, 5000);
 
+    // 3b. Where the system offers pinching, the drag-mode select switches the server's mode.
+    const modes = await page.$$eval('#drag-mode option', (os) => os.map((o) => o.value));
+    if (modes.includes('pinch')) {
+      await page.selectOption('#drag-mode', 'pinch');
+      await page.mouse.move(start[0], start[1]);
+      await page.mouse.down();
+      await page.mouse.move(start[0] + 5, start[1] + 5);
+      await until('a pinch drag on the server', async () => (await state(url)).drag?.mode === 'pinch', 5000);
+      await page.mouse.up();
+      await until('the pinch to be released', async () => (await state(url)).drag === null, 5000);
+      await page.selectOption('#drag-mode', 'grab');
+      notes.push('pinch ok');
+    }
+
     // 4. An invalid control value shows an error naming the control; the server keeps its value.
     const control = await page.evaluate(() => {
       const box = [...document.querySelectorAll('#controls input[type=number]')].find((b) => b.max !== '');
