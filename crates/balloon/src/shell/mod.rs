@@ -394,6 +394,19 @@ impl<M: Material> ShellBalloon<M> {
             .with_ambient_pressure(self.ambient_pressure)?
             .with_follower_term(self.follower_term);
         let rest_shell_volume = shell_volume(&self.mesh.triangles, &x, &thickness);
+        // A0_e H_e, conserved per element by `ProjectionScope::PerElement`.
+        let rest_element_volumes: Vec<f64> = self
+            .mesh
+            .triangles
+            .iter()
+            .zip(&thickness)
+            .map(|(t, h)| {
+                0.5 * (verts[t[1]] - verts[t[0]])
+                    .cross(&(verts[t[2]] - verts[t[0]]))
+                    .norm()
+                    * h
+            })
+            .collect();
         let system = ShellSystem::new(
             nv,
             self.mesh.triangles.clone(),
@@ -403,7 +416,9 @@ impl<M: Material> ShellBalloon<M> {
             load,
             &vertex_mass,
         );
-        let projection = self.projection.map(ShellVolumeProjection::new);
+        let projection = self
+            .projection
+            .map(|p| ShellVolumeProjection::new(p).with_rest_element_volumes(rest_element_volumes));
         Ok(ShellSimulation {
             v: vec![0.0; x.len()],
             x_prev: x.clone(),
