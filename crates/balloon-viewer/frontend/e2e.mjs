@@ -149,7 +149,7 @@ async function testSystem(browser, system) {
     const s0 = await state(url, vertex);
     const p0 = s0.vertex.position;
     const size = norm(sub(s0.bbox_max, s0.bbox_min));
-    const pull = Math.min(box.width, box.height) * Number(opt('pull', '0.2'));
+    const pull = Math.min(box.width, box.height) * Number(opt('pull', '0.1'));
     await page.mouse.move(start[0] + pull, start[1] - pull, { steps: 8 });
     const target = await until('the drag target to move', async () => {
       const d = (await state(url)).drag;
