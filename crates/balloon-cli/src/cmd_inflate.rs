@@ -332,7 +332,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
         let last = shell_frame(&sim, summary.steps)?;
         o.write_named_frame("final", &last)?;
         o.write_json("summary.json", &summary)?;
-        match o.finish(&last) {
+        match o.finish(&last, failure.is_some()) {
             Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
             // Do not hide the simulation error behind a picture error.
             Err(e) if failure.is_some() => eprintln!("warning: {e:#}"),

@@ -412,7 +412,7 @@ pub fn run(args: TwoLayerArgs) -> Result<()> {
     if let Some(o) = &mut out {
         o.write_json("summary.json", &summary)?;
         let last = layer_frame(&sim, &rest, sim.step_count())?;
-        match o.finish(&last) {
+        match o.finish(&last, failure.is_some()) {
             Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
             // Do not hide the simulation error behind a picture error.
             Err(e) if failure.is_some() => eprintln!("warning: {e:#}"),

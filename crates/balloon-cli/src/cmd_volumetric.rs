@@ -386,7 +386,7 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
     pb.finish_and_clear();
     if let Some(out) = &mut out {
         let last = surface_frame(&sim, &rest_soup, sim.steps())?;
-        match out.finish(&last) {
+        match out.finish(&last, failure.is_some()) {
             Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
             // Do not hide the simulation error behind a picture error.
             Err(e) if failure.is_some() => eprintln!("warning: {e:#}"),

@@ -267,12 +267,7 @@ type FaceField = fn(&[f64], &[f64], &[[usize; 3]]) -> Result<Vec<f64>, fields::F
 
 /// `f(rest, x, tris)` for all faces; if a rest triangle is degenerate, face by face with NaN
 /// for the degenerate ones.
-fn per_face_or_nan(
-    rest: &[f64],
-    x: &[f64],
-    tris: &[[usize; 3]],
-    f: FaceField,
-) -> Result<Vec<f64>> {
+fn per_face_or_nan(rest: &[f64], x: &[f64], tris: &[[usize; 3]], f: FaceField) -> Result<Vec<f64>> {
     match f(rest, x, tris) {
         Ok(v) => Ok(v),
         Err(fields::FieldError::DegenerateRestTriangle { .. }) => Ok(tris
@@ -343,6 +338,7 @@ struct Pictures {
     gif_stride: usize,
     gif_seen: usize,
     rendered: BTreeSet<usize>,
+    last_written: Option<Frame>,
 }
 
 /// An output folder for one run.
@@ -444,6 +440,7 @@ impl OutputDir {
             gif_stride: 1,
             gif_seen: 0,
             rendered: BTreeSet::new(),
+            last_written: None,
         });
         Ok(self)
     }
@@ -488,18 +485,30 @@ impl OutputDir {
         if as_file && p.gif {
             keep_for_gif(p, frame)?;
         }
+        if as_file {
+            p.last_written = Some(frame.clone());
+        }
         Ok(())
     }
 
     /// Writes the final outputs of the pictures: `--render last` of `last`, `run.gif` of the
-    /// kept frames and `final.pov` of `last`. Called on success and on failure (with the last
-    /// state), so the pictures of what was computed exist either way. Returns warnings (e.g.
+    /// kept frames (and `last`) and `final.pov` of `last`. Called on success and on failure, so
+    /// the pictures of what was computed exist either way; after a failure (`failed`), the state
+    /// may be garbage, so "last" is the last frame written before it. Returns warnings (e.g.
     /// asked steps never reached) for the caller to print.
-    pub fn finish(&mut self, last: &Frame) -> Result<Vec<String>> {
+    pub fn finish(&mut self, last: &Frame, failed: bool) -> Result<Vec<String>> {
         let mut warnings = Vec::new();
         let dir = self.dir.clone();
         let Some(p) = &mut self.pictures else {
             return Ok(warnings);
+        };
+        let good;
+        let last = match (&p.last_written, failed) {
+            (Some(f), true) => {
+                good = f.clone();
+                &good
+            }
+            _ => last,
         };
         if let Some(spec) = p.spec.clone() {
             if spec.last && !p.rendered.contains(&last.step) {

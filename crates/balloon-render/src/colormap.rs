@@ -71,8 +71,9 @@ pub struct ColorScale {
 }
 
 impl ColorScale {
-    /// A viridis scale over `[min, max]`. A collapsed range (`min == max`) is widened a little so
-    /// that a constant field still gets a legend.
+    /// A viridis scale over `[min, max]`. A collapsed range (`min == max`, or equal up to
+    /// round-off) is widened to +-0.1% so that a constant field still gets a legend and
+    /// round-off noise is not coloured.
     pub fn new(min: f64, max: f64, label: impl Into<String>) -> Self {
         let (min, max) = widen(min, max);
         Self {
@@ -125,8 +126,11 @@ pub(crate) fn finite_range(values: &[f64]) -> Option<(f64, f64)> {
     r
 }
 
+/// A range narrower than round-off (relative 1e-9, e.g. the stretch of a mesh at rest, 1 +- 1e-15)
+/// is widened to +-0.1% around its centre, so that noise is not shown as a full colour sweep.
 fn widen(min: f64, max: f64) -> (f64, f64) {
-    if min.is_finite() && max.is_finite() && max <= min {
+    let mag = min.abs().max(max.abs());
+    if min.is_finite() && max.is_finite() && max - min <= 1e-9 * mag.max(1e-300) {
         let c = 0.5 * (min + max);
         let h = (c.abs() * 1e-3).max(1e-12);
         (c - h, c + h)
@@ -227,6 +231,10 @@ mod tests {
     fn scales_and_ticks() {
         let s = ColorScale::new(2.0, 2.0, "c");
         assert!(s.max > s.min && (s.min + s.max - 4.0).abs() < 1e-12);
+        let s = ColorScale::new(1.0 - 1e-15, 1.0 + 2e-15, "noise");
+        assert!((s.max - s.min - 2e-3).abs() < 1e-9, "{s:?}");
+        let s = ColorScale::new(0.275_08, 0.275_09, "real variation is kept");
+        assert_eq!((s.min, s.max), (0.275_08, 0.275_09));
         let s = ColorScale::from_values(&[3.0, f64::NAN, -1.0], "v");
         assert_eq!((s.min, s.max), (-1.0, 3.0));
         assert_eq!(s.normalize(1.0), 0.5);
