@@ -245,34 +245,56 @@ pub fn line_chart(
 }
 
 /// Writes an RGB image (`width * height * 3` bytes, row-major from the top) with a caption
-/// strip above it.
+/// strip above it, as PNG, with `balloon-render` (its bitmap font for the captions, drawn at
+/// x pixel offsets `captions[k].0`).
 pub fn image_with_caption(
     path: &Path,
     rgb: &[u8],
     size: (u32, u32),
     captions: &[(i32, &str)],
 ) -> Result<()> {
-    register_font();
     let (w, h) = size;
+    if rgb.len() != 3 * w as usize * h as usize {
+        return Err(anyhow!(
+            "{}: {} image bytes for {w}x{h} pixels (need {})",
+            path.display(),
+            rgb.len(),
+            3 * w as usize * h as usize
+        ));
+    }
     let strip = 36u32;
-    let area = BitMapBackend::new(path, (w, h + strip)).into_drawing_area();
-    area.fill(&WHITE)
-        .map_err(|e| anyhow!("plotting failed: {e}"))?;
-    for y in 0..h {
-        for x in 0..w {
-            let i = 3 * (y * w + x) as usize;
-            area.draw_pixel(
-                (x as i32, (y + strip) as i32),
-                &RGBColor(rgb[i], rgb[i + 1], rgb[i + 2]),
-            )
-            .map_err(|e| anyhow!("plotting failed: {e}"))?;
-        }
-    }
+    let mut img = balloon_render::Image::new(w, h + strip, [255, 255, 255])?;
+    let row = 3 * w as usize;
+    img.pixels_mut()[row * strip as usize..].copy_from_slice(rgb);
     for &(x, text) in captions {
-        area.draw_text(text, &("sans-serif", 20).into_font().color(&BLACK), (x, 8))
-            .map_err(|e| anyhow!("plotting failed: {e}"))?;
+        balloon_render::font::draw_text(&mut img, x as i64, 11, text, 2, [0, 0, 0]);
     }
-    area.present()
-        .map_err(|e| anyhow!("cannot write {}: {e}", path.display()))?;
+    img.write_png(path)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn image_with_caption_adds_a_strip_with_text_and_checks_its_input() {
+        let dir = std::env::temp_dir().join(format!("xtask-plot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("cap.png");
+        let rgb = vec![200u8; 3 * 40 * 10];
+        image_with_caption(&path, &rgb, (40, 10), &[(2, "ab")]).unwrap();
+        let img = balloon_render::Image::read_png(&path).unwrap();
+        assert_eq!((img.width(), img.height()), (40, 46));
+        assert_eq!(
+            img.get(5, 40),
+            Some([200, 200, 200]),
+            "image below the strip"
+        );
+        let ink = (0..40).any(|x| (0..36).any(|y| img.get(x, y) == Some([0, 0, 0])));
+        assert!(ink, "caption drawn in the strip");
+        let err = image_with_caption(&path, &rgb[3..], (40, 10), &[]).unwrap_err();
+        assert!(err.to_string().contains("40x10"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
