@@ -7,6 +7,7 @@ use crate::report::{loglog_slope, median};
 use crate::validate::meshes;
 use anyhow::{Context, Result};
 use balloon::constraint::cell_volume::CellVolumeParams;
+use balloon::integrate::TangentKind;
 use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::integrate::linear::{LinearSolverKind, PcgPreconditioner};
 use balloon::mesh::TriMesh;
@@ -45,6 +46,25 @@ fn all_solvers() -> Vec<LinearSolverKind> {
     SOLVER_NAMES.iter().filter_map(|n| n.parse().ok()).collect()
 }
 
+/// The (solver, tangent) pairs of Table 1: every solver with the exact tangent, and the solvers
+/// that need an SPD matrix (and gain from one) with the projected tangent (projected Newton).
+/// The iterative solvers with the projected tangent are left out: the regularised exact solves
+/// are easier for CG than the true SPD systems (measured with
+/// `cargo run --release -p balloon-benches --example step_profile`, see docs/benchmarks.md).
+fn table1_configs() -> Vec<(LinearSolverKind, TangentKind)> {
+    let mut v: Vec<_> = all_solvers()
+        .into_iter()
+        .filter(|k| k.to_string() != "factorized-pcg")
+        .map(|k| (k, TangentKind::Exact))
+        .collect();
+    for k in all_solvers() {
+        if k == LinearSolverKind::Cholesky || k.to_string() == "factorized-pcg" {
+            v.push((k, TangentKind::Projected));
+        }
+    }
+    v
+}
+
 /// One row of Table 1.
 #[derive(Clone, Debug, Serialize)]
 struct ShellRow {
@@ -52,6 +72,8 @@ struct ShellRow {
     vertices: usize,
     faces: usize,
     solver: String,
+    /// Tangent stiffness (`exact` or `projected`).
+    tangent: String,
     /// Median over runs of the mean wall time per step, ms.
     ms_per_step: f64,
     /// Smallest and largest run mean, ms.
@@ -102,6 +124,7 @@ fn time_shell(
     model: &str,
     mesh: &TriMesh,
     kind: LinearSolverKind,
+    tangent: TangentKind,
     opts: &Options,
     steps: usize,
 ) -> ShellRow {
@@ -110,6 +133,7 @@ fn time_shell(
         vertices: mesh.num_vertices(),
         faces: mesh.num_triangles(),
         solver: kind.to_string(),
+        tangent: tangent.to_string(),
         ms_per_step: f64::NAN,
         ms_min: f64::NAN,
         ms_max: f64::NAN,
@@ -126,6 +150,7 @@ fn time_shell(
         newton_tolerance: 0.0,
         mass_damping: DEFAULT_MASS_DAMPING,
         pcg_preconditioner: PcgPreconditioner::IncompleteCholesky,
+        tangent,
         ..Default::default()
     };
     params.linear.relative_tolerance = DEFAULT_LINEAR_TOLERANCE;
@@ -207,6 +232,7 @@ fn shell_scaling(opts: &Options) -> Result<Scaling> {
             &format!("icosphere L{l}"),
             &mesh,
             LinearSolverKind::default(),
+            TangentKind::Exact,
             opts,
             if opts.quick { 3 } else { 5 },
         );
@@ -367,31 +393,38 @@ fn markdown(r: &BenchReport) -> String {
          exactly 3 Newton iterations (tolerance 0), CG relative tolerance 1e-3 (pcg: incomplete-Cholesky preconditioner; the `balloon inflate` defaults), mass damping 10/s, StVK E = 1 MPa, nu = 0.45, \
          H = 0.3 mm, volume projection on (tolerance 1e-9). Meshes scaled to 0.3 m. `volume ratio` is \
          the shell (material) volume ratio after the last step (the paper reports 1.000003); \
-         `worst |r-1|` the largest deviation over all timed steps.\n\n",
+         `worst |r-1|` the largest deviation over all timed steps. `tangent`: `exact` is the \
+         Hessian of the energy (indefinite where elements are compressed: solves are retried \
+         with a growing mass shift), `projected` the per-element Hessians projected onto the \
+         positive semi-definite cone (projected Newton, `BackwardEulerParams::tangent`). \
+         `factorized-pcg` is CG preconditioned by a sparse Cholesky factor kept across Newton \
+         iterations and steps (refreshed after a solve of more than 8 CG iterations).\n\n",
     );
-    s.push_str("| model | vertices | faces | solver | ms / step (min-max) | volume ratio | worst \\|r-1\\| | CG it. / step | V/V0 at end |\n");
-    s.push_str("|---|---|---|---|---|---|---|---|---|\n");
+    s.push_str("| model | vertices | faces | solver | tangent | ms / step (min-max) | volume ratio | worst \\|r-1\\| | CG it. / step | V/V0 at end |\n");
+    s.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
     for row in &r.table1 {
         match &row.error {
             Some(e) => {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | failed: {} | | | | |",
+                    "| {} | {} | {} | {} | {} | failed: {} | | | | |",
                     row.model,
                     row.vertices,
                     row.faces,
                     row.solver,
+                    row.tangent,
                     e.replace('|', "\\|")
                 );
             }
             None => {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | {:.1} ({:.1}-{:.1}) | {:.12} | {:.1e} | {:.1} | {:.3} |",
+                    "| {} | {} | {} | {} | {} | {:.1} ({:.1}-{:.1}) | {:.12} | {:.1e} | {:.1} | {:.3} |",
                     row.model,
                     row.vertices,
                     row.faces,
                     row.solver,
+                    row.tangent,
                     row.ms_per_step,
                     row.ms_min,
                     row.ms_max,
@@ -456,9 +489,12 @@ pub fn run(opts: &Options) -> Result<()> {
     };
     let mut table1 = Vec::new();
     for (name, mesh) in &models {
-        for kind in all_solvers() {
-            eprintln!("xtask bench: {name} ({} v), {kind}", mesh.num_vertices());
-            let row = time_shell(name, mesh, kind, opts, steps);
+        for (kind, tangent) in table1_configs() {
+            eprintln!(
+                "xtask bench: {name} ({} v), {kind}, {tangent} tangent",
+                mesh.num_vertices()
+            );
+            let row = time_shell(name, mesh, kind, tangent, opts, steps);
             eprintln!(
                 "    {:.1} ms/step{}",
                 row.ms_per_step,

@@ -180,6 +180,8 @@ pub struct BackwardEuler {
     refactor_next: bool,
     /// Factorisations since the start of the current step.
     factorizations: usize,
+    /// The system gave its stiffness as element blocks (`self.triplets` holds only the rest).
+    use_blocks: bool,
 }
 
 /// Retries of an indefinite linear solve with a growing mass shift before giving up.
@@ -395,12 +397,19 @@ impl BackwardEuler {
             }
             if p.linear.kind != LinearSolverKind::MatrixFreeCg {
                 self.triplets.clear();
-                system
-                    .add_stiffness_triplets(&mut self.triplets)
-                    .map_err(|source| IntegrateError::System {
-                        iteration: k,
-                        source,
-                    })?;
+                self.use_blocks = system.stiffness_blocks().is_some()
+                    && system
+                        .add_remaining_stiffness_triplets(&mut self.triplets)
+                        .is_ok();
+                if !self.use_blocks {
+                    self.triplets.clear();
+                    system
+                        .add_stiffness_triplets(&mut self.triplets)
+                        .map_err(|source| IntegrateError::System {
+                            iteration: k,
+                            source,
+                        })?;
+                }
             }
             let mut shift = 0.0;
             let mut retries = 0;
@@ -516,8 +525,23 @@ impl BackwardEuler {
             LinearSolverKind::Pcg
             | LinearSolverKind::Cholesky
             | LinearSolverKind::FactorizedPcg => {
-                self.assembler
-                    .assemble(masses, m_coef, &self.triplets, k_coef)?;
+                let blocks = if self.use_blocks {
+                    system.stiffness_blocks()
+                } else {
+                    None
+                };
+                match blocks {
+                    Some(b) => self.assembler.assemble_blocks(
+                        masses,
+                        m_coef,
+                        &b,
+                        &self.triplets,
+                        k_coef,
+                    )?,
+                    None => self
+                        .assembler
+                        .assemble(masses, m_coef, &self.triplets, k_coef)?,
+                };
                 let a = self.assembler.matrix();
                 let low_rank = system.low_rank_terms();
                 if lp.kind == LinearSolverKind::FactorizedPcg {

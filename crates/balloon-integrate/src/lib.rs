@@ -12,4 +12,4 @@ pub mod implicit;
 pub mod linear;
 pub mod system;
 
-pub use system::{ForceSystem, LowRankTerm, SystemError, TangentKind};
+pub use system::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};

@@ -411,6 +411,10 @@ impl CsrMatrix {
 /// (the usual case across Newton iterations and steps), only the values are scattered.
 #[derive(Clone, Debug, Default)]
 pub struct SparseAssembler {
+    /// Nodes of the blocks the pattern was last built from by [`SparseAssembler::assemble_blocks`]
+    /// (with `block_k` nodes per block; 0 when built from triplets).
+    block_nodes: Vec<usize>,
+    block_k: usize,
     keys: Vec<(usize, usize)>,
     slots: Vec<usize>,
     diag_slots: Vec<usize>,
@@ -454,10 +458,77 @@ impl SparseAssembler {
                 .all(|(k, t)| k.0 == t.0 && k.1 == t.1);
         if !same {
             self.rebuild_pattern(n, triplets)?;
+            self.block_k = 0;
+            self.block_nodes.clear();
         }
         let m = &mut self.matrix;
         m.values.fill(0.0);
         for (t, &s) in triplets.iter().zip(&self.slots) {
+            m.values[s] += scale * t.2;
+        }
+        for (i, &s) in self.diag_slots.iter().enumerate() {
+            m.values[s] += diag_scale * diagonal[i];
+        }
+        Ok(!same)
+    }
+
+    /// Assembles `diag_scale * diag(diagonal) + scale * (sum of the blocks + sum(extra))`, the
+    /// block form of [`SparseAssembler::assemble`] ([`crate::system::StiffnessBlocks`]): the
+    /// pattern check compares only the block node lists and the `extra` keys, and the values are
+    /// scattered straight from the blocks (no triplet list). Returns whether the pattern was
+    /// rebuilt; the matrix equals the one `assemble` builds from the equivalent triplets.
+    pub fn assemble_blocks(
+        &mut self,
+        diagonal: &[f64],
+        diag_scale: f64,
+        blocks: &crate::system::StiffnessBlocks<'_>,
+        extra: &[(usize, usize, f64)],
+        scale: f64,
+    ) -> Result<bool, LinearSolveError> {
+        let n = diagonal.len();
+        let k = blocks.nodes_per_block;
+        let bs = 9 * k * k;
+        if k == 0
+            || !blocks.nodes.len().is_multiple_of(k)
+            || blocks.values.len() != blocks.nodes.len() / k * bs
+        {
+            return Err(LinearSolveError::Dimension {
+                what: "stiffness block values",
+                len: blocks.values.len(),
+                expected: blocks.nodes.len() / k.max(1) * bs,
+            });
+        }
+        let nb = blocks.values.len();
+        let same = self.matrix.n == n
+            && self.block_k == k
+            && self.block_nodes == blocks.nodes
+            && self.keys.len() == nb + extra.len()
+            && self.keys[nb..]
+                .iter()
+                .zip(extra)
+                .all(|(k, t)| k.0 == t.0 && k.1 == t.1);
+        if !same {
+            let d = 3 * k;
+            let mut keys = Vec::with_capacity(nb + extra.len());
+            for nodes in blocks.nodes.chunks_exact(k) {
+                for j in 0..d {
+                    for i in 0..d {
+                        keys.push((3 * nodes[i / 3] + i % 3, 3 * nodes[j / 3] + j % 3, 0.0));
+                    }
+                }
+            }
+            keys.extend_from_slice(extra);
+            self.rebuild_pattern(n, &keys)?;
+            self.block_k = k;
+            self.block_nodes.clear();
+            self.block_nodes.extend_from_slice(blocks.nodes);
+        }
+        let m = &mut self.matrix;
+        m.values.fill(0.0);
+        for (v, &s) in blocks.values.iter().zip(&self.slots[..nb]) {
+            m.values[s] += scale * v;
+        }
+        for (t, &s) in extra.iter().zip(&self.slots[nb..]) {
             m.values[s] += scale * t.2;
         }
         for (i, &s) in self.diag_slots.iter().enumerate() {
@@ -938,6 +1009,72 @@ mod tests {
         assert_eq!(asm.pattern_version(), v0);
         let err = asm.assemble(&d, 1.0, &[(0, 99, 1.0)], 1.0).unwrap_err();
         assert!(err.to_string().contains("(0, 99)"));
+    }
+
+    #[test]
+    fn block_assembly_equals_triplet_assembly() {
+        // Three "triangles" on 5 nodes (shared nodes, so couplings are summed) plus extras.
+        let nodes = [0usize, 1, 2, 2, 3, 4, 4, 0, 2];
+        let mut rng = Rng::new(12);
+        let values = rng.vector(3 * 81);
+        let extra = vec![(0, 14, 0.5), (14, 0, 0.5), (7, 7, -0.25)];
+        let mut triplets = Vec::new();
+        for (e, tri) in nodes.chunks(3).enumerate() {
+            for j in 0..9 {
+                for i in 0..9 {
+                    let v = values[81 * e + 9 * j + i];
+                    triplets.push((3 * tri[i / 3] + i % 3, 3 * tri[j / 3] + j % 3, v));
+                }
+            }
+        }
+        triplets.extend_from_slice(&extra);
+        let n = 15;
+        let d = rng.vector(n);
+        let mut reference = SparseAssembler::new();
+        reference.assemble(&d, 0.7, &triplets, 1.3).unwrap();
+        let blocks = crate::system::StiffnessBlocks {
+            nodes_per_block: 3,
+            nodes: &nodes,
+            values: &values,
+        };
+        let mut asm = SparseAssembler::new();
+        assert!(asm.assemble_blocks(&d, 0.7, &blocks, &extra, 1.3).unwrap());
+        assert_eq!(asm.matrix().row_ptr, reference.matrix().row_ptr);
+        assert_eq!(asm.matrix().col_idx, reference.matrix().col_idx);
+        for (a, b) in asm.matrix().values.iter().zip(&reference.matrix().values) {
+            assert!((a - b).abs() <= 1e-14 * (1.0 + b.abs()));
+        }
+        // Same nodes and extra keys: the pattern is kept; new values are scattered.
+        let v0 = asm.pattern_version();
+        let doubled: Vec<f64> = values.iter().map(|v| 2.0 * v).collect();
+        let blocks2 = crate::system::StiffnessBlocks {
+            values: &doubled,
+            ..blocks
+        };
+        assert!(!asm.assemble_blocks(&d, 0.7, &blocks2, &extra, 1.3).unwrap());
+        assert_eq!(asm.pattern_version(), v0);
+        // Switching to the triplet path with the same keys keeps the pattern too, and back.
+        assert!(!asm.assemble(&d, 0.7, &triplets, 1.3).unwrap());
+        assert_eq!(asm.matrix(), reference.matrix());
+        assert!(!asm.assemble_blocks(&d, 0.7, &blocks, &extra, 1.3).unwrap());
+        assert_eq!(asm.pattern_version(), v0);
+        // Other nodes: rebuilt. Wrong sizes: an error, not a panic.
+        let other = [0usize, 1, 3, 2, 3, 4, 4, 0, 2];
+        let blocks3 = crate::system::StiffnessBlocks {
+            nodes: &other,
+            ..blocks
+        };
+        assert!(asm.assemble_blocks(&d, 0.7, &blocks3, &extra, 1.3).unwrap());
+        let short = crate::system::StiffnessBlocks {
+            values: &values[..100],
+            ..blocks
+        };
+        assert!(asm.assemble_blocks(&d, 0.7, &short, &extra, 1.3).is_err());
+        let out = crate::system::StiffnessBlocks {
+            nodes: &[0, 1, 99, 2, 3, 4, 4, 0, 2],
+            ..blocks
+        };
+        assert!(asm.assemble_blocks(&d, 0.7, &out, &extra, 1.3).is_err());
     }
 
     #[test]

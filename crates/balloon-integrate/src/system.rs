@@ -59,6 +59,21 @@ pub struct LowRankTerm {
     pub vector: Vec<f64>,
 }
 
+/// The sparse part of a stiffness matrix as dense element blocks (see
+/// [`ForceSystem::stiffness_blocks`]): block `e` couples the nodes
+/// `nodes[e * nodes_per_block..(e + 1) * nodes_per_block]` (3 degrees of freedom each, dof
+/// `3 node + c`) and holds `(3 k)^2` values, `k = nodes_per_block`, column-major in node-major
+/// dof order `[x1 y1 z1 x2 ...]`, at `values[e * (3 k)^2..]`. Duplicate couplings are summed.
+#[derive(Clone, Copy, Debug)]
+pub struct StiffnessBlocks<'a> {
+    /// Nodes per block (`k`; 3 for a triangle).
+    pub nodes_per_block: usize,
+    /// Node indices, `k` per block.
+    pub nodes: &'a [usize],
+    /// Block values, `(3 k)^2` per block, column-major.
+    pub values: &'a [f64],
+}
+
 /// Error raised by a force system while evaluating itself (e.g. an inverted element).
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum SystemError {
@@ -117,6 +132,27 @@ pub trait ForceSystem {
     /// `(row, col, value)` triplets; duplicates are summed. Systems that cannot assemble return
     /// [`SystemError::AssemblyUnsupported`] (the default).
     fn add_stiffness_triplets(
+        &self,
+        triplets: &mut Vec<(usize, usize, f64)>,
+    ) -> Result<(), SystemError> {
+        let _ = triplets;
+        Err(SystemError::AssemblyUnsupported)
+    }
+
+    /// Optional faster form of [`ForceSystem::add_stiffness_triplets`] for the assembled
+    /// solvers: the element part of the sparse `K` at the last linearisation point as dense
+    /// blocks ([`StiffnessBlocks`], borrowed, no copy). Used only together with
+    /// [`ForceSystem::add_remaining_stiffness_triplets`]; the blocks plus those triplets must
+    /// equal what `add_stiffness_triplets` returns. Default `None` (use the triplets).
+    fn stiffness_blocks(&self) -> Option<StiffnessBlocks<'_>> {
+        None
+    }
+
+    /// Appends the entries of the sparse `K` that are not in [`ForceSystem::stiffness_blocks`]
+    /// (e.g. a pressure follower term) as triplets. Default
+    /// [`SystemError::AssemblyUnsupported`]: the integrator then uses
+    /// [`ForceSystem::add_stiffness_triplets`] even if blocks are offered.
+    fn add_remaining_stiffness_triplets(
         &self,
         triplets: &mut Vec<(usize, usize, f64)>,
     ) -> Result<(), SystemError> {

@@ -3,9 +3,9 @@
 
 use balloon_element::ThreePrism;
 use balloon_gas::{GasModel, PressureLoad};
-use balloon_integrate::{ForceSystem, LowRankTerm, SystemError, TangentKind};
+use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
 use balloon_material::Material;
-use nalgebra::{SMatrix, Vector3};
+use nalgebra::{SMatrix, SMatrixView, Vector3};
 use rayon::prelude::*;
 
 /// Below this many elements the per-element loops run serially (thread start-up would dominate).
@@ -14,7 +14,7 @@ const PARALLEL_THRESHOLD: usize = 2048;
 /// One element's inputs (element, triangle, thickness) and outputs (forces, stiffness block).
 type ElementWork<'a> = (
     ((&'a ThreePrism, &'a [usize; 3]), &'a f64),
-    (&'a mut [Vector3<f64>; 3], &'a mut SMatrix<f64, 9, 9>),
+    (&'a mut [Vector3<f64>; 3], &'a mut [f64; 81]),
 );
 
 /// Elastic shell + gas, with per-element force and stiffness caches filled at each linearisation.
@@ -31,7 +31,9 @@ pub struct ShellSystem<M: Material, G: GasModel> {
     incident_offsets: Vec<usize>,
     incident: Vec<(u32, u8)>,
     elem_forces: Vec<[Vector3<f64>; 3]>,
-    elem_stiffness: Vec<SMatrix<f64, 9, 9>>,
+    /// Element stiffness blocks, 9x9 column-major (vertex-major dofs), contiguous so that they
+    /// can be handed to the assembler as they are ([`ForceSystem::stiffness_blocks`]).
+    elem_stiffness: Vec<[f64; 81]>,
     /// Positions of the last linearisation (the gas differential needs them).
     x_lin: Vec<f64>,
     /// Exact element Hessians, or projected onto the PSD cone (projected Newton).
@@ -78,7 +80,7 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
             incident_offsets: counts,
             incident,
             elem_forces: vec![[Vector3::zeros(); 3]; ne],
-            elem_stiffness: vec![SMatrix::zeros(); ne],
+            elem_stiffness: vec![[0.0; 81]; ne],
             x_lin: Vec::new(),
             tangent: TangentKind::Exact,
         }
@@ -128,7 +130,7 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
                 dxe[3 * c + 1] = dx[3 * v + 1];
                 dxe[3 * c + 2] = dx[3 * v + 2];
             }
-            -(ks[e].fixed_view::<3, 9>(3 * l, 0) * dxe)
+            -(SMatrixView::<f64, 9, 9>::from_slice(&ks[e]).fixed_view::<3, 9>(3 * l, 0) * dxe)
         });
     }
 }
@@ -154,7 +156,7 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
                 el.forces_and_stiffness(material, &xs, h)
             };
             *fe = forces;
-            *ke = stiffness;
+            ke.copy_from_slice(stiffness.as_slice());
         };
         let it = self
             .elements
@@ -221,6 +223,7 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
     ) -> Result<(), SystemError> {
         triplets.reserve(81 * self.elements.len());
         for (t, k) in self.triangles.iter().zip(&self.elem_stiffness) {
+            let k = SMatrixView::<f64, 9, 9>::from_slice(k);
             for a in 0..3 {
                 for b in 0..3 {
                     for i in 0..3 {
@@ -239,13 +242,28 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
     fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
         let ks = &self.elem_stiffness;
         self.gather(diagonal, |e, l| {
-            Vector3::new(
-                ks[e][(3 * l, 3 * l)],
-                ks[e][(3 * l + 1, 3 * l + 1)],
-                ks[e][(3 * l + 2, 3 * l + 2)],
-            )
+            // Column-major: entry (i, i) is at 10 i.
+            Vector3::new(ks[e][30 * l], ks[e][30 * l + 10], ks[e][30 * l + 20])
         });
         Ok(())
+    }
+
+    fn stiffness_blocks(&self) -> Option<StiffnessBlocks<'_>> {
+        Some(StiffnessBlocks {
+            nodes_per_block: 3,
+            nodes: self.triangles.as_flattened(),
+            values: self.elem_stiffness.as_flattened(),
+        })
+    }
+
+    /// The pressure follower term (when enabled); the elastic part is in the blocks.
+    fn add_remaining_stiffness_triplets(
+        &self,
+        triplets: &mut Vec<(usize, usize, f64)>,
+    ) -> Result<(), SystemError> {
+        self.gas
+            .add_follower_triplets(&self.x_lin, &self.triangles, triplets)
+            .map_err(|e| SystemError::Other(format!("gas: {e}")))
     }
 
     /// Both kinds: [`TangentKind::Projected`] projects each element's Hessian onto the PSD cone
@@ -288,7 +306,7 @@ mod tests {
             (3000.0, LinearSolverKind::FactorizedPcg),
         ] {
             let mut sim = ShellBalloon::new(mesh.clone())
-                .with_material(material.clone())
+                .with_material(material)
                 .with_thickness(h0)
                 .with_gas(GasKind::Constant)
                 .with_gauge_pressure(p)
@@ -314,6 +332,38 @@ mod tests {
                 (lambda / expected - 1.0).abs() < 5e-3,
                 "p = {p}, {kind}: stretch {lambda} vs analytic {expected}"
             );
+        }
+    }
+
+    /// The element blocks plus the remaining (follower) triplets are the full stiffness.
+    #[test]
+    fn stiffness_blocks_and_remaining_triplets_equal_the_triplets() {
+        use balloon_integrate::linear::SparseAssembler;
+        let mesh = icosphere(0.1, 2).unwrap();
+        let mut sim = ShellBalloon::new(mesh)
+            .with_follower_term(true)
+            .with_linear_solver(LinearSolverKind::Cholesky)
+            .build()
+            .unwrap();
+        let x: Vec<f64> = sim.positions().iter().map(|v| 1.2 * v).collect();
+        let n = x.len();
+        let sys = &mut sim.system;
+        let mut f = vec![0.0; n];
+        sys.forces(0.0, &x, &mut f).unwrap();
+        let mut all = Vec::new();
+        sys.add_stiffness_triplets(&mut all).unwrap();
+        let mut rest = Vec::new();
+        sys.add_remaining_stiffness_triplets(&mut rest).unwrap();
+        assert!(!rest.is_empty(), "the follower term gives extra triplets");
+        let blocks = sys.stiffness_blocks().unwrap();
+        let d = vec![1.0; n];
+        let (mut a, mut b) = (SparseAssembler::new(), SparseAssembler::new());
+        a.assemble(&d, 2.0, &all, 0.5).unwrap();
+        b.assemble_blocks(&d, 2.0, &blocks, &rest, 0.5).unwrap();
+        assert_eq!(a.matrix().col_idx, b.matrix().col_idx);
+        let scale = a.matrix().values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (u, v) in a.matrix().values.iter().zip(&b.matrix().values) {
+            assert!((u - v).abs() <= 1e-12 * scale);
         }
     }
 
