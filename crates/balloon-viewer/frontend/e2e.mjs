@@ -155,6 +155,8 @@ async function testSystem(browser, system) {
       const d = (await state(url)).drag;
       return d && norm(sub(d.target, grabbed.target)) > 1e-6 * size && d.target;
     }, 5000);
+    const sDrag = await state(url);
+    check(!sDrag.last_error, `the simulation failed during the drag: ${sDrag.last_error}`);
     const want = sub(target, p0);
     check(want[1] > 0, `the drag target ${target} is not above the grabbed point ${p0}`);
     let moved = 0;
