@@ -96,6 +96,21 @@ async function state(url, vertex) {
 
 const frameOf = async (page) => Number(await page.textContent('#frame'));
 
+/** Moves the mouse over points near the canvas centre until the page shows the "over the body"
+ *  cursor (its own raycast); returns that point. */
+async function pointOverBody(page, box) {
+  const cx = box.x + box.width / 2;
+  const cy = box.y + box.height / 2;
+  for (const [dx, dy] of [[0, 0], [0.1, 0], [-0.1, 0], [0, 0.1], [0, -0.1], [0.2, 0.1], [-0.2, -0.1]]) {
+    const p = [cx + dx * box.width, cy + dy * box.height];
+    await page.mouse.move(p[0], p[1]);
+    const over = await page.waitForFunction(() => document.getElementById('canvas').classList.contains('over-body'),
+      null, { timeout: 1000 }).then(() => true, () => false);
+    if (over) return p;
+  }
+  throw new Failure('no point of the canvas near its centre is over the body');
+}
+
 /** One system: everything a person would try. Returns a one-line summary. */
 async function testSystem(browser, system) {
   const { child, url, stderr } = await startServer(system);
@@ -132,17 +147,7 @@ async function testSystem(browser, system) {
     //    along the view direction, which the drag plane is perpendicular to. The body may follow
     //    as a whole (a free body does), so this is not measured relative to the centroid.
     const box = await page.locator('#canvas').boundingBox();
-    const cx = box.x + box.width / 2;
-    const cy = box.y + box.height / 2;
-    let start = null;
-    for (const [dx, dy] of [[0, 0], [0.1, 0], [-0.1, 0], [0, 0.1], [0, -0.1], [0.2, 0.1], [-0.2, -0.1]]) {
-      const p = [cx + dx * box.width, cy + dy * box.height];
-      await page.mouse.move(p[0], p[1]);
-      const over = await page.waitForFunction(() => document.getElementById('canvas').classList.contains('over-body'),
-        null, { timeout: 1000 }).then(() => true, () => false);
-      if (over) { start = p; break; }
-    }
-    check(start, 'no point of the canvas near its centre is over the body');
+    const start = await pointOverBody(page, box);
     await page.mouse.down();
     const grabbed = await until('the drag to reach the server (/api/state drag)', async () => (await state(url)).drag);
     const vertex = grabbed.vertex;
@@ -175,9 +180,9 @@ async function testSystem(browser, system) {
     const modes = await page.$$eval('#drag-mode option', (os) => os.map((o) => o.value));
     if (modes.includes('pinch')) {
       await page.selectOption('#drag-mode', 'pinch');
-      await page.mouse.move(start[0], start[1]);
+      const at = await pointOverBody(page, box);
       await page.mouse.down();
-      await page.mouse.move(start[0] + 5, start[1] + 5);
+      await page.mouse.move(at[0] + 5, at[1] + 5);
       await until('a pinch drag on the server', async () => (await state(url)).drag?.mode === 'pinch', 5000);
       await page.mouse.up();
       await until('the pinch to be released', async () => (await state(url)).drag === null, 5000);
