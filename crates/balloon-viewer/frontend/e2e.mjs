@@ -12,7 +12,7 @@
 
 import { chromium } from 'playwright-core';
 import { spawn } from 'node:child_process';
-import { mkdirSync } from 'node:fs';
+import { mkdirSync, rmSync } from 'node:fs';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
 
@@ -113,6 +113,7 @@ async function pointOverBody(page, box) {
 
 /** One system: everything a person would try. Returns a one-line summary. */
 async function testSystem(browser, system) {
+  for (const f of [`viewer-${system}.png`, `viewer-${system}-failed.png`]) rmSync(join(outDir, f), { force: true });
   const { child, url, stderr } = await startServer(system);
   const context = await browser.newContext({ viewport: { width: 1200, height: 760 } });
   const page = await context.newPage();
