@@ -1,7 +1,9 @@
 //! One full shell-balloon step (3 Newton iterations + volume projection) on a mesh of about 11k
-//! vertices, for each linear solver (issue 3, part 8). The paper reports 278 ms per frame for its
+//! vertices, for each linear solver, with the exact tangent and, for the solvers that need an SPD
+//! matrix, the projected one (issue 3, part 8). The paper reports 278 ms per frame for its
 //! 11090-vertex Teddy; compare `cargo bench -p balloon-benches --bench shell_step`.
 
+use balloon::integrate::TangentKind;
 use balloon::integrate::linear::LinearSolverKind;
 use balloon::shell::ShellBalloon;
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -19,20 +21,25 @@ fn shell_step(c: &mut Criterion) {
         .sample_size(10)
         .measurement_time(Duration::from_secs(8))
         .warm_up_time(Duration::from_secs(1));
-    for kind in [
-        LinearSolverKind::MatrixFreeCg,
-        LinearSolverKind::Pcg,
-        LinearSolverKind::Cholesky,
+    for (kind, tangent) in [
+        (LinearSolverKind::MatrixFreeCg, TangentKind::Exact),
+        (LinearSolverKind::Pcg, TangentKind::Exact),
+        (LinearSolverKind::Cholesky, TangentKind::Exact),
+        (LinearSolverKind::Cholesky, TangentKind::Projected),
+        (LinearSolverKind::FactorizedPcg, TangentKind::Projected),
     ] {
         let mut sim = ShellBalloon::new(mesh.clone())
             .with_linear_solver(kind)
             .build()
             .expect("valid balloon");
+        sim.integrator_params_mut().tangent = tangent;
         // A few steps first so the balloon is inflating (not at the trivial rest state).
         for _ in 0..3 {
             sim.step().expect("step");
         }
-        group.bench_function(kind.to_string(), |b| b.iter(|| sim.step().expect("step")));
+        group.bench_function(format!("{kind}-{tangent}"), |b| {
+            b.iter(|| sim.step().expect("step"))
+        });
     }
     group.finish();
 }
