@@ -391,3 +391,237 @@ impl Runner {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::protocol::{ControlSpec, ControlValue, DragMode};
+    use serde_json::json;
+
+    /// A test double: a point that moves at 1 m/s along x, fails on the step given by `fail_at`
+    /// until rebuilt, and has one control of each kind.
+    struct Toy {
+        x: f64,
+        steps: usize,
+        fail_at: Option<usize>,
+        speed: f64,
+        rebuilds: usize,
+        drag: Option<DragRequest>,
+    }
+
+    impl Toy {
+        fn new(fail_at: Option<usize>) -> Self {
+            Self {
+                x: 0.0,
+                steps: 0,
+                fail_at,
+                speed: 1.0,
+                rebuilds: 0,
+                drag: None,
+            }
+        }
+    }
+
+    impl ViewSystem for Toy {
+        fn name(&self) -> &'static str {
+            "toy"
+        }
+        fn controls(&self) -> Vec<ControlSpec> {
+            vec![
+                ControlSpec::number("speed", "Speed", self.speed, (0.0, 10.0, 0.1), "m/s", false),
+                ControlSpec::choice("shape", "Shape", "a", &["a", "b"], true),
+            ]
+        }
+        fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
+            match name {
+                "speed" => {
+                    self.speed = value.number();
+                    Ok(false)
+                }
+                _ => Ok(true),
+            }
+        }
+        fn rebuild(&mut self) -> Result<(), String> {
+            self.x = 0.0;
+            self.steps = 0;
+            self.fail_at = None;
+            self.rebuilds += 1;
+            Ok(())
+        }
+        fn triangles(&self) -> Vec<[usize; 3]> {
+            vec![[0, 1, 2]]
+        }
+        fn positions(&self) -> Vec<f64> {
+            vec![self.x, 0.0, 0.0, self.x + 1.0, 0.0, 0.0, self.x, 1.0, 0.0]
+        }
+        fn time(&self) -> f64 {
+            self.steps as f64 * self.dt()
+        }
+        fn steps(&self) -> usize {
+            self.steps
+        }
+        fn dt(&self) -> f64 {
+            0.01
+        }
+        fn step(&mut self) -> Result<(), String> {
+            if self.fail_at == Some(self.steps) {
+                return Err(format!("toy failure at step {}", self.steps));
+            }
+            self.x += self.speed * self.dt();
+            self.steps += 1;
+            Ok(())
+        }
+        fn stats(&self) -> Map<String, Value> {
+            Map::new()
+        }
+        fn scalar_fields(&self) -> Vec<&'static str> {
+            vec!["x", "y"]
+        }
+        fn scalar(&self, name: &str) -> Result<Vec<f64>, String> {
+            match name {
+                "x" => Ok(vec![self.x, self.x + 1.0, self.x]),
+                _ => Ok(vec![0.0, 0.0, 1.0]),
+            }
+        }
+        fn drag_modes(&self) -> Vec<&'static str> {
+            vec!["grab"]
+        }
+        fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
+            self.drag = drag.copied();
+            Ok(())
+        }
+    }
+
+    fn runner(fail_at: Option<usize>) -> (Runner, Arc<Shared>) {
+        let shared = Arc::new(Shared::default());
+        (
+            Runner::new(Box::new(Toy::new(fail_at)), shared.clone()),
+            shared,
+        )
+    }
+
+    #[test]
+    fn hello_frame_and_state_are_published_at_start() {
+        let (_r, shared) = runner(None);
+        let p = shared.lock();
+        let hello: Value = serde_json::from_str(&p.hello).unwrap();
+        assert_eq!(hello["type"], "hello");
+        assert_eq!(hello["triangles"], json!([0, 1, 2]));
+        assert_eq!(hello["vertex_count"], 3);
+        assert_eq!(hello["scalar"], "x");
+        let frame: Value = serde_json::from_str(&p.frame).unwrap();
+        assert_eq!(frame["frame"], 1);
+        assert_eq!(frame["positions"].as_array().unwrap().len(), 9);
+        assert_eq!(frame["scalar"]["min"], 0.0);
+        assert_eq!(frame["scalar"]["max"], 1.0);
+        assert_eq!(p.state["controls"]["speed"], 1.0);
+        assert_eq!(p.hello_generation, 1);
+    }
+
+    #[test]
+    fn every_rejection_names_what_is_wrong() {
+        let (mut r, _) = runner(None);
+        let c = |name: &str, value: Value| ClientMessage::Control {
+            name: name.into(),
+            value,
+        };
+        let e = r.handle(c("speed", json!(11))).unwrap_err();
+        assert!(e.contains("`speed`") && e.contains("[0, 10] m/s"), "{e}");
+        let e = r.handle(c("colour", json!(1))).unwrap_err();
+        assert!(e.contains("unknown control `colour`"), "{e}");
+        let e = r
+            .handle(ClientMessage::Scalar { name: "z".into() })
+            .unwrap_err();
+        assert!(
+            e.contains("unknown scalar field `z`") && e.contains("x, y"),
+            "{e}"
+        );
+        let drag = |vertex, mode| ClientMessage::Drag {
+            vertex,
+            target: [0.0; 3],
+            mode,
+        };
+        let e = r.handle(drag(3, DragMode::Grab)).unwrap_err();
+        assert!(e.contains("vertex 3 is out of range"), "{e}");
+        let e = r.handle(drag(0, DragMode::Pinch)).unwrap_err();
+        assert!(e.contains("pinch") && e.contains("toy"), "{e}");
+        assert!(r.drag.is_none());
+        // Valid ones pass.
+        r.handle(c("speed", json!(2.5))).unwrap();
+        r.handle(ClientMessage::Scalar { name: "y".into() })
+            .unwrap();
+        r.handle(drag(2, DragMode::Grab)).unwrap();
+        assert_eq!(r.drag.map(|d| d.vertex), Some(2));
+        r.handle(ClientMessage::Release).unwrap();
+        assert!(r.drag.is_none());
+    }
+
+    #[test]
+    fn a_failing_step_pauses_and_reset_recovers() {
+        let (r, shared) = runner(Some(3));
+        let (tx, rx) = std::sync::mpsc::channel();
+        let (reply, _replies) = std::sync::mpsc::channel();
+        let thread = std::thread::spawn(move || {
+            r.run(rx);
+        });
+        let wait = |what: &str, ok: &dyn Fn(&Published) -> bool| {
+            let deadline = Instant::now() + Duration::from_secs(10);
+            while !ok(&shared.lock()) {
+                assert!(Instant::now() < deadline, "timed out waiting for {what}");
+                std::thread::sleep(Duration::from_millis(5));
+            }
+        };
+        wait("the failure", &|p| p.state["paused"] == true);
+        {
+            let p = shared.lock();
+            assert_eq!(p.state["step"], 3);
+            let e = p.state["last_error"].as_str().unwrap();
+            assert!(e.contains("toy failure at step 3"), "{e}");
+            let b: Value = serde_json::from_str(&p.broadcasts.last().unwrap().1).unwrap();
+            assert_eq!(b["type"], "error");
+            assert!(b["message"].as_str().unwrap().contains("press reset"));
+        }
+        tx.send(Command::Client {
+            message: ClientMessage::Reset,
+            reply: reply.clone(),
+        })
+        .unwrap();
+        wait("the rebuild", &|p| p.hello_generation == 2);
+        wait("stepping again", &|p| {
+            p.state["paused"] == false && p.state["step"].as_u64() > Some(5)
+        });
+        assert!(shared.lock().state["last_error"].is_null());
+        // Pause stops the steps; frames keep increasing numbers.
+        tx.send(Command::Client {
+            message: ClientMessage::Pause,
+            reply,
+        })
+        .unwrap();
+        wait("the pause", &|p| p.state["paused"] == true);
+        let (step, frame) = {
+            let p = shared.lock();
+            (p.state["step"].clone(), p.frame_number)
+        };
+        std::thread::sleep(Duration::from_millis(100));
+        assert_eq!(shared.lock().state["step"], step);
+        assert!(frame > 1);
+        tx.send(Command::Shutdown).unwrap();
+        thread.join().unwrap();
+    }
+
+    #[test]
+    fn stepping_follows_the_wall_clock() {
+        let (r, shared) = runner(None);
+        let (tx, rx) = std::sync::mpsc::channel();
+        let t0 = Instant::now();
+        let thread = std::thread::spawn(move || r.run(rx));
+        std::thread::sleep(Duration::from_millis(500));
+        let time = shared.lock().state["time"].as_f64().unwrap();
+        let wall = t0.elapsed().as_secs_f64();
+        tx.send(Command::Shutdown).unwrap();
+        thread.join().unwrap();
+        // The toy steps in no time: real time holds it back (one publish interval of slack).
+        assert!(time <= wall + 0.05, "sim {time} s after {wall} s");
+        assert!(time >= 0.5 * wall - 0.05, "sim {time} s after {wall} s");
+    }
+}

@@ -8,7 +8,7 @@ use balloon::integrate::linear::LinearSolverKind;
 use balloon::material::{Lame, MaterialKind, MaterialModel};
 use balloon::mesh::TriMesh;
 use balloon::mesh::lattice::LatticeParams;
-use balloon::shell::{ShellBalloon, ShellSimulation};
+use balloon::shell::{AnchorSpring, ShellBalloon, ShellSimulation};
 use balloon::two_layer::{
     AxisBox, DragTarget, ExplicitMethod, SpringKind, TwoLayerBody, TwoLayerSimulation,
 };
@@ -124,10 +124,10 @@ pub struct ShellView {
     drag_radius: f64,
 }
 
-/// Relative stiffness of the shell drag spring: `k_i = DRAG_GAIN w_i m_i / dt^2` per vertex. The
-/// spring is an external force, explicit in backward Euler, so it is only stable for
-/// `dt sqrt(k / m) < 2`; 1 keeps a margin.
-const SHELL_DRAG_GAIN: f64 = 1.0;
+/// Stiffness of the shell drag springs in units of the membrane stiffness `E h` (N/m): vertex
+/// `i` of the neighbourhood gets `w_i SHELL_DRAG_STIFFNESS E h`. The springs are part of the
+/// implicit solve ([`ShellSimulation::set_anchor_springs`]), so they may be stiff.
+const SHELL_DRAG_STIFFNESS: f64 = 10.0;
 /// A pinch pulls the neighbourhood to this fraction of its size around the target.
 const PINCH_SCALE: f64 = 0.3;
 
@@ -353,7 +353,7 @@ impl ViewSystem for ShellView {
             self.drag = None;
             return self
                 .sim
-                .set_external_forces(None)
+                .set_anchor_springs(Vec::new())
                 .map_err(|e| e.to_string());
         };
         let x = self.sim.positions();
@@ -368,7 +368,7 @@ impl ViewSystem for ShellView {
                 .filter_map(|i| {
                     let o = p3(x, i) - c;
                     let q = o.norm() / r;
-                    (q < 1.0).then(|| (i, (1.0 - q * q).powi(2), o))
+                    (q < 1.0).then_some((i, 1.0 - q * q, o))
                 })
                 .collect();
             self.drag = Some(ShellDrag {
@@ -383,16 +383,22 @@ impl ViewSystem for ShellView {
             DragMode::Grab => 1.0,
             DragMode::Pinch => PINCH_SCALE,
         };
-        let dt = self.sim.dt();
-        let m = self.sim.masses();
-        let mut f = vec![0.0; x.len()];
-        for &(i, w, o) in &state.neighbours {
-            let k = SHELL_DRAG_GAIN * w * m[3 * i] / (dt * dt);
-            let pull = k * (target + o * scale - p3(x, i));
-            f[3 * i..3 * i + 3].copy_from_slice(pull.as_slice());
-        }
+        let k = SHELL_DRAG_STIFFNESS
+            * self.settings.young_mpa
+            * 1e6
+            * self.settings.thickness_mm
+            * 1e-3;
+        let springs = state
+            .neighbours
+            .iter()
+            .map(|&(i, w, o)| AnchorSpring {
+                vertex: i,
+                anchor: (target + o * scale).into(),
+                stiffness: w * k,
+            })
+            .collect();
         self.sim
-            .set_external_forces(Some(&f))
+            .set_anchor_springs(springs)
             .map_err(|e| e.to_string())
     }
 }
@@ -930,5 +936,162 @@ mod tests {
             VolumetricView::new(crate::default_mesh(crate::SystemKind::Volumetric).unwrap())
                 .unwrap();
         run(&mut v, 0.25).unwrap();
+    }
+
+    fn small_shell() -> ShellView {
+        ShellView::new(balloon::mesh::generate::icosphere(0.1, 2).unwrap()).unwrap()
+    }
+
+    fn position(sys: &dyn ViewSystem, i: usize) -> Vector3<f64> {
+        p3(&sys.positions(), i)
+    }
+
+    /// Pulls vertex `i` `distance` outwards (from the centroid) for `seconds` and returns the
+    /// distance to the target before and at the closest approach.
+    fn pull(
+        sys: &mut dyn ViewSystem,
+        i: usize,
+        distance: f64,
+        mode: DragMode,
+        seconds: f64,
+    ) -> (f64, f64) {
+        let x = sys.positions();
+        let n = vertex_count(&x);
+        let c = (0..n).map(|j| p3(&x, j)).sum::<Vector3<f64>>() / n as f64;
+        let start = p3(&x, i);
+        let target = start + (start - c).normalize() * distance;
+        let req = DragRequest {
+            vertex: i,
+            target: target.into(),
+            mode,
+        };
+        let t_end = sys.time() + seconds;
+        let mut best = distance;
+        while sys.time() < t_end {
+            sys.apply_drag(Some(&req)).unwrap();
+            sys.step().unwrap();
+            best = best.min((position(sys, i) - target).norm());
+        }
+        (distance, best)
+    }
+
+    #[test]
+    fn shell_grab_and_pinch_pull_the_vertex_towards_the_target() {
+        for mode in [DragMode::Grab, DragMode::Pinch] {
+            let mut v = small_shell();
+            let (d0, d1) = pull(&mut v, 0, 0.02, mode, 0.3);
+            assert!(d1 < 0.7 * d0, "{mode:?}: {d0} -> {d1}");
+        }
+        // A pinch draws the neighbours of the picked vertex together; a grab does not.
+        let spread = |mode| {
+            let mut v = small_shell();
+            let x0 = v.positions();
+            let near: Vec<usize> = (0..vertex_count(&x0))
+                .filter(|&j| j != 0 && (p3(&x0, j) - p3(&x0, 0)).norm() < v.drag_radius)
+                .collect();
+            assert!(near.len() >= 3);
+            pull(&mut v, 0, 0.0, mode, 0.2);
+            let x = v.positions();
+            near.iter()
+                .map(|&j| (p3(&x, j) - p3(&x, 0)).norm())
+                .sum::<f64>()
+                / near.len() as f64
+        };
+        let (grab, pinch) = (spread(DragMode::Grab), spread(DragMode::Pinch));
+        assert!(
+            pinch < 0.8 * grab,
+            "mean neighbour distance: grab {grab}, pinch {pinch}"
+        );
+    }
+
+    #[test]
+    fn shell_release_removes_the_forces_and_controls_act() {
+        let mut v = small_shell();
+        pull(&mut v, 3, 0.01, DragMode::Grab, 0.02);
+        assert!(!v.sim.anchor_springs().is_empty());
+        v.apply_drag(None).unwrap();
+        assert!(v.sim.anchor_springs().is_empty());
+        // Live pressure (constant gas by default).
+        assert!(
+            !v.set_control("pressure", &ControlValue::Number(500.0))
+                .unwrap()
+        );
+        v.step().unwrap();
+        assert!((v.sim.gauge_pressure() - 500.0).abs() < 1e-6);
+        // A material change asks for a rebuild, which starts over.
+        assert!(
+            v.set_control("material", &ControlValue::Choice("neo-hookean"))
+                .unwrap()
+        );
+        v.rebuild().unwrap();
+        assert_eq!(v.steps(), 0);
+        assert_eq!(
+            v.controls()
+                .iter()
+                .find(|c| c.name == "material")
+                .unwrap()
+                .value,
+            "neo-hookean"
+        );
+        assert!(
+            !v.set_control("solver", &ControlValue::Choice("cholesky"))
+                .unwrap()
+        );
+        v.step().unwrap();
+        for f in v.scalar_fields() {
+            assert_eq!(
+                v.scalar(f).unwrap().len(),
+                vertex_count(&v.positions()),
+                "{f}"
+            );
+        }
+        assert!(v.scalar("colour").is_err());
+    }
+
+    #[test]
+    fn two_layer_view_drags_an_outer_particle() {
+        let mut v = TwoLayerView::new().unwrap();
+        v.set_control("gravity", &ControlValue::Number(0.0))
+            .unwrap();
+        v.rebuild().unwrap();
+        let n = v.sim.model().layer_size;
+        // Picking inner particle 5 pulls its outer partner 5 + n.
+        let (d0, d1) = pull(&mut v, 5 + n, 0.3, DragMode::Grab, 1.0);
+        assert!(d1 < 0.5 * d0, "{d0} -> {d1}");
+        let req = DragRequest {
+            vertex: 5,
+            target: [0.0, 0.0, 3.0],
+            mode: DragMode::Grab,
+        };
+        v.apply_drag(Some(&req)).unwrap();
+        assert_eq!(v.sim.forces().drag().map(|(_, i)| i), Some(5 + n));
+        v.apply_drag(None).unwrap();
+        assert!(v.sim.forces().drag().is_none());
+        for f in v.scalar_fields() {
+            assert_eq!(v.scalar(f).unwrap().len(), 2 * n, "{f}");
+        }
+    }
+
+    #[test]
+    fn volumetric_view_drag_and_fields() {
+        let soup = crate::default_mesh(crate::SystemKind::Volumetric).unwrap();
+        let mut v = VolumetricView::new(soup).unwrap();
+        v.set_control("gravity", &ControlValue::Number(0.0))
+            .unwrap();
+        let (d0, d1) = pull(&mut v, 0, 0.02, DragMode::Grab, 0.1);
+        assert!(d1 < 0.7 * d0, "{d0} -> {d1}");
+        for f in v.scalar_fields() {
+            assert_eq!(
+                v.scalar(f).unwrap().len(),
+                vertex_count(&v.positions()),
+                "{f}"
+            );
+        }
+        let bad = DragRequest {
+            vertex: usize::MAX,
+            target: [0.0; 3],
+            mode: DragMode::Grab,
+        };
+        assert!(v.apply_drag(Some(&bad)).is_err());
     }
 }

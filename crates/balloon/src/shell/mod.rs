@@ -436,6 +436,7 @@ impl<M: Material> ShellBalloon<M> {
             dt: self.dt,
             max_step_halvings: self.max_step_halvings,
             external_forces: Vec::new(),
+            anchor_springs: Vec::new(),
         })
     }
 }
@@ -508,6 +509,8 @@ pub struct ShellSimulation<M: Material = MaterialModel, G: GasModel = Gas> {
     max_step_halvings: usize,
     /// External forces per degree of freedom (N), held constant over each step; empty = none.
     external_forces: Vec<f64>,
+    /// Zero-length springs to fixed anchors, part of the implicit solve; empty = none.
+    anchor_springs: Vec<AnchorSpring>,
 }
 
 /// Gas volume growth beyond this factor of the rest volume is reported as a runaway.
@@ -607,17 +610,25 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
         time: f64,
         dt: f64,
     ) -> Result<(balloon_integrate::implicit::StepInfo, usize), ShellError> {
-        let info = self
-            .integrator
-            .step(
+        let external = (!self.external_forces.is_empty()).then_some(&self.external_forces[..]);
+        let info = if self.anchor_springs.is_empty() {
+            self.integrator.step(
                 &mut self.system,
                 time,
                 dt,
                 &mut self.x,
                 &mut self.v,
-                (!self.external_forces.is_empty()).then_some(&self.external_forces[..]),
+                external,
             )
-            .map_err(|source| ShellError::Integrate { step, time, source })?;
+        } else {
+            let mut system = WithAnchors {
+                inner: &mut self.system,
+                springs: &self.anchor_springs,
+            };
+            self.integrator
+                .step(&mut system, time, dt, &mut self.x, &mut self.v, external)
+        }
+        .map_err(|source| ShellError::Integrate { step, time, source })?;
         let mut proj_iters = 0;
         if let Some(proj) = &mut self.projection {
             let pi = proj
@@ -868,6 +879,150 @@ impl<M: Material> ShellSimulation<M, Gas> {
     }
 }
 
+/// A zero-length spring from a vertex to a fixed anchor point: force `k (anchor - x_v)`,
+/// stiffness `k I` on the vertex, integrated implicitly with the shell (backward Euler, Eq. 18-23)
+/// so stiff springs stay stable. The live viewer grabs and pinches the shell with them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AnchorSpring {
+    /// The pulled vertex.
+    pub vertex: usize,
+    /// Anchor position, m.
+    pub anchor: [f64; 3],
+    /// Stiffness, N/m (>= 0).
+    pub stiffness: f64,
+}
+
+impl<M: Material, G: GasModel> ShellSimulation<M, G> {
+    /// Replaces the anchor springs acting in the following steps (an empty list removes them).
+    /// Every vertex must exist, every anchor be finite and every stiffness finite and >= 0.
+    pub fn set_anchor_springs(&mut self, springs: Vec<AnchorSpring>) -> Result<(), ShellError> {
+        let nv = self.x.len() / 3;
+        for s in &springs {
+            if s.vertex >= nv {
+                return Err(ShellError::InvalidParameter {
+                    name: "anchor spring vertex",
+                    value: s.vertex.to_string(),
+                    reason: format!("the shell has {nv} vertices"),
+                });
+            }
+            let ok = s.stiffness.is_finite()
+                && s.stiffness >= 0.0
+                && s.anchor.iter().all(|c| c.is_finite());
+            if !ok {
+                return Err(ShellError::InvalidParameter {
+                    name: "anchor spring",
+                    value: format!("{s:?}"),
+                    reason: "the anchor must be finite and the stiffness finite and >= 0".into(),
+                });
+            }
+        }
+        self.anchor_springs = springs;
+        Ok(())
+    }
+
+    /// The anchor springs set by [`ShellSimulation::set_anchor_springs`].
+    pub fn anchor_springs(&self) -> &[AnchorSpring] {
+        &self.anchor_springs
+    }
+}
+
+/// A force system plus anchor springs (their force, differential and stiffness entries added to
+/// the inner system's).
+struct WithAnchors<'a, S> {
+    inner: &'a mut S,
+    springs: &'a [AnchorSpring],
+}
+
+impl<S: ForceSystem> ForceSystem for WithAnchors<'_, S> {
+    fn num_dofs(&self) -> usize {
+        self.inner.num_dofs()
+    }
+
+    fn masses(&self) -> &[f64] {
+        self.inner.masses()
+    }
+
+    fn forces(
+        &mut self,
+        time: f64,
+        x: &[f64],
+        f: &mut [f64],
+    ) -> Result<(), balloon_integrate::SystemError> {
+        self.inner.forces(time, x, f)?;
+        for s in self.springs {
+            for d in 0..3 {
+                f[3 * s.vertex + d] += s.stiffness * (s.anchor[d] - x[3 * s.vertex + d]);
+            }
+        }
+        Ok(())
+    }
+
+    fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+        self.inner.add_force_differential(dx, df);
+        for s in self.springs {
+            for d in 0..3 {
+                df[3 * s.vertex + d] -= s.stiffness * dx[3 * s.vertex + d];
+            }
+        }
+    }
+
+    fn add_stiffness_triplets(
+        &self,
+        triplets: &mut Vec<(usize, usize, f64)>,
+    ) -> Result<(), balloon_integrate::SystemError> {
+        self.inner.add_stiffness_triplets(triplets)?;
+        self.add_spring_triplets(triplets);
+        Ok(())
+    }
+
+    fn stiffness_blocks(&self) -> Option<balloon_integrate::StiffnessBlocks<'_>> {
+        self.inner.stiffness_blocks()
+    }
+
+    fn add_remaining_stiffness_triplets(
+        &self,
+        triplets: &mut Vec<(usize, usize, f64)>,
+    ) -> Result<(), balloon_integrate::SystemError> {
+        self.inner.add_remaining_stiffness_triplets(triplets)?;
+        self.add_spring_triplets(triplets);
+        Ok(())
+    }
+
+    fn add_stiffness_diagonal(
+        &self,
+        diagonal: &mut [f64],
+    ) -> Result<(), balloon_integrate::SystemError> {
+        self.inner.add_stiffness_diagonal(diagonal)?;
+        for s in self.springs {
+            for d in 0..3 {
+                diagonal[3 * s.vertex + d] += s.stiffness;
+            }
+        }
+        Ok(())
+    }
+
+    fn set_tangent(
+        &mut self,
+        kind: balloon_integrate::TangentKind,
+    ) -> Result<(), balloon_integrate::SystemError> {
+        self.inner.set_tangent(kind)
+    }
+
+    fn low_rank_terms(&self) -> &[balloon_integrate::LowRankTerm] {
+        self.inner.low_rank_terms()
+    }
+}
+
+impl<S> WithAnchors<'_, S> {
+    fn add_spring_triplets(&self, triplets: &mut Vec<(usize, usize, f64)>) {
+        for s in self.springs {
+            for d in 0..3 {
+                triplets.push((3 * s.vertex + d, 3 * s.vertex + d, s.stiffness));
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod viewer_api_tests {
     use super::*;
@@ -973,5 +1128,74 @@ mod viewer_api_tests {
         assert!(pump.gas_volume() > v0);
         assert!(pump.set_pump_rate(-1.0).is_err());
         assert!(pump.set_gauge_pressure(100.0).is_err());
+    }
+
+    #[test]
+    fn stiff_anchor_springs_pull_a_vertex_out_stably_with_every_solver() {
+        for solver in [
+            LinearSolverKind::Pcg,
+            LinearSolverKind::Cholesky,
+            LinearSolverKind::MatrixFreeCg,
+        ] {
+            let mesh = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
+            let mut sim = ShellBalloon::new(mesh)
+                .with_gas(GasKind::Constant)
+                .with_gauge_pressure(1000.0)
+                .with_linear_solver(solver)
+                .build()
+                .unwrap();
+            let start = Vector3::new(sim.positions()[0], sim.positions()[1], sim.positions()[2]);
+            let target = start * 1.3;
+            // 1000 N/m on a vertex of ~0.2 g at dt = 10 ms: k dt^2 / m ~ 500, far beyond what an
+            // explicit spring survives.
+            sim.set_anchor_springs(vec![AnchorSpring {
+                vertex: 0,
+                anchor: target.into(),
+                stiffness: 1000.0,
+            }])
+            .unwrap();
+            for _ in 0..30 {
+                sim.step().unwrap();
+            }
+            let x = sim.positions();
+            let now = Vector3::new(x[0], x[1], x[2]);
+            // A free balloon follows the vertex: it reaches the target without blowing up.
+            assert!(
+                (now - target).norm() < 0.5 * (start - target).norm(),
+                "{solver:?}: {start:?} -> {now:?}, target {target:?}"
+            );
+            sim.set_anchor_springs(Vec::new()).unwrap();
+            assert!(sim.anchor_springs().is_empty());
+        }
+        // The same spring as an explicit external force does not survive.
+        let mesh = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
+        let mut sim = ShellBalloon::new(mesh)
+            .with_gas(GasKind::Constant)
+            .with_gauge_pressure(1000.0)
+            .build()
+            .unwrap();
+        let target: Vec<f64> = sim.positions()[..3].iter().map(|c| 1.3 * c).collect();
+        let explicit = (0..30).try_for_each(|_| {
+            let mut f = vec![0.0; sim.positions().len()];
+            for d in 0..3 {
+                f[d] = 1000.0 * (target[d] - sim.positions()[d]);
+            }
+            sim.set_external_forces(Some(&f))?;
+            sim.step().map(|_| ())
+        });
+        assert!(
+            explicit.is_err(),
+            "the explicit spring survived: {explicit:?}"
+        );
+        let mesh = balloon_mesh::generate::icosphere(0.1, 1).unwrap();
+        let mut sim = ShellBalloon::new(mesh).build().unwrap();
+        let bad = |vertex, stiffness: f64| AnchorSpring {
+            vertex,
+            anchor: [0.0; 3],
+            stiffness,
+        };
+        assert!(sim.set_anchor_springs(vec![bad(1000, 1.0)]).is_err());
+        assert!(sim.set_anchor_springs(vec![bad(0, -1.0)]).is_err());
+        assert!(sim.set_anchor_springs(vec![bad(0, f64::NAN)]).is_err());
     }
 }
