@@ -178,7 +178,11 @@ const STYLE_FIELDS: &[ColorField] = &[
 ];
 
 fn style() -> PictureStyle {
-    PictureStyle::new("inflate", UpAxis::Y, ColorField::Thickness, STYLE_FIELDS)
+    PictureStyle {
+        // Validated closed and outward oriented by the builder.
+        closed: true,
+        ..PictureStyle::new("inflate", UpAxis::Y, ColorField::Thickness, STYLE_FIELDS)
+    }
 }
 
 /// The current state as a frame with its fields: velocity, speed, pressure force (Eq. 15),

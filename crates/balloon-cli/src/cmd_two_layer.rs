@@ -290,6 +290,9 @@ fn style(dim: u8) -> PictureStyle {
             up: UpAxis::Y,
             projection: Projection::Orthographic,
         };
+    } else {
+        // Both layers are closed, outward-oriented spheres.
+        s.closed = true;
     }
     s
 }

@@ -289,6 +289,8 @@ pub struct PictureStyle {
     pub default_color: ColorField,
     /// Colours this system can provide.
     pub available: &'static [ColorField],
+    /// The surface is closed and outward oriented, so back faces can be skipped when drawing.
+    pub closed: bool,
 }
 
 impl PictureStyle {
@@ -309,6 +311,7 @@ impl PictureStyle {
             },
             default_color,
             available,
+            closed: false,
         }
     }
 }
@@ -660,6 +663,7 @@ fn render_options(
     RenderOptions {
         camera: p.style.camera,
         color_scale,
+        cull_back_faces: p.style.closed,
         title: Some(format!(
             "{}  step {}  t = {} s",
             p.style.system,

@@ -28,6 +28,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{} triangles, 640x480: {ms:.2} ms per frame (mean of {n})",
         mesh.num_triangles()
     );
+    let culled = RenderOptions {
+        cull_back_faces: true,
+        ..opts.clone()
+    };
+    let t = Instant::now();
+    for _ in 0..n {
+        r.render(&surface, &culled, None)?;
+    }
+    let ms = t.elapsed().as_secs_f64() * 1e3 / n as f64;
+    println!("  with back-face culling: {ms:.2} ms per frame (mean of {n})");
     if let Some(path) = std::env::args().nth(1) {
         r.render(&surface, &opts, None)?
             .write_png(std::path::Path::new(&path))?;
