@@ -102,6 +102,7 @@ struct ShellSettings {
     young_mpa: f64,
     dt: f64,
     solver: &'static str,
+    hold: bool,
 }
 
 /// Grab/pinch state of the shell: the picked vertex, its neighbourhood with weights and rest
@@ -122,12 +123,17 @@ pub struct ShellView {
     drag: Option<ShellDrag>,
     /// Drag neighbourhood radius, m (a fraction of the rest bounding-box diagonal).
     drag_radius: f64,
+    /// The lowest vertices (along +y) at rest, held by springs to their rest positions when the
+    /// `hold` control is on, like a hand holding a balloon at its knot.
+    held: Vec<(usize, [f64; 3])>,
 }
 
 /// Stiffness of the shell drag springs in units of the membrane stiffness `E h` (N/m): vertex
 /// `i` of the neighbourhood gets `w_i SHELL_DRAG_STIFFNESS E h`. The springs are part of the
 /// implicit solve ([`ShellSimulation::set_anchor_springs`]), so they may be stiff.
 const SHELL_DRAG_STIFFNESS: f64 = 10.0;
+/// The vertices within this fraction of the height above the lowest one are held (`hold`).
+const HELD_FRACTION: f64 = 0.04;
 /// A pinch pulls the neighbourhood to this fraction of its size around the target.
 const PINCH_SCALE: f64 = 0.3;
 
@@ -143,15 +149,27 @@ impl ShellView {
             young_mpa: 1.0,
             dt: 0.01,
             solver: "pcg",
+            hold: true,
         };
         let sim = Self::build(&mesh, &settings)?;
-        let drag_radius = 0.12 * bbox_diagonal(sim.positions());
+        let x = sim.positions();
+        let drag_radius = 0.12 * bbox_diagonal(x);
+        let (lo, hi) = x
+            .chunks_exact(3)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), c| {
+                (a.min(c[1]), b.max(c[1]))
+            });
+        let held = (0..vertex_count(x))
+            .filter(|&i| x[3 * i + 1] <= lo + HELD_FRACTION * (hi - lo))
+            .map(|i| (i, [x[3 * i], x[3 * i + 1], x[3 * i + 2]]))
+            .collect();
         Ok(Self {
             mesh,
             settings,
             sim,
             drag: None,
             drag_radius,
+            held,
         })
     }
 
@@ -236,6 +254,7 @@ impl ViewSystem for ShellView {
                 &["pcg", "cholesky", "matrix-free-cg"],
                 false,
             ),
+            ControlSpec::boolean("hold", "Hold the bottom (springs to rest)", s.hold, false),
         ]
     }
 
@@ -273,6 +292,10 @@ impl ViewSystem for ShellView {
                 let kind: LinearSolverKind = value.choice().parse().map_err(|e| format!("{e}"))?;
                 self.sim.integrator_params_mut().linear.kind = kind;
                 s.solver = value.choice();
+                return Ok(false);
+            }
+            "hold" => {
+                s.hold = value.boolean();
                 return Ok(false);
             }
             other => return Err(format!("unknown control `{other}`")),
@@ -349,54 +372,60 @@ impl ViewSystem for ShellView {
     }
 
     fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
-        let Some(d) = drag else {
-            self.drag = None;
-            return self
-                .sim
-                .set_anchor_springs(Vec::new())
-                .map_err(|e| e.to_string());
-        };
-        let x = self.sim.positions();
-        let restart = self
-            .drag
-            .as_ref()
-            .is_none_or(|s| s.vertex != d.vertex || s.mode != d.mode);
-        if restart {
-            let c = p3(x, d.vertex);
-            let r = self.drag_radius;
-            let neighbours = (0..vertex_count(x))
-                .filter_map(|i| {
-                    let o = p3(x, i) - c;
-                    let q = o.norm() / r;
-                    (q < 1.0).then_some((i, 1.0 - q * q, o))
-                })
-                .collect();
-            self.drag = Some(ShellDrag {
-                vertex: d.vertex,
-                mode: d.mode,
-                neighbours,
-            });
-        }
-        let state = self.drag.as_ref().expect("drag set above");
-        let target = Vector3::from(d.target);
-        let scale = match state.mode {
-            DragMode::Grab => 1.0,
-            DragMode::Pinch => PINCH_SCALE,
-        };
         let k = SHELL_DRAG_STIFFNESS
             * self.settings.young_mpa
             * 1e6
             * self.settings.thickness_mm
             * 1e-3;
-        let springs = state
-            .neighbours
-            .iter()
-            .map(|&(i, w, o)| AnchorSpring {
-                vertex: i,
-                anchor: (target + o * scale).into(),
-                stiffness: w * k,
-            })
-            .collect();
+        let mut springs: Vec<AnchorSpring> = if self.settings.hold {
+            self.held
+                .iter()
+                .map(|&(vertex, anchor)| AnchorSpring {
+                    vertex,
+                    anchor,
+                    stiffness: k,
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        match drag {
+            None => self.drag = None,
+            Some(d) => {
+                let x = self.sim.positions();
+                let restart = self
+                    .drag
+                    .as_ref()
+                    .is_none_or(|s| s.vertex != d.vertex || s.mode != d.mode);
+                if restart {
+                    let c = p3(x, d.vertex);
+                    let r = self.drag_radius;
+                    let neighbours = (0..vertex_count(x))
+                        .filter_map(|i| {
+                            let o = p3(x, i) - c;
+                            let q = o.norm() / r;
+                            (q < 1.0).then_some((i, 1.0 - q * q, o))
+                        })
+                        .collect();
+                    self.drag = Some(ShellDrag {
+                        vertex: d.vertex,
+                        mode: d.mode,
+                        neighbours,
+                    });
+                }
+                let state = self.drag.as_ref().expect("drag set above");
+                let target = Vector3::from(d.target);
+                let scale = match state.mode {
+                    DragMode::Grab => 1.0,
+                    DragMode::Pinch => PINCH_SCALE,
+                };
+                springs.extend(state.neighbours.iter().map(|&(i, w, o)| AnchorSpring {
+                    vertex: i,
+                    anchor: (target + o * scale).into(),
+                    stiffness: w * k,
+                }));
+            }
+        }
         self.sim
             .set_anchor_springs(springs)
             .map_err(|e| e.to_string())
@@ -422,8 +451,8 @@ pub struct VolumetricView {
     drag: Option<DragRequest>,
 }
 
-/// Volumetric drag spring: `k = VOLUMETRIC_DRAG_GAIN m / dt^2` with `m` the mass of the four
-/// particles that carry the picked surface vertex (explicit, so below the stability limit 4).
+/// Volumetric drag spring: `k = VOLUMETRIC_DRAG_GAIN m / dt^2` with `m` the effective mass of the
+/// picked surface point (see `apply_drag`; explicit, so far below the stability limit 4).
 const VOLUMETRIC_DRAG_GAIN: f64 = 0.05;
 
 /// Relative cell-volume tolerance of the volumetric view.
@@ -664,17 +693,30 @@ impl ViewSystem for VolumetricView {
         );
         let mut p = Vector3::zeros();
         let mut vel = Vector3::zeros();
-        let mut mass = 0.0;
+        // A force F on the embedded point spread as w_j F accelerates the point by
+        // F sum w_j^2 / m_j: its effective mass is 1 / sum w_j^2 / m_j (weights may be negative
+        // or above 1 outside the lattice, so the plain sum of masses would be wrong).
+        let mut inv_mass = 0.0;
         for (&i, &w) in e.particles.iter().zip(&e.weights) {
             p += x[i].coords * w;
             vel += v[i] * w;
-            mass += m[i];
+            inv_mass += w * w / m[i];
         }
+        let mass = 1.0 / inv_mass;
         let dt = self.sim.body().params.dt;
         let k = VOLUMETRIC_DRAG_GAIN * mass / (dt * dt);
         // Critically damped for the pulled mass.
         let c = 2.0 * (k * mass).sqrt();
-        let force = k * (Vector3::from(d.target) - p) - c * vel;
+        // The spring stretches at most half a lattice cell: a far target pulls the body along
+        // instead of tearing the picked cell inside out.
+        let reach = 0.5 * self.sim.lattice().info.cell_size;
+        let pull = Vector3::from(d.target) - p;
+        let pull = if pull.norm() > reach {
+            pull * (reach / pull.norm())
+        } else {
+            pull
+        };
+        let force = k * pull - c * vel;
         let mut f = vec![Vector3::zeros(); x.len()];
         for (&i, &w) in e.particles.iter().zip(&e.weights) {
             f[i] += force * w;
@@ -1007,8 +1049,13 @@ mod tests {
     #[test]
     fn shell_release_removes_the_forces_and_controls_act() {
         let mut v = small_shell();
+        let held = v.held.len();
+        assert!(held > 0);
         pull(&mut v, 3, 0.01, DragMode::Grab, 0.02);
-        assert!(!v.sim.anchor_springs().is_empty());
+        assert!(v.sim.anchor_springs().len() > held);
+        v.apply_drag(None).unwrap();
+        assert_eq!(v.sim.anchor_springs().len(), held);
+        v.set_control("hold", &ControlValue::Bool(false)).unwrap();
         v.apply_drag(None).unwrap();
         assert!(v.sim.anchor_springs().is_empty());
         // Live pressure (constant gas by default).
@@ -1086,6 +1133,17 @@ mod tests {
                 vertex_count(&v.positions()),
                 "{f}"
             );
+        }
+        // A far target (1 m away) does not invert cells.
+        let far = DragRequest {
+            vertex: 7,
+            target: [1.0, 0.5, 0.0],
+            mode: DragMode::Grab,
+        };
+        let t_end = v.time() + 0.1;
+        while v.time() < t_end {
+            v.apply_drag(Some(&far)).unwrap();
+            v.step().unwrap();
         }
         let bad = DragRequest {
             vertex: usize::MAX,

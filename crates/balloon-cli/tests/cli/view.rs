@@ -158,12 +158,24 @@ fn wait_for(addr: &str, what: &str, ok: impl Fn(&Value) -> bool) -> Value {
 }
 
 /// Grabs vertex `i` and pulls it `distance` (m) outwards from the body's centroid; within
-/// 2 s of simulation the vertex must come nearer to the target than 0.8 x its start distance.
-fn drag_moves_vertex(addr: &str, ws: &mut WebSocket<TcpStream>, i: usize, distance: f64) {
+/// 2 s of simulation the vertex must come nearer to the target than 0.8 x its start distance
+/// and, relative to the centroid, move along the pull by `min_relative` x the bounding-box
+/// diagonal (the body deforms, it is not only carried along).
+fn drag_moves_vertex(
+    addr: &str,
+    ws: &mut WebSocket<TcpStream>,
+    i: usize,
+    distance: f64,
+    min_relative: f64,
+) {
     send(ws, json!({"type": "pause"}));
     let s = wait_for(addr, "pause", |s| s["paused"] == true);
     let before = vertex_position(addr, i);
     let c = [0, 1, 2].map(|d| s["centroid"][d].as_f64().unwrap());
+    let diag = dist(
+        [0, 1, 2].map(|d| s["bbox_min"][d].as_f64().unwrap()),
+        [0, 1, 2].map(|d| s["bbox_max"][d].as_f64().unwrap()),
+    );
     let r = dist(before, c);
     let target = [0, 1, 2].map(|d| before[d] + distance * (before[d] - c[d]) / r);
     send(
@@ -177,6 +189,7 @@ fn drag_moves_vertex(addr: &str, ws: &mut WebSocket<TcpStream>, i: usize, distan
     let t0 = s["time"].as_f64().unwrap();
     let d0 = dist(before, target);
     let mut best = d0;
+    let mut relative = f64::NEG_INFINITY;
     let deadline = Instant::now() + Duration::from_secs(15);
     loop {
         let s = state(addr, "");
@@ -184,7 +197,16 @@ fn drag_moves_vertex(addr: &str, ws: &mut WebSocket<TcpStream>, i: usize, distan
         let p = &s["drag"]["position"];
         let now = [0, 1, 2].map(|d| p[d].as_f64().unwrap());
         best = best.min(dist(now, target));
-        if best < 0.8 * d0 || s["time"].as_f64().unwrap() > t0 + 2.0 {
+        let c_now = [0, 1, 2].map(|d| s["centroid"][d].as_f64().unwrap());
+        // Outward movement relative to the centroid, along the pull.
+        relative = relative.max(
+            (0..3)
+                .map(|d| ((now[d] - c_now[d]) - (before[d] - c[d])) * (before[d] - c[d]) / r)
+                .sum::<f64>(),
+        );
+        if (best < 0.8 * d0 && relative >= min_relative * diag)
+            || s["time"].as_f64().unwrap() > t0 + 2.0
+        {
             break;
         }
         assert!(Instant::now() < deadline, "simulation too slow: {s}");
@@ -193,6 +215,10 @@ fn drag_moves_vertex(addr: &str, ws: &mut WebSocket<TcpStream>, i: usize, distan
     assert!(
         best < 0.8 * d0,
         "vertex {i}: distance to the target {d0} -> at best {best} (start {before:?})"
+    );
+    assert!(
+        relative >= min_relative * diag,
+        "vertex {i}: moved {relative} m relative to the centroid, want {min_relative} x {diag} m"
     );
     send(ws, json!({"type": "release"}));
     wait_for(addr, "the release", |s| s["drag"].is_null());
@@ -315,7 +341,7 @@ fn view_shell_serves_page_state_frames_controls_and_drags() {
 
     // Grab the vertex farthest from the centroid and pull it outwards by 3 cm.
     let top = farthest_vertex(&next_of(&mut ws, "frame"));
-    drag_moves_vertex(&srv.addr, &mut ws, top, 0.03);
+    drag_moves_vertex(&srv.addr, &mut ws, top, 0.03, 0.02);
 
     // Pause stops the frame counter of the simulation; reset rebuilds and says hello again.
     send(&mut ws, json!({"type": "pause"}));
@@ -359,7 +385,7 @@ fn view_volumetric_streams_the_embedded_surface_and_drags_it() {
     );
     wait_for(&srv.addr, "gravity 0", |s| s["controls"]["gravity"] == 0.0);
     let v = farthest_vertex(&f);
-    drag_moves_vertex(&srv.addr, &mut ws, v, 0.03);
+    drag_moves_vertex(&srv.addr, &mut ws, v, 0.03, 0.0);
 }
 
 #[test]
@@ -399,7 +425,7 @@ fn view_two_layer_drags_the_picked_particle() {
     let f = next_of(&mut ws, "frame");
     let v = farthest_vertex(&f);
     assert!(v >= n / 2, "the farthest vertex {v} is an outer particle");
-    drag_moves_vertex(&srv.addr, &mut ws, v, 0.3);
+    drag_moves_vertex(&srv.addr, &mut ws, v, 0.3, 0.0);
 }
 
 #[test]
