@@ -314,7 +314,7 @@ impl Renderer {
                 continue;
             }
             let area = (p1[0] - p0[0]) * (p2[1] - p0[1]) - (p2[0] - p0[0]) * (p1[1] - p0[1]);
-            if area.abs() < 1e-9 {
+            if !area.is_finite() || area.abs() < 1e-9 {
                 continue;
             }
             // Screen y points down, so a counter-clockwise (outward, towards the eye) triangle
