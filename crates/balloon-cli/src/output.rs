@@ -535,7 +535,12 @@ impl OutputDir {
                 p.triangles = last.triangles.clone();
             }
             let colors = last.color_values(p.color)?;
-            let opts = render_options(p, last, colors.as_ref().map(|c| &c.0), None);
+            let opts = render_options(
+                p,
+                (last.step, last.time),
+                colors.as_ref().map(|c| &c.0),
+                None,
+            );
             let mut surface = Surface::new(&last.positions, &last.triangles);
             if let Some((c, _)) = &colors {
                 surface = surface.with_scalars(c);
@@ -643,9 +648,11 @@ impl OutputDir {
     }
 }
 
+/// Options for a picture of step `step` at time `time`: the system's camera, a colour scale over
+/// `range` (or the range of `colors`), and a title naming the system, step and time.
 fn render_options(
     p: &Pictures,
-    frame: &Frame,
+    (step, time): (usize, f64),
     colors: Option<&Vec<f64>>,
     range: Option<(f64, f64)>,
 ) -> RenderOptions {
@@ -667,8 +674,8 @@ fn render_options(
         title: Some(format!(
             "{}  step {}  t = {} s",
             p.style.system,
-            frame.step,
-            balloon_render::format_tick(frame.time)
+            step,
+            balloon_render::format_tick(time)
         )),
         ..RenderOptions::new(p.size.0, p.size.1)
     }
@@ -679,7 +686,12 @@ fn render_png(p: &mut Pictures, dir: &Path, frame: &Frame) -> Result<()> {
     if let Some((_, label)) = &colors {
         p.label = label;
     }
-    let opts = render_options(p, frame, colors.as_ref().map(|c| &c.0), None);
+    let opts = render_options(
+        p,
+        (frame.step, frame.time),
+        colors.as_ref().map(|c| &c.0),
+        None,
+    );
     let mut surface = Surface::new(&frame.positions, &frame.triangles);
     if let Some((c, _)) = &colors {
         surface = surface.with_scalars(c);
@@ -751,8 +763,7 @@ fn write_gif(p: &mut Pictures, path: &Path) -> Result<()> {
     let mut gif = GifWriter::create(path, p.size.0, p.size.1)?;
     let frames = std::mem::take(&mut p.gif_frames);
     for g in &frames {
-        let f = Frame::new(g.step, g.time, Vec::new(), Vec::new());
-        let opts = render_options(p, &f, g.colors.as_ref(), range);
+        let opts = render_options(p, (g.step, g.time), g.colors.as_ref(), range);
         let mut surface = Surface::new(&g.positions, &p.triangles);
         if let Some(c) = &g.colors {
             surface = surface.with_scalars(c);
