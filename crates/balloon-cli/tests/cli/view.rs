@@ -529,3 +529,39 @@ fn view_missing_browser_prints_the_url_and_keeps_serving() {
     );
     assert!(err.contains("open http://127.0.0.1:"), "{err}");
 }
+
+#[test]
+fn view_starts_the_given_browser_with_the_url() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("opened.txt");
+    let script = dir.path().join("browser.sh");
+    std::fs::write(
+        &script,
+        format!("#!/bin/sh\necho \"$1\" > {}\n", log.display()),
+    )
+    .unwrap();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&script, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let out = run_view(&[
+        "two-layer",
+        "--browser",
+        script.to_str().unwrap(),
+        "--exit-after",
+        "1",
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("could not open"), "{err}");
+    let url = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .next()
+        .unwrap()
+        .rsplit(' ')
+        .next()
+        .unwrap()
+        .to_string();
+    assert_eq!(std::fs::read_to_string(&log).unwrap().trim(), url);
+}
