@@ -85,6 +85,7 @@ pub struct Runner {
     anchor_time: f64,
     last_publish: Option<Instant>,
     dirty: bool,
+    pending_hello: Option<String>,
 }
 
 fn f32s(v: &[f64]) -> Vec<f32> {
@@ -110,6 +111,7 @@ impl Runner {
             anchor_time: time,
             last_publish: None,
             dirty: true,
+            pending_hello: None,
         };
         r.publish_hello();
         r.publish_frame();
@@ -135,9 +137,9 @@ impl Runner {
             "up": self.system.up(),
             "dt": self.system.dt(),
         });
-        let mut p = self.shared.lock();
-        p.hello = Arc::new(hello.to_string());
-        p.hello_generation += 1;
+        // Published together with the next frame (see `publish_frame`), so a client never sees
+        // a new hello with an old frame or the reverse.
+        self.pending_hello = Some(hello.to_string());
     }
 
     fn broadcast(&mut self, message: String) {
@@ -225,6 +227,10 @@ impl Runner {
             "stats": self.system.stats(),
         });
         let mut p = self.shared.lock();
+        if let Some(hello) = self.pending_hello.take() {
+            p.hello = Arc::new(hello);
+            p.hello_generation += 1;
+        }
         p.frame = Arc::new(frame.to_string());
         p.frame_number = self.frame_number;
         p.state = state.as_object().cloned().unwrap_or_default();
@@ -244,7 +250,7 @@ impl Runner {
         }
         self.reanchor();
         self.publish_hello();
-        self.dirty = true;
+        self.publish_frame();
         Ok(())
     }
 
