@@ -88,6 +88,16 @@ pub struct Runner {
     pending_hello: Option<String>,
 }
 
+/// The text of a caught panic.
+fn panic_text(panic: &(dyn std::any::Any + Send)) -> String {
+    let what = panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into());
+    format!("internal error: {what}")
+}
+
 fn f32s(v: &[f64]) -> Vec<f32> {
     v.iter().map(|&x| x as f32).collect()
 }
@@ -334,6 +344,16 @@ impl Runner {
         }
     }
 
+    /// [`Runner::handle`], with a panic turned into a failure (pause, `last_error`).
+    fn handle_safely(&mut self, message: ClientMessage) -> Result<(), String> {
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.handle(message)))
+            .unwrap_or_else(|panic| {
+                let text = panic_text(panic.as_ref());
+                self.fail(text.clone());
+                Err(text)
+            })
+    }
+
     /// Runs until a `Shutdown` command, the shared shutdown flag or a closed channel.
     pub fn run(mut self, commands: Receiver<Command>) {
         loop {
@@ -342,7 +362,7 @@ impl Runner {
                 match commands.try_recv() {
                     Ok(Command::Shutdown) => return,
                     Ok(Command::Client { message, reply }) => {
-                        if let Err(e) = self.handle(message) {
+                        if let Err(e) = self.handle_safely(message) {
                             let _ = reply.send(error_message(&e));
                         }
                     }
@@ -366,10 +386,15 @@ impl Runner {
                         self.reanchor();
                     }
                     let drag = self.drag;
-                    let result = self
-                        .system
-                        .apply_drag(drag.as_ref())
-                        .and_then(|()| self.system.step());
+                    let system = &mut self.system;
+                    // A panic inside a solver must not end the thread: it becomes a failure
+                    // (the state may be inconsistent, so only a reset goes on).
+                    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        system
+                            .apply_drag(drag.as_ref())
+                            .and_then(|()| system.step())
+                    }))
+                    .unwrap_or_else(|panic| Err(panic_text(panic.as_ref())));
                     match result {
                         Ok(()) => self.dirty = true,
                         Err(e) => self.fail(e),
@@ -386,7 +411,7 @@ impl Runner {
                 match commands.recv_timeout(w) {
                     Ok(Command::Shutdown) => return,
                     Ok(Command::Client { message, reply }) => {
-                        if let Err(e) = self.handle(message) {
+                        if let Err(e) = self.handle_safely(message) {
                             let _ = reply.send(error_message(&e));
                         }
                     }
@@ -470,6 +495,9 @@ mod tests {
             0.01
         }
         fn step(&mut self) -> Result<(), String> {
+            if self.speed == 9.0 {
+                panic!("toy panic");
+            }
             if self.fail_at == Some(self.steps) {
                 return Err(format!("toy failure at step {}", self.steps));
             }
@@ -629,5 +657,46 @@ mod tests {
         // The toy steps in no time: real time holds it back (one publish interval of slack).
         assert!(time <= wall + 0.05, "sim {time} s after {wall} s");
         assert!(time >= 0.5 * wall - 0.05, "sim {time} s after {wall} s");
+    }
+
+    #[test]
+    fn a_panicking_step_pauses_instead_of_killing_the_thread() {
+        let (r, shared) = runner(None);
+        let (tx, rx) = std::sync::mpsc::channel();
+        let (reply, _replies) = std::sync::mpsc::channel();
+        let thread = std::thread::spawn(move || r.run(rx));
+        tx.send(Command::Client {
+            message: ClientMessage::Control {
+                name: "speed".into(),
+                value: json!(9.0),
+            },
+            reply: reply.clone(),
+        })
+        .unwrap();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while shared.lock().state["paused"] != true {
+            assert!(Instant::now() < deadline, "no pause after the panic");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let e = shared.lock().state["last_error"]
+            .as_str()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("internal error") && e.contains("toy panic"),
+            "{e}"
+        );
+        // The thread still answers.
+        tx.send(Command::Client {
+            message: ClientMessage::Scalar { name: "y".into() },
+            reply,
+        })
+        .unwrap();
+        while shared.lock().state["scalar"] != "y" {
+            assert!(Instant::now() < deadline, "the thread no longer answers");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        tx.send(Command::Shutdown).unwrap();
+        thread.join().unwrap();
     }
 }
