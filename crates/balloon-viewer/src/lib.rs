@@ -13,11 +13,14 @@
 //!   frames instead of queueing them.
 //! * A failing step pauses the simulation and sends an `error` message to every client; the
 //!   server keeps running and `reset` rebuilds.
-//! * Drags (seed 004 Sec. 4.4's mouse spring): the shell gets per-vertex spring forces on the
-//!   picked vertex's neighbourhood as the external forces of backward Euler; the volumetric
-//!   body a damped spring on the picked surface point, spread to the four particles that carry
-//!   it by their barycentric weights and applied as an impulse `h F` in each step (Eq. 1); the
-//!   two-layer object seed 004's drag spring on the picked outer particle.
+//! * Drags (seed 004 Sec. 4.4's mouse spring): the shell gets zero-length springs from the
+//!   picked vertex's neighbourhood to the target, inside backward Euler's implicit solve
+//!   (`ShellSimulation::set_anchor_springs`; a pinch squeezes the neighbourhood towards the
+//!   target); the volumetric body a damped spring on the picked surface point, spread to the four
+//!   particles that carry it by their barycentric weights and applied as an impulse `h F` in each
+//!   step (seed 003, Eq. 1); the two-layer object seed 004's drag spring on the picked outer
+//!   particle.
+//! * A panic inside a step or a command is caught and treated like a failing step.
 
 pub mod protocol;
 mod runner;
