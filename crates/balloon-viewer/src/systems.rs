@@ -464,7 +464,7 @@ impl VolumetricView {
     /// A volumetric view of the soup `soup` (m) with the default controls.
     pub fn new(soup: TriMesh) -> Result<Self, String> {
         let settings = VolumetricSettings {
-            stiffness: 0.04,
+            stiffness: 0.1,
             // The paper's scaling correction gains energy on the floor and inverts cells of the
             // coarse teddy within a second; the gradient correction does not (measured with the
             // `volumetric_view_*` tests).
@@ -549,7 +549,7 @@ impl ViewSystem for VolumetricView {
                 "stiffness",
                 "Cell spring stiffness k dt^2 / m",
                 s.stiffness,
-                (0.002, 0.1, 0.002),
+                (0.002, 0.3, 0.002),
                 "",
                 true,
             ),
