@@ -448,7 +448,6 @@ pub struct VolumetricView {
     soup: TriMesh,
     settings: VolumetricSettings,
     sim: VolumetricSimulation,
-    drag: Option<DragRequest>,
 }
 
 /// Volumetric drag spring: `k = VOLUMETRIC_DRAG_GAIN m / dt^2` with `m` the effective mass of the
@@ -477,7 +476,6 @@ impl VolumetricView {
             soup,
             settings,
             sim,
-            drag: None,
         })
     }
 
@@ -596,7 +594,6 @@ impl ViewSystem for VolumetricView {
 
     fn rebuild(&mut self) -> Result<(), String> {
         self.sim = Self::build(&self.soup, &self.settings)?;
-        self.drag = None;
         Ok(())
     }
 
@@ -672,7 +669,6 @@ impl ViewSystem for VolumetricView {
     }
 
     fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
-        self.drag = drag.copied();
         let Some(d) = drag else {
             return self
                 .sim
