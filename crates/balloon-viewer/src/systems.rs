@@ -348,7 +348,13 @@ impl ViewSystem for ShellView {
     }
 
     fn scalar_fields(&self) -> Vec<&'static str> {
-        vec!["thickness", "stretch", "max_stretch", "speed"]
+        vec![
+            "thickness",
+            "stretch",
+            "max_stretch",
+            "speed",
+            "pressure_force",
+        ]
     }
 
     fn scalar(&self, name: &str) -> Result<Vec<f64>, String> {
@@ -362,6 +368,12 @@ impl ViewSystem for ShellView {
                 fields::face_max_stretch(self.sim.rest_positions(), x, t).map_err(field_err)?
             }
             "speed" => return fields::vertex_speeds(self.sim.velocities()).map_err(field_err),
+            "pressure_force" => {
+                // |f_p| per vertex (seed 000 Eq. 15), the norm of each vertex's 3-vector.
+                let f =
+                    fields::pressure_forces(x, t, self.sim.gauge_pressure()).map_err(field_err)?;
+                return fields::vertex_speeds(&f).map_err(field_err);
+            }
             other => return Err(format!("unknown scalar field `{other}`")),
         };
         fields::face_to_vertex(x, t, &per_face).map_err(field_err)
@@ -1147,5 +1159,22 @@ mod tests {
             mode: DragMode::Grab,
         };
         assert!(v.apply_drag(Some(&bad)).is_err());
+    }
+
+    #[test]
+    fn shell_pressure_force_field_sums_to_pressure_times_area() {
+        let mut v = small_shell();
+        v.set_control("pressure", &ControlValue::Number(1000.0))
+            .unwrap();
+        v.step().unwrap();
+        let f = v.scalar("pressure_force").unwrap();
+        let x = v.positions();
+        let area: f64 = fields::face_areas(&x, &v.triangles()).unwrap().iter().sum();
+        let total: f64 = f.iter().sum();
+        let want = v.sim.gauge_pressure() * area;
+        assert!(
+            (total - want).abs() < 0.02 * want,
+            "{total} vs p A = {want}"
+        );
     }
 }
