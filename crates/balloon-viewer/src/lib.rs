@@ -362,6 +362,8 @@ mod tests {
             )
         );
         assert!(bind("localhost", 0, false).is_ok());
+        // Allowed when asked for.
+        assert!(bind("0.0.0.0", 0, true).is_ok());
         assert!(matches!(
             bind("no-such-host.invalid", 0, false),
             Err(ViewerError::BadHost { .. })
