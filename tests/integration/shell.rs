@@ -100,7 +100,7 @@ fn per_element_projection_gives_every_element_its_own_incompressible_thickness()
     let (h0, p) = (3.0e-4, 3000.0);
     let material = StVenantKirchhoff::new(lame());
     let mut sim = ShellBalloon::new(mesh.clone())
-        .with_material(material.clone())
+        .with_material(material)
         .with_thickness(h0)
         .with_gas(GasKind::Constant)
         .with_gauge_pressure(p)
