@@ -54,10 +54,11 @@ pub struct BackwardEulerParams {
     /// [`TangentKind::Projected`] is projected Newton: an SPD Newton matrix at every iterate, so
     /// no regularisation retries). Passed to [`ForceSystem::set_tangent`] at every step.
     pub tangent: TangentKind,
-    /// [`LinearSolverKind::FactorizedPcg`] only: refactorise the Cholesky preconditioner before
-    /// the next solve when a solve took more than this many CG iterations (default 8). A solve
-    /// with a stale factor that does not converge within `4 x refactor_iterations` iterations (or
-    /// breaks down) is continued with a fresh factorisation of the current matrix.
+    /// [`LinearSolverKind::FactorizedPcg`] only: when a solve with the lagged Cholesky
+    /// preconditioner takes more than this many CG iterations (default 8), the next 6 solves
+    /// refactorise first, then the lagged factor is tried again. A solve with a lagged factor
+    /// that does not converge within `2 x refactor_iterations` iterations (or breaks down) is
+    /// continued with a fresh factorisation of the current matrix.
     pub refactor_iterations: usize,
     /// Run the numeric sparse Cholesky factorisation (Cholesky and factorized PCG) on the rayon
     /// thread pool (default `false`: sequential).
@@ -176,13 +177,19 @@ pub struct BackwardEuler {
     ic0: IncompleteCholesky,
     /// Pattern version of the factor in `cholesky` (factorized PCG reuses it across solves).
     factor_version: Option<u64>,
-    /// Factorized PCG: the last solve was slow, refactorise before the next one.
-    refactor_next: bool,
+    /// Factorized PCG: solves left that refactorise first (set after a slow stale solve).
+    fresh_solves_left: usize,
     /// Factorisations since the start of the current step.
     factorizations: usize,
     /// The system gave its stiffness as element blocks (`self.triplets` holds only the rest).
     use_blocks: bool,
 }
+
+/// Factorized PCG: after a solve with the lagged factor needed more than
+/// `refactor_iterations` CG iterations, this many following solves (two steps of three Newton
+/// iterations) refactorise first, as the plain Cholesky solver does, before the lagged factor
+/// is tried again.
+const FRESH_SOLVES_AFTER_SLOW: usize = 6;
 
 /// Retries of an indefinite linear solve with a growing mass shift before giving up.
 const MAX_REGULARIZATION_RETRIES: usize = 14;
@@ -547,7 +554,7 @@ impl BackwardEuler {
                 if lp.kind == LinearSolverKind::FactorizedPcg {
                     let version = self.assembler.pattern_version();
                     let mut fresh = false;
-                    if self.refactor_next
+                    if self.fresh_solves_left > 0
                         || !self.cholesky.is_factorized()
                         || self.factor_version != Some(version)
                     {
@@ -555,16 +562,17 @@ impl BackwardEuler {
                         self.cholesky.factorize(a, version)?;
                         self.factor_version = Some(version);
                         self.factorizations += 1;
-                        self.refactor_next = false;
+                        self.fresh_solves_left = self.fresh_solves_left.saturating_sub(1);
                         fresh = true;
                     }
+                    let started_stale = !fresh;
                     let threshold = self.params.refactor_iterations.max(1);
                     let mut total = 0;
                     loop {
                         let cap = if fresh {
                             lp.max_iterations
                         } else {
-                            lp.max_iterations.min(4 * threshold)
+                            lp.max_iterations.min(2 * threshold)
                         };
                         let chol = &mut self.cholesky;
                         let res = cg(
@@ -591,8 +599,12 @@ impl BackwardEuler {
                         );
                         match res {
                             Ok(mut info) if info.converged || fresh => {
-                                self.refactor_next = info.iterations > threshold;
                                 total += info.iterations;
+                                if started_stale && (fresh || total > threshold) {
+                                    // The lagged factor was a poor preconditioner: the matrix
+                                    // is changing fast, refactorise for the next few solves.
+                                    self.fresh_solves_left = FRESH_SOLVES_AFTER_SLOW;
+                                }
                                 info.iterations = total;
                                 return Ok(info);
                             }
@@ -1315,8 +1327,15 @@ mod tests {
         }
         // The time step jumps 100-fold: the old factor (of M + dt^2 K at the small dt) is a poor
         // preconditioner, so the solver refactorises and still converges.
-        let (_, _, jumped) = run(LinearSolverKind::FactorizedPcg, &[0.0005, 0.0005, 0.05]);
-        assert!(jumped[2].factorizations >= 1, "{:?}", jumped[2]);
+        let (_, _, jumped) = run(
+            LinearSolverKind::FactorizedPcg,
+            &[0.0005, 0.0005, 0.05, 0.05, 0.05, 0.05],
+        );
+        assert!(jumped[1].factorizations == 0, "{:?}", jumped[1]);
+        // After the slow solve the next six solves (the rest of step 2 and all of step 3)
+        // refactorise first; then the lagged factor is tried again.
+        let f: Vec<usize> = jumped.iter().map(|i| i.factorizations).collect();
+        assert!(f[2] == 3 && f[3] == 3 && f[4] < 3, "{f:?}");
     }
 
     #[test]

@@ -46,8 +46,9 @@ pub enum LinearSolverKind {
     Cholesky,
     /// CG on the assembled matrix plus matrix-free low-rank terms, preconditioned by a sparse
     /// Cholesky factorisation of an *earlier* Newton matrix (`"factorized-pcg"`), kept across
-    /// Newton iterations and steps and refreshed only when CG needs more than
-    /// `BackwardEulerParams::refactor_iterations` iterations (or fails). Needs
+    /// Newton iterations and steps and refreshed when CG needs more than
+    /// `BackwardEulerParams::refactor_iterations` iterations (or fails); after such a slow
+    /// solve the next six solves refactorise first (the matrix is changing fast). Needs
     /// `ForceSystem::add_stiffness_triplets` and an SPD sparse part: use it with the projected
     /// tangent (`TangentKind::Projected`); with the exact tangent an indefinite matrix makes the
     /// factorisation fail and the regularisation retries are costly.
