@@ -5,7 +5,9 @@ use crate::output::{
     print_json_line, progress_bar,
 };
 use anyhow::{Context, Result};
+use balloon::constraint::shell_volume::{ProjectionScope, ShellVolumeParams};
 use balloon::gas::GasKind;
+use balloon::integrate::TangentKind;
 use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::integrate::linear::{LinearSolverKind, LinearSolverParams, PcgPreconditioner};
 use balloon::material::{MaterialKind, MaterialModel};
@@ -19,6 +21,8 @@ use std::path::PathBuf;
 pub enum ProjectionMode {
     /// The global shell-volume projection of seed 000 (Eq. 24-28, Algorithm 2).
     Global,
+    /// Every element keeps its own material volume (thickness H A0 / A per element).
+    PerElement,
     /// No projection: the thickness stays at its rest value.
     Off,
 }
@@ -83,10 +87,17 @@ pub struct InflateArgs {
     /// Newton iterations per step (the paper uses 3).
     #[arg(long, default_value_t = 3)]
     pub newton_iters: usize,
-    /// Linear solver: `pcg` (assembled matrix, see --pcg-preconditioner), `matrix-free-cg` (the
-    /// paper's) or `cholesky` (sparse direct, with Sherman-Morrison for the gas term).
-    #[arg(long, default_value = "pcg")]
+    /// Linear solver: `cholesky` (sparse direct, with Sherman-Morrison for the gas term),
+    /// `pcg` (assembled matrix, see --pcg-preconditioner), `factorized-pcg` (CG preconditioned
+    /// by a Cholesky factor reused across Newton iterations and steps; needs --tangent
+    /// projected to pay off) or `matrix-free-cg` (the paper's).
+    #[arg(long, default_value = "cholesky")]
     pub linear_solver: LinearSolverKind,
+    /// Newton tangent: `projected` (element stiffnesses projected to positive semi-definite:
+    /// projected Newton, no regularisation retries; same forces and equilibria) or `exact` (the
+    /// Hessian of the energy, indefinite where the membrane is compressed).
+    #[arg(long, default_value = "projected")]
+    pub tangent: TangentKind,
     /// Preconditioner of `--linear-solver pcg`: `jacobi` or `ic0` (zero-fill incomplete Cholesky).
     #[arg(long, default_value = "ic0")]
     pub pcg_preconditioner: PcgPreconditioner,
@@ -166,6 +177,8 @@ pub struct InflateSummary {
     pub material: String,
     /// Linear solver.
     pub linear_solver: String,
+    /// Newton tangent (`exact` or `projected`).
+    pub tangent: String,
     /// The error that stopped the run, if any.
     pub error: Option<String>,
 }
@@ -236,10 +249,15 @@ pub fn run(args: InflateArgs) -> Result<()> {
         mass_damping: args.mass_damping,
         stiffness_damping: args.stiffness_damping,
         pcg_preconditioner: args.pcg_preconditioner,
+        tangent: args.tangent,
         ..Default::default()
     };
     let projection = match args.volume_projection {
         ProjectionMode::Global => Some(Default::default()),
+        ProjectionMode::PerElement => Some(ShellVolumeParams {
+            scope: ProjectionScope::PerElement,
+            ..Default::default()
+        }),
         ProjectionMode::Off => None,
     };
     let mut sim = ShellBalloon::new(mesh.clone())
@@ -276,6 +294,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
         shell_volume_ratio_final: 1.0,
         material: args.material.to_string(),
         linear_solver: args.linear_solver.to_string(),
+        tangent: args.tangent.to_string(),
         ..Default::default()
     };
     let pb = progress_bar(args.steps as u64, !args.json);

@@ -4,6 +4,7 @@
 use crate::protocol::{ControlSpec, ControlValue, DragMode};
 use balloon::fields;
 use balloon::gas::GasKind;
+use balloon::integrate::TangentKind;
 use balloon::integrate::linear::LinearSolverKind;
 use balloon::material::{Lame, MaterialKind, MaterialModel};
 use balloon::mesh::TriMesh;
@@ -102,6 +103,7 @@ struct ShellSettings {
     young_mpa: f64,
     dt: f64,
     solver: &'static str,
+    tangent: &'static str,
     hold: bool,
 }
 
@@ -148,7 +150,8 @@ impl ShellView {
             material: "stvk",
             young_mpa: 1.0,
             dt: 0.01,
-            solver: "pcg",
+            solver: "cholesky",
+            tangent: "projected",
             hold: true,
         };
         let sim = Self::build(&mesh, &settings)?;
@@ -177,6 +180,7 @@ impl ShellView {
         let gas: GasKind = s.gas.parse().map_err(|e| format!("{e}"))?;
         let kind: MaterialKind = s.material.parse().map_err(|e| format!("{e}"))?;
         let solver: LinearSolverKind = s.solver.parse().map_err(|e| format!("{e}"))?;
+        let tangent: TangentKind = s.tangent.parse().map_err(|e| format!("{e}"))?;
         let lame = Lame::try_from_young_poisson(s.young_mpa * 1e6, balloon::shell::DEFAULT_POISSON)
             .map_err(|e| format!("young: {e}"))?;
         ShellBalloon::new(mesh.clone())
@@ -188,6 +192,10 @@ impl ShellView {
             .with_dt(s.dt)
             .with_linear_solver(solver)
             .build()
+            .map(|mut sim| {
+                sim.integrator_params_mut().tangent = tangent;
+                sim
+            })
             .map_err(|e| e.to_string())
     }
 }
@@ -251,7 +259,14 @@ impl ViewSystem for ShellView {
                 "solver",
                 "Linear solver",
                 s.solver,
-                &["pcg", "cholesky", "matrix-free-cg"],
+                &["cholesky", "factorized-pcg", "pcg", "matrix-free-cg"],
+                false,
+            ),
+            ControlSpec::choice(
+                "tangent",
+                "Newton tangent (projected: PSD per element)",
+                s.tangent,
+                &["projected", "exact"],
                 false,
             ),
             ControlSpec::boolean("hold", "Hold the bottom (springs to rest)", s.hold, false),
@@ -292,6 +307,12 @@ impl ViewSystem for ShellView {
                 let kind: LinearSolverKind = value.choice().parse().map_err(|e| format!("{e}"))?;
                 self.sim.integrator_params_mut().linear.kind = kind;
                 s.solver = value.choice();
+                return Ok(false);
+            }
+            "tangent" => {
+                let kind: TangentKind = value.choice().parse().map_err(|e| format!("{e}"))?;
+                self.sim.integrator_params_mut().tangent = kind;
+                s.tangent = value.choice();
                 return Ok(false);
             }
             "hold" => {
@@ -1089,7 +1110,11 @@ mod tests {
             "neo-hookean"
         );
         assert!(
-            !v.set_control("solver", &ControlValue::Choice("cholesky"))
+            !v.set_control("solver", &ControlValue::Choice("pcg"))
+                .unwrap()
+        );
+        assert!(
+            !v.set_control("tangent", &ControlValue::Choice("exact"))
                 .unwrap()
         );
         v.step().unwrap();
