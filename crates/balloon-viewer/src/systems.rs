@@ -180,7 +180,7 @@ impl ShellView {
         let gas: GasKind = s.gas.parse().map_err(|e| format!("{e}"))?;
         let kind: MaterialKind = s.material.parse().map_err(|e| format!("{e}"))?;
         let solver: LinearSolverKind = s.solver.parse().map_err(|e| format!("{e}"))?;
-        let tangent: TangentKind = s.tangent.parse().map_err(|e| format!("{e}"))?;
+        let tangent: TangentKind = s.tangent.parse()?;
         let lame = Lame::try_from_young_poisson(s.young_mpa * 1e6, balloon::shell::DEFAULT_POISSON)
             .map_err(|e| format!("young: {e}"))?;
         ShellBalloon::new(mesh.clone())
@@ -310,7 +310,7 @@ impl ViewSystem for ShellView {
                 return Ok(false);
             }
             "tangent" => {
-                let kind: TangentKind = value.choice().parse().map_err(|e| format!("{e}"))?;
+                let kind: TangentKind = value.choice().parse()?;
                 self.sim.integrator_params_mut().tangent = kind;
                 s.tangent = value.choice();
                 return Ok(false);
