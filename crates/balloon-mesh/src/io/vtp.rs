@@ -198,46 +198,55 @@ fn float_array(
         let _ = write!(s, " Name=\"{name}\"");
     }
     let _ = write!(s, " NumberOfComponents=\"{components}\"");
-    match encoding {
-        VtkEncoding::Ascii => {
-            s.push_str(" format=\"ascii\">\n");
-            for chunk in values.chunks(components.max(1) * 4) {
-                s.push_str("          ");
-                for (i, v) in chunk.iter().enumerate() {
-                    if i > 0 {
-                        s.push(' ');
-                    }
-                    let _ = write!(s, "{v:?}");
-                }
-                s.push('\n');
-            }
-        }
-        VtkEncoding::Base64 => {
-            s.push_str(" format=\"binary\">\n          ");
-            let mut bytes = Vec::with_capacity(8 + 8 * values.len());
-            bytes.extend_from_slice(&(8 * values.len() as u64).to_le_bytes());
-            for v in values {
-                bytes.extend_from_slice(&v.to_le_bytes());
-            }
-            base64_encode(&bytes, s);
-            s.push('\n');
-        }
-    }
-    s.push_str("        </DataArray>\n");
+    // `{:?}` prints the shortest text that reads back to the same f64.
+    array_body(s, values, components.max(1) * 4, encoding, |s, v| {
+        let _ = write!(s, "{v:?}");
+    });
 }
 
 fn int_array(s: &mut String, name: &str, values: &[i64], encoding: VtkEncoding) {
     let _ = write!(s, "        <DataArray type=\"Int64\" Name=\"{name}\"");
+    array_body(s, values, 12, encoding, |s, v| {
+        let _ = write!(s, "{v}");
+    });
+}
+
+/// An 8-byte number a `DataArray` holds (Float64 or Int64).
+trait Word: Copy {
+    fn le_bytes(self) -> [u8; 8];
+}
+
+impl Word for f64 {
+    fn le_bytes(self) -> [u8; 8] {
+        self.to_le_bytes()
+    }
+}
+
+impl Word for i64 {
+    fn le_bytes(self) -> [u8; 8] {
+        self.to_le_bytes()
+    }
+}
+
+/// The rest of a `DataArray` start tag, its values (ASCII `per_line` to a line, or base64 of a
+/// UInt64 byte count followed by the little-endian values) and the end tag.
+fn array_body<T: Word>(
+    s: &mut String,
+    values: &[T],
+    per_line: usize,
+    encoding: VtkEncoding,
+    ascii: impl Fn(&mut String, T),
+) {
     match encoding {
         VtkEncoding::Ascii => {
             s.push_str(" format=\"ascii\">\n");
-            for chunk in values.chunks(12) {
+            for chunk in values.chunks(per_line) {
                 s.push_str("          ");
-                for (i, v) in chunk.iter().enumerate() {
+                for (i, &v) in chunk.iter().enumerate() {
                     if i > 0 {
                         s.push(' ');
                     }
-                    let _ = write!(s, "{v}");
+                    ascii(s, v);
                 }
                 s.push('\n');
             }
@@ -246,8 +255,8 @@ fn int_array(s: &mut String, name: &str, values: &[i64], encoding: VtkEncoding) 
             s.push_str(" format=\"binary\">\n          ");
             let mut bytes = Vec::with_capacity(8 + 8 * values.len());
             bytes.extend_from_slice(&(8 * values.len() as u64).to_le_bytes());
-            for v in values {
-                bytes.extend_from_slice(&v.to_le_bytes());
+            for &v in values {
+                bytes.extend_from_slice(&v.le_bytes());
             }
             base64_encode(&bytes, s);
             s.push('\n');
