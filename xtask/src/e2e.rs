@@ -9,7 +9,10 @@
 //! 3. the vendored copies under `web/vendor` are byte-identical to the pinned packages;
 //! 4. Chromium at `/usr/bin/chromium`, installed with `apt-get` when missing and running as root
 //!    (CI), otherwise an error naming what is missing;
-//! 5. `cargo build -p balloon-cli --bin balloon` (the dev profile, which `cargo test` already built);
+//! 5. `cargo test --workspace --no-run`, which builds `target/debug/balloon` with the same
+//!    features as `cargo test --workspace` (a plain `cargo build -p balloon-cli` resolves the
+//!    features without the workspace's dev-dependencies and rebuilt every crate, 127 s in CI),
+//!    so after `cargo xtask ci`'s test stage it is a no-op;
 //! 6. `node e2e.mjs --balloon target/debug/balloon` (screenshots in `target/e2e/`).
 
 use anyhow::{Context, Result, bail};
@@ -46,7 +49,7 @@ pub fn run(opts: &Options) -> Result<()> {
     )?;
     ensure_chromium()?;
     let t = Instant::now();
-    crate::cargo(&["build", "-p", "balloon-cli", "--bin", "balloon"], &[])?;
+    crate::cargo(&["test", "--workspace", "--no-run"], &[])?;
     eprintln!("xtask e2e: build: {:.1} s", t.elapsed().as_secs_f64());
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
@@ -54,7 +57,7 @@ pub fn run(opts: &Options) -> Result<()> {
     let binary = target.join("debug").join("balloon");
     if !binary.is_file() {
         bail!(
-            "`cargo build` succeeded but {} is missing",
+            "`cargo test --workspace --no-run` succeeded but {} is missing",
             binary.display()
         );
     }
