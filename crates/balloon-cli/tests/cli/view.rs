@@ -125,19 +125,11 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 /// The vertex of a frame farthest from the frame's centroid.
 fn farthest_vertex(frame: &Value) -> usize {
-    let p: Vec<f64> = frame["positions"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
-    let n = p.len() / 3;
-    let c = [0, 1, 2].map(|d| (0..n).map(|i| p[3 * i + d]).sum::<f64>() / n as f64);
-    (0..n)
-        .max_by(|&a, &b| {
-            let r = |i: usize| dist([p[3 * i], p[3 * i + 1], p[3 * i + 2]], c);
-            r(a).total_cmp(&r(b))
-        })
+    let p = frame_positions(frame);
+    let n = p.len() as f64;
+    let c = [0, 1, 2].map(|d| p.iter().map(|q| q[d]).sum::<f64>() / n);
+    (0..p.len())
+        .max_by(|&a, &b| dist(p[a], c).total_cmp(&dist(p[b], c)))
         .unwrap()
 }
 
@@ -157,26 +149,61 @@ fn wait_for(addr: &str, what: &str, ok: impl Fn(&Value) -> bool) -> Value {
     }
 }
 
+fn frame_positions(frame: &Value) -> Vec<[f64; 3]> {
+    let p: Vec<f64> = frame["positions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    p.chunks(3).map(|c| [c[0], c[1], c[2]]).collect()
+}
+
+/// A vertex of `frame` about as far from the centroid as `i` whose direction from the centroid
+/// is the most nearly perpendicular to `i`'s: a pull on `i` does not carry it outwards, while a
+/// uniform swelling or breathing of the body moves both alike.
+fn perpendicular_vertex(frame: &Value, i: usize) -> usize {
+    let p = frame_positions(frame);
+    let n = p.len() as f64;
+    let c = [0, 1, 2].map(|d| p.iter().map(|q| q[d]).sum::<f64>() / n);
+    let rel = |j: usize| [0, 1, 2].map(|d| p[j][d] - c[d]);
+    let ri = dist(p[i], c);
+    let cos = |j: usize| {
+        let (a, b) = (rel(i), rel(j));
+        ((0..3).map(|d| a[d] * b[d]).sum::<f64>() / (ri * dist(p[j], c))).abs()
+    };
+    (0..p.len())
+        .filter(|&j| j != i && dist(p[j], c) >= 0.9 * ri)
+        .min_by(|&a, &b| cos(a).total_cmp(&cos(b)))
+        .expect("a reference vertex")
+}
+
 /// Grabs vertex `i` and pulls it `distance` (m) outwards from the body's centroid; within
 /// 2 s of simulation the vertex must come nearer to the target than 0.8 x its start distance
 /// and, relative to the centroid, move along the pull by `min_relative` x the bounding-box
-/// diagonal (the body deforms, it is not only carried along).
+/// diagonal beyond what a uniform swelling would give (the body deforms, it is not only
+/// carried along or breathing: the swelling is measured on a reference vertex `reference`
+/// perpendicular to the pull, chosen from `frame` by [`perpendicular_vertex`]).
 fn drag_moves_vertex(
     addr: &str,
     ws: &mut WebSocket<TcpStream>,
+    frame: &Value,
     i: usize,
     distance: f64,
     min_relative: f64,
 ) {
+    let reference = perpendicular_vertex(frame, i);
     send(ws, json!({"type": "pause"}));
     let s = wait_for(addr, "pause", |s| s["paused"] == true);
     let before = vertex_position(addr, i);
+    let ref_before = vertex_position(addr, reference);
     let c = [0, 1, 2].map(|d| s["centroid"][d].as_f64().unwrap());
     let diag = dist(
         [0, 1, 2].map(|d| s["bbox_min"][d].as_f64().unwrap()),
         [0, 1, 2].map(|d| s["bbox_max"][d].as_f64().unwrap()),
     );
     let r = dist(before, c);
+    let r_ref = dist(ref_before, c);
     let target = [0, 1, 2].map(|d| before[d] + distance * (before[d] - c[d]) / r);
     send(
         ws,
@@ -192,17 +219,21 @@ fn drag_moves_vertex(
     let mut relative = f64::NEG_INFINITY;
     let deadline = Instant::now() + Duration::from_secs(15);
     loop {
-        let s = state(addr, "");
+        let s = state(addr, &format!("?vertex={reference}"));
         assert!(s["last_error"].is_null(), "{s}");
         let p = &s["drag"]["position"];
         let now = [0, 1, 2].map(|d| p[d].as_f64().unwrap());
         best = best.min(dist(now, target));
         let c_now = [0, 1, 2].map(|d| s["centroid"][d].as_f64().unwrap());
-        // Outward movement relative to the centroid, along the pull.
+        let q = &s["vertex"]["position"];
+        let ref_now = [0, 1, 2].map(|d| q[d].as_f64().unwrap());
+        let swell = dist(ref_now, c_now) / r_ref;
+        // Outward movement relative to the centroid, along the pull, beyond the swelling.
         relative = relative.max(
             (0..3)
-                .map(|d| ((now[d] - c_now[d]) - (before[d] - c[d])) * (before[d] - c[d]) / r)
-                .sum::<f64>(),
+                .map(|d| (now[d] - c_now[d]) * (before[d] - c[d]) / r)
+                .sum::<f64>()
+                - swell * r,
         );
         if (best < 0.8 * d0 && relative >= min_relative * diag)
             || s["time"].as_f64().unwrap() > t0 + 2.0
@@ -218,7 +249,8 @@ fn drag_moves_vertex(
     );
     assert!(
         relative >= min_relative * diag,
-        "vertex {i}: moved {relative} m relative to the centroid, want {min_relative} x {diag} m"
+        "vertex {i}: moved {relative} m relative to the centroid beyond the swelling seen on \
+         vertex {reference}, want {min_relative} x {diag} m"
     );
     send(ws, json!({"type": "release"}));
     wait_for(addr, "the release", |s| s["drag"].is_null());
@@ -340,8 +372,9 @@ fn view_shell_serves_page_state_frames_controls_and_drags() {
     }
 
     // Grab the vertex farthest from the centroid and pull it outwards by 3 cm.
-    let top = farthest_vertex(&next_of(&mut ws, "frame"));
-    drag_moves_vertex(&srv.addr, &mut ws, top, 0.03, 0.02);
+    let f = next_of(&mut ws, "frame");
+    let top = farthest_vertex(&f);
+    drag_moves_vertex(&srv.addr, &mut ws, &f, top, 0.03, 0.02);
 
     // Pause stops the frame counter of the simulation; reset rebuilds and says hello again.
     send(&mut ws, json!({"type": "pause"}));
@@ -385,7 +418,7 @@ fn view_volumetric_streams_the_embedded_surface_and_drags_it() {
     );
     wait_for(&srv.addr, "gravity 0", |s| s["controls"]["gravity"] == 0.0);
     let v = farthest_vertex(&f);
-    drag_moves_vertex(&srv.addr, &mut ws, v, 0.03, 0.0);
+    drag_moves_vertex(&srv.addr, &mut ws, &f, v, 0.03, 0.0);
 }
 
 #[test]
@@ -425,7 +458,7 @@ fn view_two_layer_drags_the_picked_particle() {
     let f = next_of(&mut ws, "frame");
     let v = farthest_vertex(&f);
     assert!(v >= n / 2, "the farthest vertex {v} is an outer particle");
-    drag_moves_vertex(&srv.addr, &mut ws, v, 0.3, 0.0);
+    drag_moves_vertex(&srv.addr, &mut ws, &f, v, 0.3, 0.0);
 }
 
 #[test]
