@@ -6,7 +6,7 @@
 use crate::report::{loglog_slope, median};
 use crate::validate::meshes;
 use anyhow::{Context, Result};
-use balloon::constraint::cell_volume::CellVolumeParams;
+use balloon::constraint::cell_volume::{CellCorrection, CellSolver, CellVolumeParams};
 use balloon::integrate::TangentKind;
 use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::integrate::linear::{LinearSolverKind, PcgPreconditioner};
@@ -267,6 +267,16 @@ fn finish(system: &str, setting: &str, points: Vec<SizePoint>) -> Scaling {
 }
 
 fn volumetric_scaling(opts: &Options) -> Result<Scaling> {
+    volumetric_scaling_with(opts, CellSolver::GaussSeidel)
+}
+
+fn volumetric_global_scaling(opts: &Options) -> Result<Scaling> {
+    volumetric_scaling_with(opts, CellSolver::Global)
+}
+
+/// Cost growth of the volumetric step with the paper's Gauss-Seidel sweeps or the global
+/// Newton solve of all cells (`CellSolver::Global`, gradient correction).
+fn volumetric_scaling_with(opts: &Options, solver: CellSolver) -> Result<Scaling> {
     let soup = icosphere(0.5, 3)?;
     let resolutions: &[usize] = if opts.quick {
         &[12, 20, 28, 36]
@@ -276,7 +286,7 @@ fn volumetric_scaling(opts: &Options) -> Result<Scaling> {
     let steps = 10;
     let mut points = Vec::new();
     for &res in resolutions {
-        eprintln!("xtask bench: volumetric scaling, resolution {res}");
+        eprintln!("xtask bench: volumetric scaling ({solver:?}), resolution {res}");
         let params = VolumetricParams {
             lattice: LatticeParams {
                 resolution: res,
@@ -285,10 +295,17 @@ fn volumetric_scaling(opts: &Options) -> Result<Scaling> {
             },
             // Over-relaxed sweeps with a larger budget: at 1e-10 the plain Gauss-Seidel sweeps
             // of the paper need more than the default 500 sweeps on the larger lattices.
-            volume: CellVolumeParams {
-                over_relaxation: 1.3,
-                max_sweeps: 5000,
-                ..CellVolumeParams::default()
+            volume: match solver {
+                CellSolver::GaussSeidel => CellVolumeParams {
+                    over_relaxation: 1.3,
+                    max_sweeps: 5000,
+                    ..CellVolumeParams::default()
+                },
+                CellSolver::Global => CellVolumeParams {
+                    correction: CellCorrection::Gradient,
+                    solver: CellSolver::Global,
+                    ..CellVolumeParams::default()
+                },
             },
             gravity: [0.0; 3],
             ..VolumetricParams::default()
@@ -331,11 +348,18 @@ fn volumetric_scaling(opts: &Options) -> Result<Scaling> {
             steps_per_second: 1e3 / ms,
         });
     }
-    Ok(finish(
-        "volumetric",
-        "free body, dt = 1 ms, initial shear + spin velocity field, cell-volume tolerance 1e-10, over-relaxation 1.3, at most 5000 sweeps",
-        points,
-    ))
+    Ok(match solver {
+        CellSolver::GaussSeidel => finish(
+            "volumetric",
+            "free body, dt = 1 ms, initial shear + spin velocity field, cell-volume tolerance 1e-10, Gauss-Seidel sweeps (the paper's), over-relaxation 1.3, at most 5000 sweeps",
+            points,
+        ),
+        CellSolver::Global => finish(
+            "volumetric (global solver)",
+            "the same body and motion, cell-volume tolerance 1e-10, `--volume-solver global`: Newton on all cells at once, sparse Cholesky, gradient correction",
+            points,
+        ),
+    })
 }
 
 fn two_layer_scaling(opts: &Options) -> Result<Scaling> {
@@ -507,7 +531,12 @@ pub fn run(opts: &Options) -> Result<()> {
         }
     }
     let mut scaling = Vec::new();
-    for study in [shell_scaling, volumetric_scaling, two_layer_scaling] {
+    for study in [
+        shell_scaling,
+        volumetric_scaling,
+        volumetric_global_scaling,
+        two_layer_scaling,
+    ] {
         scaling.push(study(opts)?);
     }
     let mut command = "cargo xtask bench".to_string();

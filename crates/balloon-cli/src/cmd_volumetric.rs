@@ -16,7 +16,9 @@ use anyhow::{Context, Result};
 use balloon::volumetric::{
     MassModel, StepStats, VolumetricBody, VolumetricParams, VolumetricScene, VolumetricSimulation,
 };
-use balloon_constraint::cell_volume::{CellCentre, CellCorrection, CellVolumeParams, SpringParams};
+use balloon_constraint::cell_volume::{
+    CellCentre, CellCorrection, CellSolver, CellVolumeParams, SpringParams,
+};
 use balloon_mesh::lattice::LatticeParams;
 use balloon_render::UpAxis;
 use nalgebra::{Point3, Vector3};
@@ -33,7 +35,6 @@ pub enum SceneArg {
     DropSphere,
 }
 
-/// Arguments of `balloon volumetric`.
 /// Cell-volume correction (`--correction`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Correction {
@@ -43,6 +44,16 @@ pub enum Correction {
     Gradient,
 }
 
+/// How the cell constraints are solved (`--volume-solver`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum VolumeSolver {
+    /// The paper's Gauss-Seidel sweeps, one cell at a time.
+    GaussSeidel,
+    /// Newton iterations on all cells at once (sparse Cholesky); gradient correction.
+    Global,
+}
+
+/// Arguments of `balloon volumetric`.
 #[derive(Debug, clap::Args)]
 pub struct VolumetricArgs {
     /// Mesh file (.obj, .off, .ply, .stl; any triangle soup), `builtin` (the teddy) or
@@ -95,8 +106,15 @@ pub struct VolumetricArgs {
     pub lumped_masses: bool,
     /// Volume correction: `scaling` (the paper's scaling about the cell centre) or `gradient`
     /// (along the mass-weighted volume gradient: never adds kinetic energy to first order).
-    #[arg(long, value_enum, default_value_t = Correction::Scaling)]
-    pub correction: Correction,
+    /// Default: `scaling` with Gauss-Seidel sweeps, `gradient` with the global solver (the only
+    /// one it supports).
+    #[arg(long, value_enum)]
+    pub correction: Option<Correction>,
+    /// Cell-volume solver: `gauss-seidel` (the paper's sweeps; sweeps grow with the lattice) or
+    /// `global` (Newton on all cells at once with a sparse Cholesky solve: a few iterations at
+    /// any size).
+    #[arg(long, value_enum, default_value_t = VolumeSolver::GaussSeidel)]
+    pub volume_solver: VolumeSolver,
     /// Time step (s).
     #[arg(long, default_value_t = 5e-4)]
     pub dt: f64,
@@ -183,6 +201,10 @@ pub struct Summary {
     pub momentum_drift: f64,
     /// Step halvings (inversions avoided).
     pub step_halvings: u64,
+    /// Cell-volume solver: `gauss-seidel` or `global`.
+    pub volume_solver: String,
+    /// Mean Gauss-Seidel sweeps (or global Newton iterations) per step.
+    pub mean_sweeps: f64,
     /// Mean wall time per step (ms).
     pub mean_step_ms: f64,
     /// Lattice generation time (ms).
@@ -250,9 +272,17 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
             } else {
                 CellCentre::Arithmetic
             },
-            correction: match args.correction {
-                Correction::Scaling => CellCorrection::Scaling,
-                Correction::Gradient => CellCorrection::Gradient,
+            correction: match (args.correction, args.volume_solver) {
+                (Some(Correction::Scaling), _) | (None, VolumeSolver::GaussSeidel) => {
+                    CellCorrection::Scaling
+                }
+                (Some(Correction::Gradient), _) | (None, VolumeSolver::Global) => {
+                    CellCorrection::Gradient
+                }
+            },
+            solver: match args.volume_solver {
+                VolumeSolver::GaussSeidel => CellSolver::GaussSeidel,
+                VolumeSolver::Global => CellSolver::Global,
             },
             ..CellVolumeParams::default()
         },
@@ -344,6 +374,7 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
     let p0 = sim.momentum();
     let pb = progress_bar(args.steps as u64, !args.json);
     let mut max_err = 0.0f64;
+    let mut total_sweeps = 0usize;
     let mut max_strain = 0.0f64;
     let mut last: Option<StepStats> = None;
     let mut step_time = 0.0;
@@ -364,6 +395,7 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
         };
         step_time += t.elapsed().as_secs_f64();
         max_err = max_err.max(stats.max_cell_volume_error);
+        total_sweeps += stats.sweeps;
         max_strain = max_strain.max(stats.max_strain);
         if let Some(out) = &mut out {
             out.append_stats(&stats)?;
@@ -408,6 +440,11 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
         total_volume_ratio: last.as_ref().map_or(1.0, |s| s.total_volume_ratio),
         momentum_drift: (sim.momentum() - p0 - gravity_impulse).norm(),
         step_halvings: sim.total_halvings(),
+        volume_solver: match args.volume_solver {
+            VolumeSolver::GaussSeidel => "gauss-seidel".into(),
+            VolumeSolver::Global => "global".into(),
+        },
+        mean_sweeps: total_sweeps as f64 / sim.steps().max(1) as f64,
         mean_step_ms: if args.steps > 0 {
             step_time * 1e3 / args.steps as f64
         } else {

@@ -25,6 +25,7 @@
 //! [`CellCentre::MassWeighted`] uses `c = sum(m_i x_i) / sum(m_i)`, for which
 //! `sum_i m_i Delta v_i = 0` exactly.
 
+pub use crate::cell_global::CellProjectionWorkspace;
 use balloon_mesh::tet::signed_tet_volume;
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -60,14 +61,29 @@ pub enum CellCorrection {
     Gradient,
 }
 
-/// Parameters of the Gauss-Seidel volume projection.
+/// How the cell constraints are solved together.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CellSolver {
+    /// The paper's Gauss-Seidel sweeps, one cell at a time (seed 003, Sec. 4). Sweeps needed
+    /// grow with the lattice size.
+    #[default]
+    GaussSeidel,
+    /// Newton iterations on all cells at once with a sparse Cholesky solve of `J W J^T`
+    /// ([`crate::cell_global`]); needs [`CellCorrection::Gradient`] and no over-relaxation.
+    /// A few iterations whatever the lattice size.
+    Global,
+}
+
+/// Parameters of the volume projection.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CellVolumeParams {
     /// Largest accepted relative cell-volume error `|V - V0| / V0` after projection. Default
     /// `1e-10`.
     pub tolerance: f64,
-    /// Largest number of sweeps over all cells. Default 500.
+    /// Largest number of sweeps over all cells (Gauss-Seidel) or of Newton iterations
+    /// (global). Default 500.
     pub max_sweeps: usize,
     /// Centre of the scaling. Default [`CellCentre::Arithmetic`].
     pub centre: CellCentre,
@@ -80,6 +96,9 @@ pub struct CellVolumeParams {
     /// Measured on the CLI's default teddy run: 111 mean sweeps per step at 1.0, 55 at 1.3,
     /// 104 at 1.6. Default 1.
     pub over_relaxation: f64,
+    /// Gauss-Seidel sweeps (the paper's) or one global solve. Default
+    /// [`CellSolver::GaussSeidel`].
+    pub solver: CellSolver,
 }
 
 impl Default for CellVolumeParams {
@@ -90,6 +109,7 @@ impl Default for CellVolumeParams {
             centre: CellCentre::Arithmetic,
             correction: CellCorrection::Scaling,
             over_relaxation: 1.0,
+            solver: CellSolver::GaussSeidel,
         }
     }
 }
@@ -127,6 +147,15 @@ pub enum CellVolumeError {
         cell: usize,
         /// Its volume.
         volume: f64,
+    },
+    /// The sparse linear solve of the global solver failed (e.g. a degenerate lattice whose
+    /// constraint gradients are dependent).
+    #[error("global cell-volume solve failed at Newton iteration {iteration}: {detail}")]
+    GlobalSolve {
+        /// Newton iteration (1-based).
+        iteration: usize,
+        /// What the linear solver reported.
+        detail: String,
     },
     /// Invalid parameter.
     #[error("invalid parameter `{name}` = {value}: {reason}")]
@@ -201,6 +230,25 @@ impl CellVolumeConstraints {
                 reason: "must be in (0, 2)".into(),
             });
         }
+        if params.solver == CellSolver::Global {
+            if params.correction != CellCorrection::Gradient {
+                return Err(CellVolumeError::InvalidParameter {
+                    name: "correction",
+                    value: "scaling".into(),
+                    reason: "the global solver moves along the volume gradients: use the \
+                             gradient correction with it"
+                        .into(),
+                });
+            }
+            if params.over_relaxation != 1.0 {
+                return Err(CellVolumeError::InvalidParameter {
+                    name: "over_relaxation",
+                    value: params.over_relaxation.to_string(),
+                    reason: "must be 1 with the global solver (it applies to Gauss-Seidel sweeps)"
+                        .into(),
+                });
+            }
+        }
         if params.max_sweeps == 0 {
             return Err(CellVolumeError::InvalidParameter {
                 name: "max_sweeps",
@@ -265,7 +313,8 @@ impl CellVolumeConstraints {
         None
     }
 
-    /// Applies the volume impulses (Eq. 2-4) in Gauss-Seidel sweeps.
+    /// Applies the volume impulses (Eq. 2-4) in Gauss-Seidel sweeps (or, with
+    /// [`CellSolver::Global`], by Newton iterations on all cells at once).
     ///
     /// * `preview`: the positions `x = p + h v` of Eq. 1 (m), moved in place to the corrected
     ///   positions;
@@ -287,8 +336,28 @@ impl CellVolumeConstraints {
     }
 
     /// [`CellVolumeConstraints::project`] with another relative tolerance (e.g. a loose one for
-    /// the intermediate rounds of a contact loop).
+    /// the intermediate rounds of a contact loop). The global solver gets a fresh workspace
+    /// each call; use [`CellVolumeConstraints::project_with`] to keep one.
     pub fn project_to_tolerance(
+        &self,
+        preview: &mut [Point3<f64>],
+        velocities: &mut [Vector3<f64>],
+        masses: &[f64],
+        h: f64,
+        tolerance: f64,
+    ) -> Result<ProjectionInfo, CellVolumeError> {
+        self.project_with(
+            &mut CellProjectionWorkspace::new(),
+            preview,
+            velocities,
+            masses,
+            h,
+            tolerance,
+        )
+    }
+
+    /// The Gauss-Seidel sweeps of [`CellVolumeConstraints::project`].
+    pub(crate) fn project_gauss_seidel(
         &self,
         preview: &mut [Point3<f64>],
         velocities: &mut [Vector3<f64>],

@@ -7,6 +7,7 @@
 //!
 //! **Not for:** integrating forces over time; see `balloon-integrate`.
 
+pub mod cell_global;
 pub mod cell_volume;
 pub mod rigid;
 pub mod shell_volume;

@@ -33,7 +33,8 @@
 //! ```
 
 use balloon_constraint::cell_volume::{
-    CellSprings, CellVolumeConstraints, CellVolumeError, CellVolumeParams, SpringParams,
+    CellProjectionWorkspace, CellSprings, CellVolumeConstraints, CellVolumeError, CellVolumeParams,
+    SpringParams,
 };
 use balloon_constraint::rigid::{
     Plane, RigidSphere, plane_particle_contacts, plane_sphere_contact, sphere_particle_contacts,
@@ -305,7 +306,8 @@ pub struct StepStats {
     pub halvings: u32,
     /// Smallest sub-step used (s).
     pub min_dt: f64,
-    /// Gauss-Seidel sweeps over all cells (summed over sub-steps and contact rounds).
+    /// Gauss-Seidel sweeps over all cells, or Newton iterations of the global solver (summed
+    /// over sub-steps and contact rounds).
     pub sweeps: usize,
     /// Largest relative cell-volume error `|V - V0| / V0` after the step.
     pub max_cell_volume_error: f64,
@@ -335,6 +337,8 @@ pub struct VolumetricSimulation {
     forces: Vec<Vector3<f64>>,
     /// External forces per particle (N) added in step 1 of every step; empty = none.
     external: Vec<Vector3<f64>>,
+    /// Caches of the global cell-volume solve (empty with Gauss-Seidel sweeps).
+    projection: CellProjectionWorkspace,
 }
 
 #[derive(Default)]
@@ -361,6 +365,7 @@ impl VolumetricSimulation {
             total_halvings: 0,
             forces: vec![Vector3::zeros(); n],
             external: Vec::new(),
+            projection: CellProjectionWorkspace::new(),
         }
     }
 
@@ -645,7 +650,8 @@ impl VolumetricSimulation {
             // last projection of the step is always converged to the tight one.
             let final_round = contacts == 0 || round + 1 == params.contact_iterations;
             let tolerance = if final_round { tight } else { tight.max(1e-6) };
-            let proj = self.body.constraints.project_to_tolerance(
+            let proj = self.body.constraints.project_with(
+                &mut self.projection,
                 &mut preview,
                 &mut self.velocities,
                 &self.body.masses,
