@@ -1,10 +1,11 @@
 //! Volume-conserving impulse-based bodies (seed 003): lattice generation from a soup (Sec. 3),
-//! the Gauss-Seidel cell-volume projection alone (Sec. 4, Eq. 2-4) and one whole step of the
-//! Fig. 4 drop-sphere scene.
+//! the cell-volume projection alone (Sec. 4, Eq. 2-4; the paper's Gauss-Seidel sweeps and the
+//! global Newton solve) and one whole step of the Fig. 4 drop-sphere scene.
 
 use std::hint::black_box;
 
 use balloon::volumetric::{VolumetricBody, VolumetricParams, VolumetricScene, drop_sphere_params};
+use balloon_constraint::cell_volume::{CellCorrection, CellProjectionWorkspace, CellSolver};
 use balloon_mesh::generate::icosphere;
 use balloon_mesh::lattice::{LatticeParams, build_lattice};
 use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
@@ -58,6 +59,23 @@ fn bench_projection(c: &mut Criterion) {
             |(mut x, mut v)| {
                 body.constraints
                     .project(&mut x, &mut v, &body.masses, 1e-3)
+                    .expect("projection")
+            },
+            BatchSize::SmallInput,
+        )
+    });
+    // The global solver (gradient correction, sparse Cholesky of J W J^T), its workspace kept
+    // across calls as a simulation keeps it.
+    let mut global = body.constraints.clone();
+    global.params.correction = CellCorrection::Gradient;
+    global.params.solver = CellSolver::Global;
+    let mut workspace = CellProjectionWorkspace::new();
+    g.bench_function("project_perturbed_global", |b| {
+        b.iter_batched(
+            || (perturbed.clone(), vec![Vector3::zeros(); rest.len()]),
+            |(mut x, mut v)| {
+                global
+                    .project_with(&mut workspace, &mut x, &mut v, &body.masses, 1e-3, 1e-10)
                     .expect("projection")
             },
             BatchSize::SmallInput,

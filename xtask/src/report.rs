@@ -260,3 +260,39 @@ mod tests {
         assert!(markdown_table(&[Case::at_most("g", "a|b", 2.0, 1.0)]).contains("**FAIL**"));
     }
 }
+
+/// The 1-minute load average (`/proc/loadavg`), if readable.
+pub fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// Load averages sampled during a run, summarised for a report.
+#[derive(Debug, Default)]
+pub struct LoadSamples(Vec<f64>);
+
+impl LoadSamples {
+    /// Takes a sample now (nothing where `/proc/loadavg` is missing).
+    pub fn sample(&mut self) {
+        if let Some(l) = load_average() {
+            self.0.push(l);
+        }
+    }
+
+    /// `"1-minute load average 0.9-1.4 over 12 samples"`, or a note that none was read.
+    pub fn summary(&self) -> String {
+        if self.0.is_empty() {
+            return "load average not available".into();
+        }
+        let lo = self.0.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = self.0.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        format!(
+            "1-minute load average {lo:.1}-{hi:.1} over {} samples taken between measurements",
+            self.0.len()
+        )
+    }
+}

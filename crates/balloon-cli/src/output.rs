@@ -91,6 +91,59 @@ pub struct PictureArgs {
     /// Size of the PNG renders and GIF frames, WxH pixels.
     #[arg(long, value_name = "WxH", default_value = "640x480", value_parser = parse_image_size)]
     pub image_size: (u32, u32),
+    /// Colour-map range: `full` (smallest to largest value of the picture, or of the whole GIF),
+    /// `robust` (2nd to 98th percentile, so a few outliers do not flatten the map; values
+    /// beyond get the end colours) or `MIN:MAX` (fixed, e.g. `1:1.5`, to compare runs).
+    #[arg(long, value_name = "full|robust|MIN:MAX", default_value = "full", value_parser = parse_color_range)]
+    pub color_range: ColorRange,
+}
+
+/// How the colour-map range of pictures is chosen (`--color-range`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ColorRange {
+    /// Smallest to largest finite value.
+    Full,
+    /// 2nd to 98th percentile of the finite values.
+    Robust,
+    /// A fixed range.
+    Fixed(f64, f64),
+}
+
+/// Parses `--color-range`: `full`, `robust` or `MIN:MAX` (finite, MIN < MAX).
+pub fn parse_color_range(s: &str) -> Result<ColorRange, String> {
+    match s.trim() {
+        "full" => return Ok(ColorRange::Full),
+        "robust" => return Ok(ColorRange::Robust),
+        _ => {}
+    }
+    let bad = || format!("`{s}`: expected full, robust or MIN:MAX with finite MIN < MAX");
+    let (a, b) = s.split_once(':').ok_or_else(bad)?;
+    let lo: f64 = a.trim().parse().map_err(|_| bad())?;
+    let hi: f64 = b.trim().parse().map_err(|_| bad())?;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(bad());
+    }
+    Ok(ColorRange::Fixed(lo, hi))
+}
+
+impl ColorRange {
+    /// The range of `values` (non-finite ones ignored) under this rule; `None` when no value
+    /// is finite (and the rule is not fixed).
+    pub fn of<'a>(self, values: impl Iterator<Item = &'a f64>) -> Option<(f64, f64)> {
+        if let ColorRange::Fixed(lo, hi) = self {
+            return Some((lo, hi));
+        }
+        let mut v: Vec<f64> = values.copied().filter(|v| v.is_finite()).collect();
+        if v.is_empty() {
+            return None;
+        }
+        v.sort_unstable_by(f64::total_cmp);
+        let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+        Some(match self {
+            ColorRange::Robust => (at(0.02), at(0.98)),
+            _ => (v[0], v[v.len() - 1]),
+        })
+    }
 }
 
 /// Parses `WxH`.
@@ -214,18 +267,8 @@ impl Frame {
     /// Adds per-face `stretch` (sqrt(A/A0)) and `max_stretch` (largest principal stretch)
     /// against `rest`. A degenerate rest triangle (possible in a triangle soup) gets NaN.
     pub fn with_stretch(mut self, rest: &[f64]) -> Result<Self> {
-        let area = per_face_or_nan(
-            rest,
-            &self.positions,
-            &self.triangles,
-            fields::face_area_stretch,
-        )?;
-        let max = per_face_or_nan(
-            rest,
-            &self.positions,
-            &self.triangles,
-            fields::face_max_stretch,
-        )?;
+        let area = fields::face_area_stretch_or_nan(rest, &self.positions, &self.triangles)?;
+        let max = fields::face_max_stretch_or_nan(rest, &self.positions, &self.triangles)?;
         self.cell_data.push(Field::scalar("stretch", area));
         self.cell_data.push(Field::scalar("max_stretch", max));
         Ok(self)
@@ -259,22 +302,6 @@ impl Frame {
                 "speed (m/s)",
             )),
         })
-    }
-}
-
-/// A per-face field of `(rest, x, triangles)`, such as [`fields::face_area_stretch`].
-type FaceField = fn(&[f64], &[f64], &[[usize; 3]]) -> Result<Vec<f64>, fields::FieldError>;
-
-/// `f(rest, x, tris)` for all faces; if a rest triangle is degenerate, face by face with NaN
-/// for the degenerate ones.
-fn per_face_or_nan(rest: &[f64], x: &[f64], tris: &[[usize; 3]], f: FaceField) -> Result<Vec<f64>> {
-    match f(rest, x, tris) {
-        Ok(v) => Ok(v),
-        Err(fields::FieldError::DegenerateRestTriangle { .. }) => Ok(tris
-            .iter()
-            .map(|t| f(rest, x, std::slice::from_ref(t)).map_or(f64::NAN, |v| v[0]))
-            .collect()),
-        Err(e) => Err(e.into()),
     }
 }
 
@@ -332,6 +359,7 @@ struct Pictures {
     gif: bool,
     pov: bool,
     color: ColorField,
+    color_range: ColorRange,
     label: &'static str,
     size: (u32, u32),
     style: PictureStyle,
@@ -434,6 +462,7 @@ impl OutputDir {
             gif: args.gif,
             pov: args.pov,
             color,
+            color_range: args.color_range,
             label: "",
             size: args.image_size,
             style,
@@ -662,7 +691,7 @@ fn render_options(
         } else {
             p.label
         };
-        match range {
+        match range.or_else(|| p.color_range.of(c.iter())) {
             Some((lo, hi)) => ColorScale::new(lo, hi, label),
             None => ColorScale::from_values(c, label),
         }
@@ -748,15 +777,11 @@ fn write_gif(p: &mut Pictures, path: &Path) -> Result<()> {
         .filter_map(|g| Framing::of_points(&g.positions))
         .reduce(|a, b| a.union(&b))
         .context("--gif: no frame has finite coordinates")?;
-    let range = p
+    let range = p.color_range.of(p
         .gif_frames
         .iter()
         .filter_map(|g| g.colors.as_ref())
-        .flatten()
-        .filter(|v| v.is_finite())
-        .fold(None, |r: Option<(f64, f64)>, &v| {
-            Some(r.map_or((v, v), |(a, b)| (a.min(v), b.max(v))))
-        });
+        .flatten());
     let n = p.gif_frames.len();
     // About 6 s for the whole run, between 4 and 20 hundredths per frame.
     let delay = (600 / n.max(1)).clamp(4, 20) as u16;
@@ -821,6 +846,31 @@ mod tests {
         assert_eq!(parse_image_size("320x200"), Ok((320, 200)));
         assert!(parse_image_size("320").is_err());
         assert!(parse_image_size("10x10").unwrap_err().contains("640x480"));
+    }
+
+    #[test]
+    fn color_ranges_parse_and_robust_ignores_outliers() {
+        assert_eq!(parse_color_range("full"), Ok(ColorRange::Full));
+        assert_eq!(parse_color_range("robust"), Ok(ColorRange::Robust));
+        assert_eq!(parse_color_range("1:1.5"), Ok(ColorRange::Fixed(1.0, 1.5)));
+        for bad in ["", "2:1", "1:1", "a:b", "1", "nan:2", "0:inf"] {
+            assert!(
+                parse_color_range(bad).unwrap_err().contains("MIN:MAX"),
+                "{bad}"
+            );
+        }
+        // 100 values 1.00..1.99 plus one outlier and one NaN.
+        let mut v: Vec<f64> = (0..100).map(|i| 1.0 + f64::from(i) / 100.0).collect();
+        v.push(50.0);
+        v.push(f64::NAN);
+        assert_eq!(ColorRange::Full.of(v.iter()), Some((1.0, 50.0)));
+        let (lo, hi) = ColorRange::Robust.of(v.iter()).unwrap();
+        assert!(
+            (lo - 1.02).abs() < 1e-12 && (hi - 1.98).abs() < 1e-12,
+            "{lo} {hi}"
+        );
+        assert_eq!(ColorRange::Fixed(0.0, 2.0).of(v.iter()), Some((0.0, 2.0)));
+        assert_eq!(ColorRange::Robust.of([f64::NAN].iter()), None);
     }
 
     #[test]

@@ -704,7 +704,10 @@ impl ViewSystem for VolumetricView {
             "stretch" => {
                 let rest = flat(&emb.positions(&self.sim.lattice().tet_mesh.vertices));
                 let x = self.positions();
-                let f = fields::face_area_stretch(&rest, &x, &emb.triangles).map_err(field_err)?;
+                // A soup may hold zero-area triangles: their stretch is undefined (NaN, drawn
+                // in the neutral colour), the rest of the surface is coloured.
+                let f = fields::face_area_stretch_or_nan(&rest, &x, &emb.triangles)
+                    .map_err(field_err)?;
                 fields::face_to_vertex(&x, &emb.triangles, &f).map_err(field_err)
             }
             other => Err(format!("unknown scalar field `{other}`")),
@@ -1179,6 +1182,25 @@ mod tests {
         for f in v.scalar_fields() {
             assert_eq!(v.scalar(f).unwrap().len(), 2 * n, "{f}");
         }
+    }
+
+    #[test]
+    fn volumetric_view_colours_a_soup_with_a_zero_area_triangle() {
+        // Seed 003 takes any soup; a sliver of three collinear points has no stretch (NaN, drawn
+        // neutral) while every other vertex gets its value.
+        let mut soup = balloon::mesh::generate::icosphere(0.1, 2).unwrap();
+        let n = soup.vertices.len();
+        for k in 0..3 {
+            soup.vertices
+                .push(Point3::new(0.01 * f64::from(k), 0.0, 0.0));
+        }
+        soup.triangles.push([n, n + 1, n + 2]);
+        let mut v = VolumetricView::new(soup).unwrap();
+        v.step().unwrap();
+        let s = v.scalar("stretch").unwrap();
+        assert_eq!(s.len(), n + 3);
+        assert!(s[..n].iter().all(|x| x.is_finite()), "finite on the sphere");
+        assert!(s[n..].iter().all(|x| x.is_nan()), "{:?}", &s[n..]);
     }
 
     #[test]

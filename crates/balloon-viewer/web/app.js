@@ -262,7 +262,13 @@ function colourBy(scalar) {
     const { values, min, max } = scalar;
     const span = max > min ? max - min : 0;
     for (let i = 0; i < vertexCount; i++) {
-      const t = span > 0 ? (values[i] - min) / span : 0.5;
+      const v = values[i];
+      // Undefined values (NaN, sent as null: e.g. the stretch of a zero-area soup triangle).
+      if (v === null || !Number.isFinite(v)) {
+        c.set([NEUTRAL.r, NEUTRAL.g, NEUTRAL.b], 3 * i);
+        continue;
+      }
+      const t = span > 0 ? (v - min) / span : 0.5;
       const k = 3 * Math.round(Math.min(Math.max(t, 0), 1) * (LUT_SIZE - 1));
       c[3 * i] = LUT[k];
       c[3 * i + 1] = LUT[k + 1];

@@ -205,6 +205,44 @@ pub fn face_max_stretch(
         .collect()
 }
 
+/// [`face_area_stretch`] that gives `NaN` ("undefined") for degenerate rest triangles instead
+/// of failing: triangle soups (seed 003 takes any) may hold zero-area triangles, whose stretch
+/// has no meaning while every other face's has. Other input errors still fail.
+pub fn face_area_stretch_or_nan(
+    rest: &[f64],
+    x: &[f64],
+    tris: &[[usize; 3]],
+) -> Result<Vec<f64>, FieldError> {
+    per_face_or_nan(rest, x, tris, face_area_stretch)
+}
+
+/// [`face_max_stretch`] with `NaN` for degenerate rest triangles (see
+/// [`face_area_stretch_or_nan`]).
+pub fn face_max_stretch_or_nan(
+    rest: &[f64],
+    x: &[f64],
+    tris: &[[usize; 3]],
+) -> Result<Vec<f64>, FieldError> {
+    per_face_or_nan(rest, x, tris, face_max_stretch)
+}
+
+type FaceField = fn(&[f64], &[f64], &[[usize; 3]]) -> Result<Vec<f64>, FieldError>;
+
+fn per_face_or_nan(
+    rest: &[f64],
+    x: &[f64],
+    tris: &[[usize; 3]],
+    f: FaceField,
+) -> Result<Vec<f64>, FieldError> {
+    match f(rest, x, tris) {
+        Err(FieldError::DegenerateRestTriangle { .. }) => Ok(tris
+            .iter()
+            .map(|t| f(rest, x, std::slice::from_ref(t)).map_or(f64::NAN, |v| v[0]))
+            .collect()),
+        other => other,
+    }
+}
+
 /// Areas of the triangles at positions `x` (m^2).
 pub fn face_areas(x: &[f64], tris: &[[usize; 3]]) -> Result<Vec<f64>, FieldError> {
     let n = vertex_count("x", x)?;
@@ -218,7 +256,8 @@ pub fn face_areas(x: &[f64], tris: &[[usize; 3]]) -> Result<Vec<f64>, FieldError
 /// Per-vertex average of a per-face field, weighted by the face areas at positions `x`:
 /// `value_i = sum_{f ∋ i} A_f value_f / sum_{f ∋ i} A_f`. The vertex count is `x.len() / 3`.
 /// A vertex with no adjacent face (or only zero-area faces) gets the plain mean of its faces,
-/// or `0` if it has none.
+/// or `0` if it has none. Non-finite face values (e.g. the `NaN` of an undefined stretch) are
+/// left out; a vertex whose faces all have one gets `NaN`.
 pub fn face_to_vertex(
     x: &[f64],
     tris: &[[usize; 3]],
@@ -237,7 +276,12 @@ pub fn face_to_vertex(
     let mut weight = vec![0.0; n];
     let mut plain = vec![0.0; n];
     let mut count = vec![0usize; n];
+    let mut undefined = vec![false; n];
     for ((tri, &a), &v) in tris.iter().zip(&areas).zip(face_values) {
+        if !v.is_finite() {
+            tri.iter().for_each(|&i| undefined[i] = true);
+            continue;
+        }
         for &i in tri {
             sum[i] += a * v;
             weight[i] += a;
@@ -251,6 +295,8 @@ pub fn face_to_vertex(
                 sum[i] / weight[i]
             } else if count[i] > 0 {
                 plain[i] / count[i] as f64
+            } else if undefined[i] {
+                f64::NAN
             } else {
                 0.0
             }
@@ -463,5 +509,36 @@ mod tests {
         assert!(matches!(err, FieldError::LengthMismatch { name: "x", .. }));
         let err = face_to_vertex(&rest, &[[0, 1, 2]], &[]).unwrap_err();
         assert!(err.to_string().contains("face_values"));
+    }
+
+    #[test]
+    fn degenerate_soup_triangles_get_nan_and_the_rest_is_kept() {
+        // Triangle 0 is a unit right triangle stretched by 2 along x; triangle 1 is a
+        // zero-area sliver (collinear points) as triangle soups may hold.
+        let rest = [
+            0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, // triangle 0
+            0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 2.0, 0.0, 1.0, // collinear
+        ];
+        let mut x = rest;
+        x[3] = 2.0;
+        let tris = [[0, 1, 2], [3, 4, 5]];
+        assert!(face_area_stretch(&rest, &x, &tris).is_err());
+        let area = face_area_stretch_or_nan(&rest, &x, &tris).unwrap();
+        assert!(
+            (area[0] - 2f64.sqrt()).abs() < 1e-14 && area[1].is_nan(),
+            "{area:?}"
+        );
+        let max = face_max_stretch_or_nan(&rest, &x, &tris).unwrap();
+        assert!((max[0] - 2.0).abs() < 1e-14 && max[1].is_nan(), "{max:?}");
+        // Averaged to vertices: the good triangle's vertices keep its value, the sliver's
+        // vertices (no defined face) are NaN; nothing else is polluted.
+        let v = face_to_vertex(&x, &tris, &area).unwrap();
+        assert!(
+            v[..3].iter().all(|s| (s - 2f64.sqrt()).abs() < 1e-14),
+            "{v:?}"
+        );
+        assert!(v[3..].iter().all(|s| s.is_nan()), "{v:?}");
+        // Other input errors still fail.
+        assert!(face_area_stretch_or_nan(&rest, &x[..9], &tris).is_err());
     }
 }

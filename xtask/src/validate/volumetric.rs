@@ -5,7 +5,7 @@
 use super::Options;
 use crate::report::Case;
 use anyhow::Result;
-use balloon::constraint::cell_volume::CellVolumeParams;
+use balloon::constraint::cell_volume::{CellCorrection, CellSolver, CellVolumeParams};
 use balloon::mesh::TriMesh;
 use balloon::mesh::generate::icosphere;
 use balloon::mesh::geometry;
@@ -20,7 +20,10 @@ const G: &str = "volumetric";
 /// A free body (no gravity, no contacts) with pseudo-random initial velocities: every step must
 /// end with every cell at its rest volume (seed 003, Eq. 1-2, tolerance 1e-10), and since the
 /// volume impulses and springs are internal, the linear momentum must not change.
-fn free_body(opts: &Options, cases: &mut Vec<Case>) -> Result<()> {
+///
+/// Run once with the paper's Gauss-Seidel sweeps and once with the global Newton solve of all
+/// cells (`CellSolver::Global`, gradient correction), which must also take few iterations.
+fn free_body(opts: &Options, solver: CellSolver, cases: &mut Vec<Case>) -> Result<()> {
     let soup = icosphere(0.5, 2)?;
     let params = VolumetricParams {
         lattice: LatticeParams {
@@ -30,13 +33,24 @@ fn free_body(opts: &Options, cases: &mut Vec<Case>) -> Result<()> {
         // With random particle velocities (high-frequency) the paper's plain Gauss-Seidel
         // sweeps need more than the default 500 sweeps to reach 1e-10 on the larger lattice:
         // over-relax (documented option) and allow more sweeps.
-        volume: CellVolumeParams {
-            over_relaxation: 1.3,
-            max_sweeps: 5000,
-            ..CellVolumeParams::default()
+        volume: match solver {
+            CellSolver::GaussSeidel => CellVolumeParams {
+                over_relaxation: 1.3,
+                max_sweeps: 5000,
+                ..CellVolumeParams::default()
+            },
+            CellSolver::Global => CellVolumeParams {
+                correction: CellCorrection::Gradient,
+                solver,
+                ..CellVolumeParams::default()
+            },
         },
         gravity: [0.0; 3],
         ..VolumetricParams::default()
+    };
+    let label = match solver {
+        CellSolver::GaussSeidel => "free body",
+        CellSolver::Global => "free body, global solver",
     };
     let body = VolumetricBody::build(&soup, params)?;
     let cells = body.lattice.cells.len();
@@ -58,31 +72,47 @@ fn free_body(opts: &Options, cases: &mut Vec<Case>) -> Result<()> {
     let scale: f64 = sim.masses().iter().sum::<f64>() * 0.5;
     let steps = if opts.quick { 100 } else { 300 };
     let (mut worst_cell, mut worst_total): (f64, f64) = (0.0, 0.0);
+    let mut sweeps = 0;
     for _ in 0..steps {
         let s = sim.step()?;
         worst_cell = worst_cell.max(s.max_cell_volume_error);
         worst_total = worst_total.max((s.total_volume_ratio - 1.0).abs());
+        sweeps += s.sweeps;
     }
+    let how = match solver {
+        CellSolver::GaussSeidel => "SOR 1.3, <= 5000 sweeps",
+        CellSolver::Global => "Newton on all cells, sparse Cholesky",
+    };
     cases.push(Case::at_most(
         G,
         format!(
-            "free body ({cells} cells, SOR 1.3, <= 5000 sweeps), {steps} steps: max per-cell relative volume error"
+            "{label} ({cells} cells, {how}), {steps} steps: max per-cell relative volume error"
         ),
         worst_cell,
         1e-10,
     ));
     cases.push(Case::at_most(
         G,
-        "free body: max |V_total / V0 - 1|",
+        format!("{label}: max |V_total / V0 - 1|"),
         worst_total,
         1e-9,
     ));
     cases.push(Case::at_most(
         G,
-        "free body: momentum drift |p - p0| / (M * 0.5 m/s)",
+        format!("{label}: momentum drift |p - p0| / (M * 0.5 m/s)"),
         (sim.momentum() - p0).norm() / scale,
         1e-12,
     ));
+    if solver == CellSolver::Global {
+        // Quadratic convergence: a handful of factorisations per step at any lattice size
+        // (the sweeps of the same run need hundreds).
+        cases.push(Case::at_most(
+            G,
+            format!("{label}: mean Newton iterations per step (incl. step halvings)"),
+            sweeps as f64 / steps as f64,
+            8.0,
+        ));
+    }
     Ok(())
 }
 
@@ -148,9 +178,11 @@ fn drop_sphere(opts: &Options, cases: &mut Vec<Case>) -> Result<()> {
 /// All volumetric cases; `extra` are further soups (name, mesh) for the volume comparison.
 pub fn cases(opts: &Options, extra: &[(String, TriMesh)]) -> Vec<Case> {
     let mut cases = Vec::new();
-    eprintln!("xtask validate: volumetric / free body");
-    if let Err(e) = free_body(opts, &mut cases) {
-        cases.push(Case::error(G, "free body", e));
+    for solver in [CellSolver::GaussSeidel, CellSolver::Global] {
+        eprintln!("xtask validate: volumetric / free body ({solver:?})");
+        if let Err(e) = free_body(opts, solver, &mut cases) {
+            cases.push(Case::error(G, format!("free body ({solver:?})"), e));
+        }
     }
     eprintln!("xtask validate: volumetric / generated volume");
     match icosphere(1.0, 3) {

@@ -365,6 +365,17 @@ fn bad_picture_flags_give_clear_errors() {
             ],
             "640x480",
         ),
+        (
+            vec![
+                "inflate",
+                "builtin:sphere",
+                "--color-range",
+                "2:1",
+                "--out",
+                o,
+            ],
+            "expected full, robust or MIN:MAX",
+        ),
     ];
     for (args, expect) in cases {
         let out = run_balloon(&args);
@@ -391,5 +402,67 @@ fn bad_picture_flags_give_clear_errors() {
         "vtk",
     ] {
         assert!(help.contains(flag), "--help lacks {flag}");
+    }
+}
+
+#[test]
+fn color_range_full_robust_and_fixed() {
+    // A sphere inflated for 3 steps, coloured by stretch. A fixed range below every value
+    // paints the body in the top (yellow: green above blue) colour, one above every value in
+    // the bottom (purple: blue above green) colour (measured: 92% and 0.5% of the body pixels
+    // have green above blue; edges and highlights make up the rest); `full` and `robust` span
+    // the values, so both hues appear (which values `robust` leaves out is unit-tested).
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = small_sphere(dir.path());
+    let picture = |range: &str| {
+        let out_dir = dir.path().join(format!("run-{}", range.replace(':', "_")));
+        let out = run_balloon(&[
+            "inflate",
+            mesh.to_str().unwrap(),
+            "--steps",
+            "3",
+            "--color",
+            "stretch",
+            "--color-range",
+            range,
+            "--render",
+            "last",
+            "--image-size",
+            "160x120",
+            "--out",
+            out_dir.to_str().unwrap(),
+        ]);
+        ok(&out);
+        Image::read_png(&out_dir.join("renders").join("frame_00003.png")).unwrap()
+    };
+    // Body pixels (left 75%, not background) with green above blue, and all body pixels.
+    let greenish = |img: &Image| {
+        let bg = img.get(0, img.height() - 1).unwrap();
+        let (mut g, mut n) = (0, 0);
+        for y in 0..img.height() {
+            for x in 0..img.width() * 3 / 4 {
+                let c = img.get(x, y).unwrap();
+                if c != bg {
+                    n += 1;
+                    g += usize::from(c[1] > c[2]);
+                }
+            }
+        }
+        assert!(n > 500, "the body covers only {n} pixels");
+        g as f64 / n as f64
+    };
+    let below = greenish(&picture("0.1:0.2"));
+    let above = greenish(&picture("10:20"));
+    assert!(
+        below > 0.8,
+        "values above the range: {below} of the body yellow-green"
+    );
+    assert!(
+        above < 0.2,
+        "values below the range: {above} of the body yellow-green"
+    );
+    for range in ["full", "robust"] {
+        let g = greenish(&picture(range));
+        assert!((0.02..0.98).contains(&g), "{range}: {g}");
     }
 }
