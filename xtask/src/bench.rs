@@ -6,9 +6,7 @@
 use crate::report::{loglog_slope, median};
 use crate::validate::meshes;
 use anyhow::{Context, Result};
-use balloon::constraint::cell_volume::{
-    CellCorrection, CellSolver, CellVolumeParams, SpringParams,
-};
+use balloon::constraint::cell_volume::{CellCorrection, CellSolver, CellVolumeParams};
 use balloon::integrate::TangentKind;
 use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::integrate::linear::{LinearSolverKind, PcgPreconditioner};
@@ -317,14 +315,8 @@ fn volumetric_scaling_with(opts: &Options, solver: CellSolver) -> Result<Scaling
         // Springs scaled to the particle mass as `balloon volumetric` does (`k = m / (50 h^2)`,
         // damping `m / (1000 h)`): the library's fixed 2e4 N/m is explicitly unstable on the
         // finer lattices (lighter particles), where every step then halves itself.
-        let (m, h) = (body.mass() / body.masses.len() as f64, body.params.dt);
-        let (k, c) = (m / (50.0 * h * h), m / (1000.0 * h));
-        let body = body.with_springs(SpringParams {
-            edge_stiffness: k,
-            edge_damping: c,
-            diagonal_stiffness: k,
-            diagonal_damping: c,
-        })?;
+        let springs = body.mass_scaled_springs(1.0 / 50.0, 1.0 / 1000.0);
+        let body = body.with_springs(springs)?;
         let mut sim = VolumetricSimulation::new(body);
         let n = sim.positions().len();
         // A deforming free body: a smooth shear plus spin (1/s about the centre), which

@@ -539,16 +539,8 @@ impl VolumetricView {
         let body = VolumetricBody::build(soup, params).map_err(|e| e.to_string())?;
         // Springs relative to the particle mass and the time step, as `balloon volumetric`
         // does: `k = s m / dt^2` (explicit, stable for s well below 1), damping `m / (1000 dt)`.
-        let m = body.mass() / body.masses.len() as f64;
-        let (k, c) = (s.stiffness * m / (s.dt * s.dt), m / (1000.0 * s.dt));
-        let body = body
-            .with_springs(balloon::constraint::cell_volume::SpringParams {
-                edge_stiffness: k,
-                edge_damping: c,
-                diagonal_stiffness: k,
-                diagonal_damping: c,
-            })
-            .map_err(|e| e.to_string())?;
+        let springs = body.mass_scaled_springs(s.stiffness, 1.0 / 1000.0);
+        let body = body.with_springs(springs).map_err(|e| e.to_string())?;
         let sim = VolumetricSimulation::new(body);
         let lowest = sim
             .positions()

@@ -284,6 +284,23 @@ impl VolumetricBody {
         Ok(self)
     }
 
+    /// Springs scaled to this body's mean particle mass `m` and time step `h`: stiffness
+    /// `stiffness * m / h^2` and damping `damping * m / h` on edges and diagonals alike. The
+    /// springs are explicit (Eq. 1), so `stiffness` must stay well below 1 for stability
+    /// (`balloon volumetric` uses 1/50 and 1/1000; a fixed stiffness in N/m turns unstable when
+    /// a finer lattice makes the particles lighter).
+    pub fn mass_scaled_springs(&self, stiffness: f64, damping: f64) -> SpringParams {
+        let m = self.mass() / self.masses.len().max(1) as f64;
+        let h = self.params.dt;
+        let (k, c) = (stiffness * m / (h * h), damping * m / h);
+        SpringParams {
+            edge_stiffness: k,
+            edge_damping: c,
+            diagonal_stiffness: k,
+            diagonal_damping: c,
+        }
+    }
+
     /// Total mass (kg).
     pub fn mass(&self) -> f64 {
         self.masses.iter().sum()
@@ -933,6 +950,22 @@ mod tests {
             gravity: [0.0; 3],
             ..VolumetricParams::default()
         }
+    }
+
+    #[test]
+    fn mass_scaled_springs_follow_the_particle_mass_and_step() {
+        let soup = icosphere(0.5, 2).unwrap();
+        let body = VolumetricBody::build(&soup, free_params()).unwrap();
+        let m = body.mass() / body.masses.len() as f64;
+        let h = body.params.dt;
+        let s = body.mass_scaled_springs(0.02, 0.001);
+        assert!((s.edge_stiffness * h * h / m - 0.02).abs() < 1e-14);
+        assert_eq!(s.edge_stiffness, s.diagonal_stiffness);
+        assert!((s.edge_damping * h / m - 0.001).abs() < 1e-14);
+        assert_eq!(s.edge_damping, s.diagonal_damping);
+        // Usable as they are.
+        let mut sim = VolumetricSimulation::new(body.with_springs(s).unwrap());
+        sim.step().unwrap();
     }
 
     #[test]

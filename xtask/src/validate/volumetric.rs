@@ -53,6 +53,10 @@ fn free_body(opts: &Options, solver: CellSolver, cases: &mut Vec<Case>) -> Resul
         CellSolver::Global => "free body, global solver",
     };
     let body = VolumetricBody::build(&soup, params)?;
+    // Springs as `balloon volumetric` scales them (the library's fixed 2e4 N/m is explicitly
+    // unstable on this lattice's light particles: steps would halve themselves).
+    let springs = body.mass_scaled_springs(1.0 / 50.0, 1.0 / 1000.0);
+    let body = body.with_springs(springs)?;
     let cells = body.lattice.cells.len();
     let mut sim = VolumetricSimulation::new(body);
     let mut state: u64 = 12345;
@@ -73,11 +77,13 @@ fn free_body(opts: &Options, solver: CellSolver, cases: &mut Vec<Case>) -> Resul
     let steps = if opts.quick { 100 } else { 300 };
     let (mut worst_cell, mut worst_total): (f64, f64) = (0.0, 0.0);
     let mut sweeps = 0;
+    let mut halvings = 0;
     for _ in 0..steps {
         let s = sim.step()?;
         worst_cell = worst_cell.max(s.max_cell_volume_error);
         worst_total = worst_total.max((s.total_volume_ratio - 1.0).abs());
         sweeps += s.sweeps;
+        halvings += s.halvings;
     }
     let how = match solver {
         CellSolver::GaussSeidel => "SOR 1.3, <= 5000 sweeps",
@@ -103,14 +109,20 @@ fn free_body(opts: &Options, solver: CellSolver, cases: &mut Vec<Case>) -> Resul
         (sim.momentum() - p0).norm() / scale,
         1e-12,
     ));
+    cases.push(Case::at_most(
+        G,
+        format!("{label}: step halvings"),
+        f64::from(halvings),
+        0.0,
+    ));
     if solver == CellSolver::Global {
         // Quadratic convergence: a handful of factorisations per step at any lattice size
         // (the sweeps of the same run need hundreds).
         cases.push(Case::at_most(
             G,
-            format!("{label}: mean Newton iterations per step (incl. step halvings)"),
+            format!("{label}: mean Newton iterations per step"),
             sweeps as f64 / steps as f64,
-            8.0,
+            6.0,
         ));
     }
     Ok(())
