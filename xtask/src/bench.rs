@@ -6,7 +6,7 @@
 use crate::report::{loglog_slope, median};
 use crate::validate::meshes;
 use anyhow::{Context, Result};
-use balloon::constraint::cell_volume::{CellCorrection, CellSolver, CellVolumeParams};
+use balloon::constraint::cell_volume::{CellSolver, CellVolumeParams};
 use balloon::integrate::TangentKind;
 use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::integrate::linear::{LinearSolverKind, PcgPreconditioner};
@@ -302,11 +302,7 @@ fn volumetric_scaling_with(opts: &Options, solver: CellSolver) -> Result<Scaling
                     max_sweeps: 5000,
                     ..CellVolumeParams::default()
                 },
-                CellSolver::Global => CellVolumeParams {
-                    correction: CellCorrection::Gradient,
-                    solver: CellSolver::Global,
-                    ..CellVolumeParams::default()
-                },
+                CellSolver::Global => CellVolumeParams::global(),
             },
             gravity: [0.0; 3],
             ..VolumetricParams::default()

@@ -91,7 +91,7 @@ impl CellProjectionWorkspace {
 /// Volume of cell `c` and its gradient with respect to its eight corners (Eq. 3 summed over
 /// the five tetrahedra: `dV/dx_b = (x_c - x_a) x (x_d - x_a) / 6` and cyclic, `dV/dx_a` minus
 /// their sum).
-fn volume_and_gradient(
+pub(crate) fn volume_and_gradient(
     x: &[Point3<f64>],
     cell: &[usize; 8],
     tets: &[[usize; 4]; 5],
@@ -289,44 +289,19 @@ mod tests {
     use crate::cell_volume::{CellSolver, CellVolumeParams};
     use balloon_test_support::Rng;
 
-    type Block = (Vec<Point3<f64>>, Vec<[usize; 8]>, Vec<[[usize; 4]; 5]>);
-
-    /// An `n x n x n` block of cells of edge 0.1 m with the lattice's alternating five-tet split.
-    fn cube(n: usize) -> Block {
-        use balloon_mesh::lattice::{CELL_TETS as T, CORNERS as C};
-        let vid = |i: usize, j: usize, k: usize| i + (n + 1) * (j + (n + 1) * k);
-        let mut x = Vec::new();
-        for k in 0..=n {
-            for j in 0..=n {
-                for i in 0..=n {
-                    x.push(Point3::new(i as f64, j as f64, k as f64) * 0.1);
-                }
-            }
-        }
-        let (mut cells, mut tets) = (Vec::new(), Vec::new());
-        for k in 0..n {
-            for j in 0..n {
-                for i in 0..n {
-                    let corners = C.map(|[a, b, c]| vid(i + a, j + b, k + c));
-                    let mut ts = T[(i + j + k) % 2].map(|t| t.map(|l| corners[l]));
-                    for t in &mut ts {
-                        if signed_tet_volume(&x[t[0]], &x[t[1]], &x[t[2]], &x[t[3]]) < 0.0 {
-                            t.swap(2, 3);
-                        }
-                    }
-                    cells.push(corners);
-                    tets.push(ts);
-                }
-            }
-        }
-        (x, cells, tets)
+    fn cube(n: usize) -> crate::cell_volume::tests::Block {
+        crate::cell_volume::tests::block3(n, n, n)
     }
 
+    /// The gradient correction with either solver (`CellVolumeParams::global()` for the global
+    /// one).
     fn params(solver: CellSolver) -> CellVolumeParams {
-        CellVolumeParams {
-            correction: CellCorrection::Gradient,
-            solver,
-            ..CellVolumeParams::default()
+        match solver {
+            CellSolver::Global => CellVolumeParams::global(),
+            CellSolver::GaussSeidel => CellVolumeParams {
+                correction: CellCorrection::Gradient,
+                ..CellVolumeParams::default()
+            },
         }
     }
 

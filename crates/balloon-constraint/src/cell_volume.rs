@@ -101,6 +101,18 @@ pub struct CellVolumeParams {
     pub solver: CellSolver,
 }
 
+impl CellVolumeParams {
+    /// The global solver with the gradient correction it needs ([`CellSolver::Global`]), other
+    /// settings at their defaults.
+    pub fn global() -> Self {
+        Self {
+            correction: CellCorrection::Gradient,
+            solver: CellSolver::Global,
+            ..Self::default()
+        }
+    }
+}
+
 impl Default for CellVolumeParams {
     fn default() -> Self {
         Self {
@@ -436,21 +448,7 @@ impl CellVolumeConstraints {
     ) {
         let cell = &self.cells[c];
         let mut grad = [Vector3::zeros(); 8];
-        let slot = |i: usize| {
-            cell.iter()
-                .position(|&k| k == i)
-                .expect("tet particle in its cell")
-        };
-        for t in &self.tets[c] {
-            let [a, b, cc, d] = t.map(|i| preview[i]);
-            let gb = (cc - a).cross(&(d - a)) / 6.0;
-            let gc = (d - a).cross(&(b - a)) / 6.0;
-            let gd = (b - a).cross(&(cc - a)) / 6.0;
-            grad[slot(t[0])] -= gb + gc + gd;
-            grad[slot(t[1])] += gb;
-            grad[slot(t[2])] += gc;
-            grad[slot(t[3])] += gd;
-        }
+        crate::cell_global::volume_and_gradient(preview, cell, &self.tets[c], &mut grad);
         let denom: f64 = cell
             .iter()
             .zip(&grad)
@@ -652,41 +650,51 @@ impl CellSprings {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use balloon_test_support::{
         Rng, assert_second_order, check_gradient, check_jacobian, taylor_remainder_orders,
     };
 
-    /// A row of `nx` unit cells with the lattice's five-tet split (parity alternating), built
-    /// from the lattice's corner and tetrahedron tables without running the generator.
-    type Block = (Vec<Point3<f64>>, Vec<[usize; 8]>, Vec<[[usize; 4]; 5]>);
+    /// Particles, cells and tetrahedra of a lattice block.
+    pub(crate) type Block = (Vec<Point3<f64>>, Vec<[usize; 8]>, Vec<[[usize; 4]; 5]>);
 
-    fn block(nx: usize) -> Block {
+    /// An `nx x ny x nz` block of cells of edge 0.1 m with the lattice's alternating five-tet
+    /// split (parity `(i + j + k) % 2`), built from the lattice's corner and tetrahedron tables
+    /// without running the generator.
+    pub(crate) fn block3(nx: usize, ny: usize, nz: usize) -> Block {
         use balloon_mesh::lattice::{CELL_TETS as T, CORNERS as C};
-        let vid = |i: usize, j: usize, k: usize| i + (nx + 1) * (j + 2 * k);
+        let vid = |i: usize, j: usize, k: usize| i + (nx + 1) * (j + (ny + 1) * k);
         let mut x = Vec::new();
-        for k in 0..2 {
-            for j in 0..2 {
+        for k in 0..=nz {
+            for j in 0..=ny {
                 for i in 0..=nx {
                     x.push(Point3::new(i as f64, j as f64, k as f64) * 0.1);
                 }
             }
         }
-        let mut cells = Vec::new();
-        let mut tets = Vec::new();
-        for i in 0..nx {
-            let corners = C.map(|[a, b, c]| vid(i + a, b, c));
-            let mut ts = T[i % 2].map(|t| t.map(|l| corners[l]));
-            for t in &mut ts {
-                if signed_tet_volume(&x[t[0]], &x[t[1]], &x[t[2]], &x[t[3]]) < 0.0 {
-                    t.swap(2, 3);
+        let (mut cells, mut tets) = (Vec::new(), Vec::new());
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let corners = C.map(|[a, b, c]| vid(i + a, j + b, k + c));
+                    let mut ts = T[(i + j + k) % 2].map(|t| t.map(|l| corners[l]));
+                    for t in &mut ts {
+                        if signed_tet_volume(&x[t[0]], &x[t[1]], &x[t[2]], &x[t[3]]) < 0.0 {
+                            t.swap(2, 3);
+                        }
+                    }
+                    cells.push(corners);
+                    tets.push(ts);
                 }
             }
-            cells.push(corners);
-            tets.push(ts);
         }
         (x, cells, tets)
+    }
+
+    /// A row of `nx` cells.
+    fn block(nx: usize) -> Block {
+        block3(nx, 1, 1)
     }
 
     fn perturbed(x: &[Point3<f64>], amp: f64, seed: u64) -> Vec<Point3<f64>> {

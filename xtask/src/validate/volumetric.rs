@@ -5,7 +5,7 @@
 use super::Options;
 use crate::report::Case;
 use anyhow::Result;
-use balloon::constraint::cell_volume::{CellCorrection, CellSolver, CellVolumeParams};
+use balloon::constraint::cell_volume::{CellSolver, CellVolumeParams};
 use balloon::mesh::TriMesh;
 use balloon::mesh::generate::icosphere;
 use balloon::mesh::geometry;
@@ -39,11 +39,7 @@ fn free_body(opts: &Options, solver: CellSolver, cases: &mut Vec<Case>) -> Resul
                 max_sweeps: 5000,
                 ..CellVolumeParams::default()
             },
-            CellSolver::Global => CellVolumeParams {
-                correction: CellCorrection::Gradient,
-                solver,
-                ..CellVolumeParams::default()
-            },
+            CellSolver::Global => CellVolumeParams::global(),
         },
         gravity: [0.0; 3],
         ..VolumetricParams::default()
