@@ -4,6 +4,7 @@
 use crate::protocol::{ClientMessage, error_message, validate_control, validate_vertex};
 use crate::systems::{DragRequest, ViewSystem};
 use serde_json::{Map, Value, json};
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
 use std::sync::{Arc, Mutex};
@@ -24,8 +25,38 @@ pub enum Command {
         /// Where the client's error replies go.
         reply: Sender<String>,
     },
+    /// Publish a new frame soon even when paused (a connection chose another colour field).
+    Refresh,
     /// Stop the thread.
     Shutdown,
+}
+
+/// The latest frame: its JSON without the colour field, and the JSON of each field computed
+/// for it. Each connection sends it with the field it chose ([`FrameMessage::text`]).
+#[derive(Debug, Default)]
+pub struct FrameMessage {
+    /// The frame object without its closing brace and without `"scalar"`.
+    head: String,
+    /// The field connections get when they chose none.
+    default: &'static str,
+    /// `(field, its JSON or null)` for the default field and every field a connection chose.
+    scalars: Vec<(&'static str, String)>,
+}
+
+impl FrameMessage {
+    /// The `frame` message carrying field `scalar`, or the default field when `scalar` is
+    /// `None` or was not computed for this frame (chosen after it was built).
+    pub fn text(&self, scalar: Option<&str>) -> String {
+        let pick = |name: &str| self.scalars.iter().find(|(n, _)| *n == name);
+        let field = scalar
+            .and_then(pick)
+            .or_else(|| pick(self.default))
+            .map_or("null", |(_, json)| json.as_str());
+        if self.head.is_empty() {
+            return String::new();
+        }
+        format!("{},\"scalar\":{field}}}", self.head)
+    }
 }
 
 /// What the simulation thread publishes for the connection threads.
@@ -35,8 +66,8 @@ pub struct Published {
     pub hello: Arc<String>,
     /// Bumped whenever `hello` changes (after a reset).
     pub hello_generation: u64,
-    /// The latest `frame` message.
-    pub frame: Arc<String>,
+    /// The latest frame (sent with each connection's colour field).
+    pub frame: Arc<FrameMessage>,
     /// Frame number of `frame` (strictly increasing over the server's life).
     pub frame_number: u64,
     /// Messages for every client (simulation failures), with increasing sequence numbers.
@@ -45,6 +76,10 @@ pub struct Published {
     pub state: Map<String, Value>,
     /// Positions of the latest frame, flat, m.
     pub positions: Arc<Vec<f64>>,
+    /// The system's colour fields (`scalar_fields`), for the connections to check a choice.
+    pub scalar_fields: Vec<&'static str>,
+    /// How many connections chose each colour field: the frames carry these and the default.
+    pub scalar_interest: BTreeMap<&'static str, usize>,
 }
 
 /// State shared by the simulation thread, the accept loop and the connections.
@@ -77,6 +112,7 @@ pub struct Runner {
     paused: bool,
     paused_by_error: bool,
     last_error: Option<String>,
+    /// The colour field of connections that chose none (the system's first).
     scalar: &'static str,
     drag: Option<DragRequest>,
     frame_number: u64,
@@ -173,16 +209,18 @@ impl Runner {
     /// Builds and publishes the frame and the state.
     fn publish_frame(&mut self) {
         let x = self.system.positions();
-        let scalar = match self.system.scalar(self.scalar) {
-            Ok(values) => {
-                let finite = values.iter().copied().filter(|v| v.is_finite());
-                let min = finite.clone().fold(f64::INFINITY, f64::min);
-                let max = finite.fold(f64::NEG_INFINITY, f64::max);
-                let (min, max) = if min <= max { (min, max) } else { (0.0, 0.0) };
-                json!({"name": self.scalar, "values": f32s(&values), "min": min, "max": max})
-            }
-            Err(_) => Value::Null,
+        let wanted: Vec<&'static str> = {
+            let p = self.shared.lock();
+            p.scalar_interest
+                .iter()
+                .filter(|(name, n)| **n > 0 && **name != self.scalar)
+                .map(|(name, _)| *name)
+                .collect()
         };
+        let scalars: Vec<(&'static str, String)> = std::iter::once(self.scalar)
+            .chain(wanted)
+            .map(|name| (name, self.scalar_json(name)))
+            .collect();
         self.frame_number += 1;
         let frame = json!({
             "type": "frame",
@@ -191,9 +229,10 @@ impl Runner {
             "time": self.system.time(),
             "paused": self.paused,
             "positions": f32s(&x),
-            "scalar": scalar,
             "stats": self.system.stats(),
         });
+        let mut head = frame.to_string();
+        head.pop(); // the closing brace: `FrameMessage::text` appends the field and closes it.
         let n = x.len() / 3;
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
@@ -241,13 +280,33 @@ impl Runner {
             p.hello = Arc::new(hello);
             p.hello_generation += 1;
         }
-        p.frame = Arc::new(frame.to_string());
+        p.frame = Arc::new(FrameMessage {
+            head,
+            default: self.scalar,
+            scalars,
+        });
+        p.scalar_fields = self.system.scalar_fields();
         p.frame_number = self.frame_number;
         p.state = state.as_object().cloned().unwrap_or_default();
         p.positions = Arc::new(x);
         drop(p);
         self.last_publish = Some(Instant::now());
         self.dirty = false;
+    }
+
+    /// The JSON of colour field `name` for the current state (`null` when it cannot be
+    /// computed); min and max over its finite values.
+    fn scalar_json(&self, name: &'static str) -> String {
+        match self.system.scalar(name) {
+            Ok(values) => {
+                let finite = values.iter().copied().filter(|v| v.is_finite());
+                let min = finite.clone().fold(f64::INFINITY, f64::min);
+                let max = finite.fold(f64::NEG_INFINITY, f64::max);
+                let (min, max) = if min <= max { (min, max) } else { (0.0, 0.0) };
+                json!({"name": name, "values": f32s(&values), "min": min, "max": max}).to_string()
+            }
+            Err(_) => "null".into(),
+        }
     }
 
     fn rebuild(&mut self) -> Result<(), String> {
@@ -295,16 +354,10 @@ impl Runner {
                 self.fail(msg.clone());
                 msg
             }),
-            ClientMessage::Scalar { name } => {
-                let fields = self.system.scalar_fields();
-                let f = fields.iter().find(|f| **f == name).ok_or_else(|| {
-                    format!(
-                        "unknown scalar field `{name}` (this system has: {})",
-                        fields.join(", ")
-                    )
-                })?;
-                self.scalar = f;
-                Ok(())
+            // Each connection chooses its colour field itself (`crate::server`); the choice
+            // never reaches the simulation.
+            ClientMessage::Scalar { .. } => {
+                Err("the colour field is chosen by each connection, not the simulation".into())
             }
             ClientMessage::Drag {
                 vertex,
@@ -361,6 +414,7 @@ impl Runner {
             loop {
                 match commands.try_recv() {
                     Ok(Command::Shutdown) => return,
+                    Ok(Command::Refresh) => self.dirty = true,
                     Ok(Command::Client { message, reply }) => {
                         if let Err(e) = self.handle_safely(message) {
                             let _ = reply.send(error_message(&e));
@@ -410,6 +464,7 @@ impl Runner {
             if let Some(w) = wait {
                 match commands.recv_timeout(w) {
                     Ok(Command::Shutdown) => return,
+                    Ok(Command::Refresh) => self.dirty = true,
                     Ok(Command::Client { message, reply }) => {
                         if let Err(e) = self.handle_safely(message) {
                             let _ = reply.send(error_message(&e));
@@ -543,13 +598,34 @@ mod tests {
         assert_eq!(hello["triangles"], json!([0, 1, 2]));
         assert_eq!(hello["vertex_count"], 3);
         assert_eq!(hello["scalar"], "x");
-        let frame: Value = serde_json::from_str(&p.frame).unwrap();
+        let frame: Value = serde_json::from_str(&p.frame.text(None)).unwrap();
         assert_eq!(frame["frame"], 1);
+        assert_eq!(frame["scalar"]["name"], "x");
         assert_eq!(frame["positions"].as_array().unwrap().len(), 9);
         assert_eq!(frame["scalar"]["min"], 0.0);
         assert_eq!(frame["scalar"]["max"], 1.0);
         assert_eq!(p.state["controls"]["speed"], 1.0);
         assert_eq!(p.hello_generation, 1);
+    }
+
+    #[test]
+    fn frames_carry_the_default_field_and_every_field_a_connection_chose() {
+        let (mut r, shared) = runner(None);
+        let frame = |choice: Option<&str>| -> Value {
+            serde_json::from_str(&shared.lock().frame.text(choice)).unwrap()
+        };
+        // Only the default is computed at first: a choice not computed yet falls back to it.
+        assert_eq!(frame(Some("y"))["scalar"]["name"], "x");
+        shared.lock().scalar_interest.insert("y", 1);
+        r.publish_frame();
+        assert_eq!(frame(Some("y"))["scalar"]["name"], "y");
+        assert_eq!(frame(None)["scalar"]["name"], "x");
+        assert_eq!(frame(Some("x"))["scalar"]["name"], "x");
+        assert_eq!(shared.lock().frame.scalars.len(), 2);
+        // Nobody wants `y` any more: it is no longer computed.
+        shared.lock().scalar_interest.clear();
+        r.publish_frame();
+        assert_eq!(shared.lock().frame.scalars.len(), 1);
     }
 
     #[test]
@@ -563,13 +639,11 @@ mod tests {
         assert!(e.contains("`speed`") && e.contains("[0, 10] m/s"), "{e}");
         let e = r.handle(c("colour", json!(1))).unwrap_err();
         assert!(e.contains("unknown control `colour`"), "{e}");
+        // The colour field is chosen per connection (server tests), never by the simulation.
         let e = r
-            .handle(ClientMessage::Scalar { name: "z".into() })
+            .handle(ClientMessage::Scalar { name: "y".into() })
             .unwrap_err();
-        assert!(
-            e.contains("unknown scalar field `z`") && e.contains("x, y"),
-            "{e}"
-        );
+        assert!(e.contains("each connection"), "{e}");
         let drag = |vertex, mode| ClientMessage::Drag {
             vertex,
             target: [0.0; 3],
@@ -582,8 +656,6 @@ mod tests {
         assert!(r.drag.is_none());
         // Valid ones pass.
         r.handle(c("speed", json!(2.5))).unwrap();
-        r.handle(ClientMessage::Scalar { name: "y".into() })
-            .unwrap();
         r.handle(drag(2, DragMode::Grab)).unwrap();
         assert_eq!(r.drag.map(|d| d.vertex), Some(2));
         r.handle(ClientMessage::Release).unwrap();
@@ -688,11 +760,14 @@ mod tests {
         );
         // The thread still answers.
         tx.send(Command::Client {
-            message: ClientMessage::Scalar { name: "y".into() },
+            message: ClientMessage::Control {
+                name: "speed".into(),
+                value: json!(1.0),
+            },
             reply,
         })
         .unwrap();
-        while shared.lock().state["scalar"] != "y" {
+        while shared.lock().state["controls"]["speed"] != 1.0 {
             assert!(Instant::now() < deadline, "the thread no longer answers");
             std::thread::sleep(Duration::from_millis(5));
         }

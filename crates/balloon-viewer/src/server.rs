@@ -1,7 +1,7 @@
 //! The HTTP side: one thread per connection, embedded assets, `/api/state`, and the WebSocket
 //! session that forwards client messages to the simulation thread and streams frames back.
 
-use crate::protocol::{error_message, parse_client_message};
+use crate::protocol::{ClientMessage, error_message, parse_client_message};
 use crate::runner::{Command, FRAME_INTERVAL, Shared};
 use include_dir::{Dir, include_dir};
 use serde_json::Value;
@@ -251,6 +251,48 @@ fn send(ws: &mut WebSocket<TcpStream>, text: &str) -> Result<bool, ()> {
     }
 }
 
+/// One connection's colour-field choice, counted in [`crate::runner::Published::scalar_interest`]
+/// so that the frames carry it; the count is dropped with the connection.
+struct ScalarChoice<'a> {
+    shared: &'a Shared,
+    chosen: Option<&'static str>,
+}
+
+impl ScalarChoice<'_> {
+    /// Chooses `name` if the system has it; otherwise the error text for the client.
+    fn choose(&mut self, name: &str) -> Result<(), String> {
+        let mut p = self.shared.lock();
+        let Some(&field) = p.scalar_fields.iter().find(|f| **f == name) else {
+            return Err(format!(
+                "unknown scalar field `{name}` (this system has: {})",
+                p.scalar_fields.join(", ")
+            ));
+        };
+        if let Some(old) = self.chosen.replace(field) {
+            release(&mut p.scalar_interest, old);
+        }
+        *p.scalar_interest.entry(field).or_insert(0) += 1;
+        Ok(())
+    }
+}
+
+fn release(interest: &mut std::collections::BTreeMap<&'static str, usize>, name: &'static str) {
+    if let Some(n) = interest.get_mut(name) {
+        *n -= 1;
+        if *n == 0 {
+            interest.remove(name);
+        }
+    }
+}
+
+impl Drop for ScalarChoice<'_> {
+    fn drop(&mut self) {
+        if let Some(old) = self.chosen.take() {
+            release(&mut self.shared.lock().scalar_interest, old);
+        }
+    }
+}
+
 fn websocket_session(mut ws: WebSocket<TcpStream>, shared: &Shared, commands: &Sender<Command>) {
     let _ = ws
         .get_mut()
@@ -264,6 +306,10 @@ fn websocket_session(mut ws: WebSocket<TcpStream>, shared: &Shared, commands: &S
     let mut broadcast_seq = shared.lock().broadcasts.last().map_or(0, |b| b.0);
     let mut last_frame = Instant::now() - FRAME_INTERVAL;
     let mut congested = false;
+    let mut scalar = ScalarChoice {
+        shared,
+        chosen: None,
+    };
     loop {
         if shared.stopping() {
             let _ = ws.close(None);
@@ -298,7 +344,7 @@ fn websocket_session(mut ws: WebSocket<TcpStream>, shared: &Shared, commands: &S
                 if p.frame_number > frame_number && last_frame.elapsed() >= FRAME_INTERVAL {
                     frame_number = p.frame_number;
                     last_frame = Instant::now();
-                    out.push(p.frame.clone());
+                    out.push(Arc::new(p.frame.text(scalar.chosen)));
                 }
             }
             for m in out {
@@ -311,6 +357,18 @@ fn websocket_session(mut ws: WebSocket<TcpStream>, shared: &Shared, commands: &S
         }
         match ws.read() {
             Ok(Message::Text(t)) => match parse_client_message(t.as_str()) {
+                // The colour field is this connection's own choice; the simulation only has to
+                // publish a frame with it soon (also while paused).
+                Ok(ClientMessage::Scalar { name }) => match scalar.choose(&name) {
+                    Ok(()) => {
+                        if commands.send(Command::Refresh).is_err() {
+                            return;
+                        }
+                    }
+                    Err(e) => {
+                        let _ = reply_tx.send(error_message(&e));
+                    }
+                },
                 Ok(message) => {
                     let cmd = Command::Client {
                         message,
@@ -347,6 +405,42 @@ fn websocket_session(mut ws: WebSocket<TcpStream>, shared: &Shared, commands: &S
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn colour_field_choices_are_checked_counted_and_released() {
+        let shared = Shared::default();
+        shared.lock().scalar_fields = vec!["thickness", "stretch"];
+        let mut a = ScalarChoice {
+            shared: &shared,
+            chosen: None,
+        };
+        let e = a.choose("colour").unwrap_err();
+        assert!(
+            e.contains("unknown scalar field `colour`") && e.contains("thickness, stretch"),
+            "{e}"
+        );
+        assert_eq!(a.chosen, None);
+        a.choose("stretch").unwrap();
+        {
+            let mut b = ScalarChoice {
+                shared: &shared,
+                chosen: None,
+            };
+            b.choose("stretch").unwrap();
+            assert_eq!(shared.lock().scalar_interest["stretch"], 2);
+            b.choose("thickness").unwrap();
+            assert_eq!(shared.lock().scalar_interest["stretch"], 1);
+            assert_eq!(shared.lock().scalar_interest["thickness"], 1);
+        }
+        // `b` is gone (its connection closed): only `a`'s choice is left.
+        let interest = shared.lock().scalar_interest.clone();
+        assert_eq!(
+            interest.into_iter().collect::<Vec<_>>(),
+            vec![("stretch", 1)]
+        );
+        drop(a);
+        assert!(shared.lock().scalar_interest.is_empty());
+    }
 
     #[test]
     fn request_heads_parse() {

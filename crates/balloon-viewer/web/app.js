@@ -207,8 +207,12 @@ function onHello(h) {
   vertexCount = n;
   endDrag(false);
 
+  // The colour field is this page's own choice (the server keeps it across resets); the
+  // hello's `scalar` is only the default for a page that has not chosen.
+  const chosen = $('scalar').value;
   fillSelect($('scalar'), h.scalar_fields || []);
-  if (h.scalar && (h.scalar_fields || []).includes(h.scalar)) $('scalar').value = h.scalar;
+  if ((h.scalar_fields || []).includes(chosen)) $('scalar').value = chosen;
+  else if (h.scalar && (h.scalar_fields || []).includes(h.scalar)) $('scalar').value = h.scalar;
   fillSelect($('drag-mode'), h.drag_modes || []);
   buildControls(h.controls || []);
   requestRender();

@@ -370,12 +370,31 @@ fn view_shell_serves_page_state_frames_controls_and_drags() {
     let before = next_of(&mut ws, "frame")["frame"].as_u64().unwrap();
     assert!(next_of(&mut ws, "frame")["frame"].as_u64().unwrap() > before);
 
-    // A scalar field choice reaches the frames.
+    // A scalar field choice reaches this connection's frames, and only this connection's: a
+    // second viewer keeps the default field and chooses its own.
     send(&mut ws, json!({"type": "scalar", "name": "stretch"}));
     let deadline = Instant::now() + Duration::from_secs(10);
     while next_of(&mut ws, "frame")["scalar"]["name"] != "stretch" {
         assert!(Instant::now() < deadline, "scalar field not switched");
     }
+    let mut other = connect(&srv.addr);
+    let default = next_of(&mut other, "hello")["scalar"].clone();
+    assert_ne!(default, "stretch");
+    assert_eq!(next_of(&mut other, "frame")["scalar"]["name"], default);
+    send(&mut other, json!({"type": "scalar", "name": "speed"}));
+    while next_of(&mut other, "frame")["scalar"]["name"] != "speed" {
+        assert!(
+            Instant::now() < deadline,
+            "second viewer's field not switched"
+        );
+    }
+    for _ in 0..3 {
+        assert_eq!(next_of(&mut ws, "frame")["scalar"]["name"], "stretch");
+    }
+    send(&mut other, json!({"type": "scalar", "name": "colour"}));
+    let msg = next_of(&mut other, "error")["message"].to_string();
+    assert!(msg.contains("unknown scalar field `colour`"), "{msg}");
+    drop(other);
 
     // Grab the vertex farthest from the centroid and pull it outwards by 3 cm.
     let f = next_of(&mut ws, "frame");
