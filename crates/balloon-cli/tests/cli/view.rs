@@ -489,6 +489,45 @@ fn view_two_layer_drags_the_picked_particle() {
 }
 
 #[test]
+fn view_a_stalled_viewer_blocks_neither_the_simulation_nor_other_viewers() {
+    // Viewer `slow` stops reading for 3 s; meanwhile the simulation keeps real time and viewer
+    // `fast` keeps getting frames at the usual rate; afterwards `slow` reaches the newest frames
+    // (it is sent the latest frame, with whatever was dropped while its socket was full).
+    let srv = start(&["two-layer"]);
+    let mut slow = connect(&srv.addr);
+    let mut fast = connect(&srv.addr);
+    next_of(&mut slow, "frame");
+    next_of(&mut fast, "frame");
+    let t0 = state(&srv.addr, "")["time"].as_f64().unwrap();
+    let wall = Instant::now();
+    let mut frames = 0;
+    while wall.elapsed() < Duration::from_secs(3) {
+        next_of(&mut fast, "frame");
+        frames += 1;
+    }
+    let s = state(&srv.addr, "");
+    let simulated = s["time"].as_f64().unwrap() - t0;
+    // Real time on an idle machine; the bounds leave room for a loaded CI machine.
+    assert!(
+        simulated > 1.0,
+        "the simulation advanced {simulated} s in 3 s of wall time"
+    );
+    assert!(frames >= 20, "the other viewer got {frames} frames in 3 s");
+    let newest = s["frame"].as_u64().unwrap();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let f = next_of(&mut slow, "frame")["frame"].as_u64().unwrap();
+        if f >= newest {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the stalled viewer never caught up ({f} < {newest})"
+        );
+    }
+}
+
+#[test]
 fn view_rejects_malformed_http_and_survives() {
     let srv = start(&["two-layer"]);
     let (status, _, body) = raw_request(&srv.addr, b"NONSENSE\r\n\r\n");
