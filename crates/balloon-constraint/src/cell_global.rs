@@ -128,6 +128,15 @@ impl CellVolumeConstraints {
         h: f64,
         tolerance: f64,
     ) -> Result<ProjectionInfo, CellVolumeError> {
+        for (name, len) in [("velocities", velocities.len()), ("masses", masses.len())] {
+            if len != preview.len() {
+                return Err(CellVolumeError::InvalidParameter {
+                    name,
+                    value: len.to_string(),
+                    reason: format!("expected one per particle ({})", preview.len()),
+                });
+            }
+        }
         match self.params.solver {
             CellSolver::GaussSeidel => {
                 self.project_gauss_seidel(preview, velocities, masses, h, tolerance)
@@ -151,7 +160,7 @@ impl CellVolumeConstraints {
         if let Some(e) = self.find_inverted(preview) {
             return Err(e);
         }
-        let (initial_error, _) = self.max_relative_error(preview);
+        let (initial_error, initial_cell) = self.max_relative_error(preview);
         let mut info = ProjectionInfo {
             sweeps: 0,
             initial_error,
@@ -169,7 +178,33 @@ impl CellVolumeConstraints {
         ws.step.resize(n, Vector3::zeros());
         ws.start.clear();
         ws.start.extend_from_slice(preview);
-        let (mut error, mut worst) = self.max_relative_error(preview);
+        let result = self.newton_iterations(
+            ws,
+            preview,
+            masses,
+            tolerance,
+            (initial_error, initial_cell),
+            &mut info,
+        );
+        // Whatever happened, the velocities carry the displacement made so far, so that
+        // `p + h v` is the preview again (as after a Gauss-Seidel sweep that stopped early).
+        for ((v, x), x0) in velocities.iter_mut().zip(preview.iter()).zip(&ws.start) {
+            *v += (x - x0) / h;
+        }
+        result.map(|()| info)
+    }
+
+    /// The Newton iterations of [`CellVolumeConstraints::project_global`], moving `preview`.
+    fn newton_iterations(
+        &self,
+        ws: &mut CellProjectionWorkspace,
+        preview: &mut [Point3<f64>],
+        masses: &[f64],
+        tolerance: f64,
+        (mut error, mut worst): (f64, usize),
+        info: &mut ProjectionInfo,
+    ) -> Result<(), CellVolumeError> {
+        let n = preview.len();
         for iteration in 1..=self.params.max_sweeps {
             // Linearise: C_c and dC_c/dx at the current preview.
             for (c, cell) in self.cells.iter().enumerate() {
@@ -247,32 +282,14 @@ impl CellVolumeConstraints {
             info.sweeps = iteration;
             info.final_error = e;
             if e <= tolerance {
-                break;
-            }
-            if iteration == self.params.max_sweeps {
-                self.carry_velocities(ws, preview, velocities, h);
-                return Err(CellVolumeError::NotConverged {
-                    sweeps: iteration,
-                    max_error: e,
-                    cell,
-                });
+                return Ok(());
             }
         }
-        self.carry_velocities(ws, preview, velocities, h);
-        Ok(info)
-    }
-
-    /// `v += (x - x_start) / h`: the impulse that moves the preview to its corrected place.
-    fn carry_velocities(
-        &self,
-        ws: &CellProjectionWorkspace,
-        preview: &[Point3<f64>],
-        velocities: &mut [Vector3<f64>],
-        h: f64,
-    ) {
-        for ((v, x), x0) in velocities.iter_mut().zip(preview).zip(&ws.start) {
-            *v += (x - x0) / h;
-        }
+        Err(CellVolumeError::NotConverged {
+            sweeps: self.params.max_sweeps,
+            max_error: error,
+            cell: worst,
+        })
     }
 }
 
@@ -429,6 +446,46 @@ mod tests {
             iterations.iter().all(|&k| (1..=5).contains(&k)),
             "{iterations:?}"
         );
+    }
+
+    #[test]
+    fn a_stopped_solve_leaves_velocities_matching_the_preview_and_sizes_are_checked() {
+        // One Newton iteration cannot reach 1e-12 from a 1% error: NotConverged, but the
+        // velocities carry the displacement made, as the Gauss-Seidel sweeps do.
+        let (x0, cells, tets) = cube(3);
+        let params = CellVolumeParams {
+            max_sweeps: 1,
+            ..CellVolumeParams::global()
+        };
+        let c = CellVolumeConstraints::new(cells, tets, &x0, params).unwrap();
+        let mut v = random_vectors(x0.len(), 1.0, 5);
+        let h = 1e-2;
+        let mut x: Vec<Point3<f64>> = x0.iter().zip(&v).map(|(p, v)| p + v * h).collect();
+        let m = vec![1.0; x0.len()];
+        let e = c
+            .project_to_tolerance(&mut x, &mut v, &m, h, 1e-12)
+            .unwrap_err();
+        assert!(
+            matches!(e, CellVolumeError::NotConverged { sweeps: 1, .. }),
+            "{e}"
+        );
+        for i in 0..x.len() {
+            assert!((x0[i] + v[i] * h - x[i]).norm() < 1e-13);
+        }
+        // Wrong slice lengths are named, for either solver.
+        let e = c
+            .project(&mut x, &mut v, &m[1..], h)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("`masses`") && e.contains("one per particle"),
+            "{e}"
+        );
+        let e = c
+            .project(&mut x, &mut v[1..], &m, h)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`velocities`"), "{e}");
     }
 
     #[test]

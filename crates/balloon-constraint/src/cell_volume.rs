@@ -773,7 +773,7 @@ pub(crate) mod tests {
             .collect();
         let h = 5e-3;
         let mut x: Vec<Point3<f64>> = p.iter().zip(&v).map(|(p, v)| p + v * h).collect();
-        c.project(&mut x, &mut v, &[1.0; 18], h).unwrap();
+        c.project(&mut x, &mut v, &vec![1.0; p.len()], h).unwrap();
         for i in 0..p.len() {
             assert!((p[i] + v[i] * h - x[i]).norm() < 1e-14);
         }
@@ -787,7 +787,9 @@ pub(crate) mod tests {
         // Push corner 6 of cell 0 through the opposite face.
         x[c.cells[0][6]] = Point3::new(-0.05, -0.05, -0.05);
         let mut v = vec![Vector3::zeros(); x.len()];
-        let e = c.project(&mut x, &mut v, &[1.0; 18], 1e-2).unwrap_err();
+        let e = c
+            .project(&mut x, &mut v, &vec![1.0; x0.len()], 1e-2)
+            .unwrap_err();
         assert!(
             matches!(e, CellVolumeError::Inverted { cell: 0, .. }),
             "{e}"
