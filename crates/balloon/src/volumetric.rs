@@ -571,7 +571,8 @@ impl VolumetricSimulation {
         Ok(stats)
     }
 
-    /// Advances by `h`; on inversion restores the state and does two steps of `h / 2`.
+    /// Advances by `h`; on inversion restores the state and does two steps of `h / 2`; on any
+    /// other failure restores the state of the failed (sub-)step and reports it.
     fn advance(
         &mut self,
         h: f64,
@@ -600,10 +601,14 @@ impl VolumetricSimulation {
                 self.advance(h / 2.0, depth + 1, info)?;
                 self.advance(h / 2.0, depth + 1, info)
             }
-            Err(source) => Err(VolumetricError::NotConverged {
-                step: self.step,
-                source,
-            }),
+            Err(source) => {
+                // Leave the body as it was before the failed (sub-)step.
+                (self.positions, self.velocities, self.sphere) = saved;
+                Err(VolumetricError::NotConverged {
+                    step: self.step,
+                    source,
+                })
+            }
         }
     }
 
@@ -950,6 +955,37 @@ mod tests {
             gravity: [0.0; 3],
             ..VolumetricParams::default()
         }
+    }
+
+    #[test]
+    fn a_projection_that_does_not_converge_names_the_step_and_rolls_back() {
+        let soup = icosphere(0.5, 2).unwrap();
+        let mut params = free_params();
+        params.volume.max_sweeps = 1;
+        params.volume.tolerance = 1e-14;
+        let body = VolumetricBody::build(&soup, params).unwrap();
+        let mut sim = VolumetricSimulation::new(body);
+        let v = {
+            let mut rng = Rng::new(4);
+            (0..sim.positions().len())
+                .map(|_| Vector3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()))
+                .collect::<Vec<_>>()
+        };
+        sim.set_velocities(&v).unwrap();
+        let before = (sim.positions().to_vec(), sim.velocities().to_vec());
+        let e = sim.step().unwrap_err();
+        assert!(
+            matches!(e, VolumetricError::NotConverged { step: 0, .. }),
+            "{e}"
+        );
+        assert!(
+            e.to_string()
+                .starts_with("step 0: volume projection did not converge"),
+            "{e}"
+        );
+        assert_eq!(sim.positions(), &before.0[..]);
+        assert_eq!(sim.velocities(), &before.1[..]);
+        assert_eq!(sim.steps(), 0);
     }
 
     #[test]
