@@ -168,7 +168,16 @@ pub fn default_mesh(system: SystemKind) -> Result<TriMesh, balloon_mesh::MeshErr
         ..Default::default()
     };
     match system {
-        SystemKind::Shell | SystemKind::Volumetric => balloon_mesh::generate::teddy(&params),
+        SystemKind::Shell => balloon_mesh::generate::teddy(&params),
+        // A soft teddy cannot stand on its round feet: standing it topples onto its back within
+        // a quarter of a second. It starts lying on its back (face up, +y), at rest on the floor.
+        SystemKind::Volumetric => {
+            let mut m = balloon_mesh::generate::teddy(&params)?;
+            for p in &mut m.vertices {
+                *p = nalgebra::Point3::new(p.x, p.z, -p.y);
+            }
+            Ok(m)
+        }
         SystemKind::TwoLayer => balloon_mesh::generate::icosphere(1.0, 0),
     }
 }

@@ -1011,6 +1011,27 @@ mod tests {
     }
 
     #[test]
+    fn default_volumetric_teddy_rests_on_its_back_instead_of_toppling() {
+        // Height of the highest surface point above the lowest over 0.5 s: a standing teddy
+        // toppled (0.15 m -> 0.03 m in 0.25 s); lying on its back it keeps its height.
+        let soup = crate::default_mesh(crate::SystemKind::Volumetric).unwrap();
+        let mut v = VolumetricView::new(soup).unwrap();
+        let height = |v: &VolumetricView| {
+            let x = v.positions();
+            let ys = x.chunks_exact(3).map(|p| p[1]);
+            ys.clone().fold(f64::MIN, f64::max) - ys.fold(f64::MAX, f64::min)
+        };
+        let h0 = height(&v);
+        let mut lowest = h0;
+        while v.time() < 0.5 {
+            v.step().unwrap();
+            lowest = lowest.min(height(&v));
+        }
+        eprintln!("height {h0} m, lowest {lowest} m, end {} m", height(&v));
+        assert!(lowest > 0.8 * h0, "height {h0} m fell to {lowest} m");
+    }
+
+    #[test]
     fn volumetric_view_lands_without_failing() {
         let soup = crate::default_mesh(crate::SystemKind::Volumetric).unwrap();
         let mut v = VolumetricView::new(soup).unwrap();
