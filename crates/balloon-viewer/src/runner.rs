@@ -279,13 +279,13 @@ impl Runner {
         if let Some(hello) = self.pending_hello.take() {
             p.hello = Arc::new(hello);
             p.hello_generation += 1;
+            p.scalar_fields = self.system.scalar_fields();
         }
         p.frame = Arc::new(FrameMessage {
             head,
             default: self.scalar,
             scalars,
         });
-        p.scalar_fields = self.system.scalar_fields();
         p.frame_number = self.frame_number;
         p.state = state.as_object().cloned().unwrap_or_default();
         p.positions = Arc::new(x);
