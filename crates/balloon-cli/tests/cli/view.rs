@@ -507,12 +507,17 @@ fn view_a_stalled_viewer_blocks_neither_the_simulation_nor_other_viewers() {
     }
     let s = state(&srv.addr, "");
     let simulated = s["time"].as_f64().unwrap() - t0;
-    // Real time on an idle machine; the bounds leave room for a loaded CI machine.
+    // A viewer that blocked the server would stop both at zero. Idle, the simulation keeps real
+    // time (3 s) and `fast` gets ~90 frames; the other view tests run their own servers in
+    // parallel (shell Newton solves on 2 cores), so the bounds only ask for clear progress.
+    eprintln!(
+        "stalled viewer: {simulated} s simulated, {frames} frames to the other viewer in 3 s"
+    );
     assert!(
-        simulated > 1.0,
+        simulated > 0.25,
         "the simulation advanced {simulated} s in 3 s of wall time"
     );
-    assert!(frames >= 20, "the other viewer got {frames} frames in 3 s");
+    assert!(frames >= 10, "the other viewer got {frames} frames in 3 s");
     let newest = s["frame"].as_u64().unwrap();
     let deadline = Instant::now() + Duration::from_secs(20);
     loop {
