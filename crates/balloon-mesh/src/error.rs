@@ -7,15 +7,35 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum MeshError {
     /// The file could not be opened or read. Check the path and permissions.
-    #[error("{path}: {source}")]
+    #[error("{}: {source}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
         /// The underlying I/O error.
         source: std::io::Error,
     },
+    /// The path names something that is not a regular file (a device, a FIFO, a directory).
+    #[error("{path}: is {kind}, not a mesh file")]
+    NotAFile {
+        /// The path.
+        path: PathBuf,
+        /// What it is, in words.
+        kind: &'static str,
+    },
+    /// The file is larger than the readers accept ([`crate::io::MAX_MESH_FILE_BYTES`]).
+    #[error("{path}: file of {size} bytes is larger than the {limit}-byte limit for mesh files")]
+    FileTooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Its size, bytes.
+        size: u64,
+        /// The limit, bytes.
+        limit: u64,
+    },
     /// The file's content is malformed at a given line (text formats) or byte offset (binary).
-    #[error("{path}:{location}: {message}")]
+    /// The message is shown with control characters escaped and long tokens shortened, so a
+    /// hostile file cannot write terminal escape sequences or megabytes to the terminal.
+    #[error("{}:{location}: {}", path.display(), crate::io::printable(message))]
     Parse {
         /// The file.
         path: PathBuf,

@@ -38,8 +38,66 @@ fn io_err(path: &Path, source: std::io::Error) -> MeshError {
     }
 }
 
+/// Largest mesh file the readers accept, bytes (1 GiB: several times the largest scanned models;
+/// a larger file is refused before it is read instead of exhausting memory).
+pub const MAX_MESH_FILE_BYTES: u64 = 1 << 30;
+
+/// Reads a whole mesh file after checking what it is: only regular files (a symlink is followed)
+/// of at most [`MAX_MESH_FILE_BYTES`] are read, so a device (`/dev/zero`), a FIFO or a directory
+/// is refused by its type and a huge (or sparse) file by its size, before any allocation. The
+/// read itself is capped too, in case the file grows between the check and the read.
 fn read_bytes(path: &Path) -> Result<Vec<u8>, MeshError> {
-    std::fs::read(path).map_err(|e| io_err(path, e))
+    use std::io::Read;
+    let meta = std::fs::metadata(path).map_err(|e| io_err(path, e))?;
+    let kind = meta.file_type();
+    if !kind.is_file() {
+        return Err(MeshError::NotAFile {
+            path: path.to_path_buf(),
+            kind: file_kind(&kind),
+        });
+    }
+    let too_big = |size: u64| MeshError::FileTooLarge {
+        path: path.to_path_buf(),
+        size,
+        limit: MAX_MESH_FILE_BYTES,
+    };
+    if meta.len() > MAX_MESH_FILE_BYTES {
+        return Err(too_big(meta.len()));
+    }
+    let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(MAX_MESH_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| io_err(path, e))?;
+    if bytes.len() as u64 > MAX_MESH_FILE_BYTES {
+        return Err(too_big(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
+/// A name for a file type that is not a regular file.
+fn file_kind(kind: &std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if kind.is_char_device() {
+            return "a character device";
+        }
+        if kind.is_block_device() {
+            return "a block device";
+        }
+        if kind.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if kind.is_socket() {
+            return "a socket";
+        }
+    }
+    if kind.is_dir() {
+        "a directory"
+    } else {
+        "not a regular file"
+    }
 }
 
 fn extension(path: &Path) -> String {
@@ -174,3 +232,84 @@ pub fn write_ply_binary(path: &Path, mesh: &TriMesh) -> Result<(), MeshError> {
 
 #[cfg(test)]
 mod tests;
+
+/// Longest token (run of non-space characters) shown whole in a parse message; longer ones are
+/// cut to this many characters and the number of bytes left out is named.
+const MAX_SHOWN_TOKEN_CHARS: usize = 48;
+/// Longest parse message shown, characters (after escaping).
+const MAX_SHOWN_MESSAGE_CHARS: usize = 400;
+
+/// `message` made safe to print: control characters (escape sequences, NUL, bell, carriage
+/// return) escaped as `\u{..}`, tokens longer than 48 characters cut with the byte count left
+/// out, and the whole cut at 400 characters. Parse messages quote tokens from the file, which
+/// may be hostile or binary.
+pub(crate) fn printable(message: &str) -> String {
+    let is_gap = |c: char| c.is_whitespace() && !c.is_control();
+    let mut out = String::with_capacity(message.len().min(MAX_SHOWN_MESSAGE_CHARS + 32));
+    let (mut shown, mut token_chars) = (0usize, 0usize);
+    let mut chars = message.char_indices().peekable();
+    while let Some((at, c)) = chars.next() {
+        if shown >= MAX_SHOWN_MESSAGE_CHARS {
+            out.push_str(&format!("...({} more bytes)", message.len() - at));
+            break;
+        }
+        if is_gap(c) {
+            token_chars = 0;
+        } else {
+            token_chars += 1;
+        }
+        if token_chars > MAX_SHOWN_TOKEN_CHARS {
+            // Leave out the rest of this token.
+            let mut end = message.len();
+            while let Some(&(j, d)) = chars.peek() {
+                if is_gap(d) {
+                    end = j;
+                    break;
+                }
+                chars.next();
+            }
+            out.push_str(&format!("...({} more bytes)", end - at));
+            shown += 16;
+            token_chars = 0;
+            continue;
+        }
+        if c.is_control() {
+            out.extend(c.escape_unicode());
+        } else {
+            out.push(c);
+        }
+        shown += 1;
+    }
+    out
+}
+
+/// `bytes` without a leading UTF-8 byte-order mark (`EF BB BF`), which some Windows editors
+/// write at the start of text files.
+pub(crate) fn strip_bom(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
+}
+
+/// Refuses a parsed mesh whose triangles all have zero area (repeated corners or collinear
+/// points): such a file describes no surface, and reporting it as a valid mesh would hide that.
+pub(crate) fn refuse_all_degenerate(
+    path: &Path,
+    mesh: TriMesh,
+    location: impl FnOnce() -> String,
+) -> Result<TriMesh, MeshError> {
+    let any_area = mesh.triangles.iter().any(|t| {
+        let [a, b, c] = t.map(|i| mesh.vertices[i]);
+        (b - a).cross(&(c - a)).norm_squared() > 0.0
+    });
+    if any_area || mesh.triangles.is_empty() {
+        return Ok(mesh);
+    }
+    Err(MeshError::Parse {
+        path: path.to_path_buf(),
+        location: location(),
+        message: format!(
+            "all {} faces have zero area (repeated or collinear corners): the file describes no \
+             surface",
+            mesh.num_triangles()
+        ),
+    })
+}

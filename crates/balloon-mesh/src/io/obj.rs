@@ -18,7 +18,7 @@ use std::path::Path;
 /// non-numeric or non-finite coordinate, a face with fewer than 3 corners, an index that is 0,
 /// not an integer or out of range, or a file without faces.
 pub fn parse_obj(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
-    let text = String::from_utf8_lossy(bytes);
+    let text = String::from_utf8_lossy(super::strip_bom(bytes));
     let mut vertices = Vec::new();
     let mut triangles = Vec::new();
     let mut corners = Vec::new();
@@ -83,5 +83,7 @@ pub fn parse_obj(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
             "no faces found (empty or not an OBJ mesh)",
         ));
     }
-    Ok(TriMesh::new(vertices, triangles))
+    super::refuse_all_degenerate(path, TriMesh::new(vertices, triangles), || {
+        format!("line {}", text.lines().count().max(1))
+    })
 }

@@ -21,7 +21,7 @@ use std::path::Path;
 /// file (fewer vertices or faces than the header announces), a bad number, a face with fewer
 /// than 3 corners or an index out of range.
 pub fn parse_off(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
-    let text = String::from_utf8_lossy(bytes);
+    let text = String::from_utf8_lossy(super::strip_bom(bytes));
     let mut lines = token_lines(&text);
     let Some((hline, htoks)) = lines.next() else {
         return Err(line_err(path, 1, "empty file: expected an `OFF` header"));
@@ -106,7 +106,7 @@ pub fn parse_off(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
                 format!("face {k} has {n} corners (at least 3 needed)"),
             ));
         }
-        if toks.len() < n + 1 {
+        if n > toks.len() - 1 {
             return Err(line_err(
                 path,
                 l,
@@ -135,7 +135,9 @@ pub fn parse_off(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
     if triangles.is_empty() {
         return Err(line_err(path, last_line, "no faces found"));
     }
-    Ok(TriMesh::new(vertices, triangles))
+    super::refuse_all_degenerate(path, TriMesh::new(vertices, triangles), || {
+        format!("line {last_line}")
+    })
 }
 
 /// Writes the OFF text of `mesh` to `w` (`OFF`, counts, `x y z` lines, `3 a b c` lines; values

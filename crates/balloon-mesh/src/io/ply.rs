@@ -402,6 +402,11 @@ fn read_body(
 /// header, a truncated body, a bad number, a face index out of range, a face before the
 /// vertices, or no faces.
 pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
+    let mesh = parse_ply_body(super::strip_bom(bytes), path)?;
+    super::refuse_all_degenerate(path, mesh, || "header".to_string())
+}
+
+fn parse_ply_body(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
     let (format, elements, body, header_lines) = header(bytes, path)?;
     let cap = bytes.len() / 4 + 1;
     match format {

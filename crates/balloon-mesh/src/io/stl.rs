@@ -115,16 +115,18 @@ fn parse_ascii(text: &str, path: &Path) -> Result<Vec<Point3<f64>>, MeshError> {
 /// not match its triangle count, a truncated or malformed ASCII file, a bad or non-finite number,
 /// no facets.
 pub fn parse_stl(bytes: &[u8], path: &Path, weld_tolerance: f64) -> Result<TriMesh, MeshError> {
+    // A UTF-8 byte-order mark may precede an ASCII file; a binary file is taken as it is.
+    let body = super::strip_bom(bytes);
     let starts_solid = {
-        let s = bytes
+        let s = body
             .iter()
             .position(|b| !b.is_ascii_whitespace())
-            .unwrap_or(bytes.len());
-        bytes[s..].starts_with(b"solid")
+            .unwrap_or(body.len());
+        body[s..].starts_with(b"solid")
     };
     let binary_size = (bytes.len() >= 84)
         .then(|| 84 + 50 * u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64);
-    let text = std::str::from_utf8(bytes).ok();
+    let text = std::str::from_utf8(body).ok();
     // A binary file is essentially never valid UTF-8 containing `endfacet`; an ASCII file may
     // (rarely) have a size of the form 84 + 50 n.
     let ascii = starts_solid && text.is_some_and(|t| t.contains("endfacet"));
@@ -159,7 +161,18 @@ pub fn parse_stl(bytes: &[u8], path: &Path, weld_tolerance: f64) -> Result<TriMe
         soup,
         (0..n).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect(),
     );
-    Ok(weld_vertices(&mesh, weld_tolerance.max(0.0)).0)
+    let welded = weld_vertices(&mesh, weld_tolerance.max(0.0)).0;
+    if welded.triangles.is_empty() {
+        return Err(byte_err(
+            path,
+            0,
+            format!(
+                "all {n} facets are degenerate (corners that coincide after welding): the file \
+                 describes no surface"
+            ),
+        ));
+    }
+    super::refuse_all_degenerate(path, welded, || "byte 0".to_string())
 }
 
 /// Writes the binary STL of `mesh` to `w` (80-byte header, count, per triangle the unit normal,

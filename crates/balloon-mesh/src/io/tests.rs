@@ -431,3 +431,111 @@ fn shared_meshes_match_their_readme() {
         );
     }
 }
+
+#[test]
+fn off_face_size_that_overflows_is_an_error_not_a_panic() {
+    let src = b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n18446744073709551615 0 1 2\n";
+    let msg = assert_located(parse_off(src, &p()), "huge face size");
+    assert!(msg.contains("announces"), "{msg}");
+}
+
+#[test]
+fn a_byte_order_mark_is_skipped_in_every_text_format() {
+    let bom = |s: &str| [&b"\xEF\xBB\xBF"[..], s.as_bytes()].concat();
+    // OBJ: the first line is a vertex; before the fix it was silently dropped.
+    let obj = bom("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+    let m = parse_obj(&obj, &p()).unwrap();
+    assert_eq!(m.num_vertices(), 4);
+    assert_eq!(m, tetra());
+    let off = bom("OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+    assert_eq!(parse_off(&off, &p()).unwrap(), tetra());
+    let ply = bom(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n\
+         0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n",
+    );
+    assert_eq!(parse_ply(&ply, &p()).unwrap(), tetra());
+    let mut stl = String::from("solid t\n");
+    let t = tetra();
+    for tri in &t.triangles {
+        stl.push_str("facet normal 0 0 0\nouter loop\n");
+        for &i in tri {
+            let v = t.vertices[i];
+            stl.push_str(&format!("vertex {} {} {}\n", v.x, v.y, v.z));
+        }
+        stl.push_str("endloop\nendfacet\n");
+    }
+    stl.push_str("endsolid t\n");
+    let m = parse_stl(&bom(&stl), &p(), 0.0).unwrap();
+    assert_eq!((m.num_vertices(), m.num_triangles()), (4, 4));
+}
+
+#[test]
+fn inputs_with_only_degenerate_faces_are_refused() {
+    // STL whose facets all collapse to a point or a repeated corner.
+    let stl = "solid d\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 0 0 0\nvertex 1 0 0\n\
+               endloop\nendfacet\nfacet normal 0 0 1\nouter loop\nvertex 2 2 2\nvertex 2 2 2\n\
+               vertex 2 2 2\nendloop\nendfacet\nendsolid d\n";
+    let msg = assert_located(parse_stl(stl.as_bytes(), &p(), 0.0), "degenerate STL");
+    assert!(msg.contains("degenerate"), "{msg}");
+    // OBJ and OFF with collinear corners only.
+    let obj = "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 3 2 1\n";
+    let msg = assert_located(parse_obj(obj.as_bytes(), &p()), "collinear OBJ");
+    assert!(msg.contains("zero area"), "{msg}");
+    let off = "OFF\n3 1 0\n0 0 0\n1 1 1\n2 2 2\n3 0 1 2\n";
+    let msg = assert_located(parse_off(off.as_bytes(), &p()), "collinear OFF");
+    assert!(msg.contains("zero area"), "{msg}");
+    // One real face among degenerate ones is a mesh (validation reports the rest).
+    let obj = "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\n";
+    assert_eq!(parse_obj(obj.as_bytes(), &p()).unwrap().num_triangles(), 2);
+}
+
+#[test]
+fn messages_escape_control_characters_and_cut_long_tokens() {
+    let long = "9".repeat(5_000_000) + "x";
+    let src = format!("v 0 0 \x1b[31mred\x07\nv {long} 0 0\n");
+    let msg = assert_located(parse_obj(src.as_bytes(), &p()), "escape");
+    assert!(!msg.contains('\x1b') && !msg.contains('\x07'), "{msg:?}");
+    assert!(msg.contains("\\u{1b}"), "{msg}");
+    let src = format!("v 0 0 0\nv {long} 0 0\n");
+    let msg = assert_located(parse_obj(src.as_bytes(), &p()), "long token");
+    assert!(msg.len() < 600, "{} bytes: {}", msg.len(), &msg[..200]);
+    assert!(msg.contains("more bytes"), "{msg}");
+    // Ordinary messages are unchanged.
+    let msg = assert_located(parse_obj(b"v 0 0\n", &p()), "short");
+    assert!(
+        msg.ends_with("vertex needs 3 coordinates, found 2"),
+        "{msg}"
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn devices_directories_fifos_and_huge_files_are_refused_before_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    // A symlink named like a mesh that points at an endless device.
+    let link = dir.path().join("zero.obj");
+    std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+    let e = read_mesh(&link).unwrap_err();
+    assert!(matches!(e, MeshError::NotAFile { .. }), "{e}");
+    assert!(e.to_string().contains("character device"), "{e}");
+    // A directory with a mesh extension.
+    let sub = dir.path().join("folder.off");
+    std::fs::create_dir(&sub).unwrap();
+    let e = read_mesh(&sub).unwrap_err();
+    assert!(e.to_string().contains("directory"), "{e}");
+    // A FIFO (reading it would block forever).
+    let fifo = dir.path().join("pipe.stl");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if made.is_ok_and(|s| s.success()) {
+        let e = read_mesh(&fifo).unwrap_err();
+        assert!(e.to_string().contains("FIFO"), "{e}");
+    }
+    // A sparse file past the size limit: refused by its size, nothing allocated.
+    let big = dir.path().join("big.ply");
+    let f = std::fs::File::create(&big).unwrap();
+    f.set_len(MAX_MESH_FILE_BYTES + 1).unwrap();
+    let e = read_mesh(&big).unwrap_err();
+    assert!(matches!(e, MeshError::FileTooLarge { .. }), "{e}");
+    assert!(e.to_string().contains("big.ply"), "{e}");
+}
