@@ -57,7 +57,7 @@ pub struct BackwardEulerParams {
     /// [`TangentKind::Projected`] is projected Newton: an SPD Newton matrix at every iterate, so
     /// no regularisation retries). Passed to [`ForceSystem::set_tangent`] at every step.
     pub tangent: TangentKind,
-    /// [`LinearSolverKind::FactorizedPcg`] only: when a solve with the lagged Cholesky
+    /// [`crate::linear::LinearSolverKind::FactorizedPcg`] only: when a solve with the lagged Cholesky
     /// preconditioner takes more than this many CG iterations (default 8), the next 6 solves
     /// refactorise first, then the lagged factor is tried again. A solve with a lagged factor
     /// that does not converge within `2 x refactor_iterations` iterations (or breaks down) is
@@ -1082,6 +1082,55 @@ mod tests {
                 "{info:?}"
             );
         }
+    }
+
+    #[test]
+    fn newton_matrix_round_trips_through_matrix_market_and_equals_the_dense_assembly() {
+        let nv = 5;
+        let n = 3 * nv;
+        let (dt, alpha, beta) = (0.02, 0.3, 0.004);
+        let x0 = Chain::positions(nv, 2);
+        let mut sys = linear_chain(nv);
+        let k0 = sys.k0.clone().unwrap();
+        let mut be = BackwardEuler::new(BackwardEulerParams {
+            mass_damping: alpha,
+            stiffness_damping: beta,
+            ..params(LinearSolverKind::Cholesky, 1)
+        });
+        assert!(be.newton_matrix().is_none());
+        let (mut x, mut v) = (x0.clone(), Rng::new(3).vector(n));
+        be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("newton.mtx");
+        be.write_newton_matrix(&path).unwrap();
+        let read = crate::linear::read_matrix_market(&path).unwrap();
+        assert_eq!(read, be.newton_matrix().unwrap());
+        // A = (1 + dt alpha) M + (dt^2 + dt beta) K (Eq. 23).
+        let m = DMatrix::from_diagonal(&DVector::from_column_slice(&sys.masses));
+        let expected = &m * (1.0 + dt * alpha) + &k0 * (dt * dt + dt * beta);
+        let mut dense = DMatrix::<f64>::zeros(n, n);
+        for (value, (r, c)) in read.iter() {
+            dense[(r, c)] += *value;
+        }
+        for r in 0..n {
+            for c in 0..n {
+                approx::assert_relative_eq!(
+                    dense[(r, c)],
+                    expected[(r, c)],
+                    epsilon = 1e-12,
+                    max_relative = 1e-12
+                );
+            }
+        }
+        // The matrix-free solver assembles nothing: no Newton matrix, a typed error.
+        let mut be = BackwardEuler::new(params(LinearSolverKind::MatrixFreeCg, 1));
+        be.step(&mut sys, 0.0, dt, &mut x0.clone(), &mut vec![0.0; n], None)
+            .unwrap();
+        assert!(be.newton_matrix().is_none());
+        assert_eq!(
+            be.write_newton_matrix(&path).unwrap_err(),
+            crate::linear::SolveError::NotAssembled
+        );
     }
 
     #[test]

@@ -98,7 +98,7 @@ pub enum PcgPreconditioner {
     /// Jacobi, `diag(A)^-1` including the low-rank diagonal (`"jacobi"`, default).
     #[default]
     Jacobi,
-    /// Zero-fill incomplete Cholesky of the sparse part ([`IncompleteCholesky`], `"ic0"`); the
+    /// Zero-fill incomplete Cholesky of the sparse part ([`crate::IncompleteCholesky`], `"ic0"`); the
     /// low-rank terms are left to CG.
     IncompleteCholesky,
 }
