@@ -5,7 +5,7 @@
 //! `linear_solve.rs`.
 
 use balloon::integrate::ForceSystem;
-use balloon::integrate::linear::{LinearSolverKind, SparseAssembler};
+use balloon::linalg::{LinearSolverKind, SparseAssembler};
 use balloon::shell::ShellBalloon;
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;

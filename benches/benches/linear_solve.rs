@@ -7,11 +7,11 @@ use std::hint::black_box;
 
 use balloon_gas::{IdealGas, PressureLoad, STANDARD_ATMOSPHERE, enclosed_volume};
 use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
-use balloon_integrate::linear::{
-    CgWorkspace, LinearSolverKind, LinearSolverParams, PcgPreconditioner, SparseAssembler,
-    SparseCholesky, cg,
+use balloon_integrate::{ForceSystem, SystemError};
+use balloon_linalg::{
+    CgWorkspace, LinearSolverKind, LinearSolverParams, LowRankTerm, PcgPreconditioner,
+    SparseAssembler, SparseCholesky, cg,
 };
-use balloon_integrate::{ForceSystem, LowRankTerm, SystemError};
 use balloon_mesh::generate::icosphere;
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use nalgebra::{Matrix3, Vector3};
@@ -60,7 +60,9 @@ impl ForceSystem for SpringBalloon {
                 f[3 * j + c] -= fi[c];
             }
         }
-        self.gas.evaluate(time, x, &self.tris, f)?;
+        self.gas
+            .evaluate(time, x, &self.tris, f)
+            .map_err(|e| SystemError::component("gas", e))?;
         self.low_rank.clear();
         self.low_rank.push(self.gas.low_rank_term().clone());
         Ok(())

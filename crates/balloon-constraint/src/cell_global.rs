@@ -16,14 +16,14 @@
 //! and since every cell's gradients sum to zero (translation invariance) it conserves momentum
 //! for any masses. `J W J^T` is a sparse cells x cells matrix (cells sharing a particle are
 //! coupled), assembled with a cached pattern and factorised by sparse Cholesky
-//! ([`balloon_integrate::linear::SparseCholesky`], symbolic analysis reused). Convergence is
+//! ([`balloon_linalg::SparseCholesky`], symbolic analysis reused). Convergence is
 //! quadratic: a few factorisations per projection whatever the lattice size. A step that would
 //! invert a tetrahedron is halved (up to 30 times) before it is taken.
 
 use crate::cell_volume::{
     CellCorrection, CellSolver, CellVolumeConstraints, CellVolumeError, ProjectionInfo,
 };
-use balloon_integrate::linear::{SparseAssembler, SparseCholesky};
+use balloon_linalg::{SparseAssembler, SparseCholesky};
 use balloon_mesh::tet::signed_tet_volume;
 use nalgebra::{Point3, Vector3};
 

@@ -1,6 +1,5 @@
 //! The error type of `balloon-gas`.
 
-use balloon_integrate::SystemError;
 use thiserror::Error;
 
 /// Everything that can go wrong while building a gas model or evaluating a pressure load.
@@ -64,22 +63,4 @@ pub enum GasError {
     /// A gas kind name could not be parsed.
     #[error("unknown gas kind `{0}`; expected one of \"ideal\", \"constant\", \"pump\"")]
     UnknownKind(String),
-}
-
-impl From<GasError> for SystemError {
-    fn from(e: GasError) -> Self {
-        match e {
-            GasError::InvalidVolume { volume } => SystemError::NonFinite {
-                quantity: format!("gas volume (value {volume:e} m^3, must be positive)"),
-                location: "enclosed surface".into(),
-            },
-            GasError::NonFinite {
-                quantity, value, ..
-            } => SystemError::NonFinite {
-                quantity: format!("{quantity} ({value:e})"),
-                location: "gas".into(),
-            },
-            other => SystemError::Other(other.to_string()),
-        }
-    }
 }

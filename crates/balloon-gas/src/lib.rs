@@ -49,6 +49,4 @@ pub use volume::{
 };
 
 #[cfg(test)]
-mod system_tests;
-#[cfg(test)]
 mod tests;

@@ -1,7 +1,7 @@
 //! The uniform gas acting on a closed surface: pressure forces (Eq. 15) and their tangent
 //! (Eq. 16-17, with the factor derived here rather than copied).
 
-use balloon_integrate::LowRankTerm;
+use balloon_linalg::LowRankTerm;
 use serde::{Deserialize, Serialize};
 
 use crate::model::{GasModel, STANDARD_ATMOSPHERE};

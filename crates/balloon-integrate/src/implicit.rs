@@ -16,11 +16,14 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::linear::{
-    CgWorkspace, IncompleteCholesky, LinearSolveError, LinearSolveInfo, LinearSolverKind,
-    LinearSolverParams, PcgPreconditioner, SparseAssembler, SparseCholesky, cg,
-    solve_with_low_rank,
+use std::path::Path;
+
+use balloon_linalg::sprs::CsMat;
+use balloon_linalg::{
+    LinearProblem, LinearSolver, LinearSolverParams, PcgPreconditioner, Preconditioner, SolveError,
+    SolveInfo, SolverSettings, SparseAssembler, StiffnessOperator,
 };
+
 use crate::system::{ForceSystem, SystemError, TangentKind};
 
 /// Parameters of [`BackwardEuler`].
@@ -54,7 +57,7 @@ pub struct BackwardEulerParams {
     /// [`TangentKind::Projected`] is projected Newton: an SPD Newton matrix at every iterate, so
     /// no regularisation retries). Passed to [`ForceSystem::set_tangent`] at every step.
     pub tangent: TangentKind,
-    /// [`LinearSolverKind::FactorizedPcg`] only: when a solve with the lagged Cholesky
+    /// [`crate::linear::LinearSolverKind::FactorizedPcg`] only: when a solve with the lagged Cholesky
     /// preconditioner takes more than this many CG iterations (default 8), the next 6 solves
     /// refactorise first, then the lagged factor is tried again. A solve with a lagged factor
     /// that does not converge within `2 x refactor_iterations` iterations (or breaks down) is
@@ -63,6 +66,18 @@ pub struct BackwardEulerParams {
     /// Run the numeric sparse Cholesky factorisation (Cholesky and factorized PCG) on the rayon
     /// thread pool (default `false`: sequential).
     pub parallel_factorization: bool,
+}
+
+impl BackwardEulerParams {
+    /// The settings [`SolverSettings::build`] makes the configured linear solver from.
+    pub fn solver_settings(&self) -> SolverSettings {
+        SolverSettings {
+            linear: self.linear,
+            pcg_preconditioner: self.pcg_preconditioner,
+            refactor_iterations: self.refactor_iterations,
+            parallel_factorization: self.parallel_factorization,
+        }
+    }
 }
 
 impl Default for BackwardEulerParams {
@@ -134,7 +149,7 @@ pub enum IntegrateError {
         iteration: usize,
         /// The solver's error.
         #[source]
-        source: LinearSolveError,
+        source: SolveError,
     },
     /// A position, velocity or force became NaN or infinite.
     #[error("non-finite {quantity} at dof {dof} (vertex {vertex}) in Newton iteration {iteration}")]
@@ -153,11 +168,84 @@ pub enum IntegrateError {
     InvalidInput(String),
 }
 
-/// Backward Euler + Newton integrator holding scratch buffers and the cached sparse pattern and
-/// symbolic factorisation, reused across Newton iterations and steps.
-#[derive(Debug, Default)]
+/// Backward Euler + Newton integrator holding scratch buffers, the cached sparse pattern and
+/// its linear solver (a [`LinearSolver`] value, by default the one
+/// [`BackwardEulerParams::linear`] names), reused across Newton iterations and steps.
+///
+/// Any linear solver plugs in with one line, [`BackwardEuler::with_linear_solver`]; here a
+/// user's own (unpreconditioned CG on the matrix-free Newton matrix):
+///
+/// ```
+/// use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
+/// use balloon_integrate::linear::{
+///     CgWorkspace, LinearProblem, LinearSolver, SolveError, SolveInfo, cg,
+/// };
+/// use balloon_integrate::{ForceSystem, SystemError};
+///
+/// /// Plain CG, counting its solves.
+/// #[derive(Debug, Default)]
+/// struct PlainCg {
+///     workspace: CgWorkspace,
+///     solves: usize,
+/// }
+///
+/// impl LinearSolver for PlainCg {
+///     fn name(&self) -> &str {
+///         "plain-cg"
+///     }
+///     fn needs_assembled_matrix(&self) -> bool {
+///         false
+///     }
+///     fn solve(
+///         &mut self,
+///         problem: &LinearProblem<'_>,
+///         b: &[f64],
+///         x: &mut [f64],
+///     ) -> Result<SolveInfo, SolveError> {
+///         self.solves += 1;
+///         let identity = |r: &[f64], z: &mut [f64]| z.copy_from_slice(r);
+///         cg(|p, out| problem.apply(p, out), identity, b, x, 100, 1e-10, &mut self.workspace)
+///     }
+/// }
+///
+/// /// One particle on a linear spring to the origin, `f = -k x`.
+/// struct Spring {
+///     masses: Vec<f64>,
+///     k: f64,
+/// }
+///
+/// impl ForceSystem for Spring {
+///     fn num_dofs(&self) -> usize {
+///         3
+///     }
+///     fn masses(&self) -> &[f64] {
+///         &self.masses
+///     }
+///     fn forces(&mut self, _t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+///         f.iter_mut().zip(x).for_each(|(f, x)| *f = -self.k * x);
+///         Ok(())
+///     }
+///     fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+///         df.iter_mut().zip(dx).for_each(|(df, dx)| *df -= self.k * dx);
+///     }
+/// }
+///
+/// let mut be = BackwardEuler::new(BackwardEulerParams::default())
+///     .with_linear_solver(Box::new(PlainCg::default()));
+/// assert_eq!(be.linear_solver().name(), "plain-cg");
+/// let mut system = Spring { masses: vec![1.0; 3], k: 100.0 };
+/// let (mut x, mut v) = (vec![0.1, 0.0, 0.0], vec![0.0; 3]);
+/// let info = be.step(&mut system, 0.0, 0.01, &mut x, &mut v, None)?;
+/// assert!(info.converged);
+/// // Backward Euler on a linear spring: v1 = -dt k x0 / (m + dt^2 k).
+/// assert!((v[0] - (-0.01 * 100.0 * 0.1 / (1.0 + 1e-4 * 100.0))).abs() < 1e-9);
+/// # Ok::<(), balloon_integrate::implicit::IntegrateError>(())
+/// ```
+#[derive(Debug)]
 pub struct BackwardEuler {
-    /// Parameters (may be changed between steps).
+    /// Parameters (may be changed between steps; a change of the linear-solver settings makes
+    /// a new solver of the configured kind, unless a solver was plugged in with
+    /// [`BackwardEuler::with_linear_solver`]).
     pub params: BackwardEulerParams,
     x_n: Vec<f64>,
     v_n: Vec<f64>,
@@ -167,29 +255,43 @@ pub struct BackwardEuler {
     dv: Vec<f64>,
     tmp: Vec<f64>,
     kv: Vec<f64>,
-    diag: Vec<f64>,
-    cg_ws: CgWorkspace,
     triplets: Vec<(usize, usize, f64)>,
     assembler: SparseAssembler,
-    cholesky: SparseCholesky,
-    z_scratch: Vec<Vec<f64>>,
-    stiffness_preconditioned: bool,
-    ic0: IncompleteCholesky,
-    /// Pattern version of the factor in `cholesky` (factorized PCG reuses it across solves).
-    factor_version: Option<u64>,
-    /// Factorized PCG: solves left that refactorise first (set after a slow stale solve).
-    fresh_solves_left: usize,
-    /// Factorisations since the start of the current step.
-    factorizations: usize,
+    /// The linear solver of Eq. 23.
+    solver: Box<dyn LinearSolver>,
+    /// The settings `solver` was built from; `None` for a solver plugged in by the user.
+    solver_settings: Option<SolverSettings>,
+    /// The preconditioner of the last successful linear solve.
+    last_preconditioner: Preconditioner,
+    /// Whether the assembler holds the matrix of the last linear solve.
+    assembled_last: bool,
     /// The system gave its stiffness as element blocks (`self.triplets` holds only the rest).
     use_blocks: bool,
 }
 
-/// Factorized PCG: after a solve with the lagged factor needed more than
-/// `refactor_iterations` CG iterations, this many following solves (two steps of three Newton
-/// iterations) refactorise first, as the plain Cholesky solver does, before the lagged factor
-/// is tried again.
-const FRESH_SOLVES_AFTER_SLOW: usize = 6;
+impl Default for BackwardEuler {
+    fn default() -> Self {
+        Self::new(BackwardEulerParams::default())
+    }
+}
+
+/// The stiffness of a [`ForceSystem`] as a matrix-free operator: `K p = -df(p)` from its force
+/// differentials (low-rank terms included), and the diagonal of its sparse part when offered.
+struct SystemStiffness<'a, S>(&'a S);
+
+impl<S: ForceSystem> StiffnessOperator for SystemStiffness<'_, S> {
+    fn apply(&self, p: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        self.0.add_force_differential(p, out);
+        for o in out.iter_mut() {
+            *o = -*o;
+        }
+    }
+
+    fn add_diagonal(&self, diagonal: &mut [f64]) -> bool {
+        self.0.add_stiffness_diagonal(diagonal).is_ok()
+    }
+}
 
 /// Retries of an indefinite linear solve with a growing mass shift before giving up.
 const MAX_REGULARIZATION_RETRIES: usize = 14;
@@ -197,7 +299,7 @@ const MAX_REGULARIZATION_RETRIES: usize = 14;
 /// The next mass shift `tau` after an indefinite solve: from CG's Rayleigh quotient when there
 /// is one (enough to make that direction positive with margin), otherwise 1% of the mass
 /// coefficient, and tenfold the previous shift on later retries.
-fn next_shift(previous: f64, m_coef: f64, err: &LinearSolveError, masses: &[f64]) -> f64 {
+fn next_shift(previous: f64, m_coef: f64, err: &SolveError, masses: &[f64]) -> f64 {
     if previous > 0.0 {
         return previous * 10.0;
     }
@@ -207,7 +309,7 @@ fn next_shift(previous: f64, m_coef: f64, err: &LinearSolveError, masses: &[f64]
         .fold(f64::INFINITY, f64::min)
         .max(f64::MIN_POSITIVE);
     match err {
-        LinearSolveError::NonPositiveCurvature {
+        SolveError::NonPositiveCurvature {
             curvature,
             direction_norm_squared,
             ..
@@ -225,9 +327,82 @@ fn first_non_finite(v: &[f64]) -> Option<usize> {
 impl BackwardEuler {
     /// A new integrator.
     pub fn new(params: BackwardEulerParams) -> Self {
+        let settings = params.solver_settings();
         Self {
             params,
-            ..Default::default()
+            x_n: Vec::new(),
+            v_n: Vec::new(),
+            f: Vec::new(),
+            f_ext: Vec::new(),
+            b: Vec::new(),
+            dv: Vec::new(),
+            tmp: Vec::new(),
+            kv: Vec::new(),
+            triplets: Vec::new(),
+            assembler: SparseAssembler::new(),
+            solver: settings.build(),
+            solver_settings: Some(settings),
+            last_preconditioner: Preconditioner::Unreported,
+            assembled_last: false,
+            use_blocks: false,
+        }
+    }
+
+    /// Uses `solver` for the linear solves from now on, in place of the kind named by
+    /// [`BackwardEulerParams::linear`] (which is then ignored; see
+    /// [`BackwardEuler::use_configured_linear_solver`] to go back).
+    pub fn with_linear_solver(mut self, solver: Box<dyn LinearSolver>) -> Self {
+        self.set_linear_solver(solver);
+        self
+    }
+
+    /// Uses `solver` for the linear solves from now on (see
+    /// [`BackwardEuler::with_linear_solver`]).
+    pub fn set_linear_solver(&mut self, solver: Box<dyn LinearSolver>) {
+        self.solver = solver;
+        self.solver_settings = None;
+    }
+
+    /// Goes back to the solver [`BackwardEulerParams::linear`] names (built at the next step).
+    pub fn use_configured_linear_solver(&mut self) {
+        let settings = self.params.solver_settings();
+        self.solver = settings.build();
+        self.solver_settings = Some(settings);
+    }
+
+    /// The linear solver in use.
+    pub fn linear_solver(&self) -> &dyn LinearSolver {
+        self.solver.as_ref()
+    }
+
+    /// The sparse part of the Newton matrix of the last linear solve,
+    /// `A = m_coef M + k_coef K_sparse` (Eq. 23, with `m_coef = 1 + dt alpha` plus any
+    /// regularisation shift, `k_coef = dt^2 + dt beta`), as a `sprs` matrix; the dense low-rank
+    /// terms of `K` ([`ForceSystem::low_rank_terms`]) are not included. `None` when the last
+    /// solve was matrix-free (nothing was assembled) or before the first step.
+    pub fn newton_matrix(&self) -> Option<CsMat<f64>> {
+        if self.assembled_last {
+            self.assembler.to_csmat().ok()
+        } else {
+            None
+        }
+    }
+
+    /// Writes [`BackwardEuler::newton_matrix`] to `path` in Matrix Market format. Errors with
+    /// [`SolveError::NotAssembled`] when there is none.
+    pub fn write_newton_matrix(&self, path: impl AsRef<Path>) -> Result<(), SolveError> {
+        let a = self.newton_matrix().ok_or(SolveError::NotAssembled)?;
+        balloon_linalg::write_matrix_market(&a, path)
+    }
+
+    /// Rebuilds the configured solver if its settings changed (not for a user's solver).
+    fn refresh_solver(&mut self) {
+        if let Some(built) = self.solver_settings {
+            let settings = self.params.solver_settings();
+            if settings != built {
+                self.solver = settings.build();
+                self.solver_settings = Some(settings);
+            }
         }
     }
 
@@ -240,7 +415,7 @@ impl BackwardEuler {
     /// Whether the last matrix-free CG solve used the stiffness diagonal
     /// ([`ForceSystem::add_stiffness_diagonal`]) in its Jacobi preconditioner.
     pub fn stiffness_preconditioned(&self) -> bool {
-        self.stiffness_preconditioned
+        self.last_preconditioner == Preconditioner::DiagonalJacobi
     }
 
     fn validate(
@@ -336,7 +511,6 @@ impl BackwardEuler {
             &mut self.dv,
             &mut self.tmp,
             &mut self.kv,
-            &mut self.diag,
         ] {
             buf.resize(n, 0.0);
         }
@@ -355,7 +529,8 @@ impl BackwardEuler {
             converged: true,
             ..Default::default()
         };
-        self.factorizations = 0;
+        self.refresh_solver();
+        let factorizations_before = self.solver.factorizations();
         let mut b0 = 0.0;
         let mut newton_converged = p.newton_tolerance == 0.0;
         for k in 0..p.newton_iterations {
@@ -402,7 +577,7 @@ impl BackwardEuler {
                 newton_converged = true;
                 break;
             }
-            if p.linear.kind != LinearSolverKind::MatrixFreeCg {
+            if self.solver.needs_assembled_matrix() {
                 self.triplets.clear();
                 self.use_blocks = system.stiffness_blocks().is_some()
                     && system
@@ -423,10 +598,11 @@ impl BackwardEuler {
             let lin = loop {
                 match self.solve(system, m_coef + shift, k_coef) {
                     Ok(lin) => break lin,
-                    Err(
-                        err @ (LinearSolveError::NonPositiveCurvature { .. }
-                        | LinearSolveError::Factorization { .. }),
-                    ) if p.regularize_indefinite && retries < MAX_REGULARIZATION_RETRIES => {
+                    Err(err)
+                        if err.is_indefinite()
+                            && p.regularize_indefinite
+                            && retries < MAX_REGULARIZATION_RETRIES =>
+                    {
                         shift = next_shift(shift, m_coef, &err, system.masses());
                         retries += 1;
                         info.regularized_solves += 1;
@@ -468,286 +644,63 @@ impl BackwardEuler {
             });
         }
         info.converged &= newton_converged;
-        info.factorizations = self.factorizations;
+        info.factorizations = (self.solver.factorizations() - factorizations_before) as usize;
         Ok(info)
     }
 
-    /// Solves `(m_coef M + k_coef K) dv = b` with the configured solver (the triplets of `K` are
-    /// already in `self.triplets` for the assembled solvers).
+    /// Solves `(m_coef M + k_coef K) dv = b` with the linear solver, assembling `A` first when
+    /// the solver needs it (the triplets of `K` are already in `self.triplets` then).
     fn solve<S: ForceSystem>(
         &mut self,
         system: &S,
         m_coef: f64,
         k_coef: f64,
-    ) -> Result<LinearSolveInfo, LinearSolveError> {
-        let lp = self.params.linear;
-        let n = self.b.len();
-        self.cholesky
-            .set_parallel(self.params.parallel_factorization);
+    ) -> Result<SolveInfo, SolveError> {
         let masses = system.masses();
+        let low_rank = system.low_rank_terms();
         self.dv.fill(0.0);
-        match lp.kind {
-            LinearSolverKind::MatrixFreeCg => {
-                // Jacobi preconditioner: diag(A) when the system offers the diagonal of K and it
-                // gives a positive diagonal, else the mass part alone (the paper's setting).
-                self.diag.fill(0.0);
-                let with_k = system.add_stiffness_diagonal(&mut self.diag).is_ok();
-                for t in system.low_rank_terms().iter().filter(|_| with_k) {
-                    for i in 0..n.min(t.vector.len()) {
-                        self.diag[i] += t.coefficient * t.vector[i] * t.vector[i];
-                    }
+        let result = if self.solver.needs_assembled_matrix() {
+            let blocks = if self.use_blocks {
+                system.stiffness_blocks()
+            } else {
+                None
+            };
+            self.assembled_last = false;
+            match blocks {
+                Some(b) => {
+                    self.assembler
+                        .assemble_blocks(masses, m_coef, &b, &self.triplets, k_coef)?
                 }
-                for i in 0..n {
-                    self.diag[i] =
-                        m_coef * masses[i] + if with_k { k_coef * self.diag[i] } else { 0.0 };
-                }
-                if self.diag.iter().any(|d| d.is_nan() || *d <= 0.0) {
-                    for i in 0..n {
-                        self.diag[i] = m_coef * masses[i];
-                    }
-                }
-                self.stiffness_preconditioned = with_k;
-                let diag = &self.diag;
-                let tmp = &mut self.tmp;
-                cg(
-                    |p, out| {
-                        tmp.fill(0.0);
-                        system.add_force_differential(p, tmp);
-                        for i in 0..n {
-                            out[i] = m_coef * masses[i] * p[i] - k_coef * tmp[i];
-                        }
-                    },
-                    |r, z| {
-                        for i in 0..n {
-                            z[i] = r[i] / diag[i];
-                        }
-                    },
-                    &self.b,
-                    &mut self.dv,
-                    lp.max_iterations,
-                    lp.relative_tolerance,
-                    &mut self.cg_ws,
-                )
-            }
-            LinearSolverKind::Pcg
-            | LinearSolverKind::Cholesky
-            | LinearSolverKind::FactorizedPcg => {
-                let blocks = if self.use_blocks {
-                    system.stiffness_blocks()
-                } else {
-                    None
-                };
-                match blocks {
-                    Some(b) => self.assembler.assemble_blocks(
-                        masses,
-                        m_coef,
-                        &b,
-                        &self.triplets,
-                        k_coef,
-                    )?,
-                    None => self
-                        .assembler
-                        .assemble(masses, m_coef, &self.triplets, k_coef)?,
-                };
-                let a = self.assembler.matrix();
-                let low_rank = system.low_rank_terms();
-                if lp.kind == LinearSolverKind::FactorizedPcg {
-                    let version = self.assembler.pattern_version();
-                    let mut fresh = false;
-                    if self.fresh_solves_left > 0
-                        || !self.cholesky.is_factorized()
-                        || self.factor_version != Some(version)
-                    {
-                        self.factor_version = None;
-                        self.cholesky.factorize(a, version)?;
-                        self.factor_version = Some(version);
-                        self.factorizations += 1;
-                        self.fresh_solves_left = self.fresh_solves_left.saturating_sub(1);
-                        fresh = true;
-                    }
-                    let started_stale = !fresh;
-                    let threshold = self.params.refactor_iterations.max(1);
-                    let mut total = 0;
-                    loop {
-                        let cap = if fresh {
-                            lp.max_iterations
-                        } else {
-                            lp.max_iterations.min(2 * threshold)
-                        };
-                        let chol = &mut self.cholesky;
-                        let res = cg(
-                            |p, out| {
-                                a.mul_into(p, out);
-                                for t in low_rank {
-                                    let s = k_coef * t.coefficient * dot(&t.vector, p);
-                                    for i in 0..n {
-                                        out[i] += s * t.vector[i];
-                                    }
-                                }
-                            },
-                            |r, z| {
-                                z.copy_from_slice(r);
-                                // Cannot fail: factorised above for this size.
-                                let solved = chol.solve_in_place(z);
-                                debug_assert!(solved.is_ok(), "{solved:?}");
-                            },
-                            &self.b,
-                            &mut self.dv,
-                            cap,
-                            lp.relative_tolerance,
-                            &mut self.cg_ws,
-                        );
-                        match res {
-                            Ok(mut info) if info.converged || fresh => {
-                                total += info.iterations;
-                                if started_stale && (fresh || total > threshold) {
-                                    // The lagged factor was a poor preconditioner: the matrix
-                                    // is changing fast, refactorise for the next few solves.
-                                    self.fresh_solves_left = FRESH_SOLVES_AFTER_SLOW;
-                                }
-                                info.iterations = total;
-                                return Ok(info);
-                            }
-                            Err(e) if fresh => return Err(e),
-                            other => {
-                                // The stale factor is no longer a good preconditioner (or the
-                                // matrix moved too far): refactorise the current matrix and
-                                // continue from the iterate reached (or from zero after a
-                                // breakdown).
-                                match other {
-                                    Ok(info) => total += info.iterations,
-                                    Err(_) => self.dv.fill(0.0),
-                                }
-                                self.factor_version = None;
-                                self.cholesky.factorize(a, version)?;
-                                self.factor_version = Some(version);
-                                self.factorizations += 1;
-                                fresh = true;
-                            }
-                        }
-                    }
-                } else if lp.kind == LinearSolverKind::Pcg {
-                    a.diagonal_into(&mut self.diag);
-                    for t in low_rank {
-                        for i in 0..n.min(t.vector.len()) {
-                            self.diag[i] += k_coef * t.coefficient * t.vector[i] * t.vector[i];
-                        }
-                    }
-                    if let Some(i) = self.diag.iter().position(|d| d.is_nan() || *d <= 0.0) {
-                        return Err(LinearSolveError::NonPositiveCurvature {
-                            iteration: 0,
-                            curvature: self.diag[i],
-                            direction_norm_squared: 1.0,
-                        });
-                    }
-                    let use_ic =
-                        self.params.pcg_preconditioner == PcgPreconditioner::IncompleteCholesky;
-                    if use_ic {
-                        self.ic0.factorize(a, self.assembler.pattern_version())?;
-                    }
-                    let (diag, ic) = (&self.diag, &self.ic0);
-                    cg(
-                        |p, out| {
-                            a.mul_into(p, out);
-                            for t in low_rank {
-                                let s = k_coef * t.coefficient * dot(&t.vector, p);
-                                for i in 0..n {
-                                    out[i] += s * t.vector[i];
-                                }
-                            }
-                        },
-                        |r, z| {
-                            if use_ic {
-                                ic.apply(r, z);
-                            } else {
-                                for i in 0..n {
-                                    z[i] = r[i] / diag[i];
-                                }
-                            }
-                        },
-                        &self.b,
-                        &mut self.dv,
-                        lp.max_iterations,
-                        lp.relative_tolerance,
-                        &mut self.cg_ws,
-                    )
-                } else {
-                    let version = self.assembler.pattern_version();
-                    self.factor_version = None;
-                    self.cholesky.factorize(a, version)?;
-                    self.factor_version = Some(version);
-                    self.factorizations += 1;
-                    let terms: Vec<(f64, &[f64])> = low_rank
-                        .iter()
-                        .map(|t| (k_coef * t.coefficient, t.vector.as_slice()))
-                        .collect();
-                    let chol = &mut self.cholesky;
-                    solve_with_low_rank(
-                        |r| chol.solve_in_place(r),
-                        &terms,
-                        &self.b,
-                        &mut self.dv,
-                        &mut self.z_scratch,
-                    )?;
-                    // Report the achieved residual honestly; refine at most twice (iterative
-                    // refinement with the same factorisation) if it misses the tolerance.
-                    let tol = lp.relative_tolerance.max(1e-14);
-                    let bn = dot(&self.b, &self.b).sqrt();
-                    let mut refinements = 0;
-                    loop {
-                        a.mul_into(&self.dv, &mut self.tmp);
-                        for t in low_rank {
-                            let s = k_coef * t.coefficient * dot(&t.vector, &self.dv);
-                            for i in 0..n {
-                                self.tmp[i] += s * t.vector[i];
-                            }
-                        }
-                        for i in 0..n {
-                            self.kv[i] = self.b[i] - self.tmp[i];
-                        }
-                        let rel = if bn > 0.0 {
-                            dot(&self.kv, &self.kv).sqrt() / bn
-                        } else {
-                            0.0
-                        };
-                        if !rel.is_finite() {
-                            return Err(LinearSolveError::NonFinite {
-                                iteration: refinements,
-                            });
-                        }
-                        if rel <= tol || refinements == 2 {
-                            return Ok(LinearSolveInfo {
-                                iterations: 1 + refinements,
-                                relative_residual: rel,
-                                converged: rel <= tol,
-                            });
-                        }
-                        solve_with_low_rank(
-                            |r| chol.solve_in_place(r),
-                            &terms,
-                            &self.kv,
-                            &mut self.diag,
-                            &mut self.z_scratch,
-                        )?;
-                        for i in 0..n {
-                            self.dv[i] += self.diag[i];
-                        }
-                        refinements += 1;
-                    }
-                }
-            }
+                None => self
+                    .assembler
+                    .assemble(masses, m_coef, &self.triplets, k_coef)?,
+            };
+            self.assembled_last = true;
+            let problem = LinearProblem::assembled(
+                self.assembler.matrix(),
+                self.assembler.pattern_version(),
+                m_coef,
+                k_coef,
+                low_rank,
+            );
+            self.solver.solve(&problem, &self.b, &mut self.dv)
+        } else {
+            self.assembled_last = false;
+            let stiffness = SystemStiffness(system);
+            let problem = LinearProblem::matrix_free(m_coef, k_coef, masses, &stiffness, low_rank);
+            self.solver.solve(&problem, &self.b, &mut self.dv)
+        };
+        if let Ok(info) = &result {
+            self.last_preconditioner = info.preconditioner;
         }
+        result
     }
-}
-
-#[inline]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::linear::LinearSolverKind;
     use crate::system::LowRankTerm;
     use balloon_test_support::{Rng, check_jacobian};
     use nalgebra::{DMatrix, DVector};
@@ -1129,6 +1082,55 @@ mod tests {
                 "{info:?}"
             );
         }
+    }
+
+    #[test]
+    fn newton_matrix_round_trips_through_matrix_market_and_equals_the_dense_assembly() {
+        let nv = 5;
+        let n = 3 * nv;
+        let (dt, alpha, beta) = (0.02, 0.3, 0.004);
+        let x0 = Chain::positions(nv, 2);
+        let mut sys = linear_chain(nv);
+        let k0 = sys.k0.clone().unwrap();
+        let mut be = BackwardEuler::new(BackwardEulerParams {
+            mass_damping: alpha,
+            stiffness_damping: beta,
+            ..params(LinearSolverKind::Cholesky, 1)
+        });
+        assert!(be.newton_matrix().is_none());
+        let (mut x, mut v) = (x0.clone(), Rng::new(3).vector(n));
+        be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("newton.mtx");
+        be.write_newton_matrix(&path).unwrap();
+        let read = crate::linear::read_matrix_market(&path).unwrap();
+        assert_eq!(read, be.newton_matrix().unwrap());
+        // A = (1 + dt alpha) M + (dt^2 + dt beta) K (Eq. 23).
+        let m = DMatrix::from_diagonal(&DVector::from_column_slice(&sys.masses));
+        let expected = &m * (1.0 + dt * alpha) + &k0 * (dt * dt + dt * beta);
+        let mut dense = DMatrix::<f64>::zeros(n, n);
+        for (value, (r, c)) in read.iter() {
+            dense[(r, c)] += *value;
+        }
+        for r in 0..n {
+            for c in 0..n {
+                approx::assert_relative_eq!(
+                    dense[(r, c)],
+                    expected[(r, c)],
+                    epsilon = 1e-12,
+                    max_relative = 1e-12
+                );
+            }
+        }
+        // The matrix-free solver assembles nothing: no Newton matrix, a typed error.
+        let mut be = BackwardEuler::new(params(LinearSolverKind::MatrixFreeCg, 1));
+        be.step(&mut sys, 0.0, dt, &mut x0.clone(), &mut vec![0.0; n], None)
+            .unwrap();
+        assert!(be.newton_matrix().is_none());
+        assert_eq!(
+            be.write_newton_matrix(&path).unwrap_err(),
+            crate::linear::SolveError::NotAssembled
+        );
     }
 
     #[test]

@@ -3,6 +3,9 @@
 //! Degrees of freedom are flat: `x = [x0, y0, z0, x1, y1, z1, ...]` (metres), forces in newtons,
 //! masses in kilograms per degree of freedom (a lumped, diagonal mass matrix).
 
+use std::sync::Arc;
+
+pub use balloon_linalg::{LowRankTerm, StiffnessBlocks};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -49,33 +52,8 @@ impl std::fmt::Display for TangentKind {
     }
 }
 
-/// A dense symmetric rank-1 term `coefficient * u u^T` of a stiffness matrix that must never be
-/// assembled (the uniform-gas coupling of seed 000, Eq. 16-17).
-#[derive(Clone, Debug, Default)]
-pub struct LowRankTerm {
-    /// Scalar factor (units of stiffness per unit of `u u^T`).
-    pub coefficient: f64,
-    /// The vector `u`, one entry per degree of freedom.
-    pub vector: Vec<f64>,
-}
-
-/// The sparse part of a stiffness matrix as dense element blocks (see
-/// [`ForceSystem::stiffness_blocks`]): block `e` couples the nodes
-/// `nodes[e * nodes_per_block..(e + 1) * nodes_per_block]` (3 degrees of freedom each, dof
-/// `3 node + c`) and holds `(3 k)^2` values, `k = nodes_per_block`, column-major in node-major
-/// dof order `[x1 y1 z1 x2 ...]`, at `values[e * (3 k)^2..]`. Duplicate couplings are summed.
-#[derive(Clone, Copy, Debug)]
-pub struct StiffnessBlocks<'a> {
-    /// Nodes per block (`k`; 3 for a triangle).
-    pub nodes_per_block: usize,
-    /// Node indices, `k` per block.
-    pub nodes: &'a [usize],
-    /// Block values, `(3 k)^2` per block, column-major.
-    pub values: &'a [f64],
-}
-
 /// Error raised by a force system while evaluating itself (e.g. an inverted element).
-#[derive(Debug, Error, Clone, PartialEq)]
+#[derive(Debug, Error, Clone)]
 pub enum SystemError {
     /// A quantity became NaN or infinite.
     #[error("non-finite {quantity} at {location}")]
@@ -96,6 +74,17 @@ pub enum SystemError {
     /// Any other physical failure, described in words.
     #[error("{0}")]
     Other(String),
+    /// A failure of a component the integrator knows nothing about (e.g. the gas model), with
+    /// its typed error: `source.downcast_ref::<TheComponentsError>()` recovers it. Made by
+    /// [`SystemError::component`].
+    #[error("{component}: {source}")]
+    Component {
+        /// Which component failed (e.g. "gas").
+        component: &'static str,
+        /// The component's own error.
+        #[source]
+        source: Arc<dyn std::error::Error + Send + Sync + 'static>,
+    },
     /// The system cannot provide the requested kind of tangent stiffness.
     #[error("this force system does not support the `{0}` tangent; use the exact tangent")]
     TangentUnsupported(TangentKind),
@@ -104,6 +93,72 @@ pub enum SystemError {
         "this force system cannot assemble its stiffness matrix; use the matrix-free CG solver"
     )]
     AssemblyUnsupported,
+}
+
+impl SystemError {
+    /// Wraps the typed error of a component (e.g. `"gas"` and a gas model's error) so that it
+    /// survives the integrator: see [`SystemError::Component`].
+    pub fn component(
+        component: &'static str,
+        source: impl std::error::Error + Send + Sync + 'static,
+    ) -> Self {
+        Self::Component {
+            component,
+            source: Arc::new(source),
+        }
+    }
+
+    /// The component's error as a `T`, if this is a [`SystemError::Component`] holding one.
+    pub fn component_error<T: std::error::Error + 'static>(&self) -> Option<&T> {
+        match self {
+            Self::Component { source, .. } => source.downcast_ref::<T>(),
+            _ => None,
+        }
+    }
+}
+
+impl PartialEq for SystemError {
+    /// Field-wise; two [`SystemError::Component`]s are equal when they name the same component
+    /// and their errors print the same.
+    fn eq(&self, other: &Self) -> bool {
+        use SystemError::*;
+        match (self, other) {
+            (
+                NonFinite {
+                    quantity: a,
+                    location: b,
+                },
+                NonFinite {
+                    quantity: c,
+                    location: d,
+                },
+            ) => a == c && b == d,
+            (
+                InvertedElement {
+                    element: a,
+                    detail: b,
+                },
+                InvertedElement {
+                    element: c,
+                    detail: d,
+                },
+            ) => a == c && b == d,
+            (Other(a), Other(b)) => a == b,
+            (
+                Component {
+                    component: a,
+                    source: b,
+                },
+                Component {
+                    component: c,
+                    source: d,
+                },
+            ) => a == c && (Arc::ptr_eq(b, d) || b.to_string() == d.to_string()),
+            (TangentUnsupported(a), TangentUnsupported(b)) => a == b,
+            (AssemblyUnsupported, AssemblyUnsupported) => true,
+            _ => false,
+        }
+    }
 }
 
 /// A mechanical system as seen by the implicit integrators.

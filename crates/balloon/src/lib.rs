@@ -18,5 +18,6 @@ pub use balloon_constraint as constraint;
 pub use balloon_element as element;
 pub use balloon_gas as gas;
 pub use balloon_integrate as integrate;
+pub use balloon_linalg as linalg;
 pub use balloon_material as material;
 pub use balloon_mesh as mesh;

@@ -202,7 +202,7 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
         self.gather(f, |e, l| forces[e][l]);
         self.gas
             .evaluate(time, x, &self.triangles, f)
-            .map_err(|e| SystemError::Other(format!("gas: {e}")))?;
+            .map_err(|e| SystemError::component("gas", e))?;
         self.x_lin.clear();
         self.x_lin.extend_from_slice(x);
         Ok(())
@@ -236,7 +236,7 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
         }
         self.gas
             .add_follower_triplets(&self.x_lin, &self.triangles, triplets)
-            .map_err(|e| SystemError::Other(format!("gas: {e}")))
+            .map_err(|e| SystemError::component("gas", e))
     }
 
     fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
@@ -263,7 +263,7 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
     ) -> Result<(), SystemError> {
         self.gas
             .add_follower_triplets(&self.x_lin, &self.triangles, triplets)
-            .map_err(|e| SystemError::Other(format!("gas: {e}")))
+            .map_err(|e| SystemError::component("gas", e))
     }
 
     /// Both kinds: [`TangentKind::Projected`] projects each element's Hessian onto the PSD cone

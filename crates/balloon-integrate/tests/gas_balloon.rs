@@ -10,7 +10,7 @@ use balloon_integrate::{ForceSystem, LowRankTerm, SystemError};
 use balloon_mesh::generate::icosphere;
 use nalgebra::{Matrix3, Vector3};
 
-use crate::*;
+use balloon_gas::*;
 
 struct SpringBalloon {
     tris: Vec<[usize; 3]>,
@@ -82,7 +82,9 @@ impl ForceSystem for SpringBalloon {
                 f[3 * j + c] -= fi[c];
             }
         }
-        self.gas.evaluate(time, x, &self.tris, f)?;
+        self.gas
+            .evaluate(time, x, &self.tris, f)
+            .map_err(|e| SystemError::component("gas", e))?;
         Ok(())
     }
     fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
@@ -109,7 +111,9 @@ impl ForceSystem for SpringBalloon {
                 }
             }
         }
-        self.gas.add_follower_triplets(&self.x, &self.tris, t)?;
+        self.gas
+            .add_follower_triplets(&self.x, &self.tris, t)
+            .map_err(|e| SystemError::component("gas", e))?;
         Ok(())
     }
     fn low_rank_terms(&self) -> &[LowRankTerm] {

@@ -1,0 +1,213 @@
+//! Assembly of `diag_scale * diag(d) + scale * K` into a [`CsrMatrix`] from triplets or dense
+//! element blocks ([`StiffnessBlocks`]), re-using the sparsity pattern while it is unchanged.
+
+use crate::csr::CsrMatrix;
+use crate::error::SolveError;
+
+/// The sparse part of a stiffness matrix as dense element blocks: block `e` couples the nodes
+/// `nodes[e * nodes_per_block..(e + 1) * nodes_per_block]` (3 degrees of freedom each, dof
+/// `3 node + c`) and holds `(3 k)^2` values, `k = nodes_per_block`, column-major in node-major
+/// dof order `[x1 y1 z1 x2 ...]`, at `values[e * (3 k)^2..]`. Duplicate couplings are summed.
+#[derive(Clone, Copy, Debug)]
+pub struct StiffnessBlocks<'a> {
+    /// Nodes per block (`k`; 3 for a triangle).
+    pub nodes_per_block: usize,
+    /// Node indices, `k` per block.
+    pub nodes: &'a [usize],
+    /// Block values, `(3 k)^2` per block, column-major.
+    pub values: &'a [f64],
+}
+
+/// Builds `A = diag_scale * diag(d) + scale * sum(triplets)` as a [`CsrMatrix`], caching the
+/// sparsity pattern: when the `(row, col)` sequence of the triplets is the same as last time
+/// (the usual case across Newton iterations and steps), only the values are scattered.
+#[derive(Clone, Debug, Default)]
+pub struct SparseAssembler {
+    /// Nodes of the blocks the pattern was last built from by [`SparseAssembler::assemble_blocks`]
+    /// (with `block_k` nodes per block; 0 when built from triplets).
+    block_nodes: Vec<usize>,
+    block_k: usize,
+    keys: Vec<(usize, usize)>,
+    slots: Vec<usize>,
+    diag_slots: Vec<usize>,
+    matrix: CsrMatrix,
+    pattern_version: u64,
+}
+
+impl SparseAssembler {
+    /// An empty assembler.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The last assembled matrix.
+    pub fn matrix(&self) -> &CsrMatrix {
+        &self.matrix
+    }
+
+    /// A counter that changes whenever the pattern is rebuilt (to invalidate symbolic
+    /// factorisations).
+    pub fn pattern_version(&self) -> u64 {
+        self.pattern_version
+    }
+
+    /// Assembles `diag_scale * diag(diagonal) + scale * sum(triplets)` (duplicates summed; the
+    /// full diagonal is always in the pattern). Returns whether the pattern was rebuilt.
+    pub fn assemble(
+        &mut self,
+        diagonal: &[f64],
+        diag_scale: f64,
+        triplets: &[(usize, usize, f64)],
+        scale: f64,
+    ) -> Result<bool, SolveError> {
+        let n = diagonal.len();
+        let same = self.matrix.n == n
+            && self.keys.len() == triplets.len()
+            && self
+                .keys
+                .iter()
+                .zip(triplets)
+                .all(|(k, t)| k.0 == t.0 && k.1 == t.1);
+        if !same {
+            self.rebuild_pattern(n, triplets)?;
+            self.block_k = 0;
+            self.block_nodes.clear();
+        }
+        let m = &mut self.matrix;
+        m.values.fill(0.0);
+        for (t, &s) in triplets.iter().zip(&self.slots) {
+            m.values[s] += scale * t.2;
+        }
+        for (i, &s) in self.diag_slots.iter().enumerate() {
+            m.values[s] += diag_scale * diagonal[i];
+        }
+        Ok(!same)
+    }
+
+    /// Assembles `diag_scale * diag(diagonal) + scale * (sum of the blocks + sum(extra))`, the
+    /// block form of [`SparseAssembler::assemble`] ([`StiffnessBlocks`]): the
+    /// pattern check compares only the block node lists and the `extra` keys, and the values are
+    /// scattered straight from the blocks (no triplet list). Returns whether the pattern was
+    /// rebuilt; the matrix equals the one `assemble` builds from the equivalent triplets.
+    pub fn assemble_blocks(
+        &mut self,
+        diagonal: &[f64],
+        diag_scale: f64,
+        blocks: &StiffnessBlocks<'_>,
+        extra: &[(usize, usize, f64)],
+        scale: f64,
+    ) -> Result<bool, SolveError> {
+        let n = diagonal.len();
+        let k = blocks.nodes_per_block;
+        let bs = 9 * k * k;
+        if k == 0
+            || !blocks.nodes.len().is_multiple_of(k)
+            || blocks.values.len() != blocks.nodes.len() / k * bs
+        {
+            return Err(SolveError::Dimension {
+                what: "stiffness block values",
+                len: blocks.values.len(),
+                expected: blocks.nodes.len() / k.max(1) * bs,
+            });
+        }
+        let nb = blocks.values.len();
+        let same = self.matrix.n == n
+            && self.block_k == k
+            && self.block_nodes == blocks.nodes
+            && self.keys.len() == nb + extra.len()
+            && self.keys[nb..]
+                .iter()
+                .zip(extra)
+                .all(|(k, t)| k.0 == t.0 && k.1 == t.1);
+        if !same {
+            let d = 3 * k;
+            let mut keys = Vec::with_capacity(nb + extra.len());
+            for nodes in blocks.nodes.chunks_exact(k) {
+                for j in 0..d {
+                    for i in 0..d {
+                        keys.push((3 * nodes[i / 3] + i % 3, 3 * nodes[j / 3] + j % 3, 0.0));
+                    }
+                }
+            }
+            keys.extend_from_slice(extra);
+            self.rebuild_pattern(n, &keys)?;
+            self.block_k = k;
+            self.block_nodes.clear();
+            self.block_nodes.extend_from_slice(blocks.nodes);
+        }
+        let m = &mut self.matrix;
+        m.values.fill(0.0);
+        for (v, &s) in blocks.values.iter().zip(&self.slots[..nb]) {
+            m.values[s] += scale * v;
+        }
+        for (t, &s) in extra.iter().zip(&self.slots[nb..]) {
+            m.values[s] += scale * t.2;
+        }
+        for (i, &s) in self.diag_slots.iter().enumerate() {
+            m.values[s] += diag_scale * diagonal[i];
+        }
+        Ok(!same)
+    }
+
+    fn rebuild_pattern(
+        &mut self,
+        n: usize,
+        triplets: &[(usize, usize, f64)],
+    ) -> Result<(), SolveError> {
+        for t in triplets {
+            if t.0 >= n || t.1 >= n {
+                return Err(SolveError::TripletOutOfRange {
+                    row: t.0,
+                    col: t.1,
+                    n,
+                });
+            }
+        }
+        // Entries: triplets first, then one diagonal entry per row.
+        let total = triplets.len() + n;
+        let key = |e: usize| {
+            if e < triplets.len() {
+                (triplets[e].0, triplets[e].1)
+            } else {
+                (e - triplets.len(), e - triplets.len())
+            }
+        };
+        let mut order: Vec<usize> = (0..total).collect();
+        order.sort_unstable_by_key(|&e| key(e));
+        let mut entry_slot = vec![0usize; total];
+        let mut row_ptr = vec![0usize; n + 1];
+        let mut col_idx = Vec::with_capacity(total);
+        let mut last: Option<(usize, usize)> = None;
+        for &e in &order {
+            let k = key(e);
+            if last != Some(k) {
+                col_idx.push(k.1);
+                row_ptr[k.0 + 1] += 1;
+                last = Some(k);
+            }
+            entry_slot[e] = col_idx.len() - 1;
+        }
+        for r in 0..n {
+            row_ptr[r + 1] += row_ptr[r];
+        }
+        self.slots = entry_slot[..triplets.len()].to_vec();
+        self.diag_slots = entry_slot[triplets.len()..].to_vec();
+        self.keys = triplets.iter().map(|t| (t.0, t.1)).collect();
+        self.matrix = CsrMatrix {
+            n,
+            row_ptr,
+            values: vec![0.0; col_idx.len()],
+            col_idx,
+        };
+        self.pattern_version += 1;
+        Ok(())
+    }
+}
+
+impl SparseAssembler {
+    /// The last assembled matrix as a [`sprs::CsMat`] (a copy, for users; the solvers work on
+    /// [`SparseAssembler::matrix`]).
+    pub fn to_csmat(&self) -> Result<sprs::CsMat<f64>, SolveError> {
+        self.matrix.to_csmat()
+    }
+}

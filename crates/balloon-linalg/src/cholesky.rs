@@ -1,0 +1,172 @@
+//! Sparse Cholesky factorisation by faer ([`SparseCholesky`]), its symbolic analysis, factor
+//! storage and workspace cached across factorisations of matrices with the same pattern.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::cholesky::{
+    LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Par, Side};
+
+use crate::csr::CsrMatrix;
+use crate::error::SolveError;
+
+/// The widest parallelism available: the rayon pool with the `parallel` feature, else none.
+fn max_par() -> Par {
+    #[cfg(feature = "parallel")]
+    {
+        Par::rayon(0)
+    }
+    #[cfg(not(feature = "parallel"))]
+    {
+        Par::Seq
+    }
+}
+
+/// Sparse `L L^T` factorisation (faer, supernodal or simplicial as faer's symbolic analysis
+/// chooses, AMD ordering) whose symbolic analysis, factor storage and workspace are cached and
+/// rebuilt only when the pattern version changes. Runs sequentially (`Par::Seq`) unless
+/// [`SparseCholesky::set_parallel`] asks for the rayon pool: the matrices
+/// of one balloon are small enough that thread start-up costs more than it saves on 2 cores.
+#[derive(Default)]
+pub struct SparseCholesky {
+    symbolic: Option<(u64, SymbolicCholesky<usize>)>,
+    values: Vec<f64>,
+    workspace: Option<MemBuffer>,
+    factorized: bool,
+    n: usize,
+    parallel: bool,
+}
+
+impl std::fmt::Debug for SparseCholesky {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SparseCholesky")
+            .field("n", &self.n)
+            .field("pattern_version", &self.symbolic.as_ref().map(|(v, _)| *v))
+            .field("factor_entries", &self.values.len())
+            .field("factorized", &self.factorized)
+            .finish()
+    }
+}
+
+impl SparseCholesky {
+    /// An empty factorisation.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Whether a symbolic factorisation is cached for `pattern_version`.
+    pub fn has_symbolic_for(&self, pattern_version: u64) -> bool {
+        matches!(&self.symbolic, Some((v, _)) if *v == pattern_version)
+    }
+
+    /// Factorises the symmetric matrix `a` (both triangles stored), re-using the symbolic
+    /// factorisation when `pattern_version` matches the cached one. Errors (never panics) on an
+    /// inconsistent [`CsrMatrix`] or a matrix that is not positive definite.
+    pub fn factorize(&mut self, a: &CsrMatrix, pattern_version: u64) -> Result<(), SolveError> {
+        a.check()?;
+        self.factorized = false;
+        // CSR of a symmetric matrix read as CSC: column r holds row indices col_idx.
+        let sym = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.row_ptr, None, &a.col_idx);
+        if !self.has_symbolic_for(pattern_version) {
+            let s = factorize_symbolic_cholesky(
+                sym,
+                Side::Lower,
+                SymmetricOrdering::Amd,
+                Default::default(),
+            )
+            .map_err(|e| SolveError::Factorization {
+                detail: format!("symbolic analysis failed: {e:?}"),
+            })?;
+            let req = s
+                .factorize_numeric_llt_scratch::<f64>(max_par(), Default::default())
+                .or(s.solve_in_place_scratch::<f64>(1, max_par()));
+            self.workspace =
+                Some(
+                    MemBuffer::try_new(req).map_err(|_| SolveError::Factorization {
+                        detail: "out of memory for the Cholesky workspace".into(),
+                    })?,
+                );
+            self.values.clear();
+            self.values.resize(s.len_val(), 0.0);
+            self.symbolic = Some((pattern_version, s));
+        }
+        let par = self.par();
+        let (Some((_, symbolic)), Some(work)) = (&self.symbolic, &mut self.workspace) else {
+            return Err(SolveError::Factorization {
+                detail: "no symbolic factorisation".into(),
+            });
+        };
+        let mat = SparseColMatRef::new(sym, &a.values);
+        symbolic
+            .factorize_numeric_llt(
+                &mut self.values,
+                mat,
+                Side::Lower,
+                LltRegularization::default(),
+                par,
+                MemStack::new(work),
+                Default::default(),
+            )
+            .map_err(|e| SolveError::Factorization {
+                detail: format!(
+                    "matrix ({n}x{n}, {nnz} entries) is not positive definite: {e:?}",
+                    n = a.n,
+                    nnz = a.nnz()
+                ),
+            })?;
+        self.factorized = true;
+        self.n = a.n;
+        Ok(())
+    }
+
+    /// Runs the numeric factorisation on the rayon thread pool (`true`) or on the calling
+    /// thread (`false`, the default). Without the `parallel` feature it always runs on the
+    /// calling thread.
+    pub fn set_parallel(&mut self, parallel: bool) {
+        self.parallel = parallel;
+    }
+
+    fn par(&self) -> Par {
+        if self.parallel { max_par() } else { Par::Seq }
+    }
+
+    /// Whether the last [`SparseCholesky::factorize`] succeeded (a factor is available).
+    pub fn is_factorized(&self) -> bool {
+        self.factorized
+    }
+
+    /// Forgets the numeric factor (keeps the symbolic analysis): the next solve needs a new
+    /// [`SparseCholesky::factorize`].
+    pub fn invalidate(&mut self) {
+        self.factorized = false;
+    }
+
+    /// Solves `A x = rhs` in place with the last factorisation.
+    pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolveError> {
+        let (true, Some((_, symbolic)), Some(work)) =
+            (self.factorized, &self.symbolic, &mut self.workspace)
+        else {
+            return Err(SolveError::Factorization {
+                detail: "solve called before a successful factorisation".into(),
+            });
+        };
+        if rhs.len() != self.n {
+            return Err(SolveError::Dimension {
+                what: "rhs",
+                len: rhs.len(),
+                expected: self.n,
+            });
+        }
+        let n = rhs.len();
+        let m = faer::MatMut::from_column_major_slice_mut(rhs, n, 1);
+        LltRef::new(symbolic, &self.values).solve_in_place_with_conj(
+            faer::Conj::No,
+            m,
+            Par::Seq,
+            MemStack::new(work),
+        );
+        Ok(())
+    }
+}

@@ -1,0 +1,95 @@
+//! The error type of `balloon-linalg`.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in assembly, factorisation, a linear solve or a matrix export.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SolveError {
+    /// CG met a search direction `p` with `p^T A p <= 0`: the matrix is not positive definite
+    /// (e.g. a compressed, buckling state with the follower term on, or a negative time step).
+    /// Use a smaller time step, turn off the follower term, or use a direct solver.
+    #[error(
+        "CG breakdown at iteration {iteration}: non-positive curvature p^T A p = {curvature:e} (|p|^2 = {direction_norm_squared:e}); the system matrix is not positive definite"
+    )]
+    NonPositiveCurvature {
+        /// CG iteration (0-based).
+        iteration: usize,
+        /// The value of `p^T A p`.
+        curvature: f64,
+        /// `|p|^2`, for scale.
+        direction_norm_squared: f64,
+    },
+    /// The sparse Cholesky factorisation failed: the sparse part of the matrix is not positive
+    /// definite (pivot index given when known). Use PCG or the matrix-free solver.
+    #[error("sparse Cholesky factorisation failed: {detail}")]
+    Factorization {
+        /// What faer reported, with the pivot when known.
+        detail: String,
+    },
+    /// The small Woodbury capacitance matrix `I + C U^T A^-1 U` is singular.
+    #[error("Woodbury capacitance matrix of the low-rank terms ({rank}x{rank}) is singular")]
+    SingularCapacitance {
+        /// Number of low-rank terms.
+        rank: usize,
+    },
+    /// A NaN or infinity appeared in the solve (the right-hand side or matrix is not finite).
+    #[error("non-finite value in the linear solve at iteration {iteration}")]
+    NonFinite {
+        /// Iteration at which it was detected.
+        iteration: usize,
+    },
+    /// Vector or matrix sizes disagree.
+    #[error("dimension mismatch: {what} has length {len}, expected {expected}")]
+    Dimension {
+        /// Which array.
+        what: &'static str,
+        /// Its length.
+        len: usize,
+        /// Expected length.
+        expected: usize,
+    },
+    /// A triplet refers to a row or column outside the matrix.
+    #[error("stiffness triplet ({row}, {col}) is outside the {n}x{n} matrix")]
+    TripletOutOfRange {
+        /// Row index.
+        row: usize,
+        /// Column index.
+        col: usize,
+        /// Matrix size.
+        n: usize,
+    },
+    /// The solver name could not be parsed.
+    #[error(
+        "unknown linear solver `{0}`; expected one of \"matrix-free-cg\", \"pcg\", \"cholesky\", \"factorized-pcg\""
+    )]
+    UnknownKind(String),
+    /// The solver needs an assembled matrix but was given a matrix-free problem.
+    #[error("the `{solver}` solver needs an assembled matrix; the problem is matrix-free")]
+    NeedsAssembledMatrix {
+        /// Name of the solver.
+        solver: &'static str,
+    },
+    /// No matrix has been assembled yet (e.g. asking for the Newton matrix of a run that uses
+    /// the matrix-free solver, or before the first step).
+    #[error("no assembled matrix is available (the matrix-free solver never assembles one)")]
+    NotAssembled,
+    /// Writing or reading a Matrix Market file failed.
+    #[error("Matrix Market file {path}: {detail}")]
+    MatrixMarket {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        detail: String,
+    },
+}
+
+impl SolveError {
+    /// Whether the error says the matrix is not positive definite (CG's non-positive curvature
+    /// or a failed Cholesky factorisation): the case a caller may cure by shifting the matrix.
+    pub fn is_indefinite(&self) -> bool {
+        matches!(
+            self,
+            Self::NonPositiveCurvature { .. } | Self::Factorization { .. }
+        )
+    }
+}

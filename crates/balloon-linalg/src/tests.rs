@@ -1,0 +1,559 @@
+//! Unit tests of the linear algebra: assembly, CG, IC(0), Cholesky with low-rank terms, every
+//! solver through the [`LinearSolver`] trait against a dense solve, Matrix Market round trip.
+use crate::*;
+use balloon_test_support::Rng;
+use nalgebra::{DMatrix, DVector};
+
+/// A random sparse SPD matrix (banded, diagonally dominant) as triplets.
+fn spd_triplets(n: usize, seed: u64) -> Vec<(usize, usize, f64)> {
+    let mut rng = Rng::new(seed);
+    let mut t = Vec::new();
+    for i in 0..n {
+        t.push((i, i, 4.0 + rng.next_f64()));
+        for d in [1usize, 3] {
+            if i + d < n {
+                let v = 0.9 * rng.next_f64();
+                t.push((i, i + d, v));
+                t.push((i + d, i, v));
+            }
+        }
+    }
+    t
+}
+
+fn dense(n: usize, t: &[(usize, usize, f64)]) -> DMatrix<f64> {
+    let mut a = DMatrix::zeros(n, n);
+    for &(r, c, v) in t {
+        a[(r, c)] += v;
+    }
+    a
+}
+
+#[test]
+fn assembler_sums_duplicates_and_reuses_pattern() {
+    let n = 12;
+    let mut t = spd_triplets(n, 3);
+    t.push((2, 5, 0.25));
+    t.push((2, 5, 0.5));
+    let d = vec![2.0; n];
+    let mut asm = SparseAssembler::new();
+    assert!(asm.assemble(&d, 0.5, &t, 2.0).unwrap());
+    let v0 = asm.pattern_version();
+    let expected = dense(n, &t) * 2.0 + DMatrix::identity(n, n);
+    let x = DVector::from_vec(Rng::new(1).vector(n));
+    let mut y = vec![0.0; n];
+    asm.matrix().mul_into(x.as_slice(), &mut y);
+    let y_ref = &expected * &x;
+    for i in 0..n {
+        assert!((y[i] - y_ref[i]).abs() < 1e-12);
+    }
+    // Same pattern, new values: no rebuild.
+    for e in &mut t {
+        e.2 *= 3.0;
+    }
+    assert!(!asm.assemble(&d, 0.5, &t, 2.0).unwrap());
+    assert_eq!(asm.pattern_version(), v0);
+    let err = asm.assemble(&d, 1.0, &[(0, 99, 1.0)], 1.0).unwrap_err();
+    assert!(err.to_string().contains("(0, 99)"));
+}
+
+#[test]
+fn block_assembly_equals_triplet_assembly() {
+    // Three "triangles" on 5 nodes (shared nodes, so couplings are summed) plus extras.
+    let nodes = [0usize, 1, 2, 2, 3, 4, 4, 0, 2];
+    let mut rng = Rng::new(12);
+    let values = rng.vector(3 * 81);
+    let extra = vec![(0, 14, 0.5), (14, 0, 0.5), (7, 7, -0.25)];
+    let mut triplets = Vec::new();
+    for (e, tri) in nodes.chunks(3).enumerate() {
+        for j in 0..9 {
+            for i in 0..9 {
+                let v = values[81 * e + 9 * j + i];
+                triplets.push((3 * tri[i / 3] + i % 3, 3 * tri[j / 3] + j % 3, v));
+            }
+        }
+    }
+    triplets.extend_from_slice(&extra);
+    let n = 15;
+    let d = rng.vector(n);
+    let mut reference = SparseAssembler::new();
+    reference.assemble(&d, 0.7, &triplets, 1.3).unwrap();
+    let blocks = StiffnessBlocks {
+        nodes_per_block: 3,
+        nodes: &nodes,
+        values: &values,
+    };
+    let mut asm = SparseAssembler::new();
+    assert!(asm.assemble_blocks(&d, 0.7, &blocks, &extra, 1.3).unwrap());
+    assert_eq!(asm.matrix().row_ptr, reference.matrix().row_ptr);
+    assert_eq!(asm.matrix().col_idx, reference.matrix().col_idx);
+    for (a, b) in asm.matrix().values.iter().zip(&reference.matrix().values) {
+        assert!((a - b).abs() <= 1e-14 * (1.0 + b.abs()));
+    }
+    // Same nodes and extra keys: the pattern is kept; new values are scattered.
+    let v0 = asm.pattern_version();
+    let doubled: Vec<f64> = values.iter().map(|v| 2.0 * v).collect();
+    let blocks2 = StiffnessBlocks {
+        values: &doubled,
+        ..blocks
+    };
+    assert!(!asm.assemble_blocks(&d, 0.7, &blocks2, &extra, 1.3).unwrap());
+    assert_eq!(asm.pattern_version(), v0);
+    // Switching to the triplet path with the same keys keeps the pattern too, and back.
+    assert!(!asm.assemble(&d, 0.7, &triplets, 1.3).unwrap());
+    assert_eq!(asm.matrix(), reference.matrix());
+    assert!(!asm.assemble_blocks(&d, 0.7, &blocks, &extra, 1.3).unwrap());
+    assert_eq!(asm.pattern_version(), v0);
+    // Other nodes: rebuilt. Wrong sizes: an error, not a panic.
+    let other = [0usize, 1, 3, 2, 3, 4, 4, 0, 2];
+    let blocks3 = StiffnessBlocks {
+        nodes: &other,
+        ..blocks
+    };
+    assert!(asm.assemble_blocks(&d, 0.7, &blocks3, &extra, 1.3).unwrap());
+    let short = StiffnessBlocks {
+        values: &values[..100],
+        ..blocks
+    };
+    assert!(asm.assemble_blocks(&d, 0.7, &short, &extra, 1.3).is_err());
+    let out = StiffnessBlocks {
+        nodes: &[0, 1, 99, 2, 3, 4, 4, 0, 2],
+        ..blocks
+    };
+    assert!(asm.assemble_blocks(&d, 0.7, &out, &extra, 1.3).is_err());
+}
+
+#[test]
+fn cg_solves_spd_system_and_reports_non_convergence() {
+    let n = 40;
+    let t = spd_triplets(n, 7);
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&vec![0.0; n], 0.0, &t, 1.0).unwrap();
+    let a = asm.matrix().clone();
+    let b = Rng::new(2).vector(n);
+    let mut x = vec![0.0; n];
+    let mut ws = CgWorkspace::default();
+    let info = cg(
+        |p, o| a.mul_into(p, o),
+        |r, z| z.copy_from_slice(r),
+        &b,
+        &mut x,
+        200,
+        1e-12,
+        &mut ws,
+    )
+    .unwrap();
+    assert!(info.converged && info.relative_residual <= 1e-12);
+    let x_ref = dense(n, &t)
+        .lu()
+        .solve(&DVector::from_column_slice(&b))
+        .unwrap();
+    for i in 0..n {
+        assert!((x[i] - x_ref[i]).abs() < 1e-9);
+    }
+    // Two iterations cannot solve a 40-dof system with a spread spectrum to 1e-12.
+    let mut x = vec![0.0; n];
+    let info = cg(
+        |p, o| a.mul_into(p, o),
+        |r, z| z.copy_from_slice(r),
+        &b,
+        &mut x,
+        2,
+        1e-12,
+        &mut ws,
+    )
+    .unwrap();
+    assert!(!info.converged);
+    assert_eq!(info.iterations, 2);
+    assert!(info.relative_residual > 1e-12);
+    // An indefinite operator is reported as a breakdown with its curvature.
+    let mut x = vec![0.0; 2];
+    let err = cg(
+        |p, o| {
+            o[0] = p[0];
+            o[1] = -p[1];
+        },
+        |r, z| z.copy_from_slice(r),
+        &[0.1, 1.0],
+        &mut x,
+        10,
+        1e-12,
+        &mut ws,
+    )
+    .unwrap_err();
+    assert!(matches!(err, SolveError::NonPositiveCurvature { curvature, .. } if curvature < 0.0));
+}
+
+#[test]
+fn cholesky_with_sherman_morrison_and_woodbury_matches_dense_solve() {
+    let n = 30;
+    let t = spd_triplets(n, 11);
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&vec![1.0; n], 0.5, &t, 1.0).unwrap();
+    let mut chol = SparseCholesky::new();
+    chol.factorize(asm.matrix(), asm.pattern_version()).unwrap();
+    assert!(chol.has_symbolic_for(asm.pattern_version()));
+    let mut rng = Rng::new(5);
+    let u1 = rng.vector(n);
+    let u2 = rng.vector(n);
+    let b = rng.vector(n);
+    for terms in [
+        vec![(3.0, u1.as_slice())],
+        vec![(3.0, u1.as_slice()), (0.7, u2.as_slice())],
+    ] {
+        let mut a = dense(n, &t) + DMatrix::identity(n, n) * 0.5;
+        for (c, u) in &terms {
+            let u = DVector::from_column_slice(u);
+            a += &u * u.transpose() * *c;
+        }
+        let x_ref = a.lu().solve(&DVector::from_column_slice(&b)).unwrap();
+        let mut x = vec![0.0; n];
+        let mut zs = Vec::new();
+        solve_with_low_rank(|r| chol.solve_in_place(r), &terms, &b, &mut x, &mut zs).unwrap();
+        for i in 0..n {
+            assert!(
+                (x[i] - x_ref[i]).abs() < 1e-10 * (1.0 + x_ref[i].abs()),
+                "{i}"
+            );
+        }
+    }
+    // An inconsistent user-built matrix is an error, not a panic inside faer.
+    let broken = CsrMatrix {
+        n: 2,
+        row_ptr: vec![0, 2],
+        col_idx: vec![0, 1],
+        values: vec![1.0, 0.0],
+    };
+    assert!(SparseCholesky::new().factorize(&broken, 99).is_err());
+    let unsorted = CsrMatrix {
+        n: 2,
+        row_ptr: vec![0, 2, 3],
+        col_idx: vec![1, 0, 1],
+        values: vec![0.0, 1.0, 1.0],
+    };
+    assert!(unsorted.check().is_err());
+    assert!(SparseCholesky::new().solve_in_place(&mut [1.0]).is_err());
+    // A matrix that is not positive definite is reported, not mis-solved.
+    let mut bad = t.clone();
+    bad.push((4, 4, -100.0));
+    asm.assemble(&vec![1.0; n], 0.0, &bad, 1.0).unwrap();
+    let err = chol
+        .factorize(asm.matrix(), asm.pattern_version())
+        .unwrap_err();
+    assert!(err.to_string().contains("not positive definite"), "{err}");
+}
+
+#[test]
+fn incomplete_cholesky_is_exact_without_fill_and_speeds_up_cg() {
+    // Tridiagonal SPD matrix: its Cholesky factor has no fill, so IC(0) is exact and PCG
+    // converges in one iteration.
+    let n = 50;
+    let mut t = Vec::new();
+    for i in 0..n {
+        t.push((i, i, 2.5 + (i % 3) as f64));
+        if i + 1 < n {
+            t.push((i, i + 1, -1.0));
+            t.push((i + 1, i, -1.0));
+        }
+    }
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&vec![0.0; n], 0.0, &t, 1.0).unwrap();
+    let a = asm.matrix().clone();
+    let mut ic = IncompleteCholesky::new();
+    ic.factorize(&a, asm.pattern_version()).unwrap();
+    assert_eq!(ic.shift(), 0.0);
+    let b = Rng::new(8).vector(n);
+    let mut ws = CgWorkspace::default();
+    let mut x = vec![0.0; n];
+    let info = cg(
+        |p, o| a.mul_into(p, o),
+        |r, z| ic.apply(r, z),
+        &b,
+        &mut x,
+        50,
+        1e-12,
+        &mut ws,
+    )
+    .unwrap();
+    assert!(info.converged && info.iterations == 1, "{info:?}");
+    // A banded matrix with fill: IC(0) is approximate but beats Jacobi, same answer.
+    let t = spd_triplets(120, 13);
+    asm.assemble(&vec![0.0; 120], 0.0, &t, 1.0).unwrap();
+    let a = asm.matrix().clone();
+    ic.factorize(&a, asm.pattern_version()).unwrap();
+    let mut d = vec![0.0; 120];
+    a.diagonal_into(&mut d);
+    let b = Rng::new(9).vector(120);
+    let (mut x1, mut x2) = (vec![0.0; 120], vec![0.0; 120]);
+    let jac = cg(
+        |p, o| a.mul_into(p, o),
+        |r, z| {
+            z.iter_mut()
+                .zip(r)
+                .zip(&d)
+                .for_each(|((z, r), d)| *z = r / d)
+        },
+        &b,
+        &mut x1,
+        500,
+        1e-12,
+        &mut ws,
+    )
+    .unwrap();
+    let icc = cg(
+        |p, o| a.mul_into(p, o),
+        |r, z| ic.apply(r, z),
+        &b,
+        &mut x2,
+        500,
+        1e-12,
+        &mut ws,
+    )
+    .unwrap();
+    assert!(icc.iterations < jac.iterations, "{icc:?} vs {jac:?}");
+    for i in 0..120 {
+        assert!((x1[i] - x2[i]).abs() < 1e-9);
+    }
+    // Far from SPD: reported, not a panic.
+    let mut bad = t.clone();
+    bad.push((7, 7, -1e6));
+    asm.assemble(&vec![0.0; 120], 0.0, &bad, 1.0).unwrap();
+    assert!(ic.factorize(asm.matrix(), asm.pattern_version()).is_err());
+}
+
+#[test]
+fn solver_kind_parses() {
+    for k in [
+        LinearSolverKind::MatrixFreeCg,
+        LinearSolverKind::Pcg,
+        LinearSolverKind::Cholesky,
+        LinearSolverKind::FactorizedPcg,
+    ] {
+        assert_eq!(k.to_string().parse::<LinearSolverKind>().unwrap(), k);
+    }
+    assert!(
+        "lu".parse::<LinearSolverKind>()
+            .unwrap_err()
+            .to_string()
+            .contains("lu")
+    );
+}
+
+/// A matrix-free view of a dense stiffness (low-rank terms included) with its sparse diagonal.
+struct DenseStiffness {
+    k_full: DMatrix<f64>,
+    sparse_diagonal: Option<Vec<f64>>,
+}
+
+impl StiffnessOperator for DenseStiffness {
+    fn apply(&self, p: &[f64], out: &mut [f64]) {
+        let y = &self.k_full * DVector::from_column_slice(p);
+        out.copy_from_slice(y.as_slice());
+    }
+
+    fn add_diagonal(&self, diagonal: &mut [f64]) -> bool {
+        match &self.sparse_diagonal {
+            Some(d) => {
+                diagonal.iter_mut().zip(d).for_each(|(a, b)| *a += b);
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+/// Every solver, through the trait and built by the factory, solves
+/// `A = m M + k (K + c1 u1 u1^T + c2 u2 u2^T)` like a dense LU solve.
+#[test]
+fn every_solver_through_the_trait_matches_a_dense_solve() {
+    let n = 36;
+    let t = spd_triplets(n, 21);
+    let mut rng = Rng::new(22);
+    let masses: Vec<f64> = (0..n).map(|_| 0.5 + rng.next_f64()).collect();
+    let (m_coef, k_coef) = (1.1, 0.3);
+    let low_rank = vec![
+        LowRankTerm {
+            coefficient: 2.0,
+            vector: rng.vector(n),
+        },
+        LowRankTerm {
+            coefficient: 0.4,
+            vector: rng.vector(n),
+        },
+    ];
+    let k_sparse = dense(n, &t);
+    let mut k_full = k_sparse.clone();
+    for term in &low_rank {
+        let u = DVector::from_column_slice(&term.vector);
+        k_full += &u * u.transpose() * term.coefficient;
+    }
+    let a_dense =
+        DMatrix::from_diagonal(&DVector::from_column_slice(&masses)) * m_coef + &k_full * k_coef;
+    let b = rng.vector(n);
+    let x_ref = a_dense
+        .clone()
+        .lu()
+        .solve(&DVector::from_column_slice(&b))
+        .unwrap();
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&masses, m_coef, &t, k_coef).unwrap();
+    let assembled = LinearProblem::assembled(
+        asm.matrix(),
+        asm.pattern_version(),
+        m_coef,
+        k_coef,
+        &low_rank,
+    );
+    let op = DenseStiffness {
+        k_full: k_full.clone(),
+        sparse_diagonal: Some(k_sparse.diagonal().iter().copied().collect()),
+    };
+    let matrix_free = LinearProblem::matrix_free(m_coef, k_coef, &masses, &op, &low_rank);
+    let check = |x: &[f64], what: &str| {
+        for i in 0..n {
+            approx::assert_relative_eq!(x[i], x_ref[i], epsilon = 1e-9, max_relative = 1e-8);
+        }
+        let _ = what;
+    };
+    for kind in [
+        LinearSolverKind::MatrixFreeCg,
+        LinearSolverKind::Pcg,
+        LinearSolverKind::Cholesky,
+        LinearSolverKind::FactorizedPcg,
+    ] {
+        for pre in [
+            PcgPreconditioner::Jacobi,
+            PcgPreconditioner::IncompleteCholesky,
+        ] {
+            let settings = SolverSettings {
+                linear: LinearSolverParams {
+                    kind,
+                    max_iterations: 500,
+                    relative_tolerance: 1e-12,
+                },
+                pcg_preconditioner: pre,
+                ..SolverSettings::default()
+            };
+            let mut solver = settings.build();
+            assert_eq!(solver.name(), kind.to_string());
+            let problem = if solver.needs_assembled_matrix() {
+                // An assembled solver refuses the matrix-free form with a typed error.
+                let err = solver
+                    .solve(&matrix_free, &b, &mut vec![0.0; n])
+                    .unwrap_err();
+                assert!(
+                    matches!(err, SolveError::NeedsAssembledMatrix { .. }),
+                    "{err}"
+                );
+                &assembled
+            } else {
+                &matrix_free
+            };
+            // Two solves: the second reuses whatever the solver kept.
+            for _ in 0..2 {
+                let mut x = vec![0.0; n];
+                let info = solver.solve(problem, &b, &mut x).unwrap();
+                assert!(info.converged, "{kind}: {info:?}");
+                check(&x, &kind.to_string());
+            }
+            // Wrong sizes are an error, not a panic.
+            assert!(matches!(
+                solver.solve(problem, &b[1..], &mut vec![0.0; n]),
+                Err(SolveError::Dimension { .. })
+            ));
+        }
+    }
+    // The matrix-free solver uses diag(A) when the operator offers the diagonal, else the mass.
+    let mut mf = MatrixFreeCg::new(CgParams {
+        max_iterations: 500,
+        relative_tolerance: 1e-12,
+    });
+    let mut x = vec![0.0; n];
+    let info = mf.solve(&matrix_free, &b, &mut x).unwrap();
+    assert_eq!(info.preconditioner, Preconditioner::DiagonalJacobi);
+    let op_plain = DenseStiffness {
+        k_full,
+        sparse_diagonal: None,
+    };
+    let plain = LinearProblem::matrix_free(m_coef, k_coef, &masses, &op_plain, &low_rank);
+    let mut x = vec![0.0; n];
+    let info = mf.solve(&plain, &b, &mut x).unwrap();
+    assert_eq!(info.preconditioner, Preconditioner::MassJacobi);
+    check(&x, "mass-preconditioned");
+    // It also accepts the assembled form.
+    let mut x = vec![0.0; n];
+    assert!(mf.solve(&assembled, &b, &mut x).unwrap().converged);
+    check(&x, "assembled matrix-free");
+}
+
+#[test]
+fn factorized_pcg_keeps_its_factor_across_solves() {
+    let n = 40;
+    let t = spd_triplets(n, 31);
+    let masses = vec![1.0; n];
+    let mut asm = SparseAssembler::new();
+    let mut solver = FactorizedPcg::new(FactorizedPcgParams {
+        cg: CgParams {
+            max_iterations: 200,
+            relative_tolerance: 1e-10,
+        },
+        ..FactorizedPcgParams::default()
+    });
+    let b = Rng::new(3).vector(n);
+    // The stiffness drifts by 1% per solve: the first factor keeps preconditioning well.
+    for s in 0..5 {
+        let k_coef = 1.0 + 0.01 * s as f64;
+        asm.assemble(&masses, 1.0, &t, k_coef).unwrap();
+        let problem =
+            LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, k_coef, &[]);
+        let mut x = vec![0.0; n];
+        let info = solver.solve(&problem, &b, &mut x).unwrap();
+        assert!(info.converged && info.iterations <= 8, "{s}: {info:?}");
+        let x_ref = (dense(n, &t) * k_coef + DMatrix::identity(n, n))
+            .lu()
+            .solve(&DVector::from_column_slice(&b))
+            .unwrap();
+        for i in 0..n {
+            approx::assert_abs_diff_eq!(x[i], x_ref[i], epsilon = 1e-8);
+        }
+    }
+    assert_eq!(solver.factorizations(), 1);
+}
+
+#[test]
+fn matrix_market_round_trip_equals_the_dense_assembly() {
+    let n = 18;
+    let t = spd_triplets(n, 41);
+    let masses: Vec<f64> = (0..n).map(|i| 1.0 + 0.1 * i as f64).collect();
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&masses, 0.7, &t, 1.9).unwrap();
+    let a = asm.to_csmat().unwrap();
+    assert_eq!(a.nnz(), asm.matrix().nnz());
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("newton.mtx");
+    write_matrix_market(&a, &path).unwrap();
+    let back = read_matrix_market(&path).unwrap();
+    let expected =
+        dense(n, &t) * 1.9 + DMatrix::from_diagonal(&DVector::from_column_slice(&masses)) * 0.7;
+    assert_eq!(back.shape(), (n, n));
+    let mut read_dense = DMatrix::<f64>::zeros(n, n);
+    for (v, (r, c)) in back.iter() {
+        read_dense[(r, c)] += *v;
+    }
+    for r in 0..n {
+        for c in 0..n {
+            approx::assert_relative_eq!(
+                read_dense[(r, c)],
+                expected[(r, c)],
+                epsilon = 1e-14,
+                max_relative = 1e-14
+            );
+        }
+    }
+    // And back into the hot-path type.
+    let csr = CsrMatrix::from_csmat(&back).unwrap();
+    assert_eq!(&csr, asm.matrix());
+    // A file that is not there is a typed error naming it.
+    let err = read_matrix_market(dir.path().join("missing.mtx")).unwrap_err();
+    assert!(err.to_string().contains("missing.mtx"), "{err}");
+}
