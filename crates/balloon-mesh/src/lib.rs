@@ -43,6 +43,7 @@ pub mod geometry;
 pub mod io;
 pub mod lattice;
 pub mod mesh;
+pub mod parallel;
 pub mod tet;
 pub mod topology;
 pub mod validate;

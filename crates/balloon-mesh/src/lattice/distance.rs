@@ -6,8 +6,8 @@
 //! is `O(triangles x band voxels)`, not `O(voxels x triangles)`. Voxels farther than the band get
 //! `d = band` and so `P = 0`.
 
+use crate::parallel::prelude::*;
 use nalgebra::{Point3, Vector3};
-use rayon::prelude::*;
 
 /// A regular voxel grid: voxel `(i, j, k)` has its centre at
 /// `origin + voxel_size * (i + 1/2, j + 1/2, k + 1/2)`. Index `i + nx (j + ny k)`.

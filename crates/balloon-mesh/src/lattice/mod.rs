@@ -32,10 +32,10 @@
 mod distance;
 mod smooth;
 
+use crate::parallel::prelude::*;
 use crate::{TetMesh, TriMesh, tet::signed_tet_volume};
 use distance::VoxelGrid;
 use nalgebra::{Matrix3, Point3, Vector3};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -983,6 +983,7 @@ mod tests {
         assert!(worst < 1e-9, "mirror image off by {worst}");
     }
 
+    #[cfg(feature = "parallel")]
     #[test]
     fn serial_and_parallel_generation_agree() {
         // The distance field, the rays and the embedding run on rayon; a one-thread pool must
