@@ -11,8 +11,11 @@
 
 pub mod fields;
 pub mod shell;
+pub mod simulation;
 pub mod two_layer;
 pub mod volumetric;
+
+pub use simulation::{DrawnSurface, Simulation, SimulationError, SimulationStats};
 
 pub use balloon_constraint as constraint;
 pub use balloon_element as element;
