@@ -18,7 +18,8 @@ use crate::output::{
 use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result, bail};
 use balloon::two_layer::{
-    AxisBox, DragTarget, ExplicitMethod, SpringKind, TwoLayerBody, TwoLayerSimulation, TwoLayerStats,
+    AxisBox, DragTarget, ExplicitMethod, SpringKind, TwoLayerBody, TwoLayerSimulation,
+    TwoLayerStats,
 };
 use balloon_render::{Camera, Projection, UpAxis};
 use nalgebra::{Point3, Vector3};
@@ -298,11 +299,7 @@ fn style(dim: u8) -> PictureStyle {
 
 /// All particles with the drawing triangles (3D: outer and inner surface; 2D: the band between
 /// the layers), velocity, speed, and stretch against the initial positions `rest`.
-fn layer_frame(
-    sim: &TwoLayerSimulation,
-    rest: &[f64],
-    step: usize,
-) -> Result<Frame> {
+fn layer_frame(sim: &TwoLayerSimulation, rest: &[f64], step: usize) -> Result<Frame> {
     Frame::new(
         step,
         sim.time(),
@@ -352,10 +349,7 @@ impl RunHooks<TwoLayerSimulation> for TwoLayerHooks<'_> {
     fn summary(&self, sim: &TwoLayerSimulation, run: &RunRecord<TwoLayerStats>) -> Option<Summary> {
         let args = self.args;
         let failed = run.failure.is_some();
-        let last = run
-            .last
-            .as_ref()
-            .map_or_else(|| sim.stats(), |s| s.detail);
+        let last = run.last.as_ref().map_or_else(|| sim.stats(), |s| s.detail);
         let taken = sim.step_count().max(1);
         Some(Summary {
             status: if failed { "blew_up" } else { "ok" },

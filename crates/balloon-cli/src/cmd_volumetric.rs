@@ -12,11 +12,11 @@ use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
 };
 use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
-use balloon::{SimulationError, SimulationStats};
 use anyhow::{Context, Result};
 use balloon::volumetric::{
     MassModel, StepStats, VolumetricBody, VolumetricParams, VolumetricScene, VolumetricSimulation,
 };
+use balloon::{SimulationError, SimulationStats};
 use balloon_constraint::cell_volume::{
     CellCentre, CellCorrection, CellSolver, CellVolumeParams, SpringParams,
 };

@@ -2,13 +2,14 @@
 //! drags, as the server needs them.
 
 use crate::protocol::{ControlSpec, ControlValue, DragMode};
+use balloon::Simulation;
+use balloon::constraint::cell_volume::{CellCorrection, CellSolver};
 use balloon::fields;
 use balloon::gas::GasKind;
 use balloon::integrate::TangentKind;
 use balloon::integrate::linear::LinearSolverKind;
 use balloon::material::{Lame, MaterialKind, MaterialModel};
 use balloon::mesh::TriMesh;
-use balloon::constraint::cell_volume::{CellCorrection, CellSolver};
 use balloon::mesh::lattice::LatticeParams;
 use balloon::shell::{AnchorSpring, ShellBalloon, ShellSimulation};
 use balloon::two_layer::{
@@ -16,7 +17,6 @@ use balloon::two_layer::{
 };
 use balloon::volumetric::{VolumetricBody, VolumetricParams, VolumetricSimulation};
 use nalgebra::{Point3, Vector3};
-use balloon::Simulation;
 use serde_json::{Map, Value, json};
 
 /// A drag as the page asked for it.
@@ -50,7 +50,9 @@ pub trait ViewedSimulation: Send {
 
 impl<S: Simulation + Send> ViewedSimulation for S {
     fn step(&mut self) -> Result<(), String> {
-        Simulation::step(self).map(|_| ()).map_err(|e| e.to_string())
+        Simulation::step(self)
+            .map(|_| ())
+            .map_err(|e| e.to_string())
     }
     fn time(&self) -> f64 {
         Simulation::time(self)
@@ -137,7 +139,9 @@ fn unknown_choice(control: &str, value: &str) -> String {
 fn number(control: &str, value: &ControlValue) -> Result<f64, String> {
     match value {
         ControlValue::Number(v) => Ok(*v),
-        other => Err(format!("control `{control}`: expected a number, got {other:?}")),
+        other => Err(format!(
+            "control `{control}`: expected a number, got {other:?}"
+        )),
     }
 }
 
@@ -145,7 +149,9 @@ fn number(control: &str, value: &ControlValue) -> Result<f64, String> {
 fn choice<'v>(control: &str, value: &'v ControlValue) -> Result<&'v str, String> {
     match value {
         ControlValue::Choice(c) => Ok(c),
-        other => Err(format!("control `{control}`: expected a choice, got {other:?}")),
+        other => Err(format!(
+            "control `{control}`: expected a choice, got {other:?}"
+        )),
     }
 }
 
@@ -153,7 +159,9 @@ fn choice<'v>(control: &str, value: &'v ControlValue) -> Result<&'v str, String>
 fn boolean(control: &str, value: &ControlValue) -> Result<bool, String> {
     match value {
         ControlValue::Bool(b) => Ok(*b),
-        other => Err(format!("control `{control}`: expected true or false, got {other:?}")),
+        other => Err(format!(
+            "control `{control}`: expected true or false, got {other:?}"
+        )),
     }
 }
 

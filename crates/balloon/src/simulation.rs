@@ -304,7 +304,10 @@ mod tests {
         let b = sim.step().unwrap();
         assert_eq!((a.steps, b.steps, sim.steps()), (1, 2, 2), "{name}");
         assert_eq!(a.dt, dt);
-        assert!((b.time - 2.0 * dt).abs() < 1e-12 && sim.time() == b.time, "{name}");
+        assert!(
+            (b.time - 2.0 * dt).abs() < 1e-12 && sim.time() == b.time,
+            "{name}"
+        );
         assert!((b.kinetic_energy - sim.kinetic_energy()).abs() <= 1e-12 * b.kinetic_energy);
         let s = sim.surface();
         assert!(!s.triangles.is_empty());
