@@ -206,6 +206,13 @@ struct ShellSettings {
     hold: bool,
 }
 
+/// The protocol's names of the shell materials (the page's short ones, not `MaterialKind`'s
+/// display names).
+const MATERIALS: [(&str, MaterialKind); 2] = [
+    ("stvk", MaterialKind::StVenantKirchhoff),
+    ("neo-hookean", MaterialKind::NeoHookean),
+];
+
 /// One control of the shell view, parsed from the protocol once.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ShellControl {
@@ -242,10 +249,7 @@ impl ShellControl {
             "pressure" => Self::Pressure(number(name, value)?),
             "pump_rate" => Self::PumpRate(number(name, value)?),
             "thickness" => Self::ThicknessMm(number(name, value)?),
-            "material" => {
-                let c = choice(name, value)?;
-                Self::Material(c.parse().map_err(|_| kind(c))?)
-            }
+            "material" => Self::Material(lookup(&MATERIALS, name, choice(name, value)?)?),
             "young" => Self::YoungMpa(number(name, value)?),
             "dt" => Self::Dt(number(name, value)?),
             "solver" => {
@@ -438,7 +442,7 @@ impl ViewSystem for ShellView {
             ControlSpec::choice(
                 "material",
                 "Material",
-                &s.material.to_string(),
+                name_of(&MATERIALS, &s.material),
                 &["stvk", "neo-hookean"],
                 true,
             ),
@@ -1432,6 +1436,63 @@ mod tests {
             mode: DragMode::Grab,
         };
         assert!(v.apply_drag(Some(&bad)).is_err());
+    }
+
+    /// Every value a control announces (its current value and, for a choice, every choice)
+    /// parses into the system's typed control, and the parsed value of the current setting
+    /// is announced back unchanged; unknown names and wrong kinds are refused.
+    fn check_controls<C: std::fmt::Debug>(
+        controls: &[ControlSpec],
+        parse: impl Fn(&str, &ControlValue) -> Result<C, String>,
+    ) {
+        use crate::protocol::ControlKind;
+        for c in controls {
+            let values: Vec<ControlValue> = match c.kind {
+                ControlKind::Number => vec![ControlValue::Number(c.value.as_f64().unwrap())],
+                ControlKind::Bool => vec![ControlValue::Bool(c.value.as_bool().unwrap())],
+                ControlKind::Choice => {
+                    let current = c.value.as_str().unwrap();
+                    assert!(c.choices.contains(&current), "{}: {current}", c.name);
+                    c.choices
+                        .iter()
+                        .map(|ch| ControlValue::Choice(ch))
+                        .collect()
+                }
+            };
+            for v in &values {
+                parse(c.name, v).unwrap_or_else(|e| panic!("{} = {v:?}: {e}", c.name));
+            }
+            let wrong = match c.kind {
+                ControlKind::Number => ControlValue::Bool(true),
+                _ => ControlValue::Number(1.0),
+            };
+            assert!(
+                parse(c.name, &wrong).is_err(),
+                "{} accepted {wrong:?}",
+                c.name
+            );
+        }
+        assert!(parse("colour", &ControlValue::Number(1.0)).is_err());
+    }
+
+    #[test]
+    fn controls_are_typed_and_parse_from_what_they_announce() {
+        check_controls(&small_shell().controls(), ShellControl::parse);
+        check_controls(
+            &TwoLayerView::new().unwrap().controls(),
+            TwoLayerControl::parse,
+        );
+        let soup = balloon::mesh::generate::icosphere(0.1, 2).unwrap();
+        let v = VolumetricView::new(soup).unwrap();
+        check_controls(&v.controls(), VolumetricControl::parse);
+        assert_eq!(
+            VolumetricControl::parse("solver", &ControlValue::Choice("gauss-seidel")),
+            Ok(VolumetricControl::Solver(CellSolver::GaussSeidel))
+        );
+        assert_eq!(
+            ShellControl::parse("solver", &ControlValue::Choice("factorized-pcg")),
+            Ok(ShellControl::Solver(LinearSolverKind::FactorizedPcg))
+        );
     }
 
     #[test]
