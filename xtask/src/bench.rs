@@ -6,6 +6,7 @@
 use crate::report::{loglog_slope, median};
 use crate::validate::meshes;
 use anyhow::{Context, Result};
+use balloon::Simulation;
 use balloon::constraint::cell_volume::{CellSolver, CellVolumeParams};
 use balloon::integrate::TangentKind;
 use balloon::integrate::implicit::BackwardEulerParams;
@@ -331,15 +332,7 @@ fn volumetric_scaling_with(opts: &Options, solver: CellSolver) -> Result<Scaling
             })
             .collect();
         sim.set_velocities(&v)?;
-        let mut per_run = Vec::new();
-        for _ in 0..opts.runs {
-            let t = Instant::now();
-            for _ in 0..steps {
-                sim.step()?;
-            }
-            per_run.push(t.elapsed().as_secs_f64() * 1e3 / steps as f64);
-        }
-        let ms = median(&per_run);
+        let ms = median_ms_per_step(&mut sim, steps, opts.runs)?;
         points.push(SizePoint {
             label: format!(
                 "icosphere soup, resolution {res}, {} cells{}",
@@ -368,6 +361,20 @@ fn volumetric_scaling_with(opts: &Options, solver: CellSolver) -> Result<Scaling
     })
 }
 
+/// Median over `runs` runs of the wall-clock ms per step of `steps` steps of any system, driven
+/// through `balloon::Simulation` (each run continues from where the previous one stopped).
+fn median_ms_per_step<S: Simulation>(sim: &mut S, steps: usize, runs: usize) -> Result<f64> {
+    let mut per_run = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        let t = Instant::now();
+        for _ in 0..steps {
+            sim.step()?;
+        }
+        per_run.push(t.elapsed().as_secs_f64() * 1e3 / steps as f64);
+    }
+    Ok(median(&per_run))
+}
+
 fn two_layer_scaling(opts: &Options) -> Result<Scaling> {
     let levels: &[u32] = if opts.quick {
         &[1, 2, 3, 4]
@@ -383,15 +390,7 @@ fn two_layer_scaling(opts: &Options) -> Result<Scaling> {
             .with_pressure(40.0, 20.0);
         let mut sim = body.simulate(ExplicitMethod::Rk4, 1e-4)?;
         let n = sim.model().num_particles();
-        let mut per_run = Vec::new();
-        for _ in 0..opts.runs {
-            let t = Instant::now();
-            for _ in 0..steps {
-                sim.step()?;
-            }
-            per_run.push(t.elapsed().as_secs_f64() * 1e3 / steps as f64);
-        }
-        let ms = median(&per_run);
+        let ms = median_ms_per_step(&mut sim, steps, opts.runs)?;
         points.push(SizePoint {
             label: format!("octahedron sphere level {l}"),
             vertices: n,

@@ -2,16 +2,17 @@
 
 use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
-    print_json_line, progress_bar,
 };
+use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result};
 use balloon::constraint::shell_volume::{ProjectionScope, ShellVolumeParams};
 use balloon::gas::GasKind;
 use balloon::integrate::TangentKind;
 use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::integrate::linear::{LinearSolverKind, LinearSolverParams, PcgPreconditioner};
-use balloon::material::{MaterialKind, MaterialModel};
+use balloon::material::{Material, MaterialKind, MaterialModel};
 use balloon::shell::{self, ShellBalloon, ShellSimulation, ShellStepStats};
+use balloon::{SimulationError, SimulationStats};
 use balloon_render::UpAxis;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -219,6 +220,114 @@ fn shell_frame<M: balloon::material::Material>(
     Ok(f)
 }
 
+/// What `inflate` adds to the shared run loop: the summary's running totals, convergence
+/// (`--until-converged`), the progress message and the named final frame.
+struct InflateHooks<'a> {
+    summary: InflateSummary,
+    /// Wall-clock ms of the steps as the simulation measured them.
+    total_ms: f64,
+    args: &'a InflateArgs,
+}
+
+impl<M: Material> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
+    type Summary = InflateSummary;
+
+    fn frame(&self, sim: &ShellSimulation<M>, step: usize) -> Result<Frame> {
+        shell_frame(sim, step)
+    }
+
+    fn after_step(
+        &mut self,
+        _sim: &ShellSimulation<M>,
+        stats: &SimulationStats<ShellStepStats>,
+        _out: Option<&mut OutputDir>,
+        _regular: bool,
+    ) -> Result<bool> {
+        let (s, d) = (&mut self.summary, &stats.detail);
+        self.total_ms += d.step_ms;
+        s.newton_iterations_total += d.newton_iterations;
+        s.linear_iterations_total += d.linear_iterations;
+        s.split_steps += usize::from(d.substeps > 1);
+        s.shell_volume_ratio_max_deviation = s
+            .shell_volume_ratio_max_deviation
+            .max((d.shell_volume_ratio - 1.0).abs());
+        s.converged = self.args.until_converged
+            && d.max_speed < self.args.speed_tol
+            && d.volume_change < self.args.volume_tol;
+        Ok(s.converged)
+    }
+
+    fn progress(&self, stats: &SimulationStats<ShellStepStats>) -> Option<String> {
+        Some(format!(
+            "V = {:.4e} m^3, p = {:.0} Pa",
+            stats.detail.gas_volume, stats.detail.gauge_pressure
+        ))
+    }
+
+    fn finish_extras(&mut self, out: &mut OutputDir, last: &Frame) -> Result<()> {
+        out.write_named_frame("final", last)?;
+        Ok(())
+    }
+
+    fn summary(
+        &self,
+        sim: &ShellSimulation<M>,
+        run: &RunRecord<ShellStepStats>,
+    ) -> Option<InflateSummary> {
+        let th = sim.thickness();
+        Some(InflateSummary {
+            mesh: self.summary.mesh.clone(),
+            material: self.summary.material.clone(),
+            linear_solver: self.summary.linear_solver.clone(),
+            tangent: self.summary.tangent.clone(),
+            steps: run.steps,
+            sim_time_s: sim.time(),
+            final_gas_volume: sim.gas_volume(),
+            final_gauge_pressure: sim.gauge_pressure(),
+            shell_volume_ratio_final: sim.shell_volume() / sim.rest_shell_volume(),
+            mean_step_ms: if run.steps > 0 {
+                self.total_ms / run.steps as f64
+            } else {
+                0.0
+            },
+            final_thickness_mean: th.iter().sum::<f64>() / th.len() as f64,
+            final_thickness_min: th.iter().copied().fold(f64::INFINITY, f64::min),
+            final_thickness_max: th.iter().copied().fold(0.0, f64::max),
+            error: run.failure.as_ref().map(|e| e.to_string()),
+            ..self.summary
+        })
+    }
+
+    fn print(&self, summary: &InflateSummary, out: Option<&OutputDir>) {
+        println!(
+            "{} steps, t = {:.3} s: gas volume {:.4e} -> {:.4e} m^3 (x{:.3}), gauge pressure {:.1} Pa, shell volume ratio {:.10}, {:.1} ms/step{}",
+            summary.steps,
+            summary.sim_time_s,
+            summary.initial_gas_volume,
+            summary.final_gas_volume,
+            summary.final_gas_volume / summary.initial_gas_volume,
+            summary.final_gauge_pressure,
+            summary.shell_volume_ratio_final,
+            summary.mean_step_ms,
+            if summary.converged { ", converged" } else { "" }
+        );
+        if let Some(o) = out {
+            println!("output written to {}", o.path().display());
+        }
+    }
+
+    fn print_after_failure(&self) -> bool {
+        true
+    }
+
+    fn failure(&self, error: SimulationError, _step: usize) -> anyhow::Error {
+        anyhow::Error::new(error).context(format!(
+            "the simulation of `{}` failed; output written so far is complete",
+            self.args.mesh
+        ))
+    }
+}
+
 /// Runs `balloon inflate`.
 pub fn run(args: InflateArgs) -> Result<()> {
     let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
@@ -275,7 +384,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
         .build()
         .with_context(|| format!("cannot set up the balloon for `{}`", args.mesh))?;
 
-    let mut out = match &args.out {
+    let out = match &args.out {
         Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
             &args.pictures,
             render_spec,
@@ -283,109 +392,28 @@ pub fn run(args: InflateArgs) -> Result<()> {
         )?),
         None => None,
     };
-    if let Some(o) = &mut out {
-        o.frame(&shell_frame(&sim, 0)?, true)?;
-    }
-    let mut summary = InflateSummary {
-        mesh: args.mesh.clone(),
-        vertices: mesh.num_vertices(),
-        triangles: mesh.num_triangles(),
-        initial_gas_volume: sim.rest_gas_volume(),
-        shell_volume_ratio_final: 1.0,
-        material: args.material.to_string(),
-        linear_solver: args.linear_solver.to_string(),
-        tangent: args.tangent.to_string(),
-        ..Default::default()
+    let plan = RunPlan {
+        steps: args.steps,
+        frames: FramePolicy {
+            every: args.frame_every,
+            last: false,
+        },
+        json: args.json,
     };
-    let pb = progress_bar(args.steps as u64, !args.json);
-    let mut total_ms = 0.0;
-    let mut failure = None;
-    for _ in 0..args.steps {
-        let stats: ShellStepStats = match sim.step() {
-            Ok(s) => s,
-            Err(e) => {
-                failure = Some(e);
-                break;
-            }
-        };
-        total_ms += stats.step_ms;
-        summary.steps += 1;
-        summary.newton_iterations_total += stats.newton_iterations;
-        summary.linear_iterations_total += stats.linear_iterations;
-        summary.split_steps += usize::from(stats.substeps > 1);
-        summary.shell_volume_ratio_max_deviation = summary
-            .shell_volume_ratio_max_deviation
-            .max((stats.shell_volume_ratio - 1.0).abs());
-        if let Some(o) = &mut out {
-            o.append_stats(&stats)?;
-            let regular = args.frame_every > 0 && summary.steps.is_multiple_of(args.frame_every);
-            if regular || o.wants_step(summary.steps) {
-                o.frame(&shell_frame(&sim, summary.steps)?, regular)?;
-            }
-        }
-        pb.inc(1);
-        pb.set_message(format!(
-            "V = {:.4e} m^3, p = {:.0} Pa",
-            stats.gas_volume, stats.gauge_pressure
-        ));
-        if args.until_converged
-            && stats.max_speed < args.speed_tol
-            && stats.volume_change < args.volume_tol
-        {
-            summary.converged = true;
-            break;
-        }
-    }
-    pb.finish_and_clear();
-    summary.sim_time_s = sim.time();
-    summary.final_gas_volume = sim.gas_volume();
-    summary.final_gauge_pressure = sim.gauge_pressure();
-    summary.shell_volume_ratio_final = sim.shell_volume() / sim.rest_shell_volume();
-    summary.mean_step_ms = if summary.steps > 0 {
-        total_ms / summary.steps as f64
-    } else {
-        0.0
+    let mut hooks = InflateHooks {
+        summary: InflateSummary {
+            mesh: args.mesh.clone(),
+            vertices: mesh.num_vertices(),
+            triangles: mesh.num_triangles(),
+            initial_gas_volume: sim.rest_gas_volume(),
+            shell_volume_ratio_final: 1.0,
+            material: args.material.to_string(),
+            linear_solver: args.linear_solver.to_string(),
+            tangent: args.tangent.to_string(),
+            ..Default::default()
+        },
+        total_ms: 0.0,
+        args: &args,
     };
-    let th = sim.thickness();
-    summary.final_thickness_mean = th.iter().sum::<f64>() / th.len() as f64;
-    summary.final_thickness_min = th.iter().copied().fold(f64::INFINITY, f64::min);
-    summary.final_thickness_max = th.iter().copied().fold(0.0, f64::max);
-    summary.error = failure.as_ref().map(|e| e.to_string());
-    if let Some(o) = &mut out {
-        let last = shell_frame(&sim, summary.steps)?;
-        o.write_named_frame("final", &last)?;
-        o.write_json("summary.json", &summary)?;
-        match o.finish(&last, failure.is_some()) {
-            Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
-            // Do not hide the simulation error behind a picture error.
-            Err(e) if failure.is_some() => eprintln!("warning: {e:#}"),
-            Err(e) => return Err(e),
-        }
-    }
-    if args.json {
-        print_json_line(&summary)?;
-    } else {
-        println!(
-            "{} steps, t = {:.3} s: gas volume {:.4e} -> {:.4e} m^3 (x{:.3}), gauge pressure {:.1} Pa, shell volume ratio {:.10}, {:.1} ms/step{}",
-            summary.steps,
-            summary.sim_time_s,
-            summary.initial_gas_volume,
-            summary.final_gas_volume,
-            summary.final_gas_volume / summary.initial_gas_volume,
-            summary.final_gauge_pressure,
-            summary.shell_volume_ratio_final,
-            summary.mean_step_ms,
-            if summary.converged { ", converged" } else { "" }
-        );
-        if let Some(o) = &out {
-            println!("output written to {}", o.path().display());
-        }
-    }
-    match failure {
-        Some(e) => Err(anyhow::Error::new(e).context(format!(
-            "the simulation of `{}` failed; output written so far is complete",
-            args.mesh
-        ))),
-        None => Ok(()),
-    }
+    run_simulation(&mut sim, &mut hooks, &plan, out)
 }

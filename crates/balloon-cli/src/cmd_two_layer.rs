@@ -14,17 +14,17 @@
 
 use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
-    print_json_line, progress_bar,
 };
+use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result, bail};
 use balloon::two_layer::{
-    AxisBox, DragTarget, ExplicitMethod, SpringKind, TwoLayerBody, TwoLayerError, TwoLayerStats,
+    AxisBox, DragTarget, ExplicitMethod, SpringKind, TwoLayerBody, TwoLayerSimulation,
+    TwoLayerStats,
 };
 use balloon_render::{Camera, Projection, UpAxis};
 use nalgebra::{Point3, Vector3};
 use serde::Serialize;
 use std::path::PathBuf;
-use std::time::Instant;
 
 /// Sphere construction in 3D.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -299,11 +299,7 @@ fn style(dim: u8) -> PictureStyle {
 
 /// All particles with the drawing triangles (3D: outer and inner surface; 2D: the band between
 /// the layers), velocity, speed, and stretch against the initial positions `rest`.
-fn layer_frame(
-    sim: &balloon::two_layer::TwoLayerSimulation,
-    rest: &[f64],
-    step: usize,
-) -> Result<Frame> {
+fn layer_frame(sim: &TwoLayerSimulation, rest: &[f64], step: usize) -> Result<Frame> {
     Frame::new(
         step,
         sim.time(),
@@ -314,120 +310,75 @@ fn layer_frame(
     .with_stretch(rest)
 }
 
-/// Runs the subcommand.
-pub fn run(args: TwoLayerArgs) -> Result<()> {
-    let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style(args.dim))?;
-    if args.dim == 1 && (render_spec.is_some() || args.pictures.gif || args.pictures.pov) {
-        bail!("--render, --gif and --pov need a surface: use --dim 2 or 3 (1D has two particles)");
+/// What `two-layer` adds to the shared run loop: the drag window (`--drag`) before each step, the
+/// layer frames and the summary (also after a failure, with the error).
+struct TwoLayerHooks<'a> {
+    args: &'a TwoLayerArgs,
+    drag: Option<DragSpec>,
+    /// Initial positions, the reference of the stretch field.
+    rest: Vec<f64>,
+}
+
+impl RunHooks<TwoLayerSimulation> for TwoLayerHooks<'_> {
+    type Summary = Summary;
+
+    fn frame(&self, sim: &TwoLayerSimulation, step: usize) -> Result<Frame> {
+        layer_frame(sim, &self.rest, step)
     }
-    let drag = args.drag.as_deref().map(parse_drag).transpose()?;
-    let body = body_from(&args)?;
-    let mut sim = body.simulate(args.integrator, args.dt)?;
-    let rest = sim.positions().to_vec();
-    let mut out = match &args.out {
-        Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
-            &args.pictures,
-            render_spec,
-            style(args.dim),
-        )?),
-        None => None,
-    };
-    let mut frames = 0;
-    if let Some(o) = &mut out {
-        o.frame(&layer_frame(&sim, &rest, 0)?, true)?;
-        frames += 1;
+
+    fn before_step(&mut self, sim: &mut TwoLayerSimulation) -> Result<()> {
+        let Some(d) = &self.drag else {
+            return Ok(());
+        };
+        let active = sim.forces().drag().is_some();
+        let t = sim.time();
+        let inside = t >= d.window.0 && t <= d.window.1;
+        if inside && !active {
+            sim.set_drag(Some(DragTarget {
+                point: d.point,
+                stiffness: self.args.drag_stiffness,
+                damping: self.args.drag_damping,
+                rest_length: 0.0,
+            }))?;
+        } else if !inside && active {
+            sim.set_drag(None)?;
+        }
+        Ok(())
     }
-    let pb = progress_bar(args.steps as u64, !args.json);
-    let mut elapsed = 0.0f64;
-    let mut failure: Option<TwoLayerError> = None;
-    let mut last: TwoLayerStats = sim.stats();
-    for step in 1..=args.steps {
-        if let Some(d) = &drag {
-            let active = sim.forces().drag().is_some();
-            let t = sim.time();
-            let inside = t >= d.window.0 && t <= d.window.1;
-            if inside && !active {
-                sim.set_drag(Some(DragTarget {
-                    point: d.point,
-                    stiffness: args.drag_stiffness,
-                    damping: args.drag_damping,
-                    rest_length: 0.0,
-                }))?;
-            } else if !inside && active {
-                sim.set_drag(None)?;
-            }
-        }
-        let t0 = Instant::now();
-        let result = sim.step();
-        elapsed += t0.elapsed().as_secs_f64();
-        match result {
-            Ok(s) => last = s,
-            Err(e) => {
-                failure = Some(e);
-                break;
-            }
-        }
-        if let Some(o) = &mut out {
-            o.append_stats(&last)?;
-            let write = if args.frame_every == 0 {
-                step == args.steps
+
+    fn summary(&self, sim: &TwoLayerSimulation, run: &RunRecord<TwoLayerStats>) -> Option<Summary> {
+        let args = self.args;
+        let failed = run.failure.is_some();
+        let last = run.last.as_ref().map_or_else(|| sim.stats(), |s| s.detail);
+        let taken = sim.step_count().max(1);
+        Some(Summary {
+            status: if failed { "blew_up" } else { "ok" },
+            error: run.failure.as_ref().map(|e| e.to_string()),
+            dim: args.dim,
+            integrator: args.integrator,
+            particles: sim.model().num_particles(),
+            springs: sim.model().springs.len(),
+            steps: sim.step_count(),
+            dt: args.dt,
+            time: sim.time(),
+            final_volume_outer: last.volume_outer,
+            final_volume_inner: last.volume_inner,
+            energy_initial: sim.energy_initial(),
+            energy_final: last.total,
+            work_done: sim.work_done(),
+            min_height: last.min_height,
+            escaped_particles: if failed { 0 } else { sim.escaped_particles() },
+            mean_step_ms: 1e3 * run.step_seconds / taken as f64,
+            steps_per_second: if run.step_seconds > 0.0 {
+                taken as f64 / run.step_seconds
             } else {
-                step % args.frame_every == 0 || step == args.steps
-            };
-            if write || o.wants_step(step) {
-                o.frame(&layer_frame(&sim, &rest, step)?, write)?;
-                frames += usize::from(write);
-            }
-        }
-        pb.inc(1);
+                0.0
+            },
+            frames: run.frames,
+        })
     }
-    pb.finish_and_clear();
-    let taken = sim.step_count().max(1);
-    let summary = Summary {
-        status: if failure.is_some() { "blew_up" } else { "ok" },
-        error: failure.as_ref().map(|e| e.to_string()),
-        dim: args.dim,
-        integrator: args.integrator,
-        particles: sim.model().num_particles(),
-        springs: sim.model().springs.len(),
-        steps: sim.step_count(),
-        dt: args.dt,
-        time: sim.time(),
-        final_volume_outer: last.volume_outer,
-        final_volume_inner: last.volume_inner,
-        energy_initial: sim.energy_initial(),
-        energy_final: last.total,
-        work_done: sim.work_done(),
-        min_height: last.min_height,
-        escaped_particles: if failure.is_some() {
-            0
-        } else {
-            sim.escaped_particles()
-        },
-        mean_step_ms: 1e3 * elapsed / taken as f64,
-        steps_per_second: if elapsed > 0.0 {
-            taken as f64 / elapsed
-        } else {
-            0.0
-        },
-        frames,
-    };
-    if let Some(o) = &mut out {
-        o.write_json("summary.json", &summary)?;
-        let last = layer_frame(&sim, &rest, sim.step_count())?;
-        match o.finish(&last, failure.is_some()) {
-            Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
-            // Do not hide the simulation error behind a picture error.
-            Err(e) if failure.is_some() => eprintln!("warning: {e:#}"),
-            Err(e) => return Err(e),
-        }
-    }
-    if let Some(e) = failure {
-        return Err(e.into());
-    }
-    if args.json {
-        print_json_line(&summary)?;
-    } else {
+
+    fn print(&self, summary: &Summary, _out: Option<&OutputDir>) {
         println!(
             "two-layer {}D ({} particles, {} springs), {} x {:e} s with {}: outer volume {:.6}, inner {:.6}, energy {:.6e} -> {:.6e} J, min height {:.4} m, {} escaped, {:.3} ms/step",
             summary.dim,
@@ -445,7 +396,40 @@ pub fn run(args: TwoLayerArgs) -> Result<()> {
             summary.mean_step_ms
         );
     }
-    Ok(())
+}
+
+/// Runs the subcommand.
+pub fn run(args: TwoLayerArgs) -> Result<()> {
+    let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style(args.dim))?;
+    if args.dim == 1 && (render_spec.is_some() || args.pictures.gif || args.pictures.pov) {
+        bail!("--render, --gif and --pov need a surface: use --dim 2 or 3 (1D has two particles)");
+    }
+    let drag = args.drag.as_deref().map(parse_drag).transpose()?;
+    let body = body_from(&args)?;
+    let mut sim = body.simulate(args.integrator, args.dt)?;
+    let rest = sim.positions().to_vec();
+    let out = match &args.out {
+        Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
+            &args.pictures,
+            render_spec,
+            style(args.dim),
+        )?),
+        None => None,
+    };
+    let plan = RunPlan {
+        steps: args.steps,
+        frames: FramePolicy {
+            every: args.frame_every,
+            last: true,
+        },
+        json: args.json,
+    };
+    let mut hooks = TwoLayerHooks {
+        args: &args,
+        drag,
+        rest,
+    };
+    run_simulation(&mut sim, &mut hooks, &plan, out)
 }
 
 #[cfg(test)]

@@ -10,16 +10,17 @@
 
 use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
-    print_json_line, progress_bar,
 };
+use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result};
 use balloon::volumetric::{
     MassModel, StepStats, VolumetricBody, VolumetricParams, VolumetricScene, VolumetricSimulation,
 };
+use balloon::{SimulationError, SimulationStats};
 use balloon_constraint::cell_volume::{
     CellCentre, CellCorrection, CellSolver, CellVolumeParams, SpringParams,
 };
-use balloon_mesh::lattice::LatticeParams;
+use balloon_mesh::lattice::{Lattice, LatticeParams};
 use balloon_render::UpAxis;
 use nalgebra::{Point3, Vector3};
 use serde::Serialize;
@@ -239,6 +240,117 @@ fn surface_frame(sim: &VolumetricSimulation, rest: &[f64], step: usize) -> Resul
         .with_stretch(rest)
 }
 
+/// What `volumetric` adds to the shared run loop: the embedded-surface frames, lattice frames
+/// (`--lattice-frames`), the summary's running maxima and the summary (none after a failure).
+struct VolumetricHooks<'a> {
+    args: &'a VolumetricArgs,
+    rest_soup: Vec<f64>,
+    lattice: Lattice,
+    p0: Vector3<f64>,
+    total_mass: f64,
+    lattice_ms: f64,
+    stiffness: [f64; 2],
+    max_err: f64,
+    total_sweeps: usize,
+    max_strain: f64,
+}
+
+impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
+    type Summary = Summary;
+
+    fn frame(&self, sim: &VolumetricSimulation, step: usize) -> Result<Frame> {
+        surface_frame(sim, &self.rest_soup, step)
+    }
+
+    fn after_step(
+        &mut self,
+        sim: &VolumetricSimulation,
+        stats: &SimulationStats<StepStats>,
+        out: Option<&mut OutputDir>,
+        regular: bool,
+    ) -> Result<bool> {
+        let d = &stats.detail;
+        self.max_err = self.max_err.max(d.max_cell_volume_error);
+        self.total_sweeps += d.sweeps;
+        self.max_strain = self.max_strain.max(d.max_strain);
+        if let Some(out) = out
+            && regular
+            && self.args.lattice_frames
+        {
+            balloon_mesh::io::vtk::write_tet_vtk(
+                &out.path().join(format!("lattice_{:05}.vtk", stats.steps)),
+                &sim.tet_mesh(),
+                &[],
+                &[],
+            )?;
+        }
+        Ok(false)
+    }
+
+    fn summary(&self, sim: &VolumetricSimulation, run: &RunRecord<StepStats>) -> Option<Summary> {
+        if run.failure.is_some() {
+            return None;
+        }
+        let args = self.args;
+        let gravity_impulse = Vector3::new(0.0, 0.0, args.gravity) * (self.total_mass * sim.time());
+        Some(Summary {
+            mesh: args.mesh.clone(),
+            scene: format!("{:?}", args.scene),
+            cells: self.lattice.cells.len(),
+            tetrahedra: self.lattice.tet_mesh.tets.len(),
+            particles: self.lattice.tet_mesh.vertices.len(),
+            steps: sim.steps(),
+            max_cell_volume_error: self.max_err,
+            total_volume_ratio: run
+                .last
+                .as_ref()
+                .map_or(1.0, |s| s.detail.total_volume_ratio),
+            momentum_drift: (sim.momentum() - self.p0 - gravity_impulse).norm(),
+            step_halvings: sim.total_halvings(),
+            volume_solver: match args.volume_solver {
+                VolumeSolver::GaussSeidel => "gauss-seidel".into(),
+                VolumeSolver::Global => "global".into(),
+            },
+            mean_sweeps: self.total_sweeps as f64 / sim.steps().max(1) as f64,
+            mean_step_ms: if args.steps > 0 {
+                run.step_seconds * 1e3 / args.steps as f64
+            } else {
+                0.0
+            },
+            lattice_ms: self.lattice_ms,
+            mass: sim.masses().iter().sum(),
+            stiffness: self.stiffness,
+            max_strain: self.max_strain,
+        })
+    }
+
+    fn print(&self, summary: &Summary, _out: Option<&OutputDir>) {
+        println!(
+            "{}: {} cells, {} tetrahedra, {} particles; {} steps, max cell volume error {:.2e}, volume ratio {:.12}, {} halvings, {:.3} ms/step",
+            summary.mesh,
+            summary.cells,
+            summary.tetrahedra,
+            summary.particles,
+            summary.steps,
+            summary.max_cell_volume_error,
+            summary.total_volume_ratio,
+            summary.step_halvings,
+            summary.mean_step_ms
+        );
+    }
+
+    fn failure(&self, error: SimulationError, step: usize) -> anyhow::Error {
+        anyhow::Error::new(error).context(format!(
+            "simulation stopped at step {}; output written so far is in {}",
+            step - 1,
+            self.args
+                .out
+                .as_ref()
+                .map_or("(no --out)".into(), |p| p.display().to_string())
+        ))
+    }
+}
+
 /// Runs the subcommand.
 pub fn run(args: VolumetricArgs) -> Result<()> {
     let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
@@ -337,7 +449,7 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
         .iter()
         .flat_map(|q| [q.x, q.y, q.z])
         .collect();
-    let mut out = match &args.out {
+    let out = match &args.out {
         Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
             &args.pictures,
             render_spec,
@@ -367,112 +479,26 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
         )?;
         out.write_named_mesh("input_soup", &soup)?;
     }
-    if let Some(out) = &mut out {
-        out.frame(&surface_frame(&sim, &rest_soup, 0)?, true)?;
-    }
     let total_mass: f64 = sim.masses().iter().sum::<f64>() + sim.sphere().map_or(0.0, |s| s.mass);
-    let p0 = sim.momentum();
-    let pb = progress_bar(args.steps as u64, !args.json);
-    let mut max_err = 0.0f64;
-    let mut total_sweeps = 0usize;
-    let mut max_strain = 0.0f64;
-    let mut last: Option<StepStats> = None;
-    let mut step_time = 0.0;
-    let mut failure = None;
-    for k in 0..args.steps {
-        let t = Instant::now();
-        let stats = match sim.step() {
-            Ok(s) => s,
-            Err(e) => {
-                failure = Some(anyhow::Error::new(e).context(format!(
-                    "simulation stopped at step {k}; output written so far is in {}",
-                    args.out
-                        .as_ref()
-                        .map_or("(no --out)".into(), |p| p.display().to_string())
-                )));
-                break;
-            }
-        };
-        step_time += t.elapsed().as_secs_f64();
-        max_err = max_err.max(stats.max_cell_volume_error);
-        total_sweeps += stats.sweeps;
-        max_strain = max_strain.max(stats.max_strain);
-        if let Some(out) = &mut out {
-            out.append_stats(&stats)?;
-            let regular = (k + 1) % args.frame_every == 0;
-            if regular || out.wants_step(k + 1) {
-                out.frame(&surface_frame(&sim, &rest_soup, k + 1)?, regular)?;
-            }
-            if regular && args.lattice_frames {
-                balloon_mesh::io::vtk::write_tet_vtk(
-                    &out.path().join(format!("lattice_{:05}.vtk", k + 1)),
-                    &sim.tet_mesh(),
-                    &[],
-                    &[],
-                )?;
-            }
-        }
-        pb.inc(1);
-        last = Some(stats);
-    }
-    pb.finish_and_clear();
-    if let Some(out) = &mut out {
-        let last = surface_frame(&sim, &rest_soup, sim.steps())?;
-        match out.finish(&last, failure.is_some()) {
-            Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
-            // Do not hide the simulation error behind a picture error.
-            Err(e) if failure.is_some() => eprintln!("warning: {e:#}"),
-            Err(e) => return Err(e),
-        }
-    }
-    if let Some(e) = failure {
-        return Err(e);
-    }
-    let gravity_impulse = Vector3::new(0.0, 0.0, args.gravity) * (total_mass * sim.time());
-    let summary = Summary {
-        mesh: args.mesh.clone(),
-        scene: format!("{:?}", args.scene),
-        cells: lattice.cells.len(),
-        tetrahedra: lattice.tet_mesh.tets.len(),
-        particles: lattice.tet_mesh.vertices.len(),
-        steps: sim.steps(),
-        max_cell_volume_error: max_err,
-        total_volume_ratio: last.as_ref().map_or(1.0, |s| s.total_volume_ratio),
-        momentum_drift: (sim.momentum() - p0 - gravity_impulse).norm(),
-        step_halvings: sim.total_halvings(),
-        volume_solver: match args.volume_solver {
-            VolumeSolver::GaussSeidel => "gauss-seidel".into(),
-            VolumeSolver::Global => "global".into(),
+    let plan = RunPlan {
+        steps: args.steps,
+        frames: FramePolicy {
+            every: args.frame_every,
+            last: false,
         },
-        mean_sweeps: total_sweeps as f64 / sim.steps().max(1) as f64,
-        mean_step_ms: if args.steps > 0 {
-            step_time * 1e3 / args.steps as f64
-        } else {
-            0.0
-        },
-        lattice_ms,
-        mass: sim.masses().iter().sum(),
-        stiffness: [edge, diagonal],
-        max_strain,
+        json: args.json,
     };
-    if let Some(out) = &out {
-        out.write_json("summary.json", &summary)?;
-    }
-    if args.json {
-        print_json_line(&summary)?;
-    } else {
-        println!(
-            "{}: {} cells, {} tetrahedra, {} particles; {} steps, max cell volume error {:.2e}, volume ratio {:.12}, {} halvings, {:.3} ms/step",
-            summary.mesh,
-            summary.cells,
-            summary.tetrahedra,
-            summary.particles,
-            summary.steps,
-            summary.max_cell_volume_error,
-            summary.total_volume_ratio,
-            summary.step_halvings,
-            summary.mean_step_ms
-        );
-    }
-    Ok(())
+    let mut hooks = VolumetricHooks {
+        args: &args,
+        rest_soup,
+        lattice,
+        p0: sim.momentum(),
+        total_mass,
+        lattice_ms,
+        stiffness: [edge, diagonal],
+        max_err: 0.0,
+        total_sweeps: 0,
+        max_strain: 0.0,
+    };
+    run_simulation(&mut sim, &mut hooks, &plan, out)
 }

@@ -13,6 +13,7 @@ mod cmd_two_layer;
 mod cmd_view;
 mod cmd_volumetric;
 mod output;
+mod run;
 
 /// Simulate inflatable thin shells and volume-conserving soft bodies.
 #[derive(Debug, Parser)]

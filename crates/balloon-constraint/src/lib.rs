@@ -9,6 +9,7 @@
 
 pub mod cell_global;
 pub mod cell_volume;
+pub mod projector;
 pub mod rigid;
 pub mod shell_volume;
 pub mod two_layer;

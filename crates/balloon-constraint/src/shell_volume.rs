@@ -358,6 +358,17 @@ impl ShellVolumeProjection {
         self
     }
 
+    /// Whether rest element volumes were set.
+    pub(crate) fn has_rest_element_volumes(&self) -> bool {
+        !self.rest_element_volumes.is_empty()
+    }
+
+    /// Sets the rest element volumes from a slice (reusing the buffer).
+    pub(crate) fn set_rest_element_volumes(&mut self, volumes: &[f64]) {
+        self.rest_element_volumes.clear();
+        self.rest_element_volumes.extend_from_slice(volumes);
+    }
+
     /// [`ProjectionScope::PerElement`]: `h_e = V0_e / A_e`, positions unchanged. On error the
     /// thicknesses are left unchanged.
     fn project_per_element(

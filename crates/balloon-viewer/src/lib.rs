@@ -27,7 +27,9 @@ mod runner;
 mod server;
 mod systems;
 
-pub use systems::{DragRequest, ShellView, TwoLayerView, ViewSystem, VolumetricView};
+pub use systems::{
+    DragRequest, ShellView, TwoLayerView, ViewSystem, ViewedSimulation, VolumetricView,
+};
 
 use balloon_mesh::TriMesh;
 use runner::{Command, Runner, Shared};

@@ -482,6 +482,7 @@ impl Runner {
 mod tests {
     use super::*;
     use crate::protocol::{ControlSpec, ControlValue, DragMode};
+    use crate::systems::ViewedSimulation;
     use serde_json::json;
 
     /// A test double: a point that moves at 1 m/s along x, fails on the step given by `fail_at`
@@ -534,31 +535,11 @@ mod tests {
             self.rebuilds += 1;
             Ok(())
         }
-        fn triangles(&self) -> Vec<[usize; 3]> {
-            vec![[0, 1, 2]]
+        fn simulation(&self) -> &dyn ViewedSimulation {
+            self
         }
-        fn positions(&self) -> Vec<f64> {
-            vec![self.x, 0.0, 0.0, self.x + 1.0, 0.0, 0.0, self.x, 1.0, 0.0]
-        }
-        fn time(&self) -> f64 {
-            self.steps as f64 * self.dt()
-        }
-        fn steps(&self) -> usize {
-            self.steps
-        }
-        fn dt(&self) -> f64 {
-            0.01
-        }
-        fn step(&mut self) -> Result<(), String> {
-            if self.speed == 9.0 {
-                panic!("toy panic");
-            }
-            if self.fail_at == Some(self.steps) {
-                return Err(format!("toy failure at step {}", self.steps));
-            }
-            self.x += self.speed * self.dt();
-            self.steps += 1;
-            Ok(())
+        fn simulation_mut(&mut self) -> &mut dyn ViewedSimulation {
+            self
         }
         fn stats(&self) -> Map<String, Value> {
             Map::new()
@@ -577,6 +558,35 @@ mod tests {
         }
         fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
             self.drag = drag.copied();
+            Ok(())
+        }
+    }
+
+    impl ViewedSimulation for Toy {
+        fn triangles(&self) -> Vec<[usize; 3]> {
+            vec![[0, 1, 2]]
+        }
+        fn positions(&self) -> Vec<f64> {
+            vec![self.x, 0.0, 0.0, self.x + 1.0, 0.0, 0.0, self.x, 1.0, 0.0]
+        }
+        fn time(&self) -> f64 {
+            self.steps as f64 * ViewedSimulation::dt(self)
+        }
+        fn steps(&self) -> usize {
+            self.steps
+        }
+        fn dt(&self) -> f64 {
+            0.01
+        }
+        fn step(&mut self) -> Result<(), String> {
+            if self.speed == 9.0 {
+                panic!("toy panic");
+            }
+            if self.fail_at == Some(self.steps) {
+                return Err(format!("toy failure at step {}", self.steps));
+            }
+            self.x += self.speed * ViewedSimulation::dt(self);
+            self.steps += 1;
             Ok(())
         }
     }

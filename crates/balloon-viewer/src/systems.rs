@@ -2,6 +2,8 @@
 //! drags, as the server needs them.
 
 use crate::protocol::{ControlSpec, ControlValue, DragMode};
+use balloon::Simulation;
+use balloon::constraint::cell_volume::{CellCorrection, CellSolver};
 use balloon::fields;
 use balloon::gas::GasKind;
 use balloon::integrate::TangentKind;
@@ -28,28 +30,64 @@ pub struct DragRequest {
     pub mode: DragMode,
 }
 
-/// One simulation as the viewer drives it.
+/// The stepping and drawing half of a viewed system: the runner steps, times and draws every
+/// system through this, and it is implemented once, for every [`balloon::Simulation`]
+/// (implemented by hand only by test doubles).
+pub trait ViewedSimulation: Send {
+    /// Advances one step; the error is the simulation's message.
+    fn step(&mut self) -> Result<(), String>;
+    /// Simulated time, s.
+    fn time(&self) -> f64;
+    /// Steps since the start.
+    fn steps(&self) -> usize;
+    /// Time step, s.
+    fn dt(&self) -> f64;
+    /// Triangles of the drawn surface.
+    fn triangles(&self) -> Vec<[usize; 3]>;
+    /// Positions of the drawn vertices, flat, m.
+    fn positions(&self) -> Vec<f64>;
+}
+
+impl<S: Simulation + Send> ViewedSimulation for S {
+    fn step(&mut self) -> Result<(), String> {
+        Simulation::step(self)
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    }
+    fn time(&self) -> f64 {
+        Simulation::time(self)
+    }
+    fn steps(&self) -> usize {
+        Simulation::steps(self)
+    }
+    fn dt(&self) -> f64 {
+        Simulation::dt(self)
+    }
+    fn triangles(&self) -> Vec<[usize; 3]> {
+        self.surface().triangles.into_owned()
+    }
+    fn positions(&self) -> Vec<f64> {
+        self.surface().positions.into_owned()
+    }
+}
+
+/// One simulation as the viewer drives it: its controls (typed inside, parsed from the
+/// protocol's strings once in [`ViewSystem::set_control`]), statistics, scalar fields and drags;
+/// stepping and drawing go through [`ViewSystem::simulation`].
 pub trait ViewSystem: Send {
     /// `shell`, `volumetric` or `two-layer`.
     fn name(&self) -> &'static str;
     /// The controls with their current values.
     fn controls(&self) -> Vec<ControlSpec>;
-    /// Applies a validated value. Returns `true` when the simulation must be rebuilt.
+    /// Parses a validated value of the control `name` into the system's control type and applies
+    /// it. Returns `true` when the simulation must be rebuilt.
     fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String>;
     /// Rebuilds the simulation from the current control values (back to the start).
     fn rebuild(&mut self) -> Result<(), String>;
-    /// Triangles of the drawn surface.
-    fn triangles(&self) -> Vec<[usize; 3]>;
-    /// Positions of the drawn vertices, flat, m.
-    fn positions(&self) -> Vec<f64>;
-    /// Simulated time, s.
-    fn time(&self) -> f64;
-    /// Steps since the last rebuild.
-    fn steps(&self) -> usize;
-    /// Time step, s.
-    fn dt(&self) -> f64;
-    /// Advances one step (the drag forces set by `apply_drag` act on it).
-    fn step(&mut self) -> Result<(), String>;
+    /// The running simulation.
+    fn simulation(&self) -> &dyn ViewedSimulation;
+    /// The running simulation, to step it.
+    fn simulation_mut(&mut self) -> &mut dyn ViewedSimulation;
     /// Numbers for the page's statistics panel.
     fn stats(&self) -> Map<String, Value>;
     /// Names of the per-vertex scalar fields, the default first.
@@ -64,6 +102,67 @@ pub trait ViewSystem: Send {
     }
     /// Sets (or removes) the drag; called again before every step so forces follow the body.
     fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String>;
+
+    /// Triangles of the drawn surface.
+    fn triangles(&self) -> Vec<[usize; 3]> {
+        self.simulation().triangles()
+    }
+    /// Positions of the drawn vertices, flat, m.
+    fn positions(&self) -> Vec<f64> {
+        self.simulation().positions()
+    }
+    /// Simulated time, s.
+    fn time(&self) -> f64 {
+        self.simulation().time()
+    }
+    /// Steps since the last rebuild.
+    fn steps(&self) -> usize {
+        self.simulation().steps()
+    }
+    /// Time step, s.
+    fn dt(&self) -> f64 {
+        self.simulation().dt()
+    }
+    /// Advances one step (the drag forces set by `apply_drag` act on it).
+    fn step(&mut self) -> Result<(), String> {
+        self.simulation_mut().step()
+    }
+}
+
+/// The error text of a choice the protocol validated but this system does not know (only
+/// reachable if a control's choice list and its parser disagree).
+fn unknown_choice(control: &str, value: &str) -> String {
+    format!("control `{control}`: unknown choice `{value}`")
+}
+
+/// A validated number, or an error naming the control if the value is not a number.
+fn number(control: &str, value: &ControlValue) -> Result<f64, String> {
+    match value {
+        ControlValue::Number(v) => Ok(*v),
+        other => Err(format!(
+            "control `{control}`: expected a number, got {other:?}"
+        )),
+    }
+}
+
+/// A validated choice, or an error naming the control.
+fn choice<'v>(control: &str, value: &'v ControlValue) -> Result<&'v str, String> {
+    match value {
+        ControlValue::Choice(c) => Ok(c),
+        other => Err(format!(
+            "control `{control}`: expected a choice, got {other:?}"
+        )),
+    }
+}
+
+/// A validated boolean, or an error naming the control.
+fn boolean(control: &str, value: &ControlValue) -> Result<bool, String> {
+    match value {
+        ControlValue::Bool(b) => Ok(*b),
+        other => Err(format!(
+            "control `{control}`: expected true or false, got {other:?}"
+        )),
+    }
 }
 
 fn vertex_count(x: &[f64]) -> usize {
@@ -95,16 +194,76 @@ fn field_err(e: fields::FieldError) -> String {
 /// Settings of the shell view (the controls).
 #[derive(Clone, Debug)]
 struct ShellSettings {
-    gas: &'static str,
+    gas: GasKind,
     pressure: f64,
     pump_rate: f64,
     thickness_mm: f64,
-    material: &'static str,
+    material: MaterialKind,
     young_mpa: f64,
     dt: f64,
-    solver: &'static str,
-    tangent: &'static str,
+    solver: LinearSolverKind,
+    tangent: TangentKind,
     hold: bool,
+}
+
+/// The protocol's names of the shell materials (the page's short ones, not `MaterialKind`'s
+/// display names).
+const MATERIALS: [(&str, MaterialKind); 2] = [
+    ("stvk", MaterialKind::StVenantKirchhoff),
+    ("neo-hookean", MaterialKind::NeoHookean),
+];
+
+/// One control of the shell view, parsed from the protocol once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum ShellControl {
+    /// `gas` (rebuilds).
+    Gas(GasKind),
+    /// `pressure`, Pa (live for the ideal and constant gases).
+    Pressure(f64),
+    /// `pump_rate`, m^3/s (live for the pump).
+    PumpRate(f64),
+    /// `thickness`, mm (rebuilds).
+    ThicknessMm(f64),
+    /// `material` (rebuilds).
+    Material(MaterialKind),
+    /// `young`, MPa (rebuilds).
+    YoungMpa(f64),
+    /// `dt`, s (live).
+    Dt(f64),
+    /// `solver` (live).
+    Solver(LinearSolverKind),
+    /// `tangent` (live).
+    Tangent(TangentKind),
+    /// `hold` (live).
+    Hold(bool),
+}
+
+impl ShellControl {
+    fn parse(name: &str, value: &ControlValue) -> Result<Self, String> {
+        let kind = |v: &str| unknown_choice(name, v);
+        Ok(match name {
+            "gas" => {
+                let c = choice(name, value)?;
+                Self::Gas(c.parse().map_err(|_| kind(c))?)
+            }
+            "pressure" => Self::Pressure(number(name, value)?),
+            "pump_rate" => Self::PumpRate(number(name, value)?),
+            "thickness" => Self::ThicknessMm(number(name, value)?),
+            "material" => Self::Material(lookup(&MATERIALS, name, choice(name, value)?)?),
+            "young" => Self::YoungMpa(number(name, value)?),
+            "dt" => Self::Dt(number(name, value)?),
+            "solver" => {
+                let c = choice(name, value)?;
+                Self::Solver(c.parse().map_err(|_| kind(c))?)
+            }
+            "tangent" => {
+                let c = choice(name, value)?;
+                Self::Tangent(c.parse().map_err(|_| kind(c))?)
+            }
+            "hold" => Self::Hold(boolean(name, value)?),
+            other => return Err(format!("unknown control `{other}`")),
+        })
+    }
 }
 
 /// Grab/pinch state of the shell: the picked vertex, its neighbourhood with weights and rest
@@ -143,15 +302,15 @@ impl ShellView {
     /// A shell view of `mesh` (closed, outward, m) with the default controls.
     pub fn new(mesh: TriMesh) -> Result<Self, String> {
         let settings = ShellSettings {
-            gas: "constant",
+            gas: GasKind::Constant,
             pressure: 2000.0,
             pump_rate: 1e-3,
             thickness_mm: 0.3,
-            material: "stvk",
+            material: MaterialKind::StVenantKirchhoff,
             young_mpa: 1.0,
             dt: 0.01,
-            solver: "cholesky",
-            tangent: "projected",
+            solver: LinearSolverKind::Cholesky,
+            tangent: TangentKind::Projected,
             hold: true,
         };
         let sim = Self::build(&mesh, &settings)?;
@@ -177,26 +336,67 @@ impl ShellView {
     }
 
     fn build(mesh: &TriMesh, s: &ShellSettings) -> Result<ShellSimulation, String> {
-        let gas: GasKind = s.gas.parse().map_err(|e| format!("{e}"))?;
-        let kind: MaterialKind = s.material.parse().map_err(|e| format!("{e}"))?;
-        let solver: LinearSolverKind = s.solver.parse().map_err(|e| format!("{e}"))?;
-        let tangent: TangentKind = s.tangent.parse()?;
         let lame = Lame::try_from_young_poisson(s.young_mpa * 1e6, balloon::shell::DEFAULT_POISSON)
             .map_err(|e| format!("young: {e}"))?;
         ShellBalloon::new(mesh.clone())
-            .with_material(MaterialModel::from_lame(kind, lame))
-            .with_gas(gas)
+            .with_material(MaterialModel::from_lame(s.material, lame))
+            .with_gas(s.gas)
             .with_gauge_pressure(s.pressure)
             .with_pump_rate(s.pump_rate)
             .with_thickness(s.thickness_mm * 1e-3)
             .with_dt(s.dt)
-            .with_linear_solver(solver)
+            .with_linear_solver(s.solver)
             .build()
             .map(|mut sim| {
-                sim.integrator_params_mut().tangent = tangent;
+                sim.integrator_params_mut().tangent = s.tangent;
                 sim
             })
             .map_err(|e| e.to_string())
+    }
+
+    /// Applies a control; `true` when the simulation must be rebuilt.
+    fn apply(&mut self, control: ShellControl) -> Result<bool, String> {
+        let s = &mut self.settings;
+        match control {
+            ShellControl::Gas(gas) => s.gas = gas,
+            ShellControl::Pressure(p) => {
+                if s.gas != GasKind::Pump {
+                    self.sim.set_gauge_pressure(p).map_err(|e| e.to_string())?;
+                }
+                s.pressure = p;
+                return Ok(false);
+            }
+            ShellControl::PumpRate(rate) => {
+                if s.gas == GasKind::Pump {
+                    self.sim.set_pump_rate(rate).map_err(|e| e.to_string())?;
+                }
+                s.pump_rate = rate;
+                return Ok(false);
+            }
+            ShellControl::ThicknessMm(h) => s.thickness_mm = h,
+            ShellControl::Material(kind) => s.material = kind,
+            ShellControl::YoungMpa(e) => s.young_mpa = e,
+            ShellControl::Dt(dt) => {
+                self.sim.set_dt(dt).map_err(|e| e.to_string())?;
+                s.dt = dt;
+                return Ok(false);
+            }
+            ShellControl::Solver(kind) => {
+                self.sim.integrator_params_mut().linear.kind = kind;
+                s.solver = kind;
+                return Ok(false);
+            }
+            ShellControl::Tangent(kind) => {
+                self.sim.integrator_params_mut().tangent = kind;
+                s.tangent = kind;
+                return Ok(false);
+            }
+            ShellControl::Hold(hold) => {
+                s.hold = hold;
+                return Ok(false);
+            }
+        }
+        Ok(true)
     }
 }
 
@@ -211,7 +411,7 @@ impl ViewSystem for ShellView {
             ControlSpec::choice(
                 "gas",
                 "Gas model",
-                s.gas,
+                &s.gas.to_string(),
                 &["ideal", "constant", "pump"],
                 true,
             ),
@@ -242,7 +442,7 @@ impl ViewSystem for ShellView {
             ControlSpec::choice(
                 "material",
                 "Material",
-                s.material,
+                name_of(&MATERIALS, &s.material),
                 &["stvk", "neo-hookean"],
                 true,
             ),
@@ -258,14 +458,14 @@ impl ViewSystem for ShellView {
             ControlSpec::choice(
                 "solver",
                 "Linear solver",
-                s.solver,
+                &s.solver.to_string(),
                 &["cholesky", "factorized-pcg", "pcg", "matrix-free-cg"],
                 false,
             ),
             ControlSpec::choice(
                 "tangent",
                 "Newton tangent (projected: PSD per element)",
-                s.tangent,
+                &s.tangent.to_string(),
                 &["projected", "exact"],
                 false,
             ),
@@ -274,54 +474,7 @@ impl ViewSystem for ShellView {
     }
 
     fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
-        let s = &mut self.settings;
-        match name {
-            "gas" => s.gas = value.choice(),
-            "pressure" => {
-                if s.gas != "pump" {
-                    self.sim
-                        .set_gauge_pressure(value.number())
-                        .map_err(|e| e.to_string())?;
-                }
-                s.pressure = value.number();
-                return Ok(false);
-            }
-            "pump_rate" => {
-                if s.gas == "pump" {
-                    self.sim
-                        .set_pump_rate(value.number())
-                        .map_err(|e| e.to_string())?;
-                }
-                s.pump_rate = value.number();
-                return Ok(false);
-            }
-            "thickness" => s.thickness_mm = value.number(),
-            "material" => s.material = value.choice(),
-            "young" => s.young_mpa = value.number(),
-            "dt" => {
-                self.sim.set_dt(value.number()).map_err(|e| e.to_string())?;
-                s.dt = value.number();
-                return Ok(false);
-            }
-            "solver" => {
-                let kind: LinearSolverKind = value.choice().parse().map_err(|e| format!("{e}"))?;
-                self.sim.integrator_params_mut().linear.kind = kind;
-                s.solver = value.choice();
-                return Ok(false);
-            }
-            "tangent" => {
-                let kind: TangentKind = value.choice().parse()?;
-                self.sim.integrator_params_mut().tangent = kind;
-                s.tangent = value.choice();
-                return Ok(false);
-            }
-            "hold" => {
-                s.hold = value.boolean();
-                return Ok(false);
-            }
-            other => return Err(format!("unknown control `{other}`")),
-        }
-        Ok(true)
+        self.apply(ShellControl::parse(name, value)?)
     }
 
     fn rebuild(&mut self) -> Result<(), String> {
@@ -330,28 +483,12 @@ impl ViewSystem for ShellView {
         Ok(())
     }
 
-    fn triangles(&self) -> Vec<[usize; 3]> {
-        self.sim.triangles().to_vec()
+    fn simulation(&self) -> &dyn ViewedSimulation {
+        &self.sim
     }
 
-    fn positions(&self) -> Vec<f64> {
-        self.sim.positions().to_vec()
-    }
-
-    fn time(&self) -> f64 {
-        self.sim.time()
-    }
-
-    fn steps(&self) -> usize {
-        self.sim.steps_taken()
-    }
-
-    fn dt(&self) -> f64 {
-        self.sim.dt()
-    }
-
-    fn step(&mut self) -> Result<(), String> {
-        self.sim.step().map(|_| ()).map_err(|e| e.to_string())
+    fn simulation_mut(&mut self) -> &mut dyn ViewedSimulation {
+        &mut self.sim
     }
 
     fn stats(&self) -> Map<String, Value> {
@@ -363,7 +500,7 @@ impl ViewSystem for ShellView {
             "gauge_pressure": self.sim.gauge_pressure(),
             "thickness_mean": mean,
             "shell_volume_ratio": self.sim.shell_volume() / self.sim.rest_shell_volume(),
-            "dt": self.sim.dt(),
+            "dt": Simulation::dt(&self.sim),
         });
         m.as_object().cloned().unwrap_or_default()
     }
@@ -471,10 +608,66 @@ impl ViewSystem for ShellView {
 #[derive(Clone, Debug)]
 struct VolumetricSettings {
     stiffness: f64,
-    correction: &'static str,
-    solver: &'static str,
+    correction: CellCorrection,
+    solver: CellSolver,
     gravity: f64,
     dt: f64,
+}
+
+/// One control of the volumetric view, parsed from the protocol once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum VolumetricControl {
+    /// `stiffness`, `k dt^2 / m` (rebuilds).
+    Stiffness(f64),
+    /// `correction` (rebuilds).
+    Correction(CellCorrection),
+    /// `solver` (rebuilds).
+    Solver(CellSolver),
+    /// `gravity`, m/s^2 (live).
+    Gravity(f64),
+    /// `dt`, s (live).
+    Dt(f64),
+}
+
+/// The protocol's names of the cell-volume corrections.
+const CORRECTIONS: [(&str, CellCorrection); 2] = [
+    ("scaling", CellCorrection::Scaling),
+    ("gradient", CellCorrection::Gradient),
+];
+/// The protocol's names of the cell-volume solvers.
+const CELL_SOLVERS: [(&str, CellSolver); 2] = [
+    ("gauss-seidel", CellSolver::GaussSeidel),
+    ("global", CellSolver::Global),
+];
+
+/// The protocol name of `value` in `table`.
+fn name_of<T: PartialEq>(table: &[(&'static str, T)], value: &T) -> &'static str {
+    table
+        .iter()
+        .find(|(_, v)| v == value)
+        .map_or("", |(n, _)| n)
+}
+
+/// The value named `name` in `table`.
+fn lookup<T: Copy>(table: &[(&'static str, T)], control: &str, name: &str) -> Result<T, String> {
+    table
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, v)| *v)
+        .ok_or_else(|| unknown_choice(control, name))
+}
+
+impl VolumetricControl {
+    fn parse(name: &str, value: &ControlValue) -> Result<Self, String> {
+        Ok(match name {
+            "stiffness" => Self::Stiffness(number(name, value)?),
+            "correction" => Self::Correction(lookup(&CORRECTIONS, name, choice(name, value)?)?),
+            "solver" => Self::Solver(lookup(&CELL_SOLVERS, name, choice(name, value)?)?),
+            "gravity" => Self::Gravity(number(name, value)?),
+            "dt" => Self::Dt(number(name, value)?),
+            other => return Err(format!("unknown control `{other}`")),
+        })
+    }
 }
 
 /// A volume-conserving lattice body (seed 003) on a floor in the viewer.
@@ -501,8 +694,8 @@ impl VolumetricView {
             // The paper's scaling correction gains energy on the floor and inverts cells of the
             // coarse teddy within a second; the gradient correction does not (measured with the
             // `volumetric_view_*` tests).
-            correction: "gradient",
-            solver: "global",
+            correction: CellCorrection::Gradient,
+            solver: CellSolver::Global,
             gravity: 9.81,
             dt: 5e-4,
         };
@@ -528,14 +721,8 @@ impl VolumetricView {
         // Interactive rates: cells within 1e-6 of their rest volume (the library's 1e-10 costs
         // many more Gauss-Seidel sweeps per step).
         params.volume.tolerance = VOLUME_TOLERANCE;
-        params.volume.correction = match s.correction {
-            "gradient" => balloon::constraint::cell_volume::CellCorrection::Gradient,
-            _ => balloon::constraint::cell_volume::CellCorrection::Scaling,
-        };
-        params.volume.solver = match s.solver {
-            "global" => balloon::constraint::cell_volume::CellSolver::Global,
-            _ => balloon::constraint::cell_volume::CellSolver::GaussSeidel,
-        };
+        params.volume.correction = s.correction;
+        params.volume.solver = s.solver;
         let body = VolumetricBody::build(soup, params).map_err(|e| e.to_string())?;
         // Springs relative to the particle mass and the time step, as `balloon volumetric`
         // does: `k = s m / dt^2` (explicit, stable for s well below 1), damping `m / (1000 dt)`.
@@ -557,8 +744,27 @@ impl VolumetricView {
         Ok(sim.with_plane(floor))
     }
 
-    fn surface_positions(&self) -> Vec<Point3<f64>> {
-        self.sim.lattice().embedding.positions(self.sim.positions())
+    /// Applies a control; `true` when the simulation must be rebuilt.
+    fn apply(&mut self, control: VolumetricControl) -> Result<bool, String> {
+        let s = &mut self.settings;
+        match control {
+            VolumetricControl::Stiffness(k) => s.stiffness = k,
+            VolumetricControl::Correction(c) => s.correction = c,
+            VolumetricControl::Solver(solver) => s.solver = solver,
+            VolumetricControl::Gravity(g) => {
+                self.sim
+                    .set_gravity([0.0, -g, 0.0])
+                    .map_err(|e| e.to_string())?;
+                s.gravity = g;
+                return Ok(false);
+            }
+            VolumetricControl::Dt(dt) => {
+                VolumetricSimulation::set_dt(&mut self.sim, dt).map_err(|e| e.to_string())?;
+                s.dt = dt;
+                return Ok(false);
+            }
+        }
+        Ok(true)
     }
 }
 
@@ -585,14 +791,14 @@ impl ViewSystem for VolumetricView {
             ControlSpec::choice(
                 "correction",
                 "Volume correction",
-                s.correction,
+                name_of(&CORRECTIONS, &s.correction),
                 &["scaling", "gradient"],
                 true,
             ),
             ControlSpec::choice(
                 "solver",
                 "Volume solver (global needs the gradient correction)",
-                s.solver,
+                name_of(&CELL_SOLVERS, &s.solver),
                 &["gauss-seidel", "global"],
                 true,
             ),
@@ -609,26 +815,7 @@ impl ViewSystem for VolumetricView {
     }
 
     fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
-        let s = &mut self.settings;
-        match name {
-            "stiffness" => s.stiffness = value.number(),
-            "correction" => s.correction = value.choice(),
-            "solver" => s.solver = value.choice(),
-            "gravity" => {
-                self.sim
-                    .set_gravity([0.0, -value.number(), 0.0])
-                    .map_err(|e| e.to_string())?;
-                s.gravity = value.number();
-                return Ok(false);
-            }
-            "dt" => {
-                self.sim.set_dt(value.number()).map_err(|e| e.to_string())?;
-                s.dt = value.number();
-                return Ok(false);
-            }
-            other => return Err(format!("unknown control `{other}`")),
-        }
-        Ok(true)
+        self.apply(VolumetricControl::parse(name, value)?)
     }
 
     fn rebuild(&mut self) -> Result<(), String> {
@@ -636,28 +823,12 @@ impl ViewSystem for VolumetricView {
         Ok(())
     }
 
-    fn triangles(&self) -> Vec<[usize; 3]> {
-        self.sim.lattice().embedding.triangles.clone()
+    fn simulation(&self) -> &dyn ViewedSimulation {
+        &self.sim
     }
 
-    fn positions(&self) -> Vec<f64> {
-        flat(&self.surface_positions())
-    }
-
-    fn time(&self) -> f64 {
-        self.sim.time()
-    }
-
-    fn steps(&self) -> usize {
-        self.sim.steps()
-    }
-
-    fn dt(&self) -> f64 {
-        self.sim.body().params.dt
-    }
-
-    fn step(&mut self) -> Result<(), String> {
-        self.sim.step().map(|_| ()).map_err(|e| e.to_string())
+    fn simulation_mut(&mut self) -> &mut dyn ViewedSimulation {
+        &mut self.sim
     }
 
     fn stats(&self) -> Map<String, Value> {
@@ -667,7 +838,7 @@ impl ViewSystem for VolumetricView {
             "max_strain": self.sim.max_strain(),
             "particles": self.sim.positions().len(),
             "halvings": self.sim.total_halvings(),
-            "dt": self.sim.body().params.dt,
+            "dt": Simulation::dt(&self.sim),
         });
         m.as_object().cloned().unwrap_or_default()
     }
@@ -741,7 +912,7 @@ impl ViewSystem for VolumetricView {
             inv_mass += w * w / m[i];
         }
         let mass = 1.0 / inv_mass;
-        let dt = self.sim.body().params.dt;
+        let dt = Simulation::dt(&self.sim);
         let k = VOLUMETRIC_DRAG_GAIN * mass / (dt * dt);
         // Critically damped for the pulled mass.
         let c = 2.0 * (k * mass).sqrt();
@@ -771,10 +942,41 @@ impl ViewSystem for VolumetricView {
 #[derive(Clone, Debug)]
 struct TwoLayerSettings {
     pressure: f64,
-    integrator: &'static str,
+    integrator: ExplicitMethod,
     gravity: f64,
     dt: f64,
     wall_box: bool,
+}
+
+/// One control of the two-layer view, parsed from the protocol once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum TwoLayerControl {
+    /// `pressure`, Pa (rebuilds).
+    Pressure(f64),
+    /// `integrator` (live).
+    Integrator(ExplicitMethod),
+    /// `gravity`, m/s^2 (rebuilds).
+    Gravity(f64),
+    /// `dt`, s (live).
+    Dt(f64),
+    /// `box` (rebuilds).
+    WallBox(bool),
+}
+
+impl TwoLayerControl {
+    fn parse(name: &str, value: &ControlValue) -> Result<Self, String> {
+        Ok(match name {
+            "pressure" => Self::Pressure(number(name, value)?),
+            "integrator" => {
+                let c = choice(name, value)?;
+                Self::Integrator(c.parse().map_err(|_| unknown_choice(name, c))?)
+            }
+            "gravity" => Self::Gravity(number(name, value)?),
+            "dt" => Self::Dt(number(name, value)?),
+            "box" => Self::WallBox(boolean(name, value)?),
+            other => return Err(format!("unknown control `{other}`")),
+        })
+    }
 }
 
 /// A two-layer sphere (seed 004) in a box in the viewer.
@@ -794,7 +996,7 @@ impl TwoLayerView {
     pub fn new() -> Result<Self, String> {
         let settings = TwoLayerSettings {
             pressure: 50.0,
-            integrator: "rk4",
+            integrator: ExplicitMethod::Rk4,
             gravity: 9.81,
             dt: 5e-4,
             wall_box: true,
@@ -808,7 +1010,6 @@ impl TwoLayerView {
     }
 
     fn build(s: &TwoLayerSettings) -> Result<TwoLayerSimulation, String> {
-        let method: ExplicitMethod = s.integrator.parse().map_err(|e| format!("{e}"))?;
         let collision_box = if s.wall_box {
             Some(
                 AxisBox::centered(Point3::origin(), Vector3::new(2.0, 2.0, 2.0))
@@ -824,8 +1025,29 @@ impl TwoLayerView {
             .with_pressure(s.pressure, 0.5 * s.pressure)
             .with_gravity(s.gravity)
             .with_box(collision_box)
-            .simulate(method, s.dt)
+            .simulate(s.integrator, s.dt)
             .map_err(|e| e.to_string())
+    }
+
+    /// Applies a control; `true` when the simulation must be rebuilt.
+    fn apply(&mut self, control: TwoLayerControl) -> Result<bool, String> {
+        let s = &mut self.settings;
+        match control {
+            TwoLayerControl::Pressure(p) => s.pressure = p,
+            TwoLayerControl::Gravity(g) => s.gravity = g,
+            TwoLayerControl::WallBox(on) => s.wall_box = on,
+            TwoLayerControl::Integrator(method) => {
+                self.sim.set_method(method);
+                s.integrator = method;
+                return Ok(false);
+            }
+            TwoLayerControl::Dt(dt) => {
+                TwoLayerSimulation::set_dt(&mut self.sim, dt).map_err(|e| e.to_string())?;
+                s.dt = dt;
+                return Ok(false);
+            }
+        }
+        Ok(true)
     }
 }
 
@@ -848,7 +1070,7 @@ impl ViewSystem for TwoLayerView {
             ControlSpec::choice(
                 "integrator",
                 "Integrator",
-                s.integrator,
+                s.integrator.name(),
                 &["euler", "midpoint", "rk4", "symplectic"],
                 false,
             ),
@@ -866,25 +1088,7 @@ impl ViewSystem for TwoLayerView {
     }
 
     fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
-        let s = &mut self.settings;
-        match name {
-            "pressure" => s.pressure = value.number(),
-            "gravity" => s.gravity = value.number(),
-            "box" => s.wall_box = value.boolean(),
-            "integrator" => {
-                let m: ExplicitMethod = value.choice().parse().map_err(|e| format!("{e}"))?;
-                self.sim.set_method(m);
-                s.integrator = value.choice();
-                return Ok(false);
-            }
-            "dt" => {
-                self.sim.set_dt(value.number()).map_err(|e| e.to_string())?;
-                s.dt = value.number();
-                return Ok(false);
-            }
-            other => return Err(format!("unknown control `{other}`")),
-        }
-        Ok(true)
+        self.apply(TwoLayerControl::parse(name, value)?)
     }
 
     fn rebuild(&mut self) -> Result<(), String> {
@@ -893,28 +1097,12 @@ impl ViewSystem for TwoLayerView {
         Ok(())
     }
 
-    fn triangles(&self) -> Vec<[usize; 3]> {
-        self.sim.model().draw_triangles()
+    fn simulation(&self) -> &dyn ViewedSimulation {
+        &self.sim
     }
 
-    fn positions(&self) -> Vec<f64> {
-        self.sim.positions().to_vec()
-    }
-
-    fn time(&self) -> f64 {
-        self.sim.time()
-    }
-
-    fn steps(&self) -> usize {
-        self.sim.step_count()
-    }
-
-    fn dt(&self) -> f64 {
-        self.sim.dt()
-    }
-
-    fn step(&mut self) -> Result<(), String> {
-        self.sim.step().map(|_| ()).map_err(|e| e.to_string())
+    fn simulation_mut(&mut self) -> &mut dyn ViewedSimulation {
+        &mut self.sim
     }
 
     fn stats(&self) -> Map<String, Value> {
@@ -927,7 +1115,7 @@ impl ViewSystem for TwoLayerView {
             "kinetic": s.kinetic,
             "total_energy": s.total,
             "collisions": s.collisions,
-            "dt": self.sim.dt(),
+            "dt": Simulation::dt(&self.sim),
         });
         m.as_object().cloned().unwrap_or_default()
     }
@@ -1035,7 +1223,7 @@ mod tests {
     fn volumetric_view_lands_without_failing() {
         let soup = crate::default_mesh(crate::SystemKind::Volumetric).unwrap();
         let mut v = VolumetricView::new(soup).unwrap();
-        assert_eq!(v.settings.solver, "global");
+        assert_eq!(v.settings.solver, CellSolver::Global);
         run(&mut v, SECONDS).unwrap();
         // The paper's Gauss-Seidel sweeps land too.
         assert!(
@@ -1248,6 +1436,63 @@ mod tests {
             mode: DragMode::Grab,
         };
         assert!(v.apply_drag(Some(&bad)).is_err());
+    }
+
+    /// Every value a control announces (its current value and, for a choice, every choice)
+    /// parses into the system's typed control, and the parsed value of the current setting
+    /// is announced back unchanged; unknown names and wrong kinds are refused.
+    fn check_controls<C: std::fmt::Debug>(
+        controls: &[ControlSpec],
+        parse: impl Fn(&str, &ControlValue) -> Result<C, String>,
+    ) {
+        use crate::protocol::ControlKind;
+        for c in controls {
+            let values: Vec<ControlValue> = match c.kind {
+                ControlKind::Number => vec![ControlValue::Number(c.value.as_f64().unwrap())],
+                ControlKind::Bool => vec![ControlValue::Bool(c.value.as_bool().unwrap())],
+                ControlKind::Choice => {
+                    let current = c.value.as_str().unwrap();
+                    assert!(c.choices.contains(&current), "{}: {current}", c.name);
+                    c.choices
+                        .iter()
+                        .map(|ch| ControlValue::Choice(ch))
+                        .collect()
+                }
+            };
+            for v in &values {
+                parse(c.name, v).unwrap_or_else(|e| panic!("{} = {v:?}: {e}", c.name));
+            }
+            let wrong = match c.kind {
+                ControlKind::Number => ControlValue::Bool(true),
+                _ => ControlValue::Number(1.0),
+            };
+            assert!(
+                parse(c.name, &wrong).is_err(),
+                "{} accepted {wrong:?}",
+                c.name
+            );
+        }
+        assert!(parse("colour", &ControlValue::Number(1.0)).is_err());
+    }
+
+    #[test]
+    fn controls_are_typed_and_parse_from_what_they_announce() {
+        check_controls(&small_shell().controls(), ShellControl::parse);
+        check_controls(
+            &TwoLayerView::new().unwrap().controls(),
+            TwoLayerControl::parse,
+        );
+        let soup = balloon::mesh::generate::icosphere(0.1, 2).unwrap();
+        let v = VolumetricView::new(soup).unwrap();
+        check_controls(&v.controls(), VolumetricControl::parse);
+        assert_eq!(
+            VolumetricControl::parse("solver", &ControlValue::Choice("gauss-seidel")),
+            Ok(VolumetricControl::Solver(CellSolver::GaussSeidel))
+        );
+        assert_eq!(
+            ShellControl::parse("solver", &ControlValue::Choice("factorized-pcg")),
+            Ok(ShellControl::Solver(LinearSolverKind::FactorizedPcg))
+        );
     }
 
     #[test]

@@ -8,11 +8,40 @@
 //! | shell balloons with thickness | `shell::ShellBalloon` | 000 (Wang et al., "Cute Balloons with Thickness") |
 //! | volume-conserving impulse-based bodies | `volumetric::VolumetricBody` | 003 (Diziol, Bender, Bayer) |
 //! | two-layer elastic objects | `two_layer::TwoLayerBody` | 004 (Song) |
+//!
+//! Every running system implements [`Simulation`] (step, time, dt, flat positions, the drawn
+//! surface, shared statistics, a typed [`SimulationError`]), so run loops, viewers and benchmarks
+//! are written once. Every part of the shell swaps in one line on its builder: material, gas
+//! model (a user's own `GasModel` too), integrator parameters, linear solver and projector (see
+//! [`shell`]).
+//!
+//! Not in this crate: the numerics themselves (elements, materials, gases, integrators, constraint
+//! projectors live in the re-exported stage crates), file output and pictures (the CLI and
+//! `balloon-render`).
+//!
+//! ```
+//! use balloon::Simulation;
+//! use balloon::gas::GasKind;
+//! use balloon::shell::ShellBalloon;
+//!
+//! let mesh = balloon::mesh::generate::icosphere(0.1, 1).unwrap();
+//! let mut sim = ShellBalloon::new(mesh)
+//!     .with_gas(GasKind::Constant)
+//!     .with_gauge_pressure(1000.0)
+//!     .build()
+//!     .unwrap();
+//! let stats = Simulation::step(&mut sim).unwrap();
+//! assert_eq!((stats.steps, stats.dt), (1, sim.dt()));
+//! assert!(stats.detail.gas_volume > sim.rest_gas_volume());
+//! ```
 
 pub mod fields;
 pub mod shell;
+pub mod simulation;
 pub mod two_layer;
 pub mod volumetric;
+
+pub use simulation::{DrawnSurface, Simulation, SimulationError, SimulationStats};
 
 pub use balloon_constraint as constraint;
 pub use balloon_element as element;

@@ -18,14 +18,84 @@
 //! ```
 //!
 //! Swapping a part is one line: `.with_material(NeoHookean::new(lame))`,
-//! `.with_linear_solver(LinearSolverKind::Cholesky)`, `.with_gas(GasKind::Constant)`,
-//! `.with_projection(None)`.
+//! `.with_linear_solver(LinearSolverKind::Cholesky)`, `.with_gas(GasKind::Constant)` or
+//! `.with_gas_model(my_gas)`, `.configure_integrator(|p| p.newton_iterations = 5)`,
+//! `.with_projector(my_projector)` or `.with_projection(None)`. Each is shown below on a small
+//! sphere.
+//!
+//! The material (any [`Material`]):
+//!
+//! ```
+//! use balloon::material::{Lame, NeoHookean};
+//! use balloon::shell::ShellBalloon;
+//! let mesh = balloon::mesh::generate::icosphere(0.1, 1).unwrap();
+//! let lame = Lame::try_from_young_poisson(1e6, 0.45).unwrap();
+//! let mut sim = ShellBalloon::new(mesh).with_material(NeoHookean::new(lame)).build().unwrap();
+//! sim.step().unwrap();
+//! ```
+//!
+//! The gas: a built-in kind, or a user's own [`GasModel`] used as given:
+//!
+//! ```
+//! use balloon::gas::GasModel;
+//! use balloon::shell::ShellBalloon;
+//!
+//! /// A gas whose pressure falls linearly with volume (a stiff "spring" of air).
+//! #[derive(Clone, Debug)]
+//! struct LinearGas { p0: f64, v0: f64, k: f64 }
+//! impl GasModel for LinearGas {
+//!     fn absolute_pressure(&self, v: f64, _t: f64) -> f64 { self.p0 - self.k * (v - self.v0) }
+//!     fn dpressure_dvolume(&self, _v: f64, _t: f64) -> f64 { -self.k }
+//!     fn potential(&self, _v: f64, _t: f64) -> Option<f64> { None }
+//! }
+//!
+//! let mesh = balloon::mesh::generate::icosphere(0.1, 1).unwrap();
+//! let v0 = 4.0 / 3.0 * std::f64::consts::PI * 0.1f64.powi(3);
+//! let gas = LinearGas { p0: 101_325.0 + 1000.0, v0, k: 1e7 };
+//! let mut sim = ShellBalloon::new(mesh).with_gas_model(gas).build().unwrap();
+//! let stats = sim.step().unwrap();
+//! assert!(stats.gauge_pressure > 0.0);
+//! assert_eq!(sim.gas().k, 1e7);
+//! ```
+//!
+//! The integrator: edit the shell's tuned defaults in place (projected tangent, sparse Cholesky,
+//! mass damping 10 1/s stay), or replace them as a whole with `with_integrator`:
+//!
+//! ```
+//! use balloon::integrate::TangentKind;
+//! use balloon::shell::{ShellBalloon, default_integrator_params};
+//! let mesh = balloon::mesh::generate::icosphere(0.1, 1).unwrap();
+//! let builder = ShellBalloon::new(mesh).configure_integrator(|p| p.newton_iterations = 5);
+//! assert_eq!(builder.integrator_params().newton_iterations, 5);
+//! assert_eq!(builder.integrator_params().tangent, TangentKind::Projected);
+//! assert_eq!(builder.integrator_params().mass_damping, default_integrator_params().mass_damping);
+//! builder.build().unwrap().step().unwrap();
+//! ```
+//!
+//! The projector: any [`ShellProjector`] (the global projection of Algorithm 2 is the default;
+//! per-element volumes, no projection, or a user's own are one call):
+//!
+//! ```
+//! use balloon::constraint::projector::NoProjection;
+//! use balloon::constraint::shell_volume::{ProjectionScope, ShellVolumeParams, ShellVolumeProjection};
+//! use balloon::shell::ShellBalloon;
+//! let mesh = balloon::mesh::generate::icosphere(0.1, 1).unwrap();
+//! let per_element = ShellVolumeProjection::new(ShellVolumeParams {
+//!     scope: ProjectionScope::PerElement,
+//!     ..Default::default()
+//! });
+//! let mut sim = ShellBalloon::new(mesh.clone()).with_projector(per_element).build().unwrap();
+//! sim.step().unwrap();
+//! let mut off = ShellBalloon::new(mesh).with_projector(NoProjection).build().unwrap();
+//! assert_eq!(off.step().unwrap().projection_iterations, 0);
+//! ```
 
 pub mod analytic;
 mod system;
 
 pub use system::ShellSystem;
 
+use balloon_constraint::projector::{ShellProjectionInput, ShellProjector};
 use balloon_constraint::shell_volume::{ShellVolumeParams, ShellVolumeProjection, shell_volume};
 use balloon_element::ThreePrism;
 use balloon_gas::{
@@ -92,7 +162,23 @@ pub enum ShellError {
         #[source]
         source: balloon_constraint::shell_volume::ShellVolumeError,
     },
-    /// The run diverged (runaway volume, non-finite or inverted state).
+    /// The gas volume ran away (non-finite, non-positive or beyond
+    /// [`RUNAWAY_VOLUME_FACTOR`] times the rest volume): a physical runaway, not retried with
+    /// smaller steps.
+    #[error(
+        "step {step} (t = {time:.6} s): diverged: gas volume: {volume:e} m^3 vs rest {rest_volume:e} m^3 (runaway above {RUNAWAY_VOLUME_FACTOR}x): the pressure exceeds what the shell can hold (e.g. above the neo-Hookean limit point) or the run is unstable"
+    )]
+    RunawayVolume {
+        /// Step index.
+        step: usize,
+        /// Simulation time at the start of the step.
+        time: f64,
+        /// The enclosed volume reached, m^3.
+        volume: f64,
+        /// The rest volume, m^3.
+        rest_volume: f64,
+    },
+    /// The run diverged (non-finite or inverted state).
     #[error("step {step} (t = {time:.6} s): diverged: {quantity}: {detail}")]
     Diverged {
         /// Step index.
@@ -125,21 +211,114 @@ pub enum Thickness {
 /// uses a fixed amount of gas at `with_gauge_pressure` (default 2 kPa) over ambient; the paper's
 /// own gas model (Eq. 14, no ambient) is `with_ambient_pressure(0.0)`.
 #[derive(Clone, Debug)]
-pub struct ShellBalloon<M: Material = MaterialModel> {
+pub struct ShellBalloon<M: Material = MaterialModel, G: ShellGas = GasKind> {
     mesh: TriMesh,
     material: M,
     thickness: Thickness,
     density: f64,
-    gas_kind: GasKind,
+    gas: G,
     gauge_pressure: f64,
     ambient_pressure: f64,
     pump_rate: f64,
     follower_term: bool,
     integrator: BackwardEulerParams,
-    projection: Option<ShellVolumeParams>,
+    projector: Option<Box<dyn ShellProjector>>,
     dt: f64,
     validate_mesh: bool,
     max_step_halvings: usize,
+}
+
+/// How the shell builder makes its gas once the rest volume of the mesh is known: a built-in
+/// [`GasKind`] (the default, set with [`ShellBalloon::with_gas`]) or a ready model
+/// ([`CustomGas`], set with [`ShellBalloon::with_gas_model`]).
+pub trait ShellGas {
+    /// The gas model the simulation runs with.
+    type Model: GasModel;
+    /// Makes the model from the builder's settings.
+    fn into_model(self, setup: &GasSetup) -> Result<Self::Model, ShellError>;
+}
+
+/// What the builder knows when it makes the gas.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GasSetup {
+    /// Enclosed volume of the rest mesh, m^3.
+    pub rest_volume: f64,
+    /// Gauge pressure set on the builder, Pa.
+    pub gauge_pressure: f64,
+    /// Ambient pressure, Pa.
+    pub ambient_pressure: f64,
+    /// Pump rate as gas content, `p_ambient * rate`, J/s of `nRT`.
+    pub pump_rate_joules: f64,
+}
+
+impl ShellGas for GasKind {
+    type Model = Gas;
+
+    /// Ideal and constant gases are built from the absolute pressure, so a zero ambient (the
+    /// paper's model, Eq. 14) is allowed; the pump starts at the ambient pressure.
+    fn into_model(self, s: &GasSetup) -> Result<Gas, ShellError> {
+        let p_abs = s.ambient_pressure + s.gauge_pressure;
+        Ok(match self {
+            GasKind::Ideal => Gas::Ideal(IdealGas::try_new(p_abs, s.rest_volume)?),
+            GasKind::Constant => Gas::Constant(ConstantPressure::try_new(p_abs)?),
+            GasKind::Pump => Gas::try_from_kind(
+                GasKind::Pump,
+                s.rest_volume,
+                s.gauge_pressure,
+                s.ambient_pressure,
+                s.pump_rate_joules,
+            )?,
+        })
+    }
+}
+
+/// A user's own gas model, used as given (the builder's pressures and pump rate do not touch it;
+/// the ambient pressure still sets the outside of the load).
+#[derive(Clone, Debug)]
+pub struct CustomGas<G>(pub G);
+
+impl<G: GasModel> ShellGas for CustomGas<G> {
+    type Model = G;
+
+    fn into_model(self, _setup: &GasSetup) -> Result<G, ShellError> {
+        Ok(self.0)
+    }
+}
+
+/// The integrator parameters a [`ShellBalloon`] starts from: backward Euler with
+/// [`DEFAULT_MASS_DAMPING`], 3 Newton iterations on the projected tangent
+/// ([`TangentKind::Projected`]), sparse Cholesky with the gas term as a Sherman-Morrison update,
+/// IC(0) for PCG and [`DEFAULT_LINEAR_TOLERANCE`] for the CG solvers. Start from these (not
+/// from `BackwardEulerParams::default()`) when building parameters for
+/// [`ShellBalloon::with_integrator`].
+pub fn default_integrator_params() -> BackwardEulerParams {
+    let mut integrator = BackwardEulerParams {
+        mass_damping: DEFAULT_MASS_DAMPING,
+        pcg_preconditioner: PcgPreconditioner::IncompleteCholesky,
+        ..Default::default()
+    };
+    integrator.linear.kind = LinearSolverKind::Cholesky;
+    integrator.tangent = TangentKind::Projected;
+    integrator.linear.relative_tolerance = DEFAULT_LINEAR_TOLERANCE;
+    integrator
+}
+
+/// Checks a time step (s): positive and finite. The one check of dt for the builder and
+/// [`ShellSimulation::set_dt`].
+fn check_dt(dt: f64) -> Result<f64, ShellError> {
+    positive("dt", dt).map(|()| dt)
+}
+
+fn positive(name: &'static str, value: f64) -> Result<(), ShellError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(ShellError::InvalidParameter {
+            name,
+            value: value.to_string(),
+            reason: "must be a positive finite number".into(),
+        })
+    }
 }
 
 /// Default Young's modulus, Pa (latex rubber).
@@ -168,26 +347,21 @@ impl ShellBalloon<MaterialModel> {
     pub fn new(mesh: TriMesh) -> Self {
         let lame = Lame::try_from_young_poisson(DEFAULT_YOUNG, DEFAULT_POISSON)
             .expect("default Lame parameters are valid");
-        let mut integrator = BackwardEulerParams {
-            mass_damping: DEFAULT_MASS_DAMPING,
-            pcg_preconditioner: PcgPreconditioner::IncompleteCholesky,
-            ..Default::default()
-        };
-        integrator.linear.kind = LinearSolverKind::Cholesky;
-        integrator.tangent = TangentKind::Projected;
-        integrator.linear.relative_tolerance = DEFAULT_LINEAR_TOLERANCE;
+        let integrator = default_integrator_params();
         Self {
             mesh,
             material: MaterialModel::from_lame(MaterialKind::StVenantKirchhoff, lame),
             thickness: Thickness::Uniform(DEFAULT_THICKNESS),
             density: DEFAULT_DENSITY,
-            gas_kind: GasKind::Pump,
+            gas: GasKind::Pump,
             gauge_pressure: DEFAULT_GAUGE_PRESSURE,
             ambient_pressure: STANDARD_ATMOSPHERE,
             pump_rate: DEFAULT_PUMP_RATE,
             follower_term: false,
             integrator,
-            projection: Some(ShellVolumeParams::default()),
+            projector: Some(Box::new(ShellVolumeProjection::new(
+                ShellVolumeParams::default(),
+            ))),
             dt: DEFAULT_DT,
             validate_mesh: true,
             max_step_halvings: DEFAULT_MAX_STEP_HALVINGS,
@@ -195,26 +369,64 @@ impl ShellBalloon<MaterialModel> {
     }
 }
 
-impl<M: Material> ShellBalloon<M> {
-    /// Uses another material (any `Material`, e.g. `NeoHookean::new(lame)`).
-    pub fn with_material<N: Material>(self, material: N) -> ShellBalloon<N> {
-        ShellBalloon {
-            mesh: self.mesh,
+impl<M: Material, G: ShellGas> ShellBalloon<M, G> {
+    /// The same builder with the material and gas replaced by `f(material, gas)`.
+    fn replace<N: Material, H: ShellGas>(
+        self,
+        f: impl FnOnce(M, G) -> (N, H),
+    ) -> ShellBalloon<N, H> {
+        let ShellBalloon {
+            mesh,
             material,
-            thickness: self.thickness,
-            density: self.density,
-            gas_kind: self.gas_kind,
-            gauge_pressure: self.gauge_pressure,
-            ambient_pressure: self.ambient_pressure,
-            pump_rate: self.pump_rate,
-            follower_term: self.follower_term,
-            integrator: self.integrator,
-            projection: self.projection,
-            dt: self.dt,
-            validate_mesh: self.validate_mesh,
-            max_step_halvings: self.max_step_halvings,
+            thickness,
+            density,
+            gas,
+            gauge_pressure,
+            ambient_pressure,
+            pump_rate,
+            follower_term,
+            integrator,
+            projector,
+            dt,
+            validate_mesh,
+            max_step_halvings,
+        } = self;
+        let (material, gas) = f(material, gas);
+        ShellBalloon {
+            mesh,
+            material,
+            thickness,
+            density,
+            gas,
+            gauge_pressure,
+            ambient_pressure,
+            pump_rate,
+            follower_term,
+            integrator,
+            projector,
+            dt,
+            validate_mesh,
+            max_step_halvings,
         }
     }
+
+    /// Uses another material (any `Material`, e.g. `NeoHookean::new(lame)`).
+    pub fn with_material<N: Material>(self, material: N) -> ShellBalloon<N, G> {
+        self.replace(|_, gas| (material, gas))
+    }
+
+    /// Uses a built-in gas model kind (the default is [`GasKind::Pump`]), built at
+    /// [`ShellBalloon::build`] from the pressures and pump rate set on the builder.
+    pub fn with_gas(self, kind: GasKind) -> ShellBalloon<M, GasKind> {
+        self.replace(|material, _| (material, kind))
+    }
+
+    /// Uses a user's own gas model (any [`GasModel`]) as given: the simulation is then a
+    /// `ShellSimulation<M, H>` and [`ShellSimulation::gas`] returns the model.
+    pub fn with_gas_model<H: GasModel>(self, gas: H) -> ShellBalloon<M, CustomGas<H>> {
+        self.replace(|material, _| (material, CustomGas(gas)))
+    }
+
     /// Uniform rest thickness, m.
     pub fn with_thickness(mut self, thickness: f64) -> Self {
         self.thickness = Thickness::Uniform(thickness);
@@ -228,11 +440,6 @@ impl<M: Material> ShellBalloon<M> {
     /// Shell density, kg/m^3.
     pub fn with_density(mut self, density: f64) -> Self {
         self.density = density;
-        self
-    }
-    /// Gas model kind.
-    pub fn with_gas(mut self, kind: GasKind) -> Self {
-        self.gas_kind = kind;
         self
     }
     /// Gauge pressure, Pa: initial for the ideal gas, fixed for constant pressure.
@@ -257,19 +464,40 @@ impl<M: Material> ShellBalloon<M> {
         self.follower_term = enabled;
         self
     }
-    /// Integrator parameters (Newton iterations, linear solver, damping, gravity).
+    /// Replaces the integrator parameters as a whole (Newton iterations, linear solver, tangent,
+    /// damping, gravity), the shell's tuned defaults included: parameters built from
+    /// `BackwardEulerParams::default()` switch off the mass damping and use the exact tangent
+    /// with matrix-free CG. Build them from [`default_integrator_params`], or edit the defaults in
+    /// place with [`ShellBalloon::configure_integrator`].
     pub fn with_integrator(mut self, params: BackwardEulerParams) -> Self {
         self.integrator = params;
         self
+    }
+    /// Edits the integrator parameters in place, keeping everything not touched (the shell's
+    /// defaults, see [`default_integrator_params`]): `.configure_integrator(|p| p.newton_iterations = 5)`.
+    pub fn configure_integrator(mut self, edit: impl FnOnce(&mut BackwardEulerParams)) -> Self {
+        edit(&mut self.integrator);
+        self
+    }
+    /// The integrator parameters the simulation will be built with.
+    pub fn integrator_params(&self) -> &BackwardEulerParams {
+        &self.integrator
     }
     /// Linear solver behind Newton.
     pub fn with_linear_solver(mut self, kind: LinearSolverKind) -> Self {
         self.integrator.linear.kind = kind;
         self
     }
-    /// Volume projection parameters; `None` switches the projection off.
+    /// The built-in volume projection with `params` (global, Algorithm 2, or per element, by
+    /// `params.scope`); `None` switches the projection off.
     pub fn with_projection(mut self, params: Option<ShellVolumeParams>) -> Self {
-        self.projection = params;
+        self.projector = params.map(|p| Box::new(ShellVolumeProjection::new(p)) as _);
+        self
+    }
+    /// Uses `projector` after every implicit step (any [`ShellProjector`], e.g. a
+    /// `ShellVolumeProjection`, `NoProjection` or a user's own).
+    pub fn with_projector(mut self, projector: impl ShellProjector + 'static) -> Self {
+        self.projector = Some(Box::new(projector));
         self
     }
     /// Time step, s.
@@ -289,25 +517,13 @@ impl<M: Material> ShellBalloon<M> {
         self
     }
 
-    fn positive(name: &'static str, value: f64) -> Result<(), ShellError> {
-        if value.is_finite() && value > 0.0 {
-            Ok(())
-        } else {
-            Err(ShellError::InvalidParameter {
-                name,
-                value: value.to_string(),
-                reason: "must be a positive finite number".into(),
-            })
-        }
-    }
-
     /// Validates everything and builds the simulation (no time step is taken).
-    pub fn build(self) -> Result<ShellSimulation<M>, ShellError> {
+    pub fn build(self) -> Result<ShellSimulation<M, G::Model>, ShellError> {
         if self.validate_mesh {
             balloon_mesh::validate::validate_closed_manifold(&self.mesh)?;
         }
-        Self::positive("density", self.density)?;
-        Self::positive("dt", self.dt)?;
+        positive("density", self.density)?;
+        check_dt(self.dt)?;
         if !(self.ambient_pressure.is_finite() && self.ambient_pressure >= 0.0) {
             return Err(ShellError::InvalidParameter {
                 name: "ambient",
@@ -325,7 +541,7 @@ impl<M: Material> ShellBalloon<M> {
         let nt = self.mesh.num_triangles();
         let thickness = match &self.thickness {
             Thickness::Uniform(h) => {
-                Self::positive("thickness", *h)?;
+                positive("thickness", *h)?;
                 vec![*h; nt]
             }
             Thickness::PerFace(v) => {
@@ -337,7 +553,7 @@ impl<M: Material> ShellBalloon<M> {
                     });
                 }
                 for h in v {
-                    Self::positive("thickness", *h)?;
+                    positive("thickness", *h)?;
                 }
                 v.clone()
             }
@@ -377,21 +593,12 @@ impl<M: Material> ShellBalloon<M> {
         }
         let x = self.mesh.positions_flat();
         let rest_gas_volume = balloon_gas::enclosed_volume(&x, &self.mesh.triangles)?;
-        let pump_rate_joules = self.pump_rate * self.ambient_pressure;
-        // Ideal and constant gases are built from the absolute pressure so that a zero ambient
-        // (the paper's model, Eq. 14) is allowed; the pump starts at the ambient pressure.
-        let p_abs = self.ambient_pressure + self.gauge_pressure;
-        let gas = match self.gas_kind {
-            GasKind::Ideal => Gas::Ideal(IdealGas::try_new(p_abs, rest_gas_volume)?),
-            GasKind::Constant => Gas::Constant(ConstantPressure::try_new(p_abs)?),
-            GasKind::Pump => Gas::try_from_kind(
-                GasKind::Pump,
-                rest_gas_volume,
-                self.gauge_pressure,
-                self.ambient_pressure,
-                pump_rate_joules,
-            )?,
-        };
+        let gas = self.gas.into_model(&GasSetup {
+            rest_volume: rest_gas_volume,
+            gauge_pressure: self.gauge_pressure,
+            ambient_pressure: self.ambient_pressure,
+            pump_rate_joules: self.pump_rate * self.ambient_pressure,
+        })?;
         let load = PressureLoad::new(gas)
             .with_ambient_pressure(self.ambient_pressure)?
             .with_follower_term(self.follower_term);
@@ -418,20 +625,19 @@ impl<M: Material> ShellBalloon<M> {
             load,
             &vertex_mass,
         );
-        let projection = self
-            .projection
-            .map(|p| ShellVolumeProjection::new(p).with_rest_element_volumes(rest_element_volumes));
         Ok(ShellSimulation {
             v: vec![0.0; x.len()],
             x_prev: x.clone(),
             x,
             system,
             integrator: BackwardEuler::new(self.integrator),
-            projection,
+            projection: self.projector,
+            rest_element_volumes,
             vertex_inv_mass: vertex_proj_mass.iter().map(|m| 1.0 / m).collect(),
             element_inv_mass: element_proj_mass.iter().map(|m| 1.0 / m).collect(),
             rest_shell_volume,
             rest_gas_volume,
+            gas_volume: rest_gas_volume,
             rest_positions: self.mesh.positions_flat(),
             time: 0.0,
             step: 0,
@@ -496,7 +702,9 @@ struct StepTotals {
 pub struct ShellSimulation<M: Material = MaterialModel, G: GasModel = Gas> {
     system: ShellSystem<M, G>,
     integrator: BackwardEuler,
-    projection: Option<ShellVolumeProjection>,
+    projection: Option<Box<dyn ShellProjector>>,
+    /// Rest material volume per element, `A0_e H_e` (m^3), for per-element projectors.
+    rest_element_volumes: Vec<f64>,
     x: Vec<f64>,
     v: Vec<f64>,
     x_prev: Vec<f64>,
@@ -504,6 +712,9 @@ pub struct ShellSimulation<M: Material = MaterialModel, G: GasModel = Gas> {
     element_inv_mass: Vec<f64>,
     rest_shell_volume: f64,
     rest_gas_volume: f64,
+    /// Enclosed gas volume of the current positions (m^3), computed once per (sub-)step by the
+    /// state check.
+    gas_volume: f64,
     rest_positions: Vec<f64>,
     time: f64,
     step: usize,
@@ -516,7 +727,7 @@ pub struct ShellSimulation<M: Material = MaterialModel, G: GasModel = Gas> {
 }
 
 /// Gas volume growth beyond this factor of the rest volume is reported as a runaway.
-const RUNAWAY_VOLUME_FACTOR: f64 = 1.0e4;
+pub const RUNAWAY_VOLUME_FACTOR: f64 = 1.0e4;
 
 impl<M: Material, G: GasModel> ShellSimulation<M, G> {
     /// Advances one time step (Algorithm 1, lines 5-12). On error the state is rolled back to the
@@ -539,8 +750,7 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
         let (tmin, tmax) = th
             .iter()
             .fold((f64::INFINITY, 0.0f64), |(a, b), &h| (a.min(h), b.max(h)));
-        let volume_now =
-            balloon_gas::enclosed_volume(&self.x, &self.system.triangles).unwrap_or(f64::NAN);
+        let volume_now = self.gas_volume;
         Ok(ShellStepStats {
             step,
             time: self.time,
@@ -595,8 +805,7 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
                 self.x = x_old;
                 self.v = v_old;
                 self.system.thickness = thickness_old;
-                let runaway =
-                    matches!(&e, ShellError::Diverged { quantity, .. } if quantity == "gas volume");
+                let runaway = matches!(e, ShellError::RunawayVolume { .. });
                 if runaway || depth >= self.max_step_halvings {
                     return Err(e);
                 }
@@ -633,15 +842,15 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
         .map_err(|source| ShellError::Integrate { step, time, source })?;
         let mut proj_iters = 0;
         if let Some(proj) = &mut self.projection {
+            let input = ShellProjectionInput {
+                triangles: &self.system.triangles,
+                vertex_inverse_mass: &self.vertex_inv_mass,
+                element_inverse_mass: &self.element_inv_mass,
+                rest_shell_volume: self.rest_shell_volume,
+                rest_element_volumes: &self.rest_element_volumes,
+            };
             let pi = proj
-                .project(
-                    &self.system.triangles,
-                    &mut self.x,
-                    &mut self.system.thickness,
-                    &self.vertex_inv_mass,
-                    &self.element_inv_mass,
-                    self.rest_shell_volume,
-                )
+                .project(&input, &mut self.x, &mut self.system.thickness)
                 .map_err(|source| ShellError::Projection { step, source })?;
             proj_iters = pi.iterations;
         }
@@ -649,11 +858,12 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
         for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x_prev) {
             *v = (x - x0) / dt;
         }
-        self.check_state(step, time)?;
+        self.gas_volume = self.check_state(step, time)?;
         Ok((info, proj_iters))
     }
 
-    fn check_state(&self, step: usize, time: f64) -> Result<(), ShellError> {
+    /// Checks the state after a (sub-)step and returns the enclosed gas volume.
+    fn check_state(&self, step: usize, time: f64) -> Result<f64, ShellError> {
         if let Some(i) = self.x.iter().position(|v| !v.is_finite()) {
             return Err(ShellError::Diverged {
                 step,
@@ -680,17 +890,14 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
         }
         let vol = balloon_gas::enclosed_volume(&self.x, &self.system.triangles).unwrap_or(f64::NAN);
         if !(vol.is_finite() && vol > 0.0 && vol < RUNAWAY_VOLUME_FACTOR * self.rest_gas_volume) {
-            return Err(ShellError::Diverged {
+            return Err(ShellError::RunawayVolume {
                 step,
                 time,
-                quantity: "gas volume".into(),
-                detail: format!(
-                    "{vol:e} m^3 vs rest {:e} m^3 (runaway above {RUNAWAY_VOLUME_FACTOR}x): the pressure exceeds what the shell can hold (e.g. above the neo-Hookean limit point) or the run is unstable",
-                    self.rest_gas_volume
-                ),
+                volume: vol,
+                rest_volume: self.rest_gas_volume,
             });
         }
-        Ok(())
+        Ok(vol)
     }
 
     /// Current positions, flat `[x0, y0, z0, ...]`, m.
@@ -741,7 +948,7 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
     }
     /// Current enclosed gas volume, m^3.
     pub fn gas_volume(&self) -> f64 {
-        balloon_gas::enclosed_volume(&self.x, &self.system.triangles).unwrap_or(f64::NAN)
+        self.gas_volume
     }
     /// Gauge pressure at the last force evaluation, Pa.
     pub fn gauge_pressure(&self) -> f64 {
@@ -758,6 +965,10 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
     /// Rest shell material volume, m^3.
     pub fn rest_shell_volume(&self) -> f64 {
         self.rest_shell_volume
+    }
+    /// The gas model (its kind and parameters, or the user's own model).
+    pub fn gas(&self) -> &G {
+        self.system.gas.gas()
     }
     /// The force system (for diagnostics: energies, forces).
     pub fn system(&self) -> &ShellSystem<M, G> {
@@ -810,8 +1021,7 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
 
     /// Changes the time step (s, positive and finite) for the following steps.
     pub fn set_dt(&mut self, dt: f64) -> Result<(), ShellError> {
-        ShellBalloon::<MaterialModel>::positive("dt", dt)?;
-        self.dt = dt;
+        self.dt = check_dt(dt)?;
         Ok(())
     }
 }
@@ -873,11 +1083,6 @@ impl<M: Material> ShellSimulation<M, Gas> {
                 reason: "only the pump gas has a pump rate".into(),
             }),
         }
-    }
-
-    /// The gas model (its kind and parameters).
-    pub fn gas(&self) -> &Gas {
-        self.system.gas.gas()
     }
 }
 
