@@ -38,11 +38,13 @@
 mod error;
 mod load;
 mod model;
+mod pressure_field;
 mod volume;
 
 pub use error::GasError;
 pub use load::{GasState, PressureLoad};
 pub use model::{ConstantPressure, Gas, GasKind, GasModel, IdealGas, Pump, STANDARD_ATMOSPHERE};
+pub use pressure_field::vertex_pressure_forces;
 pub use volume::{
     add_volume_hessian_product, add_volume_hessian_triplets, check_surface, enclosed_volume,
     volume_and_gradient,
