@@ -10,7 +10,8 @@
 //! | [`ThreePrism`] | 3 vertices (+ thickness parameter `h`) | `F = [e12 e13 d h][E12 E13 D H]^-1` | 000 Eq. 1-4, 8, 11, 19 |
 //! | [`MembraneTriangle`] | 3 vertices, fixed thickness | 3x2 in-plane `F` completed by the normal | |
 //! | [`LinearTetrahedron`] | 4 vertices | `F = Ds Dm^-1` | 003 (tet lattice) |
-//! | [`Spring`] | 2 particles | Hooke + axial dashpot | 003, 004 |
+//! | [`Spring`] | 2 particles | Hooke + axial dashpot | 004 Eq. 4.2-4.6 (two-layer bodies) |
+//! | [`TargetSpring`] | 1 particle + a driven target | Hooke + axial dashpot | 004 Eq. 4.7 (drag) |
 //!
 //! Sign conventions, shared by all elements: `forces = -dE/dx`; `force_differential(dx) = df =
 //! -K dx`; `stiffness = K = d^2E/dx^2` (symmetric), vertex-major `[x1 y1 z1 x2 ...]`.
@@ -46,7 +47,7 @@ mod tet;
 pub use error::ElementError;
 pub use membrane::MembraneTriangle;
 pub use prism::{ThreePrism, ThreePrismLinearization};
-pub use spring::Spring;
+pub use spring::{Spring, TargetSpring};
 pub use tet::LinearTetrahedron;
 
 #[cfg(test)]

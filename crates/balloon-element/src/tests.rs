@@ -6,7 +6,7 @@ use balloon_test_support::{
 };
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
-use crate::{ElementError, LinearTetrahedron, MembraneTriangle, Spring, ThreePrism};
+use crate::{ElementError, LinearTetrahedron, MembraneTriangle, Spring, TargetSpring, ThreePrism};
 
 fn flat<const N: usize>(x: &[Vector3<f64>; N]) -> Vec<f64> {
     x.iter().flat_map(|v| v.iter().copied()).collect()
@@ -631,6 +631,69 @@ fn spring_derivatives_damping_and_guards() {
             .unwrap()
             .rest_length(),
         2.0
+    );
+}
+
+/// The damped force of [`Spring::force`] at rest velocities is minus the energy gradient (central
+/// differences and a second-order Taylor remainder), and the unvalidated constructor builds the
+/// same spring as the validated one.
+#[test]
+fn spring_force_at_zero_velocity_is_minus_energy_gradient() {
+    let mut rng = Rng::new(5);
+    let s = Spring::try_new(0.4, 150.0, 2.0).unwrap();
+    assert_eq!(Spring::new(0.4, 150.0, 2.0), s);
+    let x0 = flat(&[rvec(&mut rng), rvec(&mut rng) + Vector3::new(0.5, 0.0, 0.0)]);
+    let energy = |x: &[f64]| s.energy(&arr::<2>(x)[0], &arr::<2>(x)[1]);
+    let grad = |x: &[f64]| {
+        let a = arr::<2>(x);
+        let f = s.force(&a[0], &a[1], &Vector3::zeros(), &Vector3::zeros());
+        flat(&f).iter().map(|c| -c).collect::<Vec<f64>>()
+    };
+    check_gradient(energy, grad, &x0, 1e-6, 1e-7);
+    let dx = Rng::new(6).vector(6);
+    assert_second_order(&taylor_remainder_orders(energy, grad, &x0, &dx, 1e-3));
+}
+
+/// The drag spring: its force at rest is minus the energy gradient with respect to the particle
+/// (central differences, Taylor remainder), it vanishes at the rest length, and its dashpot only
+/// resists motion relative to a moving target.
+#[test]
+fn target_spring_force_is_minus_energy_gradient_and_damps_relative_motion() {
+    let mut rng = Rng::new(21);
+    let target = nalgebra::Point3::new(0.3, -0.2, 0.5);
+    let drag = TargetSpring::new(Spring::try_new(0.25, 40.0, 1.5).unwrap());
+    assert_eq!(drag.spring().stiffness_constant(), 40.0);
+    let x0: Vec<f64> = (target.coords + rvec(&mut rng) + Vector3::new(0.6, 0.0, 0.0))
+        .iter()
+        .copied()
+        .collect();
+    let p = |x: &[f64]| Vector3::new(x[0], x[1], x[2]);
+    let energy = |x: &[f64]| drag.energy(&p(x), &target);
+    let grad = |x: &[f64]| {
+        let f = drag.force(&p(x), &Vector3::zeros(), &target, &Vector3::zeros());
+        vec![-f.x, -f.y, -f.z]
+    };
+    check_gradient(energy, grad, &x0, 1e-6, 1e-7);
+    assert_second_order(&taylor_remainder_orders(
+        energy,
+        grad,
+        &x0,
+        &[0.3, -0.7, 0.2],
+        1e-3,
+    ));
+    // At the rest length with no relative motion there is no force, whatever the common velocity.
+    let at_rest = target.coords + Vector3::new(0.0, 0.25, 0.0);
+    let w = Vector3::new(1.0, -2.0, 0.5);
+    assert!(drag.force(&at_rest, &w, &target, &w).norm() < 1e-12);
+    assert_eq!(drag.energy(&at_rest, &target), 0.0);
+    // The dashpot part opposes the relative velocity: its power on the relative motion is <= 0.
+    let (x, v) = (p(&x0), rvec(&mut rng));
+    let damp = drag.force(&x, &v, &target, &w) - drag.force(&x, &w, &target, &w);
+    assert!(damp.dot(&(v - w)) <= 0.0);
+    // Zero length: no force, no NaN.
+    assert_eq!(
+        drag.force(&target.coords, &v, &target, &Vector3::zeros()),
+        Vector3::zeros()
     );
 }
 
