@@ -1,12 +1,11 @@
 //! Element kernels: the three-prism's fused forces + 9x9 stiffness (the shell solver's hot path,
 //! called once per element per Newton iteration), its force differential (matrix-free CG; direct
-//! and from a cached linearisation), and
-//! the tetrahedron's forces + 12x12 stiffness. Throughput is in elements, so criterion reports
+//! and from a cached linearisation). Throughput is in elements, so criterion reports
 //! elements/s; ns/element = 1e9 / throughput.
 
 use std::hint::black_box;
 
-use balloon_element::{LinearTetrahedron, ThreePrism};
+use balloon_element::ThreePrism;
 use balloon_material::{Lame, Material, NeoHookean, StVenantKirchhoff};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use nalgebra::Vector3;
@@ -93,43 +92,10 @@ fn prism_group<M: Material>(c: &mut Criterion, name: &str, m: &M) {
     g.finish();
 }
 
-fn tets(c: &mut Criterion) {
-    let lame = Lame::try_from_young_poisson(1.0e6, 0.45).expect("valid rubber parameters");
-    let m = StVenantKirchhoff::new(lame);
-    let mut r = Next(11);
-    let data: Vec<_> = (0..N)
-        .map(|_| {
-            let p0 = r.v();
-            let rest = [
-                p0,
-                p0 + Vector3::new(0.01, 0.0, 0.0),
-                p0 + Vector3::new(0.0, 0.01, 0.0),
-                p0 + Vector3::new(0.0, 0.0, 0.01),
-            ];
-            let t = LinearTetrahedron::try_new(rest).expect("positive rest tetrahedron");
-            (t, rest.map(|p| p * 1.1 + r.v() * 5e-4))
-        })
-        .collect();
-    let mut g = c.benchmark_group("element/tetrahedron/stvk");
-    g.throughput(Throughput::Elements(N as u64));
-    g.bench_function("forces_and_stiffness", |b| {
-        b.iter(|| {
-            let mut acc = 0.0;
-            for (t, x) in &data {
-                let (f, k) = t.forces_and_stiffness(&m, black_box(x));
-                acc += f[0].x + k[(4, 4)];
-            }
-            acc
-        })
-    });
-    g.finish();
-}
-
 fn elements(c: &mut Criterion) {
     let lame = Lame::try_from_young_poisson(1.0e6, 0.45).expect("valid rubber parameters");
     prism_group(c, "stvk", &StVenantKirchhoff::new(lame));
     prism_group(c, "neo-hookean", &NeoHookean::new(lame));
-    tets(c);
 }
 
 criterion_group!(benches, elements);

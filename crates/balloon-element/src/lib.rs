@@ -3,14 +3,19 @@
 //!
 //! **What it is for.** One element at a time, allocation-free, monomorphised over the material
 //! (no trait objects in hot loops). Assembly over a mesh, time integration and gas pressure live
-//! in other crates; this crate knows nothing of time or gas.
+//! in other crates; this crate knows nothing of time or gas. Every element here is used by a
+//! system: the three-prism by the shell balloon (seed 000), the springs by the two-layer body
+//! (seed 004).
+//!
+//! **What it is not for.** Volumetric (tetrahedral) elasticity and membrane-only triangles: the
+//! volumetric body of seed 003 is held together by cell-volume impulses and cell springs
+//! (`balloon-constraint`), not by tetrahedral elements.
 //!
 //! | element | DOFs | kinematics | seed |
 //! |---|---|---|---|
 //! | [`ThreePrism`] | 3 vertices (+ thickness parameter `h`) | `F = [e12 e13 d h][E12 E13 D H]^-1` | 000 Eq. 1-4, 8, 11, 19 |
-//! | [`MembraneTriangle`] | 3 vertices, fixed thickness | 3x2 in-plane `F` completed by the normal | |
-//! | [`LinearTetrahedron`] | 4 vertices | `F = Ds Dm^-1` | 003 (tet lattice) |
-//! | [`Spring`] | 2 particles | Hooke + axial dashpot | 003, 004 |
+//! | [`Spring`] | 2 particles | Hooke + axial dashpot | 004 Eq. 4.2-4.6 (two-layer bodies) |
+//! | [`TargetSpring`] | 1 particle + a driven target | Hooke + axial dashpot | 004 Eq. 4.7 (drag) |
 //!
 //! Sign conventions, shared by all elements: `forces = -dE/dx`; `force_differential(dx) = df =
 //! -K dx`; `stiffness = K = d^2E/dx^2` (symmetric), vertex-major `[x1 y1 z1 x2 ...]`.
@@ -38,16 +43,12 @@
 
 mod error;
 mod expand;
-mod membrane;
 mod prism;
 mod spring;
-mod tet;
 
 pub use error::ElementError;
-pub use membrane::MembraneTriangle;
 pub use prism::{ThreePrism, ThreePrismLinearization};
-pub use spring::Spring;
-pub use tet::LinearTetrahedron;
+pub use spring::{Spring, TargetSpring};
 
 #[cfg(test)]
 mod tests;

@@ -1,6 +1,8 @@
-//! Damped linear spring between two particles.
+//! Damped linear spring between two particles ([`Spring`]) and from a particle to a prescribed,
+//! possibly moving, target point ([`TargetSpring`], the drag or "mouse" spring of seed 004
+//! Sec. 4.4).
 
-use nalgebra::{Matrix3, SMatrix, Vector3};
+use nalgebra::{Matrix3, Point3, SMatrix, Vector3};
 
 use crate::ElementError;
 
@@ -70,6 +72,17 @@ impl Spring {
             stiffness,
             damping,
         })
+    }
+
+    /// A spring with the given constants and no validation, for constants that were validated
+    /// upstream (e.g. by a body's builder). A negative or non-finite constant gives an unphysical
+    /// spring (one that produces energy), never a panic; use [`Spring::try_new`] for user input.
+    pub const fn new(rest_length: f64, stiffness: f64, damping: f64) -> Self {
+        Self {
+            rest_length,
+            stiffness,
+            damping,
+        }
     }
 
     /// A spring whose rest length is the current distance between `x1` and `x2`.
@@ -157,11 +170,13 @@ impl Spring {
     /// Elastic energy `k/2 (l - L0)^2` (J).
     pub fn energy(&self, x1: &Vector3<f64>, x2: &Vector3<f64>) -> f64 {
         let s = (x2 - x1).norm() - self.rest_length;
-        0.5 * self.stiffness * s * s
+        0.5 * self.stiffness * (s * s)
     }
 
-    /// Forces on the two ends (N), elastic plus damping: `[f1, -f1]` with
-    /// `f1 = [k (l - L0) + c (v2 - v1) . u] u`.
+    /// Forces on the two ends (N), elastic plus damping (seed 004 Eq. 4.2-4.6): `[f1, -f1]` with
+    /// `f1 = [k (l - L0) + c (v2 - v1) . u] u`, evaluated as `[k (l - L0) + c (v2 - v1) . e / l]
+    /// e / l` with `e = x2 - x1` (one square root, one division).
+    #[inline]
     pub fn force(
         &self,
         x1: &Vector3<f64>,
@@ -169,9 +184,19 @@ impl Spring {
         v1: &Vector3<f64>,
         v2: &Vector3<f64>,
     ) -> [Vector3<f64>; 2] {
-        let (l, u) = Self::axis(x1, x2);
-        let mag = self.stiffness * (l - self.rest_length) + self.damping * (v2 - v1).dot(&u);
-        let f1 = u * mag;
+        let e = x2 - x1;
+        let len2 = e.x * e.x + e.y * e.y + e.z * e.z;
+        if len2 <= 0.0 {
+            // The zero-length guard of the type documentation.
+            return [Vector3::zeros(); 2];
+        }
+        let len = len2.sqrt();
+        let inv = 1.0 / len;
+        let dv = v2 - v1;
+        // Relative speed along the spring times its length: (v2 - v1) . e.
+        let rel = dv.x * e.x + dv.y * e.y + dv.z * e.z;
+        let mag = (self.stiffness * (len - self.rest_length) + self.damping * rel * inv) * inv;
+        let f1 = e * mag;
         [f1, -f1]
     }
 
@@ -238,5 +263,70 @@ impl Spring {
     pub fn damping_matrix(&self, x1: &Vector3<f64>, x2: &Vector3<f64>) -> SMatrix<f64, 6, 6> {
         let (_, u) = Self::axis(x1, x2);
         block2(&(outer(&u, &u) * self.damping))
+    }
+}
+
+/// A [`Spring`] from a particle to a prescribed target point that may move: the drag ("mouse")
+/// spring of seed 004 Sec. 4.4 (Eq. 4.7), which pulls the particle nearest to the mouse.
+///
+/// With `d = x - p` (particle minus target), `l = |d|`, `u = d / l`:
+///
+/// * energy `k/2 (l - L0)^2` (J);
+/// * force on the particle `f = -[k (l - L0) + c (v - w) . u] u` (N), `w` the target velocity, so
+///   the dashpot resists the particle's motion relative to the target along the spring.
+///
+/// The reaction on the target is not applied (the target is driven, not simulated). At zero
+/// length the force is zero (the guard of [`Spring`]).
+///
+/// ```
+/// use balloon_element::{Spring, TargetSpring};
+/// use nalgebra::{Point3, Vector3};
+/// let drag = TargetSpring::new(Spring::try_new(0.0, 20.0, 0.0)?);
+/// let f = drag.force(&Vector3::new(1.0, 0.0, 0.0), &Vector3::zeros(), &Point3::origin(), &Vector3::zeros());
+/// assert_eq!(f, Vector3::new(-20.0, 0.0, 0.0));
+/// # Ok::<(), balloon_element::ElementError>(())
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TargetSpring {
+    spring: Spring,
+}
+
+impl TargetSpring {
+    /// A target spring with the rest length, stiffness and damping of `spring`.
+    pub const fn new(spring: Spring) -> Self {
+        Self { spring }
+    }
+
+    /// The spring constants.
+    pub fn spring(&self) -> &Spring {
+        &self.spring
+    }
+
+    /// Elastic energy `k/2 (l - L0)^2` (J) of the particle at `x` pulled toward `target`.
+    pub fn energy(&self, x: &Vector3<f64>, target: &Point3<f64>) -> f64 {
+        let l = (x - target.coords).norm();
+        0.5 * self.spring.stiffness * (l - self.spring.rest_length).powi(2)
+    }
+
+    /// Force on the particle (N) at `x` with velocity `v`, pulled toward `target` moving with
+    /// `target_velocity`: `-[k (l - L0) + c (v - w) . u] u`.
+    #[inline]
+    pub fn force(
+        &self,
+        x: &Vector3<f64>,
+        v: &Vector3<f64>,
+        target: &Point3<f64>,
+        target_velocity: &Vector3<f64>,
+    ) -> Vector3<f64> {
+        let d = x - target.coords;
+        let len = d.norm();
+        if len > 0.0 {
+            let dir = d / len;
+            let s = &self.spring;
+            -dir * (s.stiffness * (len - s.rest_length)
+                + s.damping * (v - target_velocity).dot(&dir))
+        } else {
+            Vector3::zeros()
+        }
     }
 }

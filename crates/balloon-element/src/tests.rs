@@ -6,7 +6,7 @@ use balloon_test_support::{
 };
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
-use crate::{ElementError, LinearTetrahedron, MembraneTriangle, Spring, ThreePrism};
+use crate::{ElementError, Spring, TargetSpring, ThreePrism};
 
 fn flat<const N: usize>(x: &[Vector3<f64>; N]) -> Vec<f64> {
     x.iter().flat_map(|v| v.iter().copied()).collect()
@@ -386,166 +386,6 @@ fn three_prism_masses_and_errors() {
     assert!(p.check_state(&bad, 1e-3).is_err());
 }
 
-fn membrane_suite<M: Material>(mat: &M) {
-    let mut rng = Rng::new(31);
-    for (i, s) in [0.85, 1.0, 1.25].into_iter().enumerate() {
-        let l = 0.05;
-        let rest = rest_triangle(&mut rng, l);
-        let m = MembraneTriangle::try_new(rest, 5e-4)
-            .unwrap()
-            .with_thickness_stretch(0.9)
-            .unwrap();
-        let x = deform(&mut rng, &rest, s, l);
-        m.check_state(&x).unwrap();
-        let e = Element {
-            energy: &|x| m.energy(mat, &arr(x)),
-            forces: &|x| flat(&m.forces(mat, &arr(x))),
-            differential: &|x, d| flat(&m.force_differential(mat, &arr(x), &arr(d))),
-            stiffness: &|x| dmat(&m.stiffness(mat, &arr(x))),
-            fused: &|x| {
-                let (f, k) = m.forces_and_stiffness(mat, &arr(x));
-                (flat(&f), dmat(&k))
-            },
-        };
-        verify(&e, &flat(&x), l, 40 + i as u64);
-        // The completed F restricted to the rest plane is the 3x2 in-plane gradient, and it maps
-        // the rest normal to the current normal times the thickness stretch.
-        let f = m.deformation_gradient(&x);
-        let fm = m.in_plane_deformation_gradient(&x);
-        let t1 = (rest[1] - rest[0]).normalize();
-        let big_d = (rest[1] - rest[0]).cross(&(rest[2] - rest[0])).normalize();
-        let t2 = big_d.cross(&t1);
-        assert!((f * t1 - fm.column(0)).norm() <= 1e-12);
-        assert!((f * t2 - fm.column(1)).norm() <= 1e-12);
-        let d = (x[1] - x[0]).cross(&(x[2] - x[0])).normalize();
-        assert!((f * big_d - d * 0.9).norm() <= 1e-12);
-        assert!(
-            (fm * nalgebra::Vector2::new(
-                t1.dot(&(rest[2] - rest[0])),
-                t2.dot(&(rest[2] - rest[0]))
-            ) - (x[2] - x[0]))
-                .norm()
-                <= 1e-12
-        );
-    }
-}
-
-#[test]
-fn membrane_triangle_derivatives_and_kinematics() {
-    membrane_suite(&StVenantKirchhoff::new(lame()));
-    membrane_suite(&NeoHookean::new(lame()));
-    let rest = [
-        Vector3::zeros(),
-        Vector3::new(1.0, 0.0, 0.0),
-        Vector3::new(0.0, 1.0, 0.0),
-    ];
-    let m = MembraneTriangle::try_new(rest, 1e-3).unwrap();
-    // At rest with unit thickness stretch: no force; total mass rho A H.
-    let stvk = StVenantKirchhoff::new(lame());
-    assert!(m.forces(&stvk, &rest).iter().all(|f| f.norm() <= 1e-9));
-    assert!((m.lumped_masses(1000.0).iter().sum::<f64>() - 1000.0 * 0.5e-3).abs() < 1e-15);
-    assert!(matches!(
-        m.with_thickness_stretch(0.0),
-        Err(ElementError::InvalidParameter {
-            name: "thickness_stretch",
-            ..
-        })
-    ));
-}
-
-fn rest_tet(rng: &mut Rng, l: f64) -> [Vector3<f64>; 4] {
-    let p0 = rvec(rng) * l;
-    let r = rotation(rng);
-    let mut t = [
-        p0,
-        p0 + r * Vector3::new(1.0, 0.1 * rng.next_f64(), 0.1 * rng.next_f64()) * l,
-        p0 + r * Vector3::new(0.2 * rng.next_f64(), 1.0, 0.1 * rng.next_f64()) * l,
-        p0 + r * Vector3::new(0.2 * rng.next_f64(), 0.2 * rng.next_f64(), 1.0) * l,
-    ];
-    if (t[1] - t[0]).cross(&(t[2] - t[0])).dot(&(t[3] - t[0])) < 0.0 {
-        t.swap(1, 2);
-    }
-    t
-}
-
-fn tet_suite<M: Material>(mat: &M) {
-    let mut rng = Rng::new(51);
-    for (i, s) in [0.8, 1.0, 1.3].into_iter().enumerate() {
-        let l = 0.1;
-        let rest = rest_tet(&mut rng, l);
-        let t = LinearTetrahedron::try_new(rest).unwrap();
-        let x = deform(&mut rng, &rest, s, l);
-        t.check_state(&x).unwrap();
-        let e = Element {
-            energy: &|x| t.energy(mat, &arr(x)),
-            forces: &|x| flat(&t.forces(mat, &arr(x))),
-            differential: &|x, d| flat(&t.force_differential(mat, &arr(x), &arr(d))),
-            stiffness: &|x| dmat(&t.stiffness(mat, &arr(x))),
-            fused: &|x| {
-                let (f, k) = t.forces_and_stiffness(mat, &arr(x));
-                (flat(&f), dmat(&k))
-            },
-        };
-        verify(&e, &flat(&x), l, 60 + i as u64);
-        // Rest and rigid motions: no energy, no force; rotated states rotate the forces.
-        let r = rotation(&mut rng);
-        let moved = rest.map(|q| r * q);
-        assert!(t.energy(mat, &moved).abs() <= 1e-12 * lame().mu() * t.rest_volume());
-        let f_rest = t.forces(mat, &moved);
-        assert!(
-            f_rest
-                .iter()
-                .all(|v| v.norm() <= 1e-9 * lame().mu() * t.rest_volume() / l)
-        );
-        let fs = t.forces(mat, &x);
-        let fr = t.forces(mat, &x.map(|q| r * q));
-        let scale = fs.iter().map(|v| v.norm()).fold(0.0, f64::max);
-        for k in 0..4 {
-            assert!((r * fs[k] - fr[k]).norm() <= 1e-10 * scale);
-        }
-    }
-}
-
-#[test]
-fn tetrahedron_derivatives_and_invariants() {
-    tet_suite(&StVenantKirchhoff::new(lame()));
-    tet_suite(&NeoHookean::new(lame()));
-}
-
-#[test]
-fn tetrahedron_errors_and_masses() {
-    let rest = [
-        Vector3::zeros(),
-        Vector3::new(1.0, 0.0, 0.0),
-        Vector3::new(0.0, 1.0, 0.0),
-        Vector3::new(0.0, 0.0, 1.0),
-    ];
-    let t = LinearTetrahedron::try_new(rest).unwrap();
-    assert!((t.rest_volume() - 1.0 / 6.0).abs() < 1e-15);
-    assert!((t.lumped_masses(6.0).iter().sum::<f64>() - 1.0).abs() < 1e-14);
-    let mut inv = rest;
-    inv.swap(1, 2);
-    assert!(matches!(
-        LinearTetrahedron::try_new(inv),
-        Err(ElementError::InvertedRest { .. })
-    ));
-    let mut flat_t = rest;
-    flat_t[3] = Vector3::new(0.3, 0.3, 0.0);
-    assert!(matches!(
-        LinearTetrahedron::try_new(flat_t),
-        Err(ElementError::DegenerateRest {
-            quantity: "volume",
-            ..
-        })
-    ));
-    // Pushing vertex 4 through the opposite face inverts the element.
-    let mut pushed = rest;
-    pushed[3].z = -0.2;
-    let err = t.check_state(&pushed).unwrap_err();
-    assert!(matches!(err, ElementError::Inverted { .. }), "{err}");
-    assert!(t.check_state(&rest).is_ok());
-}
-
 #[test]
 fn spring_derivatives_damping_and_guards() {
     let mut rng = Rng::new(71);
@@ -631,6 +471,69 @@ fn spring_derivatives_damping_and_guards() {
             .unwrap()
             .rest_length(),
         2.0
+    );
+}
+
+/// The damped force of [`Spring::force`] at rest velocities is minus the energy gradient (central
+/// differences and a second-order Taylor remainder), and the unvalidated constructor builds the
+/// same spring as the validated one.
+#[test]
+fn spring_force_at_zero_velocity_is_minus_energy_gradient() {
+    let mut rng = Rng::new(5);
+    let s = Spring::try_new(0.4, 150.0, 2.0).unwrap();
+    assert_eq!(Spring::new(0.4, 150.0, 2.0), s);
+    let x0 = flat(&[rvec(&mut rng), rvec(&mut rng) + Vector3::new(0.5, 0.0, 0.0)]);
+    let energy = |x: &[f64]| s.energy(&arr::<2>(x)[0], &arr::<2>(x)[1]);
+    let grad = |x: &[f64]| {
+        let a = arr::<2>(x);
+        let f = s.force(&a[0], &a[1], &Vector3::zeros(), &Vector3::zeros());
+        flat(&f).iter().map(|c| -c).collect::<Vec<f64>>()
+    };
+    check_gradient(energy, grad, &x0, 1e-6, 1e-7);
+    let dx = Rng::new(6).vector(6);
+    assert_second_order(&taylor_remainder_orders(energy, grad, &x0, &dx, 1e-3));
+}
+
+/// The drag spring: its force at rest is minus the energy gradient with respect to the particle
+/// (central differences, Taylor remainder), it vanishes at the rest length, and its dashpot only
+/// resists motion relative to a moving target.
+#[test]
+fn target_spring_force_is_minus_energy_gradient_and_damps_relative_motion() {
+    let mut rng = Rng::new(21);
+    let target = nalgebra::Point3::new(0.3, -0.2, 0.5);
+    let drag = TargetSpring::new(Spring::try_new(0.25, 40.0, 1.5).unwrap());
+    assert_eq!(drag.spring().stiffness_constant(), 40.0);
+    let x0: Vec<f64> = (target.coords + rvec(&mut rng) + Vector3::new(0.6, 0.0, 0.0))
+        .iter()
+        .copied()
+        .collect();
+    let p = |x: &[f64]| Vector3::new(x[0], x[1], x[2]);
+    let energy = |x: &[f64]| drag.energy(&p(x), &target);
+    let grad = |x: &[f64]| {
+        let f = drag.force(&p(x), &Vector3::zeros(), &target, &Vector3::zeros());
+        vec![-f.x, -f.y, -f.z]
+    };
+    check_gradient(energy, grad, &x0, 1e-6, 1e-7);
+    assert_second_order(&taylor_remainder_orders(
+        energy,
+        grad,
+        &x0,
+        &[0.3, -0.7, 0.2],
+        1e-3,
+    ));
+    // At the rest length with no relative motion there is no force, whatever the common velocity.
+    let at_rest = target.coords + Vector3::new(0.0, 0.25, 0.0);
+    let w = Vector3::new(1.0, -2.0, 0.5);
+    assert!(drag.force(&at_rest, &w, &target, &w).norm() < 1e-12);
+    assert_eq!(drag.energy(&at_rest, &target), 0.0);
+    // The dashpot part opposes the relative velocity: its power on the relative motion is <= 0.
+    let (x, v) = (p(&x0), rvec(&mut rng));
+    let damp = drag.force(&x, &v, &target, &w) - drag.force(&x, &w, &target, &w);
+    assert!(damp.dot(&(v - w)) <= 0.0);
+    // Zero length: no force, no NaN.
+    assert_eq!(
+        drag.force(&target.coords, &v, &target, &Vector3::zeros()),
+        Vector3::zeros()
     );
 }
 

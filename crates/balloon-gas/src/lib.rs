@@ -6,6 +6,10 @@
 //! a rank-1 term applied matrix-free (Eq. 16-17, constant corrected from 1/27 to 1/9 for the
 //! `sum A n` form) plus an optional follower term.
 //!
+//! The [`layer`] module holds the simpler gas of seed 004's two-layer bodies: a constant `nRT`
+//! per closed layer (polygon or triangle surface), `P = nRT / V` (seed 004 Eq. 4.10) and its
+//! forces on the layer.
+//!
 //! **Not for:** elastic forces (`balloon-element`) or time integration (`balloon-integrate`).
 //! Works on flat position arrays `x = [x0, y0, z0, x1, ...]` and triangle index triples, so no
 //! mesh type is needed.
@@ -36,13 +40,16 @@
 //! ```
 
 mod error;
+pub mod layer;
 mod load;
 mod model;
+mod pressure_field;
 mod volume;
 
 pub use error::GasError;
 pub use load::{GasState, PressureLoad};
 pub use model::{ConstantPressure, Gas, GasKind, GasModel, IdealGas, Pump, STANDARD_ATMOSPHERE};
+pub use pressure_field::vertex_pressure_forces;
 pub use volume::{
     add_volume_hessian_product, add_volume_hessian_triplets, check_surface, enclosed_volume,
     volume_and_gradient,

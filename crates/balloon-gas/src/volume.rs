@@ -55,11 +55,17 @@ pub fn check_surface(x: &[f64], triangles: &[[usize; 3]]) -> Result<(), GasError
 /// surface. `x`: flat positions (length `3N`, m); `triangles`: vertex indices.
 pub fn enclosed_volume(x: &[f64], triangles: &[[usize; 3]]) -> Result<f64, GasError> {
     check_surface(x, triangles)?;
-    Ok(triangles
+    Ok(enclosed_volume_unchecked(x, triangles))
+}
+
+/// [`enclosed_volume`] for indices already checked (see [`check_surface`]); panics on an
+/// out-of-range index.
+pub(crate) fn enclosed_volume_unchecked(x: &[f64], triangles: &[[usize; 3]]) -> f64 {
+    triangles
         .iter()
         .map(|t| vertex(x, t[0]).dot(&vertex(x, t[1]).cross(&vertex(x, t[2]))))
         .sum::<f64>()
-        / 6.0)
+        / 6.0
 }
 
 /// Enclosed volume `V` (m^3) and its exact gradient `dV/dx` written into `gradient` (length

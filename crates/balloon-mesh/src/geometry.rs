@@ -48,17 +48,39 @@ pub fn face_normals(mesh: &TriMesh) -> Vec<Vector3<f64>> {
 /// Area-weighted vertex normals: the normalised sum of the (unnormalised, twice-area) face normals
 /// of the incident triangles. A vertex without incident area gets the zero vector.
 pub fn vertex_normals(mesh: &TriMesh) -> Vec<Vector3<f64>> {
-    let v = &mesh.vertices;
-    let mut n = vec![Vector3::zeros(); v.len()];
-    for &[a, b, c] in &mesh.triangles {
-        let fnrm = (v[b] - v[a]).cross(&(v[c] - v[a]));
-        n[a] += fnrm;
-        n[b] += fnrm;
-        n[c] += fnrm;
-    }
-    n.into_iter()
-        .map(|x| x.try_normalize(0.0).unwrap_or_else(Vector3::zeros))
+    vertex_normals_flat(&mesh.positions_flat(), &mesh.triangles)
+        .chunks_exact(3)
+        .map(|c| Vector3::new(c[0], c[1], c[2]))
         .collect()
+}
+
+/// `sum_{t ∋ i} (x_b - x_a) x (x_c - x_a)` per vertex `i` (flat, length `3 N`, m^2): twice the
+/// area-weighted normal sum `2 sum_{t ∋ i} A_t n_t` of the incident triangles.
+pub fn vertex_area_normal_sums_flat(positions: &[f64], triangles: &[[usize; 3]]) -> Vec<f64> {
+    let mut out = vec![0.0; positions.len() - positions.len() % 3];
+    for &[a, b, c] in triangles {
+        let xa = p3(positions, a);
+        let an = (p3(positions, b) - xa).cross(&(p3(positions, c) - xa));
+        for i in [a, b, c] {
+            out[3 * i] += an.x;
+            out[3 * i + 1] += an.y;
+            out[3 * i + 2] += an.z;
+        }
+    }
+    out
+}
+
+/// [`vertex_normals`] on flat positions: unit vertex normals (flat, 3 per vertex), the
+/// normalised [`vertex_area_normal_sums_flat`]; a vertex whose sum vanishes gets the zero vector.
+pub fn vertex_normals_flat(positions: &[f64], triangles: &[[usize; 3]]) -> Vec<f64> {
+    let mut n = vertex_area_normal_sums_flat(positions, triangles);
+    for v in n.chunks_exact_mut(3) {
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        if l > 0.0 {
+            v.iter_mut().for_each(|c| *c /= l);
+        }
+    }
+    n
 }
 
 /// Barycentric (lumped) vertex areas (m^2): each triangle gives a third of its area to each of its

@@ -15,6 +15,7 @@
 //! | [`validate`] | [`validate::validate_closed_manifold`], defect reports, weld / orient / clean |
 //! | [`topology`] | edges, CSR adjacency, one-rings, components, Euler characteristic, genus |
 //! | [`geometry`] | areas, normals, enclosed volume (seed 000, Eq. 13) and its gradient |
+//! | [`fields`] | checked per-face / per-vertex fields for output: stretches, normals, speeds |
 //! | [`generate`] | spheres, torus, box, implicit surfaces, the procedural teddy |
 //! | [`tet`], [`lattice`] | tetrahedral meshes and the seed-003 lattice generator |
 //!
@@ -38,6 +39,7 @@
 
 pub mod builtin;
 pub mod error;
+pub mod fields;
 pub mod generate;
 pub mod geometry;
 pub mod io;

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // uv sphere 72 x 72: 72 * 70 * 2 + 2 * 72 = 10 224 triangles.
-    let mesh = balloon::mesh::generate::uv_sphere(1.0, 72, 72)?;
+    let mesh = balloon_mesh::generate::uv_sphere(1.0, 72, 72)?;
     let x = mesh.positions_flat();
     let s: Vec<f64> = x.chunks(3).map(|p| p[2]).collect();
     let opts = RenderOptions {

@@ -9,7 +9,7 @@
 //! frame); and POV-Ray scene export ([`pov::scene`], the paper's own rendering pipeline).
 //!
 //! **Not for:** interactive display (see `balloon-viewer`) or computing the fields themselves
-//! (see `balloon::fields`; this crate only uses its vertex normals).
+//! (see `balloon_mesh::fields`; this crate only uses its vertex normals).
 //!
 //! Positions are flat arrays `x = [x0, y0, z0, x1, ...]` (metres) and triangles are vertex index
 //! triples, as everywhere in the workspace.

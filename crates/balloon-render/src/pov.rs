@@ -2,7 +2,7 @@
 //! balloons with POV-Ray).
 //!
 //! The scene holds a `mesh2` (vertex positions, smooth vertex normals from
-//! `balloon::fields::vertex_normals`, face indices and, with a colour scale, one texture per
+//! `balloon_mesh::fields::vertex_normals`, face indices and, with a colour scale, one texture per
 //! vertex interpolated across faces), a camera framing the body like [`crate::Renderer`] does,
 //! two lights, a background and a glossy rubber-like finish. Coordinates are converted to
 //! POV-Ray's left-handed, y-up system (`UpAxis::Z`: `(x, z, y)`; `UpAxis::Y`: `(x, y, -z)`), so
@@ -40,7 +40,7 @@ pub fn scene(
     }
     crate::camera::validate(&opts.camera)?;
     crate::image::check_size(opts.width, opts.height)?;
-    let normals = balloon::fields::vertex_normals(surface.positions, surface.triangles)
+    let normals = balloon_mesh::fields::vertex_normals(surface.positions, surface.triangles)
         .map_err(|e| RenderError::BadSurface(e.to_string()))?;
     let colors: Option<Vec<[f32; 3]>> = match (&opts.color_scale, surface.scalars) {
         (Some(cs), Some(s)) => {

@@ -278,10 +278,10 @@ impl Renderer {
                     ],
                 }
             }));
-        // Vertex normals (balloon::fields) in view space.
+        // Vertex normals (balloon_mesh::fields) in view space.
         self.normals.clear();
         if opts.smooth && !surface.triangles.is_empty() {
-            let nrm = balloon::fields::vertex_normals(surface.positions, surface.triangles)
+            let nrm = balloon_mesh::fields::vertex_normals(surface.positions, surface.triangles)
                 .map_err(|e| RenderError::BadSurface(e.to_string()))?;
             self.normals.extend(nrm.chunks_exact(3).map(|c| {
                 let v = view.rotate([c[0], c[1], c[2]]);

@@ -7,8 +7,10 @@
 //!   pressures, gravity, collision box, restitution) -> [`TwoLayerModel`] (particles, springs,
 //!   layers; seed Ch. 3).
 //! * [`TwoLayerForces`]: gravity (seed Sec. 4.1), Hooke (Sec. 4.2) and damping (Sec. 4.3)
-//!   forces per spring type, the drag spring (Sec. 4.4), gas pressure per closed layer
-//!   (Sec. 4.5); a [`balloon_integrate::explicit::SecondOrderSystem`].
+//!   forces per spring type ([`balloon_element::Spring`]), the drag spring (Sec. 4.4,
+//!   [`balloon_element::TargetSpring`]), gas pressure per closed layer (Sec. 4.5,
+//!   [`balloon_gas::layer`]), laid out on the model's particles; a
+//!   [`balloon_integrate::explicit::SecondOrderSystem`].
 //! * [`TwoLayerSimulation`]: steps with any [`ExplicitMethod`], resolves collisions (Sec. 4.6),
 //!   reports [`TwoLayerStats`] and stops with [`TwoLayerError::BlowUp`] on NaN or energy growth.
 //!

@@ -3,7 +3,8 @@
 //! A [`VolumetricBody`] is built from any triangle soup: the soup is turned into a tetrahedral
 //! lattice (Sec. 3, [`balloon_mesh::lattice`]), each lattice vertex becomes a particle and each
 //! cell a volume constraint with 16 springs (Sec. 4, [`balloon_constraint::cell_volume`]). A
-//! [`VolumetricSimulation`] advances it with impulses:
+//! [`VolumetricSimulation`] advances it with the impulse stepping of
+//! [`balloon_constraint::impulse`]:
 //!
 //! 1. `v += h F_ext / m` with gravity and the damped cell springs (Eq. 1);
 //! 2. impulse contacts with the rigid sphere and static planes
@@ -33,12 +34,12 @@
 //! ```
 
 use balloon_constraint::cell_volume::{
-    CellProjectionWorkspace, CellSprings, CellVolumeConstraints, CellVolumeError, CellVolumeParams,
-    SpringParams,
+    CellSprings, CellVolumeConstraints, CellVolumeError, CellVolumeParams, SpringParams,
 };
-use balloon_constraint::rigid::{
-    Plane, RigidSphere, plane_particle_contacts, plane_sphere_contact, sphere_particle_contacts,
+use balloon_constraint::impulse::{
+    ImpulseError, ImpulseModel, ImpulseParams, ImpulseState, ImpulseStepper,
 };
+use balloon_constraint::rigid::{Plane, RigidSphere};
 use balloon_mesh::lattice::{Lattice, LatticeError, LatticeParams, build_lattice};
 use balloon_mesh::{TetMesh, TriMesh};
 use nalgebra::{Point3, Vector3};
@@ -340,49 +341,33 @@ pub struct StepStats {
     pub max_strain: f64,
 }
 
-/// A running simulation of a volumetric body, optionally with a rigid sphere and static planes.
+/// A running simulation of a volumetric body, optionally with a rigid sphere and static planes:
+/// the body and scene composed with the impulse stepping of
+/// [`balloon_constraint::impulse::ImpulseStepper`].
 #[derive(Clone, Debug)]
 pub struct VolumetricSimulation {
     body: VolumetricBody,
-    positions: Vec<Point3<f64>>,
-    velocities: Vec<Vector3<f64>>,
-    sphere: Option<RigidSphere>,
+    state: ImpulseState,
     planes: Vec<Plane>,
     step: usize,
-    time: f64,
     total_halvings: u64,
-    forces: Vec<Vector3<f64>>,
     /// External forces per particle (N) added in step 1 of every step; empty = none.
     external: Vec<Vector3<f64>>,
-    /// Caches of the global cell-volume solve (empty with Gauss-Seidel sweeps).
-    projection: CellProjectionWorkspace,
-}
-
-#[derive(Default)]
-struct SubStepInfo {
-    halvings: u32,
-    min_dt: f64,
-    sweeps: usize,
-    contacts: usize,
+    stepper: ImpulseStepper,
 }
 
 impl VolumetricSimulation {
     /// Starts at the rest positions with zero velocities.
     pub fn new(body: VolumetricBody) -> Self {
-        let positions = body.lattice.tet_mesh.vertices.clone();
-        let n = positions.len();
+        let state = ImpulseState::at_rest(body.lattice.tet_mesh.vertices.clone());
         Self {
             body,
-            positions,
-            velocities: vec![Vector3::zeros(); n],
-            sphere: None,
+            state,
             planes: Vec::new(),
             step: 0,
-            time: 0.0,
             total_halvings: 0,
-            forces: vec![Vector3::zeros(); n],
             external: Vec::new(),
-            projection: CellProjectionWorkspace::new(),
+            stepper: ImpulseStepper::new(),
         }
     }
 
@@ -400,7 +385,7 @@ impl VolumetricSimulation {
                 sphere.radius
             )));
         }
-        self.sphere = Some(sphere);
+        self.state.sphere = Some(sphere);
         Ok(self)
     }
 
@@ -412,14 +397,17 @@ impl VolumetricSimulation {
 
     /// Sets all particle velocities (m/s); `velocities.len()` must equal the particle count.
     pub fn set_velocities(&mut self, velocities: &[Vector3<f64>]) -> Result<(), VolumetricError> {
-        if velocities.len() != self.velocities.len() {
+        if velocities.len() != self.state.velocities.len() {
             return Err(VolumetricError::InvalidParameter {
                 name: "velocities",
                 value: velocities.len().to_string(),
-                reason: format!("expected {} particle velocities", self.velocities.len()),
+                reason: format!(
+                    "expected {} particle velocities",
+                    self.state.velocities.len()
+                ),
             });
         }
-        self.velocities.copy_from_slice(velocities);
+        self.state.velocities.copy_from_slice(velocities);
         Ok(())
     }
 
@@ -435,12 +423,12 @@ impl VolumetricSimulation {
 
     /// Particle positions (m).
     pub fn positions(&self) -> &[Point3<f64>] {
-        &self.positions
+        &self.state.positions
     }
 
     /// Particle velocities (m/s).
     pub fn velocities(&self) -> &[Vector3<f64>] {
-        &self.velocities
+        &self.state.velocities
     }
 
     /// Particle masses (kg).
@@ -450,7 +438,7 @@ impl VolumetricSimulation {
 
     /// The rigid sphere, if any.
     pub fn sphere(&self) -> Option<&RigidSphere> {
-        self.sphere.as_ref()
+        self.state.sphere.as_ref()
     }
 
     /// The static planes.
@@ -465,7 +453,7 @@ impl VolumetricSimulation {
 
     /// Simulated time (s).
     pub fn time(&self) -> f64 {
-        self.time
+        self.state.time
     }
 
     /// Step halvings so far.
@@ -475,13 +463,13 @@ impl VolumetricSimulation {
 
     /// The soup deformed with the lattice (free-form deformation, Sec. 3).
     pub fn embedded_surface(&self) -> TriMesh {
-        self.body.lattice.embedding.surface(&self.positions)
+        self.body.lattice.embedding.surface(&self.state.positions)
     }
 
     /// The deformed tetrahedral mesh.
     pub fn tet_mesh(&self) -> TetMesh {
         TetMesh::new(
-            self.positions.clone(),
+            self.state.positions.clone(),
             self.body.lattice.tet_mesh.tets.clone(),
         )
     }
@@ -489,12 +477,13 @@ impl VolumetricSimulation {
     /// Total momentum of particles and sphere (kg m/s).
     pub fn momentum(&self) -> Vector3<f64> {
         let mut p: Vector3<f64> = self
+            .state
             .velocities
             .iter()
             .zip(&self.body.masses)
             .map(|(v, m)| v * *m)
             .sum();
-        if let Some(s) = &self.sphere {
+        if let Some(s) = &self.state.sphere {
             p += s.momentum();
         }
         p
@@ -503,12 +492,13 @@ impl VolumetricSimulation {
     /// Kinetic energy of particles and sphere (J).
     pub fn kinetic_energy(&self) -> f64 {
         let mut e: f64 = self
+            .state
             .velocities
             .iter()
             .zip(&self.body.masses)
             .map(|(v, m)| 0.5 * m * v.norm_squared())
             .sum();
-        if let Some(s) = &self.sphere {
+        if let Some(s) = &self.state.sphere {
             e += s.kinetic_energy();
         }
         e
@@ -520,7 +510,7 @@ impl VolumetricSimulation {
             .constraints
             .tets
             .iter()
-            .map(|t| balloon_constraint::cell_volume::cell_volume(&self.positions, t))
+            .map(|t| balloon_constraint::cell_volume::cell_volume(&self.state.positions, t))
             .sum()
     }
 
@@ -531,7 +521,8 @@ impl VolumetricSimulation {
             .springs
             .iter()
             .map(|s| {
-                let l = (self.positions[s.ends[1]] - self.positions[s.ends[0]]).norm();
+                let x = &self.state.positions;
+                let l = (x[s.ends[1]] - x[s.ends[0]]).norm();
                 (l / s.rest_length - 1.0).abs()
             })
             .fold(0.0, f64::max)
@@ -539,13 +530,44 @@ impl VolumetricSimulation {
 
     /// Advances one time step of `dt` (halving on inversion, Sec. 4) and reports.
     pub fn step(&mut self) -> Result<StepStats, VolumetricError> {
-        let dt = self.body.params.dt;
-        let mut info = SubStepInfo {
-            min_dt: dt,
-            ..SubStepInfo::default()
+        let params = &self.body.params;
+        let model = ImpulseModel {
+            masses: &self.body.masses,
+            constraints: &self.body.constraints,
+            springs: &self.body.springs,
+            planes: &self.planes,
+            external: &self.external,
         };
-        self.advance(dt, 0, &mut info)?;
-        for (i, (p, v)) in self.positions.iter().zip(&self.velocities).enumerate() {
+        let impulse = ImpulseParams {
+            gravity: params.gravity,
+            restitution: params.restitution,
+            contact_iterations: params.contact_iterations,
+            tolerance: params.volume.tolerance,
+            max_halvings: params.max_halvings,
+        };
+        let info = self
+            .stepper
+            .step(&model, &impulse, &mut self.state, params.dt)
+            .map_err(|e| match e {
+                ImpulseError::Inversion {
+                    cell,
+                    tet,
+                    halvings,
+                    dt,
+                } => VolumetricError::Inversion {
+                    step: self.step,
+                    cell,
+                    tet,
+                    halvings,
+                    dt,
+                },
+                ImpulseError::Projection(source) => VolumetricError::NotConverged {
+                    step: self.step,
+                    source,
+                },
+            })?;
+        let x = &self.state.positions;
+        for (i, (p, v)) in x.iter().zip(&self.state.velocities).enumerate() {
             if !(p.coords.iter().all(|c| c.is_finite()) && v.iter().all(|c| c.is_finite())) {
                 return Err(VolumetricError::NonFinite {
                     step: self.step,
@@ -556,11 +578,11 @@ impl VolumetricSimulation {
         self.total_halvings += info.halvings as u64;
         let stats = StepStats {
             step: self.step,
-            time: self.time,
+            time: self.state.time,
             halvings: info.halvings,
             min_dt: info.min_dt,
             sweeps: info.sweeps,
-            max_cell_volume_error: self.body.constraints.max_relative_error(&self.positions).0,
+            max_cell_volume_error: self.body.constraints.max_relative_error(x).0,
             total_volume_ratio: self.total_volume() / self.body.rest_volume(),
             momentum: self.momentum().into(),
             kinetic_energy: self.kinetic_energy(),
@@ -569,128 +591,6 @@ impl VolumetricSimulation {
         };
         self.step += 1;
         Ok(stats)
-    }
-
-    /// Advances by `h`; on inversion restores the state and does two steps of `h / 2`; on any
-    /// other failure restores the state of the failed (sub-)step and reports it.
-    fn advance(
-        &mut self,
-        h: f64,
-        depth: u32,
-        info: &mut SubStepInfo,
-    ) -> Result<(), VolumetricError> {
-        let saved = (self.positions.clone(), self.velocities.clone(), self.sphere);
-        match self.sub_step(h, info) {
-            Ok(()) => {
-                self.time += h;
-                Ok(())
-            }
-            Err(CellVolumeError::Inverted { cell, tet, .. }) => {
-                (self.positions, self.velocities, self.sphere) = saved;
-                if depth >= self.body.params.max_halvings {
-                    return Err(VolumetricError::Inversion {
-                        step: self.step,
-                        cell,
-                        tet,
-                        halvings: depth,
-                        dt: h,
-                    });
-                }
-                info.halvings += 1;
-                info.min_dt = info.min_dt.min(h / 2.0);
-                self.advance(h / 2.0, depth + 1, info)?;
-                self.advance(h / 2.0, depth + 1, info)
-            }
-            Err(source) => {
-                // Leave the body as it was before the failed (sub-)step.
-                (self.positions, self.velocities, self.sphere) = saved;
-                Err(VolumetricError::NotConverged {
-                    step: self.step,
-                    source,
-                })
-            }
-        }
-    }
-
-    /// One step of Eq. 1 followed by contacts and volume impulses on the preview.
-    fn sub_step(&mut self, h: f64, info: &mut SubStepInfo) -> Result<(), CellVolumeError> {
-        let params = &self.body.params;
-        let g = Vector3::from(params.gravity);
-        // 1. External forces: gravity and cell springs.
-        for f in &mut self.forces {
-            *f = Vector3::zeros();
-        }
-        self.body
-            .springs
-            .add_forces(&self.positions, &self.velocities, &mut self.forces);
-        for (f, e) in self.forces.iter_mut().zip(&self.external) {
-            *f += e;
-        }
-        for ((v, f), m) in self
-            .velocities
-            .iter_mut()
-            .zip(&self.forces)
-            .zip(&self.body.masses)
-        {
-            *v += (f / *m + g) * h;
-        }
-        if let Some(s) = &mut self.sphere {
-            s.velocity += g * h;
-        }
-        // 2. Contacts and volume impulses on the preview.
-        let e = params.restitution;
-        let mut preview = self.positions.clone();
-        let tight = params.volume.tolerance;
-        for round in 0..params.contact_iterations {
-            let mut contacts = 0;
-            for plane in &self.planes {
-                contacts +=
-                    plane_particle_contacts(plane, &self.positions, &mut self.velocities, h, e);
-                if let Some(s) = &mut self.sphere {
-                    contacts += usize::from(plane_sphere_contact(plane, s, h, e));
-                }
-            }
-            if let Some(s) = &mut self.sphere {
-                contacts += sphere_particle_contacts(
-                    s,
-                    &self.positions,
-                    &mut self.velocities,
-                    &self.body.masses,
-                    h,
-                    e,
-                );
-            }
-            info.contacts += contacts;
-            for ((x, p), v) in preview
-                .iter_mut()
-                .zip(&self.positions)
-                .zip(&self.velocities)
-            {
-                *x = p + v * h;
-            }
-            // Intermediate rounds (contacts will be re-checked) stop at a loose tolerance; the
-            // last projection of the step is always converged to the tight one.
-            let final_round = contacts == 0 || round + 1 == params.contact_iterations;
-            let tolerance = if final_round { tight } else { tight.max(1e-6) };
-            let proj = self.body.constraints.project_with(
-                &mut self.projection,
-                &mut preview,
-                &mut self.velocities,
-                &self.body.masses,
-                h,
-                tolerance,
-            )?;
-            info.sweeps += proj.sweeps;
-            if final_round {
-                break;
-            }
-        }
-        // 3. Positions from the corrected preview.
-        self.positions.copy_from_slice(&preview);
-        if let Some(s) = &mut self.sphere {
-            s.position += s.velocity * h;
-        }
-        Ok(())
     }
 }
 
@@ -706,11 +606,11 @@ impl VolumetricSimulation {
         match forces {
             None => self.external.clear(),
             Some(f) => {
-                if f.len() != self.positions.len() {
+                if f.len() != self.state.positions.len() {
                     return Err(VolumetricError::InvalidParameter {
                         name: "external forces",
                         value: f.len().to_string(),
-                        reason: format!("expected {} particle forces", self.positions.len()),
+                        reason: format!("expected {} particle forces", self.state.positions.len()),
                     });
                 }
                 if let Some(i) = f.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
@@ -848,28 +748,8 @@ pub enum VolumetricScene {
     },
 }
 
-/// A closed, outward-oriented axis-aligned cube soup of side `side` (m) with its minimum corner
-/// at `min` (12 triangles).
-pub fn cube_soup(min: Point3<f64>, side: f64) -> TriMesh {
-    let v: Vec<Point3<f64>> = balloon_mesh::lattice::CORNERS
-        .iter()
-        .map(|c| min + Vector3::new(c[0] as f64, c[1] as f64, c[2] as f64) * side)
-        .collect();
-    let quads = [
-        [0, 3, 2, 1],
-        [4, 5, 6, 7],
-        [0, 1, 5, 4],
-        [1, 2, 6, 5],
-        [2, 3, 7, 6],
-        [3, 0, 4, 7],
-    ];
-    let mut tris = Vec::new();
-    for q in quads {
-        tris.push([q[0], q[1], q[2]]);
-        tris.push([q[0], q[2], q[3]]);
-    }
-    TriMesh::new(v, tris)
-}
+/// The 12-triangle cube of the Fig. 4 scene, now generated by the mesh crate.
+pub use balloon_mesh::generate::cube_soup;
 
 /// Parameters of the Fig. 4 scene: a 1 m cube of 4 x 4 x 4 cells (resolution 12, 3 voxels per
 /// cell, no smoothing), density 100 kg/m^3, edge springs `2e4` N/m (damping 20 N s/m);

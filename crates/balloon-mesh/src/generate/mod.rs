@@ -1,7 +1,8 @@
 //! Procedural mesh generators. All return closed, outward-oriented triangle meshes.
 //!
 //! * spheres: [`icosphere`], [`octahedron_sphere`], [`uv_sphere`] (seed 004, Sec. 3.4);
-//! * [`torus`] and the subdivided box [`box_mesh`];
+//! * [`torus`], the subdivided box [`box_mesh`] and the 12-triangle [`cube_soup`] (seed 003's
+//!   default body);
 //! * [`implicit::implicit_surface`]: any signed distance / implicit function, meshed by marching
 //!   tetrahedra and relaxed onto the surface;
 //! * [`teddy::teddy`]: the procedural teddy bear (seed 000, Fig. 4), built on the implicit mesher.
@@ -324,6 +325,31 @@ pub fn box_mesh(size: Vector3<f64>, subdivisions: usize) -> Result<TriMesh, Mesh
     Ok(TriMesh::new(vertices, triangles))
 }
 
+/// A closed, outward-oriented axis-aligned cube of side `side` (m) with its minimum corner at
+/// `min`: the 8 corners in the lattice's cell-corner order ([`crate::lattice::CORNERS`]) and 12
+/// triangles, the default body of seed 003's Fig. 4 scene. A negative `side` turns it inside
+/// out.
+pub fn cube_soup(min: Point3<f64>, side: f64) -> TriMesh {
+    let v: Vec<Point3<f64>> = crate::lattice::CORNERS
+        .iter()
+        .map(|c| min + Vector3::new(c[0] as f64, c[1] as f64, c[2] as f64) * side)
+        .collect();
+    let quads = [
+        [0, 3, 2, 1],
+        [4, 5, 6, 7],
+        [0, 1, 5, 4],
+        [1, 2, 6, 5],
+        [2, 3, 7, 6],
+        [3, 0, 4, 7],
+    ];
+    let mut tris = Vec::new();
+    for q in quads {
+        tris.push([q[0], q[1], q[2]]);
+        tris.push([q[0], q[2], q[3]]);
+    }
+    TriMesh::new(v, tris)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -392,5 +418,15 @@ mod tests {
         }
         assert!(icosphere(-1.0, 1).is_err());
         assert!(uv_sphere(1.0, 2, 5).is_err());
+    }
+
+    #[test]
+    fn cube_soup_is_a_closed_outward_cube() {
+        let cube = cube_soup(Point3::new(1.0, -2.0, 0.5), 2.0);
+        assert_eq!((cube.num_vertices(), cube.num_triangles()), (8, 12));
+        validate_closed_manifold(&cube).unwrap();
+        let v = crate::geometry::enclosed_volume(&cube);
+        assert!((v - 8.0).abs() < 1e-12, "{v}");
+        assert_eq!(cube.vertices[6], Point3::new(3.0, 0.0, 2.5));
     }
 }

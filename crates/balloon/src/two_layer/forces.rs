@@ -1,6 +1,8 @@
 //! Forces on a two-layer object (seed 004, Ch. 4) and its energies.
 
 use super::model::{Dimension, SpringParams, TwoLayerBody, TwoLayerModel};
+use balloon_element::{Spring, TargetSpring};
+use balloon_gas::layer::{ClosedLayer, LayerGas};
 use balloon_integrate::explicit::SecondOrderSystem;
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -47,16 +49,20 @@ impl EnergyBreakdown {
 }
 
 /// All forces on a two-layer object (seed Sec. 4.7, Steps 1-10): gravity (Eq. 4.1), Hooke
-/// (Eq. 4.2-4.4) and damping (Eq. 4.5-4.6) per spring type, gas pressure on each closed layer
-/// (Eq. 4.10-4.16), the drag spring (Eq. 4.7). Implements
+/// (Eq. 4.2-4.4) and damping (Eq. 4.5-4.6) per spring type ([`balloon_element::Spring`]), gas
+/// pressure on each closed layer (Eq. 4.10-4.16, [`balloon_gas::layer`]), the drag spring
+/// (Eq. 4.7, [`balloon_element::TargetSpring`]). This type only lays the model's springs and
+/// layers out on the flat state vector. Implements
 /// [`SecondOrderSystem`] (acceleration `F / m`; fixed particles and the coordinates outside the
 /// object's dimension do not accelerate).
 #[derive(Clone, Debug)]
 pub struct TwoLayerForces {
     model: TwoLayerModel,
     params: [SpringParams; 4],
-    /// Per spring: `(a, b, rest length, stiffness, damping)`, flattened for the hot loop.
+    /// Per spring: its first coordinate `3 a`, `3 b`, and the element.
     terms: Vec<SpringTerm>,
+    /// Per closed layer (outer first, then inner): its first coordinate, geometry and gas.
+    layers: Vec<GasLayer>,
     gravity: f64,
     valence_factor: Option<Vec<f64>>,
     drag: Option<(DragTarget, usize)>,
@@ -69,9 +75,25 @@ pub struct TwoLayerForces {
 struct SpringTerm {
     a: usize,
     b: usize,
-    rest: f64,
-    stiffness: f64,
-    damping: f64,
+    spring: Spring,
+}
+
+#[derive(Clone, Debug)]
+struct GasLayer {
+    /// First coordinate (`3 * first particle`) and one past the last.
+    range: std::ops::Range<usize>,
+    layer: ClosedLayer,
+    gas: LayerGas,
+}
+
+impl GasLayer {
+    fn volume(&self, x: &[f64]) -> f64 {
+        self.layer.volume(&x[self.range.clone()])
+    }
+}
+
+fn drag_spring(t: &DragTarget) -> TargetSpring {
+    TargetSpring::new(Spring::new(t.rest_length, t.stiffness, t.damping))
 }
 
 fn vec3(x: &[f64], i: usize) -> Vector3<f64> {
@@ -126,16 +148,33 @@ impl TwoLayerForces {
                 SpringTerm {
                     a: 3 * s.a,
                     b: 3 * s.b,
-                    rest: s.rest_length,
-                    stiffness: p.stiffness,
-                    damping: p.damping,
+                    spring: Spring::new(s.rest_length, p.stiffness, p.damping),
                 }
             })
             .collect();
+        let n = model.layer_size;
+        let layers = match model.dimension {
+            Dimension::One => Vec::new(),
+            Dimension::Two | Dimension::Three => [
+                (n, model.gas_outer, model.rest_volume_outer),
+                (0, model.gas_inner, model.rest_volume_inner),
+            ]
+            .into_iter()
+            .map(|(first, nrt, rest_volume)| GasLayer {
+                range: 3 * first..3 * (first + n),
+                layer: match model.dimension {
+                    Dimension::Three => ClosedLayer::surface(n, model.surface.clone()),
+                    _ => ClosedLayer::polygon(n),
+                },
+                gas: LayerGas::new(nrt, rest_volume),
+            })
+            .collect(),
+        };
         Self {
             model,
             params: body.springs,
             terms,
+            layers,
             gravity: body.gravity,
             valence_factor,
             drag: None,
@@ -181,18 +220,13 @@ impl TwoLayerForces {
     /// Current gas pressures `(outer, inner)` (Pa) for positions `x`: `P = nRT / V`
     /// (seed Eq. 4.10). Zero where there is no gas.
     pub fn pressures(&self, x: &[f64]) -> (f64, f64) {
-        let m = &self.model;
-        if !m.has_layers() {
-            return (0.0, 0.0);
+        match &self.layers[..] {
+            [outer, inner] => (
+                outer.gas.pressure(outer.volume(x)),
+                inner.gas.pressure(inner.volume(x)),
+            ),
+            _ => (0.0, 0.0),
         }
-        let p = |gas: f64, outer: bool| {
-            if gas == 0.0 {
-                0.0
-            } else {
-                gas / m.layer_volume(x, outer)
-            }
-        };
-        (p(m.gas_outer, true), p(m.gas_inner, false))
     }
 
     /// Writes the total force (N) on every particle for positions `x` and velocities `v`
@@ -212,24 +246,14 @@ impl TwoLayerForces {
         } else {
             f
         };
+        let at = |y: &[f64], k: usize| Vector3::new(y[k], y[k + 1], y[k + 2]);
         for s in &self.terms {
-            let (xa, xb) = (&x[s.a..s.a + 3], &x[s.b..s.b + 3]);
-            let (va, vb) = (&v[s.a..s.a + 3], &v[s.b..s.b + 3]);
-            let d = [xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]];
-            let len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            if len2 <= 0.0 {
-                continue;
-            }
-            let len = len2.sqrt();
-            let inv = 1.0 / len;
-            // Relative speed along the spring times its length: (v_b - v_a) . d.
-            let rel = (vb[0] - va[0]) * d[0] + (vb[1] - va[1]) * d[1] + (vb[2] - va[2]) * d[2];
-            // f = [k (l - L) + c (v_b - v_a) . d/l] d/l, pulling a toward b when stretched.
-            let mag = (s.stiffness * (len - s.rest) + s.damping * rel * inv) * inv;
+            let [fa, fb] = s
+                .spring
+                .force(&at(x, s.a), &at(x, s.b), &at(v, s.a), &at(v, s.b));
             for k in 0..3 {
-                let fk = mag * d[k];
-                sf[s.a + k] += fk;
-                sf[s.b + k] -= fk;
+                sf[s.a + k] += fa[k];
+                sf[s.b + k] += fb[k];
             }
         }
         if let Some(w) = &self.valence_factor {
@@ -239,50 +263,19 @@ impl TwoLayerForces {
                 }
             }
         }
-        // Steps 5-9: gas pressure on each closed layer.
-        let (p_out, p_in) = self.pressures(x);
-        let n = m.layer_size;
-        for (pressure, off) in [(p_out, n), (p_in, 0)] {
-            if pressure == 0.0 {
-                continue;
-            }
-            match m.dimension {
-                Dimension::One => {}
-                Dimension::Two => {
-                    // Each side (dx, dy) of the counter-clockwise polygon has outward normal
-                    // times length (dy, -dx); the force P (dy, -dx) is split half-half.
-                    for i in 0..n {
-                        let (a, b) = (off + i, off + (i + 1) % n);
-                        let e = vec3(x, b) - vec3(x, a);
-                        let fe = Vector3::new(e.y, -e.x, 0.0) * (0.5 * pressure);
-                        add3(f, a, fe);
-                        add3(f, b, fe);
-                    }
-                }
-                Dimension::Three => {
-                    // Face force P * area * normal = P/2 (b - a) x (c - a), a third to each
-                    // vertex. Summed over a closed surface this equals P dV/dx exactly.
-                    for t in &m.surface {
-                        let (a, b, c) = (off + t[0], off + t[1], off + t[2]);
-                        let xa = vec3(x, a);
-                        let ff = (vec3(x, b) - xa).cross(&(vec3(x, c) - xa)) * (pressure / 6.0);
-                        add3(f, a, ff);
-                        add3(f, b, ff);
-                        add3(f, c, ff);
-                    }
-                }
+        // Steps 5-9: gas pressure on each closed layer (none in 1D).
+        for l in &self.layers {
+            let pressure = l.gas.pressure(l.volume(x));
+            if pressure != 0.0 {
+                let r = l.range.clone();
+                l.layer
+                    .add_pressure_forces(&x[r.clone()], pressure, &mut f[r]);
             }
         }
         // Step 10: drag spring (seed Eq. 4.7), the target at rest.
         if let Some((t, i)) = self.drag {
-            let d = vec3(x, i) - t.point.coords;
-            let len = d.norm();
-            if len > 0.0 {
-                let dir = d / len;
-                let fd =
-                    -dir * (t.stiffness * (len - t.rest_length) + t.damping * vec3(v, i).dot(&dir));
-                add3(f, i, fd);
-            }
+            let fd = drag_spring(&t).force(&vec3(x, i), &vec3(v, i), &t.point, &Vector3::zeros());
+            add3(f, i, fd);
         }
     }
 
@@ -307,22 +300,14 @@ impl TwoLayerForces {
             e.gravity += mass * self.gravity * x[3 * i + m.dimension.up_axis()];
         }
         for s in &self.terms {
-            let (xa, xb) = (&x[s.a..s.a + 3], &x[s.b..s.b + 3]);
-            let l = ((xb[0] - xa[0]).powi(2) + (xb[1] - xa[1]).powi(2) + (xb[2] - xa[2]).powi(2))
-                .sqrt();
-            e.spring += 0.5 * s.stiffness * (l - s.rest).powi(2);
+            e.spring += s.spring.energy(&vec3(x, s.a / 3), &vec3(x, s.b / 3));
         }
-        if m.has_layers() {
-            if m.gas_outer > 0.0 {
-                e.gas -= m.gas_outer * (volume_outer / m.rest_volume_outer).ln();
-            }
-            if m.gas_inner > 0.0 {
-                e.gas -= m.gas_inner * (volume_inner / m.rest_volume_inner).ln();
-            }
+        if let [outer, inner] = &self.layers[..] {
+            e.gas += outer.gas.energy(volume_outer);
+            e.gas += inner.gas.energy(volume_inner);
         }
         if let Some((t, i)) = self.drag {
-            let l = (vec3(x, i) - t.point.coords).norm();
-            e.drag = 0.5 * t.stiffness * (l - t.rest_length).powi(2);
+            e.drag = drag_spring(&t).energy(&vec3(x, i), &t.point);
         }
         e
     }
@@ -337,7 +322,10 @@ impl TwoLayerForces {
         let springs: f64 = self
             .terms
             .iter()
-            .map(|s| 0.5 * s.stiffness * s.rest * s.rest)
+            .map(|s| {
+                let (k, rest) = (s.spring.stiffness_constant(), s.spring.rest_length());
+                0.5 * k * rest * rest
+            })
             .sum();
         let size = {
             let n = m.num_particles() as f64;

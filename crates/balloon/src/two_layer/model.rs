@@ -546,27 +546,13 @@ impl TwoLayerModel {
     /// Green's theorem in 2D, `A = 1/2 sum_i (x_i y_(i+1) - x_(i+1) y_i)`. 0 in 1D.
     pub fn layer_volume(&self, x: &[f64], outer: bool) -> f64 {
         let n = self.layer_size;
-        let off = if outer { n } else { 0 };
+        let layer = if outer { &x[3 * n..6 * n] } else { &x[..3 * n] };
         match self.dimension {
             Dimension::One => 0.0,
-            Dimension::Two => {
-                let mut a = 0.0;
-                for i in 0..n {
-                    let (p, q) = (3 * (off + i), 3 * (off + (i + 1) % n));
-                    a += x[p] * x[q + 1] - x[q] * x[p + 1];
-                }
-                0.5 * a
-            }
+            Dimension::Two => balloon_gas::layer::polygon_area(layer),
+            // NaN for a model whose surface indices are out of range (never from `build`).
             Dimension::Three => {
-                let mut v = 0.0;
-                for t in &self.surface {
-                    let p = |k: usize| {
-                        let i = 3 * (off + t[k]);
-                        Vector3::new(x[i], x[i + 1], x[i + 2])
-                    };
-                    v += p(0).dot(&p(1).cross(&p(2)));
-                }
-                v / 6.0
+                balloon_gas::enclosed_volume(layer, &self.surface).unwrap_or(f64::NAN)
             }
         }
     }
