@@ -9,6 +9,7 @@
 //! |---|---|---|---|
 //! | [`ThreePrism`] | 3 vertices (+ thickness parameter `h`) | `F = [e12 e13 d h][E12 E13 D H]^-1` | 000 Eq. 1-4, 8, 11, 19 |
 //! | [`MembraneTriangle`] | 3 vertices, fixed thickness | 3x2 in-plane `F` completed by the normal | |
+//! | [`HyperMembrane`] | 3 vertices, incompressible (`h = H / sqrt(det C)`) | `C = Fm^T Fm` (2x2) into a `MembraneMaterial` | `docs/membranes.md` |
 //! | [`LinearTetrahedron`] | 4 vertices | `F = Ds Dm^-1` | 003 (tet lattice) |
 //! | [`Spring`] | 2 particles | Hooke + axial dashpot | 003, 004 |
 //!
@@ -38,12 +39,14 @@
 
 mod error;
 mod expand;
+mod hyper_membrane;
 mod membrane;
 mod prism;
 mod spring;
 mod tet;
 
 pub use error::ElementError;
+pub use hyper_membrane::HyperMembrane;
 pub use membrane::MembraneTriangle;
 pub use prism::{ThreePrism, ThreePrismLinearization};
 pub use spring::Spring;

@@ -94,7 +94,7 @@ impl MembraneOgden {
             });
         }
         let mu0 = 0.5 * mu.iter().zip(&alpha).map(|(m, a)| m * a).sum::<f64>();
-        if !(mu0 > 0.0) {
+        if mu0.is_nan() || mu0 <= 0.0 {
             return Err(MaterialError::InvalidParameter {
                 name: "ogden_initial_shear_modulus",
                 value: mu0,
