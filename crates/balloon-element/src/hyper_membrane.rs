@@ -231,6 +231,25 @@ impl HyperMembrane {
         [a + b, -a, -b]
     }
 
+    /// Evaluates the kinematics and the stress once at `x` so that the forces and many force
+    /// differentials (one per CG iteration of a matrix-free Newton solve, seed 000 Eq. 11) reuse
+    /// them. Assumes a valid state, like the other hot-path methods.
+    pub fn linearize<M: MembraneMaterial>(
+        &self,
+        mat: &M,
+        x: &[Vector3<f64>; 3],
+    ) -> HyperMembraneLinearization {
+        let fm = self.in_plane_deformation_gradient(x);
+        let c = fm.transpose() * fm;
+        let s = mat.stress(&c);
+        HyperMembraneLinearization {
+            element: *self,
+            fm,
+            c,
+            s,
+        }
+    }
+
     /// Forces and the 6x6 Hessian with respect to the edge vectors `(e12, e13)`.
     fn forces_and_edge_hessian<M: MembraneMaterial>(
         &self,
@@ -298,6 +317,48 @@ impl HyperMembrane {
     /// Lumped vertex masses `rho A0 H / 3` each (kg) for a density `density` (kg/m^3).
     pub fn lumped_masses(&self, density: f64) -> [f64; 3] {
         [density * self.rest_volume() / 3.0; 3]
+    }
+}
+
+/// A [`HyperMembrane`] linearised at one state by [`HyperMembrane::linearize`]: `Fm`, `C` and
+/// the stress are evaluated once, and [`HyperMembraneLinearization::force_differential`] applies
+/// `df = -K dx` without recomputing them. The material passed to `force_differential` must be
+/// the one used to linearise.
+#[derive(Clone, Copy, Debug)]
+pub struct HyperMembraneLinearization {
+    element: HyperMembrane,
+    fm: SMatrix<f64, 3, 2>,
+    c: Matrix2<f64>,
+    s: Matrix2<f64>,
+}
+
+impl HyperMembraneLinearization {
+    /// In-plane right Cauchy-Green tensor `C` at the linearisation state.
+    pub fn right_cauchy_green(&self) -> &Matrix2<f64> {
+        &self.c
+    }
+
+    /// Elastic forces `-dE/dx_i` (N) at the linearisation state (same as
+    /// [`HyperMembrane::forces`]).
+    pub fn forces(&self) -> [Vector3<f64>; 3] {
+        let g = self.element.edge_gradient(&self.fm, &self.s);
+        let (g12, g13) = (g.column(0).into_owned(), g.column(1).into_owned());
+        [g12 + g13, -g12, -g13]
+    }
+
+    /// Force differential `df = -K dx` (N), same as [`HyperMembrane::force_differential`] at the
+    /// linearisation state.
+    pub fn force_differential<M: MembraneMaterial>(
+        &self,
+        mat: &M,
+        dx: &[Vector3<f64>; 3],
+    ) -> [Vector3<f64>; 3] {
+        let dds = SMatrix::<f64, 3, 2>::from_columns(&[dx[1] - dx[0], dx[2] - dx[0]]);
+        let dg = self
+            .element
+            .edge_gradient_differential(mat, &self.fm, &self.c, &self.s, &dds);
+        let (a, b) = (dg.column(0).into_owned(), dg.column(1).into_owned());
+        [a + b, -a, -b]
     }
 }
 

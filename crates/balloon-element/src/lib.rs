@@ -46,7 +46,7 @@ mod spring;
 mod tet;
 
 pub use error::ElementError;
-pub use hyper_membrane::HyperMembrane;
+pub use hyper_membrane::{HyperMembrane, HyperMembraneLinearization};
 pub use membrane::MembraneTriangle;
 pub use prism::{ThreePrism, ThreePrismLinearization};
 pub use spring::Spring;

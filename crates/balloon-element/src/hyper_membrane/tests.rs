@@ -101,9 +101,13 @@ fn stiffness_is_minus_the_force_jacobian() {
                 1e-6,
                 seed + 1,
             );
-            // The matrix-free differential is -K dx.
+            // The matrix-free differential is -K dx, directly and from a cached linearisation.
             let dx = unflat(&rng.vector(9));
             let df = flat(&el.force_differential(&m, &xs, &dx));
+            let lin = el.linearize(&m, &xs);
+            assert_eq!(lin.forces(), f);
+            assert_eq!(flat(&lin.force_differential(&m, &dx)), df);
+            assert_eq!(*lin.right_cauchy_green(), el.right_cauchy_green(&xs));
             let kdx = k * nalgebra::SVector::<f64, 9>::from_column_slice(&flat(&dx));
             for i in 0..9 {
                 assert!(
