@@ -7,13 +7,14 @@
 //! system: the three-prism by the shell balloon (seed 000), the springs by the two-layer body
 //! (seed 004).
 //!
-//! **What it is not for.** Volumetric (tetrahedral) elasticity and membrane-only triangles: the
+//! **What it is not for.** Volumetric (tetrahedral) elasticity: the
 //! volumetric body of seed 003 is held together by cell-volume impulses and cell springs
 //! (`balloon-constraint`), not by tetrahedral elements.
 //!
 //! | element | DOFs | kinematics | seed |
 //! |---|---|---|---|
 //! | [`ThreePrism`] | 3 vertices (+ thickness parameter `h`) | `F = [e12 e13 d h][E12 E13 D H]^-1` | 000 Eq. 1-4, 8, 11, 19 |
+//! | [`HyperMembrane`] | 3 vertices, incompressible (`h = H / sqrt(det C)`) | `C = Fm^T Fm` (2x2) into a `MembraneMaterial` | `docs/membranes.md` (not yet wired into the shell system) |
 //! | [`Spring`] | 2 particles | Hooke + axial dashpot | 004 Eq. 4.2-4.6 (two-layer bodies) |
 //! | [`TargetSpring`] | 1 particle + a driven target | Hooke + axial dashpot | 004 Eq. 4.7 (drag) |
 //!
@@ -43,10 +44,12 @@
 
 mod error;
 mod expand;
+mod hyper_membrane;
 mod prism;
 mod spring;
 
 pub use error::ElementError;
+pub use hyper_membrane::{HyperMembrane, HyperMembraneLinearization};
 pub use prism::{ThreePrism, ThreePrismLinearization};
 pub use spring::{Spring, TargetSpring};
 

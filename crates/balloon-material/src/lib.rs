@@ -1,5 +1,7 @@
 //! Hyperelastic materials for the `balloon` workspace: energy density `psi(F)`, first
-//! Piola-Kirchhoff stress `P(F) = dpsi/dF` and its differential `dP(F; dF)`.
+//! Piola-Kirchhoff stress `P(F) = dpsi/dF` and its differential `dP(F; dF)`; and, in
+//! [`membrane`], incompressible rubber membranes `W(C)` with their stress `S = 2 dW/dC` and
+//! tangent.
 //!
 //! **What it is for.** Constitutive laws evaluated on one 3x3 deformation gradient at a time, in
 //! `f64` and SI units (`psi` in J/m^3 per unit *rest* volume, `P` in Pa). Elements
@@ -16,6 +18,7 @@
 //! | [`NeoHookean`] | `mu/2 (I1 - 3) - mu ln J + lambda/2 (ln J)^2` | infinite energy as `J -> 0`, undefined for `J <= 0` |
 //! | [`MaterialModel`] | closed serde enum over the above | run-time choice from a scenario file |
 //! | [`Lame`] | validated `(mu, lambda)`, from `(E, nu)` | |
+//! | [`membrane`] module | incompressible membranes `W(C)` on the 2x2 in-plane `C`: neo-Hookean, Mooney-Rivlin, Gent, Ogden (N terms), Yeoh; [`MembraneModel`] enum, published presets, the analytic thin sphere | plane stress, `h = H / sqrt(det C)`; see `docs/membranes.md` |
 //!
 //! ```
 //! use balloon_material::{Lame, Material, StVenantKirchhoff};
@@ -36,12 +39,14 @@
 
 mod error;
 mod lame;
+pub mod membrane;
 mod model;
 mod neo_hookean;
 mod stvk;
 
 pub use error::MaterialError;
 pub use lame::Lame;
+pub use membrane::{MembraneMaterial, MembraneModel};
 pub use model::{MaterialKind, MaterialModel};
 pub use neo_hookean::NeoHookean;
 pub use stvk::StVenantKirchhoff;
