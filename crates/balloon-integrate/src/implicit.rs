@@ -1,4 +1,5 @@
-//! Backward Euler with Newton-Raphson on velocities (seed 000, Eq. 18-23).
+//! Backward Euler with Newton-Raphson on velocities (seed 000, Eq. 18-23), globalised as the
+//! minimisation of an incremental potential.
 //!
 //! Unknown: the end-of-step velocity `v`. With `x(v) = x^n + dt v`, backward Euler (Eq. 18) is
 //! the nonlinear equation
@@ -10,8 +11,51 @@
 //! `A dv = b`, `A = M + dt C + dt^2 K(x_(k)) = (1 + dt alpha) M + (dt^2 + dt beta) K`,
 //! `b = M (v^n - v_(k)) + dt (f(x_(k)) + f_ext - C v_(k))` (Eq. 23),
 //!
-//! then `v_(k+1) = v_(k) + dv`. `K = -df/dx` is the system's tangent stiffness (elastic plus gas,
-//! the latter's rank-1 part never assembled). On a linear force system one iteration is exact.
+//! then `v_(k+1) = v_(k) + s dv` with a step length `s` from the line search. `K = -df/dx` is
+//! the system's tangent stiffness (elastic plus gas, the latter's rank-1 part never assembled).
+//! On a linear force system one iteration is exact.
+//!
+//! # Incremental potential
+//!
+//! When the system has a potential `W` (`f = -dW/dx`, [`ForceSystem::potential_energy`]) and
+//! `beta = 0`, the backward Euler step is the minimiser of
+//!
+//! `E(x) = (1 + dt alpha) / (2 dt^2) |x - x^n - dt v^n / (1 + dt alpha)|_M^2 + W(x) - f_ext . x`.
+//!
+//! Mass damping is folded in: the damping force `-alpha M v = -alpha M (x - x^n) / dt` is the
+//! negative gradient of `alpha / (2 dt) |x - x^n|_M^2`, and adding that to the inertia term
+//! `1 / (2 dt^2) |x - x^n - dt v^n|_M^2` completes the square above (up to a constant). Then
+//! `dE/dx = -b / dt` and `d^2E/dx^2 = A / dt^2`, so the Newton step `dx = dt dv` is Newton on
+//! `E`, a descent direction whenever `A` is positive definite (which the projected tangent or
+//! the mass-shift retry ensures), with `dE = -s b . dv` to first order. The line search halves
+//! `s` from 1 until Armijo's condition `E(v + s dv) <= E(v) - 1e-4 s b . dv` holds; a state
+//! where `E` is undefined (an inverted element) counts as `E = inf`. Close to convergence the
+//! decrease falls below what `f64` resolves in `E`; a trial within round-off of `E` is then
+//! accepted when it lowers `|b|`. Internally `E` is evaluated in the velocity form
+//! `(1 + dt alpha)/2 |v - v^n/(1 + dt alpha)|_M^2 + W(x(v)) - dt f_ext . v`, which differs from
+//! `E(x)` by a constant. [`StepInfo::energies`] records it at every accepted iterate.
+//!
+//! Stiffness damping `beta K v` has no potential: with `beta > 0` (and for a direction that is
+//! not a descent direction of `E`) the search backtracks on the residual norm instead,
+//! `|b(v + s dv)| <= (1 - 1e-4 s) |b(v)|`, taking the shortest step if none decreases it.
+//! Systems without a potential take full Newton steps (as before), still stopped on the
+//! residual.
+//!
+//! # Convergence test
+//!
+//! Newton stops when the residual force `|b| / dt` (N) is at most
+//! [`BackwardEulerParams::newton_tolerance`] times the force scale
+//!
+//! `F = |M (v - v^n)| / dt + F_int + |f_ext| + |C v|`,
+//!
+//! the sum of the norms of the terms of `r / dt` at the current iterate, with the internal
+//! forces counted by [`ForceSystem::force_scale`] (for the shell: the norms of the elastic and of
+//! the pressure forces separately, which balance at an inflated rest shape) or `|f|`. Every term
+//! is a force norm over the same degrees of freedom, so the ratio does not depend on the units,
+//! the size of the model or its resolution. A step that does not converge within
+//! [`BackwardEulerParams::newton_iterations`] is [`IntegrateError::NotConverged`].
+//! `newton_tolerance = 0` is the paper's mode: a fixed number of full Newton steps, no line
+//! search and no residual test (the residual of the result is still reported).
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -26,14 +70,26 @@ use balloon_linalg::{
 
 use crate::system::{ForceSystem, SystemError, TangentKind};
 
+/// Default [`BackwardEulerParams::newton_iterations`]: the most Newton iterations a step may
+/// take.
+pub const DEFAULT_NEWTON_ITERATIONS: usize = 30;
+
+/// Default [`BackwardEulerParams::newton_tolerance`] (relative residual).
+pub const DEFAULT_NEWTON_TOLERANCE: f64 = 1e-6;
+
 /// Parameters of [`BackwardEuler`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct BackwardEulerParams {
-    /// Maximum Newton iterations per step (default 3, as the paper).
+    /// Maximum Newton iterations per step (default [`DEFAULT_NEWTON_ITERATIONS`]; at least 1,
+    /// at most [`MAX_NEWTON_ITERATIONS`]). In the paper's mode (`newton_tolerance = 0`) exactly
+    /// this many full steps (the paper: 3).
     pub newton_iterations: usize,
-    /// Stop early when `||b_k|| <= newton_tolerance * ||b_0||` (default `1e-6`); `0` always runs
-    /// all `newton_iterations`.
+    /// Newton stops when the relative residual `|b| / (dt F)` (the residual force over the
+    /// force scale `F`, module docs) is at most this (default
+    /// [`DEFAULT_NEWTON_TOLERANCE`]); a step that does not get there within
+    /// `newton_iterations` is [`IntegrateError::NotConverged`]. `0` is the paper's mode:
+    /// `newton_iterations` full Newton steps, no line search, no residual test.
     pub newton_tolerance: f64,
     /// The linear solver and its tolerances.
     pub linear: LinearSolverParams,
@@ -83,8 +139,8 @@ impl BackwardEulerParams {
 impl Default for BackwardEulerParams {
     fn default() -> Self {
         Self {
-            newton_iterations: 3,
-            newton_tolerance: 1e-6,
+            newton_iterations: DEFAULT_NEWTON_ITERATIONS,
+            newton_tolerance: DEFAULT_NEWTON_TOLERANCE,
             linear: LinearSolverParams::default(),
             mass_damping: 0.0,
             stiffness_damping: 0.0,
@@ -107,10 +163,23 @@ pub struct StepInfo {
     pub linear_iterations: Vec<usize>,
     /// Final relative residual `||b - A dv|| / ||b||` per Newton iteration.
     pub linear_residuals: Vec<f64>,
-    /// `||b_k||` (N s) at each Newton iterate evaluated.
+    /// `||b_k||` (N s) at each Newton iterate evaluated (the last one is the result's).
     pub newton_residuals: Vec<f64>,
-    /// Whether every linear solve met its tolerance and (if `newton_tolerance > 0`) the Newton
-    /// residual fell below `newton_tolerance * ||b_0||`.
+    /// Relative residual (module docs) at each Newton iterate evaluated.
+    pub relative_residuals: Vec<f64>,
+    /// Relative residual of the result: `|b| / (dt F)`, the residual force over the force scale
+    /// `F` (module docs).
+    pub relative_residual: f64,
+    /// Halvings of Newton steps made by the line search over the step.
+    pub line_search_cuts: usize,
+    /// The incremental potential (J, up to a constant; module docs) at the first iterate and
+    /// at every accepted one, when the system has a potential and the energy line search runs
+    /// (empty otherwise). Non-increasing by construction (up to round-off).
+    pub energies: Vec<f64>,
+    /// Whether the step converged: with `newton_tolerance > 0` always `true` for a returned
+    /// step (a non-converged one is [`IntegrateError::NotConverged`]); in the paper's mode
+    /// (`newton_tolerance = 0`, no residual test) whether every linear solve met its
+    /// tolerance.
     pub converged: bool,
     /// Linear solves that had to be retried with a mass shift because `A` was indefinite (see
     /// [`BackwardEulerParams::regularize_indefinite`]).
@@ -166,6 +235,19 @@ pub enum IntegrateError {
     /// A parameter or array is invalid (message names it).
     #[error("invalid input: {0}")]
     InvalidInput(String),
+    /// Newton did not bring the relative residual down to the tolerance within the allowed
+    /// iterations (or the line search found no acceptable step): the step is not accepted.
+    #[error(
+        "Newton did not converge: relative residual {residual:.3e} after {iterations} iterations (tolerance {tolerance:e})"
+    )]
+    NotConverged {
+        /// Newton iterations done.
+        iterations: usize,
+        /// Relative residual at the last iterate (see [`StepInfo::relative_residual`]).
+        residual: f64,
+        /// [`BackwardEulerParams::newton_tolerance`].
+        tolerance: f64,
+    },
 }
 
 /// Backward Euler + Newton integrator holding scratch buffers, the cached sparse pattern and
@@ -255,6 +337,11 @@ pub struct BackwardEuler {
     dv: Vec<f64>,
     tmp: Vec<f64>,
     kv: Vec<f64>,
+    /// The velocities of a line-search trial.
+    v_trial: Vec<f64>,
+    /// `|kinetic| + |W| + |external|` parts of the last incremental potential evaluated, J:
+    /// the magnitude its round-off is relative to.
+    energy_magnitude: f64,
     triplets: Vec<(usize, usize, f64)>,
     assembler: SparseAssembler,
     /// The linear solver of Eq. 23.
@@ -290,6 +377,56 @@ impl<S: ForceSystem> StiffnessOperator for SystemStiffness<'_, S> {
 
     fn add_diagonal(&self, diagonal: &mut [f64]) -> bool {
         self.0.add_stiffness_diagonal(diagonal).is_ok()
+    }
+}
+
+/// Sufficient-decrease constant of the Armijo line search: a step of length `s` along `dv` is
+/// accepted when `E(v + s dv) <= E(v) - ARMIJO s (b . dv)` (or, for the residual-norm search,
+/// `|b(v + s dv)| <= (1 - ARMIJO s) |b(v)|`).
+const ARMIJO: f64 = 1e-4;
+
+/// Halvings of the Newton step the line search tries before giving up (shortest step
+/// `2^-20`).
+const MAX_LINE_SEARCH_CUTS: usize = 20;
+
+/// Relative round-off of the incremental potential: energy changes below this times the
+/// magnitude of its parts are not resolved, and the residual decides instead.
+const ENERGY_ROUNDOFF: f64 = 1e-12;
+
+/// Upper bound on [`BackwardEulerParams::newton_iterations`].
+pub const MAX_NEWTON_ITERATIONS: usize = 1000;
+
+/// How the Newton step is shortened in one iteration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum LineSearch {
+    /// Armijo backtracking on the incremental potential.
+    Energy,
+    /// Backtracking on the norm of the residual (no potential with stiffness damping, or a
+    /// direction that is not a descent direction of the potential).
+    Residual,
+    /// Full Newton steps (a system without a potential).
+    Off,
+}
+
+/// The Newton residual at one iterate: `|b|` (N s) and the force scale (N) it is relative to.
+#[derive(Clone, Copy, Debug)]
+struct Residual {
+    norm: f64,
+    scale: f64,
+    dt: f64,
+}
+
+impl Residual {
+    /// `|b| / (dt F)`: the residual force relative to the force scale `F` (module docs).
+    fn relative(&self) -> f64 {
+        let force = self.norm / self.dt;
+        if force == 0.0 {
+            0.0
+        } else if self.scale > 0.0 {
+            force / self.scale
+        } else {
+            f64::INFINITY
+        }
     }
 }
 
@@ -338,6 +475,8 @@ impl BackwardEuler {
             dv: Vec::new(),
             tmp: Vec::new(),
             kv: Vec::new(),
+            v_trial: Vec::new(),
+            energy_magnitude: 0.0,
             triplets: Vec::new(),
             assembler: SparseAssembler::new(),
             solver: settings.build(),
@@ -452,6 +591,12 @@ impl BackwardEuler {
                 p.newton_tolerance
             ));
         }
+        if !(1..=MAX_NEWTON_ITERATIONS).contains(&p.newton_iterations) {
+            return bad(format!(
+                "newton_iterations = {} must be between 1 and {MAX_NEWTON_ITERATIONS}",
+                p.newton_iterations
+            ));
+        }
         if p.gravity.iter().any(|g| !g.is_finite()) {
             return bad(format!("gravity {:?} must be finite", p.gravity));
         }
@@ -481,8 +626,17 @@ impl BackwardEuler {
     }
 
     /// Advances `x` (m) and `v` (m/s) from `time` to `time + dt` (s) by backward Euler with
-    /// Newton (Eq. 23). `external_forces` (N, per dof) are added to gravity. On error `x` and
-    /// `v` are left at the last Newton iterate (the caller should keep its own copy to roll back).
+    /// Newton (Eq. 18-23). `external_forces` (N, per dof) are added to gravity.
+    ///
+    /// With `newton_tolerance > 0` Newton runs until the relative residual (see
+    /// [`StepInfo::relative_residual`]) is at most the tolerance, at most `newton_iterations`
+    /// times, each step cut back by the line search (see the module docs); a step that does not
+    /// converge is [`IntegrateError::NotConverged`], never `Ok`. With `newton_tolerance = 0`
+    /// (the paper's mode) exactly `newton_iterations` full Newton steps are taken and the step
+    /// is accepted whatever its residual.
+    ///
+    /// On error `x` and `v` are left at the last Newton iterate (the caller should keep its own
+    /// copy to roll back).
     pub fn step<S: ForceSystem>(
         &mut self,
         system: &mut S,
@@ -511,6 +665,7 @@ impl BackwardEuler {
             &mut self.dv,
             &mut self.tmp,
             &mut self.kv,
+            &mut self.v_trial,
         ] {
             buf.resize(n, 0.0);
         }
@@ -525,112 +680,136 @@ impl BackwardEuler {
             }
         }
         let t1 = time + dt;
+        let paper_mode = p.newton_tolerance == 0.0;
         let mut info = StepInfo {
             converged: true,
             ..Default::default()
         };
         self.refresh_solver();
         let factorizations_before = self.solver.factorizations();
-        let mut b0 = 0.0;
-        let mut newton_converged = p.newton_tolerance == 0.0;
+
+        // The first iterate, v_(0) = v^n.
+        let mut res = self.evaluate(system, t1, dt, v, x, 0)?;
+        let mut energy = None;
+        if !paper_mode && beta == 0.0 {
+            energy = self.incremental_potential(system, t1, dt, v, x)?;
+        }
+        if let Some(e) = energy {
+            info.energies.push(e);
+        }
+        info.newton_residuals.push(res.norm);
+        info.relative_residuals.push(res.relative());
+        let mut newton_converged = paper_mode;
         for k in 0..p.newton_iterations {
-            // x_(k) = x^n + dt v_(k)
-            for i in 0..n {
-                x[i] = self.x_n[i] + dt * v[i];
-            }
-            system
-                .forces(t1, x, &mut self.f)
-                .map_err(|source| IntegrateError::System {
-                    iteration: k,
-                    source,
-                })?;
-            if let Some(dof) = first_non_finite(&self.f) {
-                return Err(IntegrateError::NonFinite {
-                    quantity: "force",
-                    dof,
-                    vertex: dof / 3,
-                    iteration: k,
-                });
-            }
-            // K v_(k) for stiffness damping.
-            self.kv.fill(0.0);
-            if beta != 0.0 {
-                self.tmp.fill(0.0);
-                system.add_force_differential(v, &mut self.tmp);
-                for i in 0..n {
-                    self.kv[i] = -self.tmp[i];
-                }
-            }
-            let m = system.masses();
-            for i in 0..n {
-                let cv = alpha * m[i] * v[i] + beta * self.kv[i];
-                self.b[i] = m[i] * (self.v_n[i] - v[i]) + dt * (self.f[i] + self.f_ext[i] - cv);
-            }
-            let bnorm = self.b.iter().map(|a| a * a).sum::<f64>().sqrt();
-            info.newton_residuals.push(bnorm);
-            if k == 0 {
-                b0 = bnorm;
-            }
-            if bnorm == 0.0
-                || (k > 0 && p.newton_tolerance > 0.0 && bnorm <= p.newton_tolerance * b0)
-            {
+            if !paper_mode && res.relative() <= p.newton_tolerance {
                 newton_converged = true;
                 break;
             }
-            if self.solver.needs_assembled_matrix() {
-                self.triplets.clear();
-                self.use_blocks = system.stiffness_blocks().is_some()
-                    && system
-                        .add_remaining_stiffness_triplets(&mut self.triplets)
-                        .is_ok();
-                if !self.use_blocks {
-                    self.triplets.clear();
-                    system
-                        .add_stiffness_triplets(&mut self.triplets)
-                        .map_err(|source| IntegrateError::System {
-                            iteration: k,
-                            source,
-                        })?;
-                }
+            if res.norm == 0.0 {
+                newton_converged = true;
+                break;
             }
-            let mut shift = 0.0;
-            let mut retries = 0;
-            let lin = loop {
-                match self.solve(system, m_coef + shift, k_coef) {
-                    Ok(lin) => break lin,
-                    Err(err)
-                        if err.is_indefinite()
-                            && p.regularize_indefinite
-                            && retries < MAX_REGULARIZATION_RETRIES =>
-                    {
-                        shift = next_shift(shift, m_coef, &err, system.masses());
-                        retries += 1;
-                        info.regularized_solves += 1;
-                        info.max_regularization = info.max_regularization.max(shift);
-                    }
-                    Err(source) => {
-                        return Err(IntegrateError::Linear {
-                            iteration: k,
-                            source,
-                        });
-                    }
-                }
-            };
+            let lin = self.newton_direction(system, m_coef, k_coef, k, &mut info)?;
             info.newton_iterations += 1;
             info.linear_iterations.push(lin.iterations);
             info.linear_residuals.push(lin.relative_residual);
-            info.converged &= lin.converged;
-            for i in 0..n {
-                v[i] += self.dv[i];
+            if paper_mode {
+                info.converged &= lin.converged;
+                for i in 0..n {
+                    v[i] += self.dv[i];
+                }
+                if let Some(dof) = first_non_finite(v) {
+                    return Err(IntegrateError::NonFinite {
+                        quantity: "velocity",
+                        dof,
+                        vertex: dof / 3,
+                        iteration: k,
+                    });
+                }
+                if k + 1 < p.newton_iterations {
+                    res = self.evaluate(system, t1, dt, v, x, k + 1)?;
+                    info.newton_residuals.push(res.norm);
+                    info.relative_residuals.push(res.relative());
+                }
+                continue;
             }
-            if let Some(dof) = first_non_finite(v) {
-                return Err(IntegrateError::NonFinite {
-                    quantity: "velocity",
-                    dof,
-                    vertex: dof / 3,
-                    iteration: k,
+            // Line search along dv (module docs). `slope = b . dv` is minus the directional
+            // derivative of the incremental potential along dv.
+            let slope: f64 = self.b.iter().zip(&self.dv).map(|(b, d)| b * d).sum();
+            let mode = if energy.is_some() && slope > 0.0 {
+                LineSearch::Energy
+            } else if beta != 0.0 || energy.is_some() {
+                LineSearch::Residual
+            } else {
+                LineSearch::Off
+            };
+            let mut step_length = 1.0;
+            let mut accepted = false;
+            for cut in 0..=MAX_LINE_SEARCH_CUTS {
+                if cut > 0 {
+                    step_length *= 0.5;
+                    info.line_search_cuts += 1;
+                }
+                let mut trial_v = std::mem::take(&mut self.v_trial);
+                for i in 0..n {
+                    trial_v[i] = v[i] + step_length * self.dv[i];
+                }
+                let outcome = self.try_step(
+                    system,
+                    mode,
+                    (t1, dt, k + 1),
+                    &trial_v,
+                    x,
+                    (energy, slope, step_length, &res),
+                    cut == MAX_LINE_SEARCH_CUTS,
+                );
+                self.v_trial = trial_v;
+                if let Some((e1, r)) = outcome? {
+                    v.copy_from_slice(&self.v_trial);
+                    res = r;
+                    energy = match (e1, energy) {
+                        (Some(e1), _) => Some(e1),
+                        // A residual-searched step of a system with a potential: keep the
+                        // energy current for the next iteration.
+                        (None, Some(_)) => self.incremental_potential(system, t1, dt, v, x)?,
+                        (None, None) => None,
+                    };
+                    if let Some(e) = energy {
+                        info.energies.push(e);
+                    }
+                    accepted = true;
+                    break;
+                }
+            }
+            if !accepted {
+                return Err(IntegrateError::NotConverged {
+                    iterations: info.newton_iterations,
+                    residual: res.relative(),
+                    tolerance: p.newton_tolerance,
                 });
             }
+            info.newton_residuals.push(res.norm);
+            info.relative_residuals.push(res.relative());
+        }
+        if paper_mode {
+            // The residual of the result, for the record (not a test: the paper's mode
+            // accepts the step whatever it is).
+            for i in 0..n {
+                x[i] = self.x_n[i] + dt * v[i];
+            }
+            if let Ok(r) = self.evaluate(system, t1, dt, v, x, p.newton_iterations) {
+                res = r;
+            } else {
+                res = Residual {
+                    norm: f64::NAN,
+                    scale: 1.0,
+                    dt,
+                };
+            }
+            info.newton_residuals.push(res.norm);
+            info.relative_residuals.push(res.relative());
+        } else if !newton_converged && res.relative() <= p.newton_tolerance {
+            newton_converged = true;
         }
         for i in 0..n {
             x[i] = self.x_n[i] + dt * v[i];
@@ -643,11 +822,231 @@ impl BackwardEuler {
                 iteration: info.newton_iterations,
             });
         }
-        info.converged &= newton_converged;
+        info.relative_residual = res.relative();
         info.factorizations = (self.solver.factorizations() - factorizations_before) as usize;
+        if !newton_converged {
+            return Err(IntegrateError::NotConverged {
+                iterations: info.newton_iterations,
+                residual: info.relative_residual,
+                tolerance: p.newton_tolerance,
+            });
+        }
+        if !paper_mode {
+            info.converged = true;
+        }
         Ok(info)
     }
 
+    /// One trial of the line search at `v = trial_v` (`ctx = (t1, dt, iteration)`;
+    /// `current = (energy, slope b . dv, step length, residual)` of the current
+    /// iterate). Returns the accepted iterate's incremental potential (energy search) and
+    /// residual, `None` to cut the step, or an error that ends the step. On acceptance the
+    /// system's last force evaluation is at the trial point.
+    #[allow(clippy::too_many_arguments)]
+    fn try_step<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        mode: LineSearch,
+        (t1, dt, iteration): (f64, f64, usize),
+        trial_v: &[f64],
+        x: &mut [f64],
+        (energy, slope, step_length, current): (Option<f64>, f64, f64, &Residual),
+        last_cut: bool,
+    ) -> Result<Option<(Option<f64>, Residual)>, IntegrateError> {
+        if first_non_finite(trial_v).is_some() {
+            return Ok(None);
+        }
+        match (mode, energy) {
+            (LineSearch::Energy, Some(e0)) => {
+                // An undefined energy (inverted element, non-positive volume) counts as
+                // infinite: cut.
+                let e1 = match self.incremental_potential(system, t1, dt, trial_v, x) {
+                    Ok(Some(e)) if e.is_finite() => e,
+                    _ => return Ok(None),
+                };
+                if e1 <= e0 - ARMIJO * step_length * slope {
+                    return self
+                        .evaluate(system, t1, dt, trial_v, x, iteration)
+                        .map(|r| Some((Some(e1), r)));
+                }
+                // Within round-off of the energy (close to convergence the decrease is below
+                // what f64 resolves in E): accept if the residual falls instead.
+                if e1 <= e0 + ENERGY_ROUNDOFF * self.energy_magnitude {
+                    return Ok(match self.evaluate(system, t1, dt, trial_v, x, iteration) {
+                        Ok(r) if r.norm < current.norm => Some((Some(e1), r)),
+                        _ => None,
+                    });
+                }
+                Ok(None)
+            }
+            (LineSearch::Off, _) => self
+                .evaluate(system, t1, dt, trial_v, x, iteration)
+                .map(|r| Some((None, r))),
+            _ => Ok(match self.evaluate(system, t1, dt, trial_v, x, iteration) {
+                Ok(r) if r.norm <= (1.0 - ARMIJO * step_length) * current.norm => {
+                    Some((None, r))
+                }
+                // The residual search found no decrease: take the shortest step and let the
+                // iteration limit decide.
+                Ok(r) if last_cut => Some((None, r)),
+                _ => None,
+            }),
+        }
+    }
+
+    /// Evaluates the forces at `x = x^n + dt v` (written to `x`) and the Newton right-hand side
+    /// `b` (Eq. 23) into `self.b`, with its norm and the force scale of the relative residual.
+    fn evaluate<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        t1: f64,
+        dt: f64,
+        v: &[f64],
+        x: &mut [f64],
+        iteration: usize,
+    ) -> Result<Residual, IntegrateError> {
+        let n = v.len();
+        let (alpha, beta) = (self.params.mass_damping, self.params.stiffness_damping);
+        for i in 0..n {
+            x[i] = self.x_n[i] + dt * v[i];
+        }
+        if let Some(dof) = first_non_finite(x) {
+            return Err(IntegrateError::NonFinite {
+                quantity: "position",
+                dof,
+                vertex: dof / 3,
+                iteration,
+            });
+        }
+        system
+            .forces(t1, x, &mut self.f)
+            .map_err(|source| IntegrateError::System { iteration, source })?;
+        if let Some(dof) = first_non_finite(&self.f) {
+            return Err(IntegrateError::NonFinite {
+                quantity: "force",
+                dof,
+                vertex: dof / 3,
+                iteration,
+            });
+        }
+        // K v_(k) for stiffness damping.
+        self.kv.fill(0.0);
+        if beta != 0.0 {
+            self.tmp.fill(0.0);
+            system.add_force_differential(v, &mut self.tmp);
+            for i in 0..n {
+                self.kv[i] = -self.tmp[i];
+            }
+        }
+        let m = system.masses();
+        let (mut b2, mut inertia2, mut f2, mut ext2, mut damp2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for i in 0..n {
+            let cv = alpha * m[i] * v[i] + beta * self.kv[i];
+            let inertia = m[i] * (self.v_n[i] - v[i]);
+            self.b[i] = inertia + dt * (self.f[i] + self.f_ext[i] - cv);
+            b2 += self.b[i] * self.b[i];
+            inertia2 += inertia * inertia;
+            f2 += self.f[i] * self.f[i];
+            ext2 += self.f_ext[i] * self.f_ext[i];
+            damp2 += cv * cv;
+        }
+        let internal = system.force_scale().unwrap_or(f2.sqrt());
+        Ok(Residual {
+            norm: b2.sqrt(),
+            scale: inertia2.sqrt() / dt + internal + ext2.sqrt() + damp2.sqrt(),
+            dt,
+        })
+    }
+
+    /// The incremental potential of the step at `x = x^n + dt v` (written to `x`), in the
+    /// velocity form `m_coef/2 |v - v^n/m_coef|_M^2 + W(x) - dt f_ext . v` (the module docs'
+    /// `E(x)` up to a constant), or `None` when the system has no potential. An error of the
+    /// system (an undefined energy) is returned as such.
+    fn incremental_potential<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        t1: f64,
+        dt: f64,
+        v: &[f64],
+        x: &mut [f64],
+    ) -> Result<Option<f64>, IntegrateError> {
+        let n = v.len();
+        for i in 0..n {
+            x[i] = self.x_n[i] + dt * v[i];
+        }
+        let w = system
+            .potential_energy(t1, x)
+            .map_err(|source| IntegrateError::System {
+                iteration: 0,
+                source,
+            })?;
+        let Some(w) = w else {
+            return Ok(None);
+        };
+        let m_coef = 1.0 + dt * self.params.mass_damping;
+        let m = system.masses();
+        let (mut kinetic, mut external) = (0.0, 0.0);
+        for i in 0..n {
+            let d = v[i] - self.v_n[i] / m_coef;
+            kinetic += m[i] * d * d;
+            external += self.f_ext[i] * v[i];
+        }
+        let kinetic = 0.5 * m_coef * kinetic;
+        let external = dt * external;
+        self.energy_magnitude = kinetic + w.abs() + external.abs();
+        Ok(Some(kinetic + w - external))
+    }
+
+    /// Solves for the Newton direction `dv` (into `self.dv`) at the current iterate, assembling
+    /// `K` first when the solver needs it and retrying an indefinite matrix with a mass shift.
+    fn newton_direction<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        m_coef: f64,
+        k_coef: f64,
+        k: usize,
+        info: &mut StepInfo,
+    ) -> Result<SolveInfo, IntegrateError> {
+        if self.solver.needs_assembled_matrix() {
+            self.triplets.clear();
+            self.use_blocks = system.stiffness_blocks().is_some()
+                && system
+                    .add_remaining_stiffness_triplets(&mut self.triplets)
+                    .is_ok();
+            if !self.use_blocks {
+                self.triplets.clear();
+                system
+                    .add_stiffness_triplets(&mut self.triplets)
+                    .map_err(|source| IntegrateError::System {
+                        iteration: k,
+                        source,
+                    })?;
+            }
+        }
+        let mut shift = 0.0;
+        let mut retries = 0;
+        loop {
+            match self.solve(system, m_coef + shift, k_coef) {
+                Ok(lin) => return Ok(lin),
+                Err(err)
+                    if err.is_indefinite()
+                        && self.params.regularize_indefinite
+                        && retries < MAX_REGULARIZATION_RETRIES =>
+                {
+                    shift = next_shift(shift, m_coef, &err, system.masses());
+                    retries += 1;
+                    info.regularized_solves += 1;
+                    info.max_regularization = info.max_regularization.max(shift);
+                }
+                Err(source) => {
+                    return Err(IntegrateError::Linear {
+                        iteration: k,
+                        source,
+                    });
+                }
+            }
+        }
+    }
     /// Solves `(m_coef M + k_coef K) dv = b` with the linear solver, assembling `A` first when
     /// the solver needs it (the triplets of `K` are already in `self.triplets` then).
     fn solve<S: ForceSystem>(
