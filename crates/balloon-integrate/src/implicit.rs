@@ -52,7 +52,11 @@
 //! forces counted by [`ForceSystem::force_scale`] (for the shell: the norms of the elastic and of
 //! the pressure forces separately, which balance at an inflated rest shape) or `|f|`. Every term
 //! is a force norm over the same degrees of freedom, so the ratio does not depend on the units,
-//! the size of the model or its resolution. A step that does not converge within
+//! the size of the model or its resolution. At rest every term vanishes and `|b|` is round-off,
+//! so `F` has a floor `F_0 = 1e-3 |m| L / dt^2` (`|m|` the norm of the masses, `L` the
+//! bounding-box diagonal of `x^n`): the residual force that moves the body by `1e-3 L` in one
+//! step, far below the forces of any loaded state; a residual below `tol F_0` leaves the
+//! positions off by about `1e-3 tol L` at most. A step that does not converge within
 //! [`BackwardEulerParams::newton_iterations`] is [`IntegrateError::NotConverged`].
 //! `newton_tolerance = 0` is the paper's mode: a fixed number of full Newton steps, no line
 //! search and no residual test (the residual of the result is still reported).
@@ -74,7 +78,8 @@ use crate::system::{ForceSystem, SystemError, TangentKind};
 /// take.
 pub const DEFAULT_NEWTON_ITERATIONS: usize = 30;
 
-/// Default [`BackwardEulerParams::newton_tolerance`] (relative residual).
+/// Default [`BackwardEulerParams::newton_tolerance`] (relative residual). Newton always takes
+/// at least one iteration.
 pub const DEFAULT_NEWTON_TOLERANCE: f64 = 1e-6;
 
 /// Parameters of [`BackwardEuler`].
@@ -339,6 +344,8 @@ pub struct BackwardEuler {
     kv: Vec<f64>,
     /// The velocities of a line-search trial.
     v_trial: Vec<f64>,
+    /// The floor `F_0` of the force scale in this step, N (module docs).
+    scale_floor: f64,
     /// `|kinetic| + |W| + |external|` parts of the last incremental potential evaluated, J:
     /// the magnitude its round-off is relative to.
     energy_magnitude: f64,
@@ -457,6 +464,36 @@ fn next_shift(previous: f64, m_coef: f64, err: &SolveError, masses: &[f64]) -> f
     }
 }
 
+/// The floor of the force scale relative to `|m| L / dt^2` (module docs).
+const SCALE_FLOOR: f64 = 1e-3;
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|a| a * a).sum::<f64>().sqrt()
+}
+
+/// The diagonal of the bounding box of `x` read as 3D points (the range of the values when the
+/// length is not a multiple of 3), m.
+fn extent(x: &[f64]) -> f64 {
+    if x.len() % 3 != 0 {
+        let (lo, hi) = x
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        return if hi >= lo { hi - lo } else { 0.0 };
+    }
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in x.chunks_exact(3) {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    (0..3)
+        .map(|c| (hi[c] - lo[c]).max(0.0).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
 fn first_non_finite(v: &[f64]) -> Option<usize> {
     v.iter().position(|a| !a.is_finite())
 }
@@ -476,6 +513,7 @@ impl BackwardEuler {
             tmp: Vec::new(),
             kv: Vec::new(),
             v_trial: Vec::new(),
+            scale_floor: 0.0,
             energy_magnitude: 0.0,
             triplets: Vec::new(),
             assembler: SparseAssembler::new(),
@@ -679,6 +717,7 @@ impl BackwardEuler {
                 self.f_ext[i] = m[i] * p.gravity[i % 3] + external_forces.map_or(0.0, |e| e[i]);
             }
         }
+        self.scale_floor = SCALE_FLOOR * norm(system.masses()) * extent(x) / (dt * dt);
         let t1 = time + dt;
         let paper_mode = p.newton_tolerance == 0.0;
         let mut info = StepInfo {
@@ -701,7 +740,9 @@ impl BackwardEuler {
         info.relative_residuals.push(res.relative());
         let mut newton_converged = paper_mode;
         for k in 0..p.newton_iterations {
-            if !paper_mode && res.relative() <= p.newton_tolerance {
+            // At least one Newton iteration: the first iterate is only the prediction
+            // `v^n`, and stopping there would let a nearly balanced state creep.
+            if !paper_mode && k > 0 && res.relative() <= p.newton_tolerance {
                 newton_converged = true;
                 break;
             }
@@ -951,9 +992,10 @@ impl BackwardEuler {
             damp2 += cv * cv;
         }
         let internal = system.force_scale().unwrap_or(f2.sqrt());
+        let terms = inertia2.sqrt() / dt + internal + ext2.sqrt() + damp2.sqrt();
         Ok(Residual {
             norm: b2.sqrt(),
-            scale: inertia2.sqrt() / dt + internal + ext2.sqrt() + damp2.sqrt(),
+            scale: terms.max(self.scale_floor),
             dt,
         })
     }

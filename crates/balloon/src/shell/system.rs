@@ -38,6 +38,8 @@ pub struct ShellSystem<M: Material, G: GasModel> {
     x_lin: Vec<f64>,
     /// Exact element Hessians, or projected onto the PSD cone (projected Newton).
     tangent: TangentKind,
+    /// `|f_elastic| + |f_gas|` at the last evaluation, N ([`ForceSystem::force_scale`]).
+    force_scale: f64,
 }
 
 impl<M: Material, G: GasModel> ShellSystem<M, G> {
@@ -83,6 +85,7 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
             elem_stiffness: vec![[0.0; 81]; ne],
             x_lin: Vec::new(),
             tangent: TangentKind::Exact,
+            force_scale: 0.0,
         }
     }
 
@@ -90,14 +93,37 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
         t.map(|v| Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]))
     }
 
-    /// Total elastic energy at positions `x` (J), for diagnostics and tests.
+    /// Total elastic energy at positions `x` (J): `sum_e V_e Psi(F_e)` (seed 000, Eq. 6-7), the
+    /// energy whose negative gradient are the elastic forces (Eq. 8).
     pub fn elastic_energy(&self, x: &[f64]) -> f64 {
-        self.elements
-            .iter()
-            .zip(&self.triangles)
-            .zip(&self.thickness)
-            .map(|((el, t), &h)| el.energy(&self.material, &Self::corner_positions(x, t), h))
-            .sum()
+        let energy = |((el, t), &h): ((&ThreePrism, &[usize; 3]), &f64)| {
+            el.energy(&self.material, &Self::corner_positions(x, t), h)
+        };
+        if self.elements.len() >= PARALLEL_THRESHOLD {
+            self.elements
+                .par_iter()
+                .zip(self.triangles.par_iter())
+                .zip(self.thickness.par_iter())
+                .map(energy)
+                .sum()
+        } else {
+            self.elements
+                .iter()
+                .zip(&self.triangles)
+                .zip(&self.thickness)
+                .map(energy)
+                .sum()
+        }
+    }
+
+    /// Potential energy of the gas at `x` and `time`, J: `Phi(V, t) + p_ambient V` (the
+    /// isothermal gas `-p0 V0 ln V`, the constant pressure `-p V`, the pump `-nRT(t) ln V`,
+    /// see `balloon_gas::GasModel::potential`), whose negative gradient are the pressure forces
+    /// (Eq. 15); `None` for a gas model without a potential.
+    pub fn gas_energy(&self, time: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+        self.gas
+            .potential_at(time, x, &self.triangles)
+            .map_err(|e| SystemError::component("gas", e))
     }
 
     /// Gathers per-element corner values into per-vertex sums: `out[3v..3v+3] = sum value(e, l)`.
@@ -200,9 +226,21 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
         f.iter_mut().for_each(|v| *v = 0.0);
         let forces = &self.elem_forces;
         self.gather(f, |e, l| forces[e][l]);
+        let elastic = f.iter().map(|v| v * v).sum::<f64>().sqrt();
         self.gas
             .evaluate(time, x, &self.triangles, f)
             .map_err(|e| SystemError::component("gas", e))?;
+        // The pressure force is gauge * dV/dx (Eq. 15).
+        let gas = self.gas.state().gauge_pressure.abs()
+            * self
+                .gas
+                .low_rank_term()
+                .vector
+                .iter()
+                .map(|v| v * v)
+                .sum::<f64>()
+                .sqrt();
+        self.force_scale = elastic + gas;
         self.x_lin.clear();
         self.x_lin.extend_from_slice(x);
         Ok(())
@@ -276,6 +314,39 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
 
     fn low_rank_terms(&self) -> &[LowRankTerm] {
         std::slice::from_ref(self.gas.low_rank_term())
+    }
+
+    /// Elastic plus gas energy, [`ShellSystem::elastic_energy`] + [`ShellSystem::gas_energy`]
+    /// (`None` when the gas has no potential). An element whose energy is not finite
+    /// (inverted or degenerate) is [`SystemError::InvertedElement`].
+    fn potential_energy(&mut self, time: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+        let Some(gas) = self.gas_energy(time, x)? else {
+            return Ok(None);
+        };
+        let elastic = self.elastic_energy(x);
+        if !elastic.is_finite() {
+            let e = self
+                .elements
+                .iter()
+                .zip(&self.triangles)
+                .zip(&self.thickness)
+                .position(|((el, t), &h)| {
+                    !el.energy(&self.material, &Self::corner_positions(x, t), h)
+                        .is_finite()
+                })
+                .unwrap_or(0);
+            return Err(SystemError::InvertedElement {
+                element: e,
+                detail: format!("non-finite elastic energy {elastic:e} J"),
+            });
+        }
+        Ok(Some(elastic + gas))
+    }
+
+    /// `|f_elastic| + |f_gas|` (N) at the last evaluation: the two balance at an inflated rest
+    /// shape, where `|f|` alone is round-off.
+    fn force_scale(&self) -> Option<f64> {
+        Some(self.force_scale)
     }
 }
 
