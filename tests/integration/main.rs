@@ -3,3 +3,4 @@
 mod shell;
 mod two_layer;
 mod volumetric;
+mod newton;
