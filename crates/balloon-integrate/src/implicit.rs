@@ -1319,6 +1319,9 @@ mod tests {
         fn low_rank_terms(&self) -> &[LowRankTerm] {
             &self.low_rank
         }
+        fn potential_energy(&mut self, _t: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+            Ok(Some(self.energy(x)))
+        }
         fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
             if !self.offers_diagonal {
                 return Err(SystemError::AssemblyUnsupported);
@@ -1870,5 +1873,264 @@ mod tests {
         let (mut x, mut v) = (Chain::positions(8, 2), Rng::new(1).vector(24));
         let info = be.step(&mut sys, 0.0, 0.01, &mut x, &mut v, None).unwrap();
         assert!(!info.converged && info.linear_residuals[0] > 1e-12);
+    }
+
+    /// Particles on stiff saturating springs to the origin, per coordinate
+    /// `W = k l^2 (sqrt(1 + (x/l)^2) - 1)`: the force saturates at `k l` far from rest, so the
+    /// quadratic model of Newton overshoots there (a full step from `x` lands near `-x^3/l^2`).
+    /// `.potential` says whether it reports its energy.
+    #[derive(Debug, Clone)]
+    struct Saturating {
+        masses: Vec<f64>,
+        k: f64,
+        l: f64,
+        x: Vec<f64>,
+        potential: bool,
+    }
+
+    impl Saturating {
+        fn new(potential: bool) -> Self {
+            Self {
+                masses: vec![1e-3; 3],
+                k: 1e4,
+                l: 0.01,
+                x: vec![0.0; 3],
+                potential,
+            }
+        }
+    }
+
+    impl ForceSystem for Saturating {
+        fn num_dofs(&self) -> usize {
+            3
+        }
+        fn masses(&self) -> &[f64] {
+            &self.masses
+        }
+        fn forces(&mut self, _t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+            self.x.copy_from_slice(x);
+            for (f, x) in f.iter_mut().zip(x) {
+                *f = -self.k * x / (1.0 + (x / self.l).powi(2)).sqrt();
+            }
+            Ok(())
+        }
+        fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+            for ((df, dx), x) in df.iter_mut().zip(dx).zip(&self.x) {
+                *df -= self.k / (1.0 + (x / self.l).powi(2)).powf(1.5) * dx;
+            }
+        }
+        fn add_stiffness_triplets(
+            &self,
+            t: &mut Vec<(usize, usize, f64)>,
+        ) -> Result<(), SystemError> {
+            for (i, x) in self.x.iter().enumerate() {
+                t.push((i, i, self.k / (1.0 + (x / self.l).powi(2)).powf(1.5)));
+            }
+            Ok(())
+        }
+        fn potential_energy(&mut self, _t: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+            Ok(self.potential.then(|| {
+                x.iter()
+                    .map(|x| self.k * self.l * self.l * ((1.0 + (x / self.l).powi(2)).sqrt() - 1.0))
+                    .sum()
+            }))
+        }
+    }
+
+    fn converging(kind: LinearSolverKind, iters: usize, tol: f64) -> BackwardEulerParams {
+        BackwardEulerParams {
+            newton_tolerance: tol,
+            ..params(kind, iters)
+        }
+    }
+
+    #[test]
+    fn saturating_spring_potential_matches_its_forces() {
+        let mut sys = Saturating::new(true);
+        let x = vec![0.03, -0.002, 0.011];
+        balloon_test_support::check_gradient(
+            |x| sys.clone().potential_energy(0.0, x).unwrap().unwrap(),
+            |x| {
+                let mut f = vec![0.0; 3];
+                sys.clone().forces(0.0, x, &mut f).unwrap();
+                f.iter().map(|v| -v).collect()
+            },
+            &x,
+            1e-7,
+            1e-6,
+        );
+        let mut f = vec![0.0; 3];
+        sys.forces(0.0, &x, &mut f).unwrap();
+    }
+
+    #[test]
+    fn line_search_converges_where_full_newton_steps_overshoot() {
+        // Far out on the saturating spring (30 l) with a large step (k dt^2 / m = 1e3): the
+        // full Newton step flies to the other side, farther out each time.
+        let dt = 0.01;
+        let x0 = vec![0.3, -0.2, 0.25];
+        for kind in [LinearSolverKind::Cholesky, LinearSolverKind::MatrixFreeCg] {
+            // With the energy line search: converged, every accepted iterate lowers E.
+            let mut sys = Saturating::new(true);
+            let mut be = BackwardEuler::new(converging(kind, 100, 1e-10));
+            let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
+            let info = be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).unwrap();
+            assert!(info.converged && info.relative_residual <= 1e-10, "{info:?}");
+            assert!(info.line_search_cuts > 0, "{kind}: no cut was needed: {info:?}");
+            assert_eq!(info.energies.len(), info.newton_iterations + 1, "{info:?}");
+            for w in info.energies.windows(2) {
+                assert!(w[1] < w[0], "{kind}: energy rose: {:?}", info.energies);
+            }
+            // The result is the backward Euler solution: m (x - x0) / dt^2 = f(x).
+            let mut f = vec![0.0; 3];
+            sys.forces(0.0, &x, &mut f).unwrap();
+            for c in 0..3 {
+                let r = 1e-3 * (x[c] - x0[c]) / (dt * dt) - f[c];
+                assert!(r.abs() < 1e-8 * sys.k * sys.l, "{kind}: residual {r}");
+            }
+            // Without a potential (full Newton steps) it does not converge at all.
+            let mut sys = Saturating::new(false);
+            let mut be = BackwardEuler::new(converging(kind, 100, 1e-10));
+            let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
+            let e = be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).unwrap_err();
+            assert!(
+                matches!(
+                    e,
+                    IntegrateError::NotConverged { .. } | IntegrateError::NonFinite { .. }
+                ),
+                "{kind}: {e}"
+            );
+            // Nor does the paper's mode: its residual after many full steps is large.
+            let mut sys = Saturating::new(true);
+            let mut be = BackwardEuler::new(params(kind, 8));
+            let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
+            match be.step(&mut sys, 0.0, dt, &mut x, &mut v, None) {
+                Ok(info) => assert!(!(info.relative_residual < 1e-2), "{kind}: {info:?}"),
+                Err(e) => assert!(matches!(e, IntegrateError::NonFinite { .. }), "{e}"),
+            }
+        }
+    }
+
+    #[test]
+    fn line_searched_newton_decreases_the_incremental_potential_on_the_chain() {
+        // The nonlinear chain with gravity, mass damping and external forces, with the exact
+        // incremental potential recomputed independently here.
+        let nv = 8;
+        let (dt, alpha) = (0.05, 3.0);
+        let g = [0.0, -9.81, 0.0];
+        let ext = Rng::new(12).vector(3 * nv);
+        let mut sys = Chain::new(nv, true, 5);
+        let mut be = BackwardEuler::new(BackwardEulerParams {
+            mass_damping: alpha,
+            gravity: g,
+            ..converging(LinearSolverKind::Cholesky, 50, 1e-9)
+        });
+        let x0: Vec<f64> = Chain::positions(nv, 6).iter().map(|v| 1.5 * v).collect();
+        let v0: Vec<f64> = Rng::new(7).vector(3 * nv).iter().map(|v| 3.0 * v).collect();
+        let (mut x, mut v) = (x0.clone(), v0.clone());
+        let info = be
+            .step(&mut sys, 0.0, dt, &mut x, &mut v, Some(&ext))
+            .unwrap();
+        assert!(info.converged && info.relative_residual <= 1e-9, "{info:?}");
+        // Non-increasing up to the round-off of E (the last iterates agree to ~1e-16).
+        assert!(
+            info.energies
+                .windows(2)
+                .all(|w| w[1] <= w[0] + 1e-14 * w[0].abs()),
+            "{info:?}"
+        );
+        assert!(info.energies[1] < info.energies[0]);
+        // E(x) of the module docs at the result is the minimum along random directions.
+        let m_coef = 1.0 + dt * alpha;
+        let e = |x: &[f64]| {
+            let mut total = sys.energy(x);
+            for i in 0..x.len() {
+                let m = sys.masses[i];
+                let d = x[i] - x0[i] - dt * v0[i] / m_coef;
+                total += m_coef / (2.0 * dt * dt) * m * d * d;
+                total -= (m * g[i % 3] + ext[i]) * x[i];
+            }
+            total
+        };
+        let e_min = e(&x);
+        for seed in 0..4 {
+            let d = Rng::new(100 + seed).vector(x.len());
+            for h in [1e-4, -1e-4] {
+                let xs: Vec<f64> = x.iter().zip(&d).map(|(a, b)| a + h * b).collect();
+                assert!(e(&xs) > e_min, "not a minimum along direction {seed}");
+            }
+        }
+        // The recorded energies differ from E(x) by a constant: their drop is E's drop.
+        let e_first = e(&x0
+            .iter()
+            .zip(&v0)
+            .map(|(x, v)| x + dt * v)
+            .collect::<Vec<_>>());
+        let drop = info.energies[0] - info.energies.last().unwrap();
+        assert!(
+            (drop - (e_first - e_min)).abs() < 1e-8 * drop.abs().max(1e-12),
+            "{drop} vs {}",
+            e_first - e_min
+        );
+    }
+
+    #[test]
+    fn too_few_iterations_are_not_converged_and_bounds_are_checked() {
+        let nv = 6;
+        let mut sys = Chain::new(nv, true, 3);
+        let mut be = BackwardEuler::new(converging(LinearSolverKind::Cholesky, 1, 1e-12));
+        let (mut x, mut v) = (Chain::positions(nv, 4), Rng::new(5).vector(3 * nv));
+        let e = be
+            .step(&mut sys, 0.0, 0.05, &mut x, &mut v, None)
+            .unwrap_err();
+        match e {
+            IntegrateError::NotConverged {
+                iterations,
+                residual,
+                tolerance,
+            } => {
+                assert_eq!(iterations, 1);
+                assert!(residual > tolerance && residual.is_finite());
+            }
+            e => panic!("{e}"),
+        }
+        assert!(e.to_string().contains("did not converge"), "{e}");
+        // Stiffness damping (no potential): the residual search still converges.
+        let mut be = BackwardEuler::new(BackwardEulerParams {
+            stiffness_damping: 0.01,
+            ..converging(LinearSolverKind::Cholesky, 30, 1e-10)
+        });
+        let (mut x, mut v) = (Chain::positions(nv, 4), Rng::new(5).vector(3 * nv));
+        let info = be.step(&mut sys, 0.0, 0.05, &mut x, &mut v, None).unwrap();
+        assert!(info.energies.is_empty() && info.relative_residual <= 1e-10);
+        for bad in [0, MAX_NEWTON_ITERATIONS + 1] {
+            let mut be = BackwardEuler::new(converging(LinearSolverKind::Cholesky, bad, 1e-8));
+            let e = be
+                .step(&mut sys, 0.0, 0.05, &mut x, &mut v, None)
+                .unwrap_err();
+            assert!(e.to_string().contains("newton_iterations"), "{e}");
+        }
+    }
+
+    #[test]
+    fn the_relative_residual_does_not_depend_on_units() {
+        // The same step in metres and in millimetres (forces scale with the length, masses
+        // stay): the relative residuals agree.
+        let run = |scale: f64| {
+            let mut sys = Saturating::new(true);
+            sys.l *= scale;
+            let mut be = BackwardEuler::new(converging(LinearSolverKind::Cholesky, 100, 1e-10));
+            let mut x: Vec<f64> = [0.03, -0.02, 0.025].iter().map(|v| v * scale).collect();
+            let mut v = vec![0.0; 3];
+            be.step(&mut sys, 0.0, 0.01, &mut x, &mut v, None)
+                .unwrap()
+                .relative_residuals
+        };
+        let (a, b) = (run(1.0), run(1e3));
+        assert_eq!(a.len(), b.len());
+        // Equal down to where round-off takes over.
+        for (a, b) in a.iter().zip(&b).filter(|(a, _)| **a > 1e-10) {
+            assert!((a - b).abs() <= 1e-6 * a, "{a} vs {b}");
+        }
     }
 }
