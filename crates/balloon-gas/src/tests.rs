@@ -298,10 +298,7 @@ fn pump_pressure_grows_linearly_in_time_at_fixed_volume() {
 #[test]
 fn every_gas_potential_is_minus_the_integral_of_its_pressure() {
     let models: [(&str, Gas); 3] = [
-        (
-            "ideal",
-            IdealGas::try_new(1.2e5, 2e-3).unwrap().into(),
-        ),
+        ("ideal", IdealGas::try_new(1.2e5, 2e-3).unwrap().into()),
         ("constant", ConstantPressure::try_new(9e4).unwrap().into()),
         (
             "pump",
@@ -342,7 +339,9 @@ fn loaded_potential_at_positions_has_the_forces_as_minus_gradient() {
     ];
     for gas in gases {
         for ambient in [0.0, STANDARD_ATMOSPHERE] {
-            let load = PressureLoad::new(gas).with_ambient_pressure(ambient).unwrap();
+            let load = PressureLoad::new(gas)
+                .with_ambient_pressure(ambient)
+                .unwrap();
             let time = 0.8;
             let energy = |x: &[f64]| load.potential_at(time, x, &t).unwrap().unwrap();
             let grad = |x: &[f64]| {

@@ -474,10 +474,12 @@ fn norm(v: &[f64]) -> f64 {
 /// The diagonal of the bounding box of `x` read as 3D points (the range of the values when the
 /// length is not a multiple of 3), m.
 fn extent(x: &[f64]) -> f64 {
-    if x.len() % 3 != 0 {
+    if !x.len().is_multiple_of(3) {
         let (lo, hi) = x
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
         return if hi >= lo { hi - lo } else { 0.0 };
     }
     let mut lo = [f64::INFINITY; 3];
@@ -924,9 +926,7 @@ impl BackwardEuler {
                 .evaluate(system, t1, dt, trial_v, x, iteration)
                 .map(|r| Some((None, r))),
             _ => Ok(match self.evaluate(system, t1, dt, trial_v, x, iteration) {
-                Ok(r) if r.norm <= (1.0 - ARMIJO * step_length) * current.norm => {
-                    Some((None, r))
-                }
+                Ok(r) if r.norm <= (1.0 - ARMIJO * step_length) * current.norm => Some((None, r)),
                 // The residual search found no decrease: take the shortest step and let the
                 // iteration limit decide.
                 Ok(r) if last_cut => Some((None, r)),
@@ -1975,8 +1975,14 @@ mod tests {
             let mut be = BackwardEuler::new(converging(kind, 100, 1e-10));
             let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
             let info = be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).unwrap();
-            assert!(info.converged && info.relative_residual <= 1e-10, "{info:?}");
-            assert!(info.line_search_cuts > 0, "{kind}: no cut was needed: {info:?}");
+            assert!(
+                info.converged && info.relative_residual <= 1e-10,
+                "{info:?}"
+            );
+            assert!(
+                info.line_search_cuts > 0,
+                "{kind}: no cut was needed: {info:?}"
+            );
             assert_eq!(info.energies.len(), info.newton_iterations + 1, "{info:?}");
             for w in info.energies.windows(2) {
                 assert!(w[1] < w[0], "{kind}: energy rose: {:?}", info.energies);
@@ -1992,7 +1998,9 @@ mod tests {
             let mut sys = Saturating::new(false);
             let mut be = BackwardEuler::new(converging(kind, 100, 1e-10));
             let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
-            let e = be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).unwrap_err();
+            let e = be
+                .step(&mut sys, 0.0, dt, &mut x, &mut v, None)
+                .unwrap_err();
             assert!(
                 matches!(
                     e,
@@ -2005,7 +2013,10 @@ mod tests {
             let mut be = BackwardEuler::new(params(kind, 8));
             let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
             match be.step(&mut sys, 0.0, dt, &mut x, &mut v, None) {
-                Ok(info) => assert!(!(info.relative_residual < 1e-2), "{kind}: {info:?}"),
+                Ok(info) => assert!(
+                    info.relative_residual.is_nan() || info.relative_residual >= 1e-2,
+                    "{kind}: {info:?}"
+                ),
                 Err(e) => assert!(matches!(e, IntegrateError::NonFinite { .. }), "{e}"),
             }
         }

@@ -93,6 +93,31 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
         t.map(|v| Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]))
     }
 
+    /// A copy with the same state (the system is not `Clone` because the material need not
+    /// be).
+    #[cfg(test)]
+    pub(crate) fn clone_for_tests(&self) -> Self
+    where
+        M: Clone,
+        G: Clone,
+    {
+        Self {
+            triangles: self.triangles.clone(),
+            elements: self.elements.clone(),
+            thickness: self.thickness.clone(),
+            material: self.material.clone(),
+            gas: self.gas.clone(),
+            masses: self.masses.clone(),
+            incident_offsets: self.incident_offsets.clone(),
+            incident: self.incident.clone(),
+            elem_forces: self.elem_forces.clone(),
+            elem_stiffness: self.elem_stiffness.clone(),
+            x_lin: self.x_lin.clone(),
+            tangent: self.tangent,
+            force_scale: self.force_scale,
+        }
+    }
+
     /// Total elastic energy at positions `x` (J): `sum_e V_e Psi(F_e)` (seed 000, Eq. 6-7), the
     /// energy whose negative gradient are the elastic forces (Eq. 8).
     pub fn elastic_energy(&self, x: &[f64]) -> f64 {
@@ -482,5 +507,61 @@ mod tests {
             "exact tangent should be indefinite: {min_eig:?}"
         );
         assert!(min_eig[1] > -1e-9, "projected tangent not PSD: {min_eig:?}");
+    }
+
+    /// The potential's gradient is minus the forces (elastic + gas) for every gas model, at
+    /// zero and standard ambient pressure, and with anchor springs on top (finite differences
+    /// on a deformed state, at the time the pump has pumped for a while).
+    #[test]
+    fn potential_energy_gradient_is_minus_the_forces_for_every_gas() {
+        use crate::shell::{AnchorSpring, WithAnchors};
+        use balloon_test_support::{Rng, check_gradient};
+        let mesh = icosphere(0.1, 1).unwrap();
+        let time = 0.3;
+        for kind in [GasKind::Ideal, GasKind::Constant, GasKind::Pump] {
+            for ambient in [0.0, crate::gas::STANDARD_ATMOSPHERE] {
+                if kind == GasKind::Pump && ambient == 0.0 {
+                    continue; // the pump starts from the ambient pressure
+                }
+                let sim = ShellBalloon::new(mesh.clone())
+                    .with_gas(kind)
+                    .with_ambient_pressure(ambient)
+                    .with_gauge_pressure(1500.0)
+                    .build()
+                    .unwrap();
+                let mut rng = Rng::new(7);
+                let x: Vec<f64> = sim
+                    .positions()
+                    .iter()
+                    .map(|v| 1.15 * v + 0.004 * rng.next_f64())
+                    .collect();
+                let springs = [AnchorSpring {
+                    vertex: 3,
+                    anchor: [0.2, -0.1, 0.05],
+                    stiffness: 50.0,
+                }];
+                for anchored in [false, true] {
+                    let energy = |x: &[f64]| {
+                        let mut sys = sim.system.clone_for_tests();
+                        let mut with = WithAnchors {
+                            inner: &mut sys,
+                            springs: if anchored { &springs[..] } else { &[] },
+                        };
+                        with.potential_energy(time, x).unwrap().unwrap()
+                    };
+                    let grad = |x: &[f64]| {
+                        let mut sys = sim.system.clone_for_tests();
+                        let mut with = WithAnchors {
+                            inner: &mut sys,
+                            springs: if anchored { &springs[..] } else { &[] },
+                        };
+                        let mut f = vec![0.0; x.len()];
+                        with.forces(time, x, &mut f).unwrap();
+                        f.iter().map(|v| -v).collect::<Vec<_>>()
+                    };
+                    check_gradient(energy, grad, &x, 1e-7, 1e-6);
+                }
+            }
+        }
     }
 }
