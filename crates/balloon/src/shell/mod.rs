@@ -479,7 +479,8 @@ pub struct ShellStepStats {
     pub gauge_pressure: f64,
     /// Shell material volume / rest shell material volume (1 when the projection is exact).
     pub shell_volume_ratio: f64,
-    /// Newton iterations performed.
+    /// Newton iterations performed, including those of sub-step attempts that did not
+    /// converge and were retried at half the size.
     pub newton_iterations: usize,
     /// Linear (CG) iterations summed over the Newton iterations (0 for Cholesky).
     pub linear_iterations: usize,
@@ -677,6 +678,16 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
                     self.x = x_old;
                     self.v = v_old;
                     self.system.thickness = thickness_old;
+                    if let ShellError::Integrate {
+                        source:
+                            balloon_integrate::implicit::IntegrateError::NotConverged {
+                                iterations, ..
+                            },
+                        ..
+                    } = &e
+                    {
+                        totals.newton_iterations += iterations;
+                    }
                     let runaway = matches!(&e, ShellError::Diverged { quantity, .. } if quantity == "gas volume");
                     if runaway || 0.5 * this < min_h * (1.0 - 1e-9) {
                         // Back to the start of the whole step, not only of this sub-step.
