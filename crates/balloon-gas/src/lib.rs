@@ -18,7 +18,7 @@
 //! |---|---|---|---|
 //! | [`IdealGas`] | `p0 V0 / V` (Eq. 14) | `-p0 V0 / V^2` | `-p0 V0 ln V` |
 //! | [`ConstantPressure`] | `p` | `0` | `-p V` |
-//! | [`Pump`] | `(nRT_0 + rate t) / V` | `-nRT(t) / V^2` | none |
+//! | [`Pump`] | `(nRT_0 + rate t) / V` | `-nRT(t) / V^2` | `-nRT(t) ln V` |
 //!
 //! The ambient pressure defaults to [`STANDARD_ATMOSPHERE`] (101 325 Pa).
 //!

@@ -152,13 +152,35 @@ impl<G: GasModel> PressureLoad<G> {
         Ok(self.state)
     }
 
-    /// Potential energy of the loaded gas at the last evaluation, J: `Phi(V) + p_amb V`, so that
-    /// `f_p = -dE/dx = (p - p_amb) dV/dx`. `None` for non-conservative models (pump).
+    /// Potential energy of the loaded gas at the last evaluation, J: `Phi(V, t) + p_amb V`, so
+    /// that `f_p = -dE/dx = (p - p_amb) dV/dx` at time `time` ([`GasModel::potential`]; for the
+    /// pump the amount at `time`). `None` when the model has no potential.
     pub fn potential(&self, time: f64) -> Option<f64> {
         let v = self.state.volume;
         self.gas
             .potential(v, time)
             .map(|phi| phi + self.ambient_pressure * v)
+    }
+
+    /// Potential energy of the loaded gas at positions `x` (flat, m) and time `time` (s), J:
+    /// `Phi(V(x), t) + p_amb V(x)` (see [`PressureLoad::potential`]), without changing the state
+    /// of the last [`PressureLoad::evaluate`]. `Ok(None)` when the model has no potential; an
+    /// error for a bad surface or a non-positive volume.
+    pub fn potential_at(
+        &self,
+        time: f64,
+        x: &[f64],
+        triangles: &[[usize; 3]],
+    ) -> Result<Option<f64>, GasError> {
+        check_surface(x, triangles)?;
+        let volume = crate::volume::enclosed_volume(x, triangles)?;
+        if !(volume.is_finite() && volume > 0.0) {
+            return Err(GasError::InvalidVolume { volume });
+        }
+        Ok(self
+            .gas
+            .potential(volume, time)
+            .map(|phi| phi + self.ambient_pressure * volume))
     }
 
     /// The rank-1 part `c g g^T` of the tangent at the last evaluation, with `c = -dp/dV >= 0`

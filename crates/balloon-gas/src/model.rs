@@ -26,11 +26,21 @@ pub trait GasModel: Send + Sync + Debug {
     /// raises its pressure).
     fn dpressure_dvolume(&self, volume: f64, time: f64) -> f64;
 
-    /// Potential energy `Phi(V)` of the gas, J, with `-dPhi/dV = p` (absolute pressure), or
-    /// `None` when the gas is not conservative (the pump adds energy over time).
+    /// Potential energy `Phi(V, t)` of the gas at time `time`, J, with `-dPhi/dV = p(V, t)`
+    /// (absolute pressure) at fixed time, or `None` when the model has none (a user's model
+    /// whose pressure is not integrable in closed form). The value may carry any constant
+    /// offset in `V`. This is what lets an implicit step be an energy minimisation (the
+    /// incremental potential of backward Euler, seed 000 Eq. 18, evaluated at the end-of-step
+    /// time).
     ///
     /// * isothermal ideal gas: `Phi = -p0 V0 ln V` (Eq. 14 integrated),
-    /// * constant pressure: `Phi = -p V`.
+    /// * constant pressure: `Phi = -p V`,
+    /// * pump: `Phi = -nRT(t) ln V`, the ideal gas with the amount pumped in by time `t`
+    ///   (the gas is conservative at each instant; the pump adds energy over time).
+    ///
+    /// The load on the surface adds the ambient term `p_ambient V`
+    /// ([`crate::PressureLoad::potential`]), so the pressure potential of the constant gas is
+    /// `-(p - p_ambient) V`.
     fn potential(&self, volume: f64, time: f64) -> Option<f64>;
 
     /// Re-anchors the reference state at the current `volume` (m^3) and `time` (s), e.g. once the
@@ -209,8 +219,9 @@ impl GasModel for Pump {
         -self.amount(time) / (volume * volume)
     }
 
-    fn potential(&self, _volume: f64, _time: f64) -> Option<f64> {
-        None
+    /// `-nRT(t) ln V`: the ideal gas's potential with the amount at time `t` (Eq. 12, 14).
+    fn potential(&self, volume: f64, time: f64) -> Option<f64> {
+        Some(-self.amount(time) * volume.ln())
     }
 
     /// Restarts pumping at `time` from ambient pressure at `volume`.

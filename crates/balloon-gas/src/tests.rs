@@ -286,7 +286,83 @@ fn pump_pressure_grows_linearly_in_time_at_fixed_volume() {
         assert!((dp - rate * 0.5 / v).abs() <= 1e-9 * dp);
         prev = st.absolute_pressure;
     }
-    assert!(load.potential(1.0).is_none());
+    // At each instant the pump is an ideal gas with the amount pumped in so far.
+    let amount = v * STANDARD_ATMOSPHERE + rate * 1.0;
+    let phi = load.potential(1.0).unwrap();
+    let expected = -amount * v.ln() + STANDARD_ATMOSPHERE * v;
+    assert!((phi - expected).abs() <= 1e-12 * expected.abs());
+}
+
+/// `-dPhi/dV = p` for every model, by central differences in `V` at several volumes and times
+/// (the pump's amount, and so its potential, depends on the time).
+#[test]
+fn every_gas_potential_is_minus_the_integral_of_its_pressure() {
+    let models: [(&str, Gas); 3] = [
+        ("ideal", IdealGas::try_new(1.2e5, 2e-3).unwrap().into()),
+        ("constant", ConstantPressure::try_new(9e4).unwrap().into()),
+        (
+            "pump",
+            Pump::try_from_rest(2e-3, STANDARD_ATMOSPHERE, 300.0)
+                .unwrap()
+                .into(),
+        ),
+    ];
+    for (name, gas) in models {
+        for &volume in &[5e-4, 2e-3, 1e-2] {
+            for &time in &[0.0, 0.7, 3.0] {
+                let h = 1e-6 * volume;
+                let phi = |v: f64| gas.potential(v, time).expect("a potential");
+                let fd = -(phi(volume + h) - phi(volume - h)) / (2.0 * h);
+                let p = gas.absolute_pressure(volume, time);
+                assert!(
+                    (fd - p).abs() <= 1e-7 * p,
+                    "{name} V = {volume} t = {time}: -dPhi/dV = {fd} vs p = {p}"
+                );
+            }
+        }
+    }
+}
+
+/// The loaded potential at a point, `potential_at`, is `-` the antiderivative of the pressure
+/// forces along a path for every model (the pump at a fixed time), and leaves the evaluated
+/// state alone.
+#[test]
+fn loaded_potential_at_positions_has_the_forces_as_minus_gradient() {
+    let (x, t) = lumpy(17);
+    let v0 = enclosed_volume(&x, &t).unwrap();
+    let gases: [Gas; 3] = [
+        IdealGas::try_new(1.3e5, v0).unwrap().into(),
+        ConstantPressure::try_new(1.05e5).unwrap().into(),
+        Pump::try_from_rest(v0, STANDARD_ATMOSPHERE, 50.0)
+            .unwrap()
+            .into(),
+    ];
+    for gas in gases {
+        for ambient in [0.0, STANDARD_ATMOSPHERE] {
+            let load = PressureLoad::new(gas)
+                .with_ambient_pressure(ambient)
+                .unwrap();
+            let time = 0.8;
+            let energy = |x: &[f64]| load.potential_at(time, x, &t).unwrap().unwrap();
+            let grad = |x: &[f64]| {
+                let mut l = load.clone();
+                let mut f = vec![0.0; x.len()];
+                l.evaluate(time, x, &t, &mut f).unwrap();
+                f.iter().map(|v| -v).collect::<Vec<_>>()
+            };
+            check_gradient(energy, grad, &x, 1e-6, 1e-6);
+            let mut l = load.clone();
+            let mut f = vec![0.0; x.len()];
+            let state = l.evaluate(time, &x, &t, &mut f).unwrap();
+            let moved: Vec<f64> = x.iter().map(|c| 1.1 * c).collect();
+            let at = l.potential_at(time, &moved, &t).unwrap().unwrap();
+            assert_eq!(l.state(), state, "potential_at changed the state");
+            assert!((l.potential(time).unwrap() - energy(&x)).abs() <= 1e-12 * at.abs());
+        }
+    }
+    let inverted: Vec<[usize; 3]> = t.iter().map(|&[a, b, c]| [a, c, b]).collect();
+    let load = PressureLoad::new(Gas::Constant(ConstantPressure::try_new(1e5).unwrap()));
+    assert!(load.potential_at(0.0, &x, &inverted).is_err());
 }
 
 #[test]

@@ -1,4 +1,5 @@
-//! Backward Euler with Newton-Raphson on velocities (seed 000, Eq. 18-23).
+//! Backward Euler with Newton-Raphson on velocities (seed 000, Eq. 18-23), globalised as the
+//! minimisation of an incremental potential.
 //!
 //! Unknown: the end-of-step velocity `v`. With `x(v) = x^n + dt v`, backward Euler (Eq. 18) is
 //! the nonlinear equation
@@ -10,8 +11,55 @@
 //! `A dv = b`, `A = M + dt C + dt^2 K(x_(k)) = (1 + dt alpha) M + (dt^2 + dt beta) K`,
 //! `b = M (v^n - v_(k)) + dt (f(x_(k)) + f_ext - C v_(k))` (Eq. 23),
 //!
-//! then `v_(k+1) = v_(k) + dv`. `K = -df/dx` is the system's tangent stiffness (elastic plus gas,
-//! the latter's rank-1 part never assembled). On a linear force system one iteration is exact.
+//! then `v_(k+1) = v_(k) + s dv` with a step length `s` from the line search. `K = -df/dx` is
+//! the system's tangent stiffness (elastic plus gas, the latter's rank-1 part never assembled).
+//! On a linear force system one iteration is exact.
+//!
+//! # Incremental potential
+//!
+//! When the system has a potential `W` (`f = -dW/dx`, [`ForceSystem::potential_energy`]) and
+//! `beta = 0`, the backward Euler step is the minimiser of
+//!
+//! `E(x) = (1 + dt alpha) / (2 dt^2) |x - x^n - dt v^n / (1 + dt alpha)|_M^2 + W(x) - f_ext . x`.
+//!
+//! Mass damping is folded in: the damping force `-alpha M v = -alpha M (x - x^n) / dt` is the
+//! negative gradient of `alpha / (2 dt) |x - x^n|_M^2`, and adding that to the inertia term
+//! `1 / (2 dt^2) |x - x^n - dt v^n|_M^2` completes the square above (up to a constant). Then
+//! `dE/dx = -b / dt` and `d^2E/dx^2 = A / dt^2`, so the Newton step `dx = dt dv` is Newton on
+//! `E`, a descent direction whenever `A` is positive definite (which the projected tangent or
+//! the mass-shift retry ensures), with `dE = -s b . dv` to first order. The line search halves
+//! `s` from 1 until Armijo's condition `E(v + s dv) <= E(v) - 1e-4 s b . dv` holds; a state
+//! where `E` is undefined (an inverted element) counts as `E = inf`. Close to convergence the
+//! decrease falls below what `f64` resolves in `E`; a trial within round-off of `E` is then
+//! accepted when it lowers `|b|`. Internally `E` is evaluated in the velocity form
+//! `(1 + dt alpha)/2 |v - v^n/(1 + dt alpha)|_M^2 + W(x(v)) - dt f_ext . v`, which differs from
+//! `E(x)` by a constant. [`StepInfo::energies`] records it at every accepted iterate.
+//!
+//! Stiffness damping `beta K v` has no potential: with `beta > 0` (and for a direction that is
+//! not a descent direction of `E`) the search backtracks on the residual norm instead,
+//! `|b(v + s dv)| <= (1 - 1e-4 s) |b(v)|`, taking the shortest step if none decreases it.
+//! Systems without a potential take full Newton steps (as before), still stopped on the
+//! residual.
+//!
+//! # Convergence test
+//!
+//! Newton stops when the residual force `|b| / dt` (N) is at most
+//! [`BackwardEulerParams::newton_tolerance`] times the force scale
+//!
+//! `F = |M (v - v^n)| / dt + F_int + |f_ext| + |C v|`,
+//!
+//! the sum of the norms of the terms of `r / dt` at the current iterate, with the internal
+//! forces counted by [`ForceSystem::force_scale`] (for the shell: the norms of the elastic and of
+//! the pressure forces separately, which balance at an inflated rest shape) or `|f|`. Every term
+//! is a force norm over the same degrees of freedom, so the ratio does not depend on the units,
+//! the size of the model or its resolution. At rest every term vanishes and `|b|` is round-off,
+//! so `F` has a floor `F_0 = 1e-3 |m| L / dt^2` (`|m|` the norm of the masses, `L` the
+//! bounding-box diagonal of `x^n`): the residual force that moves the body by `1e-3 L` in one
+//! step, far below the forces of any loaded state; a residual below `tol F_0` leaves the
+//! positions off by about `1e-3 tol L` at most. A step that does not converge within
+//! [`BackwardEulerParams::newton_iterations`] is [`IntegrateError::NotConverged`].
+//! `newton_tolerance = 0` is the paper's mode: a fixed number of full Newton steps, no line
+//! search and no residual test (the residual of the result is still reported).
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -26,14 +74,27 @@ use balloon_linalg::{
 
 use crate::system::{ForceSystem, SystemError, TangentKind};
 
+/// Default [`BackwardEulerParams::newton_iterations`]: the most Newton iterations a step may
+/// take.
+pub const DEFAULT_NEWTON_ITERATIONS: usize = 30;
+
+/// Default [`BackwardEulerParams::newton_tolerance`] (relative residual). Newton always takes
+/// at least one iteration.
+pub const DEFAULT_NEWTON_TOLERANCE: f64 = 1e-6;
+
 /// Parameters of [`BackwardEuler`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct BackwardEulerParams {
-    /// Maximum Newton iterations per step (default 3, as the paper).
+    /// Maximum Newton iterations per step (default [`DEFAULT_NEWTON_ITERATIONS`]; at least 1,
+    /// at most [`MAX_NEWTON_ITERATIONS`]). In the paper's mode (`newton_tolerance = 0`) exactly
+    /// this many full steps (the paper: 3).
     pub newton_iterations: usize,
-    /// Stop early when `||b_k|| <= newton_tolerance * ||b_0||` (default `1e-6`); `0` always runs
-    /// all `newton_iterations`.
+    /// Newton stops when the relative residual `|b| / (dt F)` (the residual force over the
+    /// force scale `F`, module docs) is at most this (default
+    /// [`DEFAULT_NEWTON_TOLERANCE`]); a step that does not get there within
+    /// `newton_iterations` is [`IntegrateError::NotConverged`]. `0` is the paper's mode:
+    /// `newton_iterations` full Newton steps, no line search, no residual test.
     pub newton_tolerance: f64,
     /// The linear solver and its tolerances.
     pub linear: LinearSolverParams,
@@ -83,8 +144,8 @@ impl BackwardEulerParams {
 impl Default for BackwardEulerParams {
     fn default() -> Self {
         Self {
-            newton_iterations: 3,
-            newton_tolerance: 1e-6,
+            newton_iterations: DEFAULT_NEWTON_ITERATIONS,
+            newton_tolerance: DEFAULT_NEWTON_TOLERANCE,
             linear: LinearSolverParams::default(),
             mass_damping: 0.0,
             stiffness_damping: 0.0,
@@ -107,10 +168,23 @@ pub struct StepInfo {
     pub linear_iterations: Vec<usize>,
     /// Final relative residual `||b - A dv|| / ||b||` per Newton iteration.
     pub linear_residuals: Vec<f64>,
-    /// `||b_k||` (N s) at each Newton iterate evaluated.
+    /// `||b_k||` (N s) at each Newton iterate evaluated (the last one is the result's).
     pub newton_residuals: Vec<f64>,
-    /// Whether every linear solve met its tolerance and (if `newton_tolerance > 0`) the Newton
-    /// residual fell below `newton_tolerance * ||b_0||`.
+    /// Relative residual (module docs) at each Newton iterate evaluated.
+    pub relative_residuals: Vec<f64>,
+    /// Relative residual of the result: `|b| / (dt F)`, the residual force over the force scale
+    /// `F` (module docs).
+    pub relative_residual: f64,
+    /// Halvings of Newton steps made by the line search over the step.
+    pub line_search_cuts: usize,
+    /// The incremental potential (J, up to a constant; module docs) at the first iterate and
+    /// at every accepted one, when the system has a potential and the energy line search runs
+    /// (empty otherwise). Non-increasing by construction (up to round-off).
+    pub energies: Vec<f64>,
+    /// Whether the step converged: with `newton_tolerance > 0` always `true` for a returned
+    /// step (a non-converged one is [`IntegrateError::NotConverged`]); in the paper's mode
+    /// (`newton_tolerance = 0`, no residual test) whether every linear solve met its
+    /// tolerance.
     pub converged: bool,
     /// Linear solves that had to be retried with a mass shift because `A` was indefinite (see
     /// [`BackwardEulerParams::regularize_indefinite`]).
@@ -166,6 +240,19 @@ pub enum IntegrateError {
     /// A parameter or array is invalid (message names it).
     #[error("invalid input: {0}")]
     InvalidInput(String),
+    /// Newton did not bring the relative residual down to the tolerance within the allowed
+    /// iterations (or the line search found no acceptable step): the step is not accepted.
+    #[error(
+        "Newton did not converge: relative residual {residual:.3e} after {iterations} iterations (tolerance {tolerance:e})"
+    )]
+    NotConverged {
+        /// Newton iterations done.
+        iterations: usize,
+        /// Relative residual at the last iterate (see [`StepInfo::relative_residual`]).
+        residual: f64,
+        /// [`BackwardEulerParams::newton_tolerance`].
+        tolerance: f64,
+    },
 }
 
 /// Backward Euler + Newton integrator holding scratch buffers, the cached sparse pattern and
@@ -255,6 +342,13 @@ pub struct BackwardEuler {
     dv: Vec<f64>,
     tmp: Vec<f64>,
     kv: Vec<f64>,
+    /// The velocities of a line-search trial.
+    v_trial: Vec<f64>,
+    /// The floor `F_0` of the force scale in this step, N (module docs).
+    scale_floor: f64,
+    /// `|kinetic| + |W| + |external|` parts of the last incremental potential evaluated, J:
+    /// the magnitude its round-off is relative to.
+    energy_magnitude: f64,
     triplets: Vec<(usize, usize, f64)>,
     assembler: SparseAssembler,
     /// The linear solver of Eq. 23.
@@ -293,6 +387,56 @@ impl<S: ForceSystem> StiffnessOperator for SystemStiffness<'_, S> {
     }
 }
 
+/// Sufficient-decrease constant of the Armijo line search: a step of length `s` along `dv` is
+/// accepted when `E(v + s dv) <= E(v) - ARMIJO s (b . dv)` (or, for the residual-norm search,
+/// `|b(v + s dv)| <= (1 - ARMIJO s) |b(v)|`).
+const ARMIJO: f64 = 1e-4;
+
+/// Halvings of the Newton step the line search tries before giving up (shortest step
+/// `2^-20`).
+const MAX_LINE_SEARCH_CUTS: usize = 20;
+
+/// Relative round-off of the incremental potential: energy changes below this times the
+/// magnitude of its parts are not resolved, and the residual decides instead.
+const ENERGY_ROUNDOFF: f64 = 1e-12;
+
+/// Upper bound on [`BackwardEulerParams::newton_iterations`].
+pub const MAX_NEWTON_ITERATIONS: usize = 1000;
+
+/// How the Newton step is shortened in one iteration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum LineSearch {
+    /// Armijo backtracking on the incremental potential.
+    Energy,
+    /// Backtracking on the norm of the residual (no potential with stiffness damping, or a
+    /// direction that is not a descent direction of the potential).
+    Residual,
+    /// Full Newton steps (a system without a potential).
+    Off,
+}
+
+/// The Newton residual at one iterate: `|b|` (N s) and the force scale (N) it is relative to.
+#[derive(Clone, Copy, Debug)]
+struct Residual {
+    norm: f64,
+    scale: f64,
+    dt: f64,
+}
+
+impl Residual {
+    /// `|b| / (dt F)`: the residual force relative to the force scale `F` (module docs).
+    fn relative(&self) -> f64 {
+        let force = self.norm / self.dt;
+        if force == 0.0 {
+            0.0
+        } else if self.scale > 0.0 {
+            force / self.scale
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
 /// Retries of an indefinite linear solve with a growing mass shift before giving up.
 const MAX_REGULARIZATION_RETRIES: usize = 14;
 
@@ -320,6 +464,38 @@ fn next_shift(previous: f64, m_coef: f64, err: &SolveError, masses: &[f64]) -> f
     }
 }
 
+/// The floor of the force scale relative to `|m| L / dt^2` (module docs).
+const SCALE_FLOOR: f64 = 1e-3;
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|a| a * a).sum::<f64>().sqrt()
+}
+
+/// The diagonal of the bounding box of `x` read as 3D points (the range of the values when the
+/// length is not a multiple of 3), m.
+fn extent(x: &[f64]) -> f64 {
+    if !x.len().is_multiple_of(3) {
+        let (lo, hi) = x
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                (a.min(v), b.max(v))
+            });
+        return if hi >= lo { hi - lo } else { 0.0 };
+    }
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in x.chunks_exact(3) {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    (0..3)
+        .map(|c| (hi[c] - lo[c]).max(0.0).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
 fn first_non_finite(v: &[f64]) -> Option<usize> {
     v.iter().position(|a| !a.is_finite())
 }
@@ -338,6 +514,9 @@ impl BackwardEuler {
             dv: Vec::new(),
             tmp: Vec::new(),
             kv: Vec::new(),
+            v_trial: Vec::new(),
+            scale_floor: 0.0,
+            energy_magnitude: 0.0,
             triplets: Vec::new(),
             assembler: SparseAssembler::new(),
             solver: settings.build(),
@@ -452,6 +631,12 @@ impl BackwardEuler {
                 p.newton_tolerance
             ));
         }
+        if !(1..=MAX_NEWTON_ITERATIONS).contains(&p.newton_iterations) {
+            return bad(format!(
+                "newton_iterations = {} must be between 1 and {MAX_NEWTON_ITERATIONS}",
+                p.newton_iterations
+            ));
+        }
         if p.gravity.iter().any(|g| !g.is_finite()) {
             return bad(format!("gravity {:?} must be finite", p.gravity));
         }
@@ -481,8 +666,17 @@ impl BackwardEuler {
     }
 
     /// Advances `x` (m) and `v` (m/s) from `time` to `time + dt` (s) by backward Euler with
-    /// Newton (Eq. 23). `external_forces` (N, per dof) are added to gravity. On error `x` and
-    /// `v` are left at the last Newton iterate (the caller should keep its own copy to roll back).
+    /// Newton (Eq. 18-23). `external_forces` (N, per dof) are added to gravity.
+    ///
+    /// With `newton_tolerance > 0` Newton runs until the relative residual (see
+    /// [`StepInfo::relative_residual`]) is at most the tolerance, at most `newton_iterations`
+    /// times, each step cut back by the line search (see the module docs); a step that does not
+    /// converge is [`IntegrateError::NotConverged`], never `Ok`. With `newton_tolerance = 0`
+    /// (the paper's mode) exactly `newton_iterations` full Newton steps are taken and the step
+    /// is accepted whatever its residual.
+    ///
+    /// On error `x` and `v` are left at the last Newton iterate (the caller should keep its own
+    /// copy to roll back).
     pub fn step<S: ForceSystem>(
         &mut self,
         system: &mut S,
@@ -511,6 +705,7 @@ impl BackwardEuler {
             &mut self.dv,
             &mut self.tmp,
             &mut self.kv,
+            &mut self.v_trial,
         ] {
             buf.resize(n, 0.0);
         }
@@ -524,113 +719,140 @@ impl BackwardEuler {
                 self.f_ext[i] = m[i] * p.gravity[i % 3] + external_forces.map_or(0.0, |e| e[i]);
             }
         }
+        self.scale_floor = SCALE_FLOOR * norm(system.masses()) * extent(x) / (dt * dt);
         let t1 = time + dt;
+        let paper_mode = p.newton_tolerance == 0.0;
         let mut info = StepInfo {
             converged: true,
             ..Default::default()
         };
         self.refresh_solver();
         let factorizations_before = self.solver.factorizations();
-        let mut b0 = 0.0;
-        let mut newton_converged = p.newton_tolerance == 0.0;
+
+        // The first iterate, v_(0) = v^n.
+        let mut res = self.evaluate(system, t1, dt, v, x, 0)?;
+        let mut energy = None;
+        if !paper_mode && beta == 0.0 {
+            energy = self.incremental_potential(system, t1, dt, v, x)?;
+        }
+        if let Some(e) = energy {
+            info.energies.push(e);
+        }
+        info.newton_residuals.push(res.norm);
+        info.relative_residuals.push(res.relative());
+        let mut newton_converged = paper_mode;
         for k in 0..p.newton_iterations {
-            // x_(k) = x^n + dt v_(k)
-            for i in 0..n {
-                x[i] = self.x_n[i] + dt * v[i];
-            }
-            system
-                .forces(t1, x, &mut self.f)
-                .map_err(|source| IntegrateError::System {
-                    iteration: k,
-                    source,
-                })?;
-            if let Some(dof) = first_non_finite(&self.f) {
-                return Err(IntegrateError::NonFinite {
-                    quantity: "force",
-                    dof,
-                    vertex: dof / 3,
-                    iteration: k,
-                });
-            }
-            // K v_(k) for stiffness damping.
-            self.kv.fill(0.0);
-            if beta != 0.0 {
-                self.tmp.fill(0.0);
-                system.add_force_differential(v, &mut self.tmp);
-                for i in 0..n {
-                    self.kv[i] = -self.tmp[i];
-                }
-            }
-            let m = system.masses();
-            for i in 0..n {
-                let cv = alpha * m[i] * v[i] + beta * self.kv[i];
-                self.b[i] = m[i] * (self.v_n[i] - v[i]) + dt * (self.f[i] + self.f_ext[i] - cv);
-            }
-            let bnorm = self.b.iter().map(|a| a * a).sum::<f64>().sqrt();
-            info.newton_residuals.push(bnorm);
-            if k == 0 {
-                b0 = bnorm;
-            }
-            if bnorm == 0.0
-                || (k > 0 && p.newton_tolerance > 0.0 && bnorm <= p.newton_tolerance * b0)
-            {
+            // At least one Newton iteration: the first iterate is only the prediction
+            // `v^n`, and stopping there would let a nearly balanced state creep.
+            if !paper_mode && k > 0 && res.relative() <= p.newton_tolerance {
                 newton_converged = true;
                 break;
             }
-            if self.solver.needs_assembled_matrix() {
-                self.triplets.clear();
-                self.use_blocks = system.stiffness_blocks().is_some()
-                    && system
-                        .add_remaining_stiffness_triplets(&mut self.triplets)
-                        .is_ok();
-                if !self.use_blocks {
-                    self.triplets.clear();
-                    system
-                        .add_stiffness_triplets(&mut self.triplets)
-                        .map_err(|source| IntegrateError::System {
-                            iteration: k,
-                            source,
-                        })?;
-                }
+            if res.norm == 0.0 {
+                newton_converged = true;
+                break;
             }
-            let mut shift = 0.0;
-            let mut retries = 0;
-            let lin = loop {
-                match self.solve(system, m_coef + shift, k_coef) {
-                    Ok(lin) => break lin,
-                    Err(err)
-                        if err.is_indefinite()
-                            && p.regularize_indefinite
-                            && retries < MAX_REGULARIZATION_RETRIES =>
-                    {
-                        shift = next_shift(shift, m_coef, &err, system.masses());
-                        retries += 1;
-                        info.regularized_solves += 1;
-                        info.max_regularization = info.max_regularization.max(shift);
-                    }
-                    Err(source) => {
-                        return Err(IntegrateError::Linear {
-                            iteration: k,
-                            source,
-                        });
-                    }
-                }
-            };
+            let lin = self.newton_direction(system, m_coef, k_coef, k, &mut info)?;
             info.newton_iterations += 1;
             info.linear_iterations.push(lin.iterations);
             info.linear_residuals.push(lin.relative_residual);
-            info.converged &= lin.converged;
-            for i in 0..n {
-                v[i] += self.dv[i];
+            if paper_mode {
+                info.converged &= lin.converged;
+                for i in 0..n {
+                    v[i] += self.dv[i];
+                }
+                if let Some(dof) = first_non_finite(v) {
+                    return Err(IntegrateError::NonFinite {
+                        quantity: "velocity",
+                        dof,
+                        vertex: dof / 3,
+                        iteration: k,
+                    });
+                }
+                if k + 1 < p.newton_iterations {
+                    res = self.evaluate(system, t1, dt, v, x, k + 1)?;
+                    info.newton_residuals.push(res.norm);
+                    info.relative_residuals.push(res.relative());
+                }
+                continue;
             }
-            if let Some(dof) = first_non_finite(v) {
-                return Err(IntegrateError::NonFinite {
-                    quantity: "velocity",
-                    dof,
-                    vertex: dof / 3,
-                    iteration: k,
+            // Line search along dv (module docs). `slope = b . dv` is minus the directional
+            // derivative of the incremental potential along dv.
+            let slope: f64 = self.b.iter().zip(&self.dv).map(|(b, d)| b * d).sum();
+            let mode = if energy.is_some() && slope > 0.0 {
+                LineSearch::Energy
+            } else if beta != 0.0 || energy.is_some() {
+                LineSearch::Residual
+            } else {
+                LineSearch::Off
+            };
+            let mut step_length = 1.0;
+            let mut accepted = false;
+            for cut in 0..=MAX_LINE_SEARCH_CUTS {
+                if cut > 0 {
+                    step_length *= 0.5;
+                    info.line_search_cuts += 1;
+                }
+                let mut trial_v = std::mem::take(&mut self.v_trial);
+                for i in 0..n {
+                    trial_v[i] = v[i] + step_length * self.dv[i];
+                }
+                let outcome = self.try_step(
+                    system,
+                    mode,
+                    (t1, dt, k + 1),
+                    &trial_v,
+                    x,
+                    (energy, slope, step_length, &res),
+                    cut == MAX_LINE_SEARCH_CUTS,
+                );
+                self.v_trial = trial_v;
+                if let Some((e1, r)) = outcome? {
+                    v.copy_from_slice(&self.v_trial);
+                    res = r;
+                    energy = match (e1, energy) {
+                        (Some(e1), _) => Some(e1),
+                        // A residual-searched step of a system with a potential: keep the
+                        // energy current for the next iteration.
+                        (None, Some(_)) => self.incremental_potential(system, t1, dt, v, x)?,
+                        (None, None) => None,
+                    };
+                    if let Some(e) = energy {
+                        info.energies.push(e);
+                    }
+                    accepted = true;
+                    break;
+                }
+            }
+            if !accepted {
+                return Err(IntegrateError::NotConverged {
+                    iterations: info.newton_iterations,
+                    residual: res.relative(),
+                    tolerance: p.newton_tolerance,
                 });
             }
+            info.newton_residuals.push(res.norm);
+            info.relative_residuals.push(res.relative());
+        }
+        if paper_mode {
+            // The residual of the result, for the record (not a test: the paper's mode
+            // accepts the step whatever it is).
+            for i in 0..n {
+                x[i] = self.x_n[i] + dt * v[i];
+            }
+            if let Ok(r) = self.evaluate(system, t1, dt, v, x, p.newton_iterations) {
+                res = r;
+            } else {
+                res = Residual {
+                    norm: f64::NAN,
+                    scale: 1.0,
+                    dt,
+                };
+            }
+            info.newton_residuals.push(res.norm);
+            info.relative_residuals.push(res.relative());
+        } else if !newton_converged && res.relative() <= p.newton_tolerance {
+            newton_converged = true;
         }
         for i in 0..n {
             x[i] = self.x_n[i] + dt * v[i];
@@ -643,11 +865,230 @@ impl BackwardEuler {
                 iteration: info.newton_iterations,
             });
         }
-        info.converged &= newton_converged;
+        info.relative_residual = res.relative();
         info.factorizations = (self.solver.factorizations() - factorizations_before) as usize;
+        if !newton_converged {
+            return Err(IntegrateError::NotConverged {
+                iterations: info.newton_iterations,
+                residual: info.relative_residual,
+                tolerance: p.newton_tolerance,
+            });
+        }
+        if !paper_mode {
+            info.converged = true;
+        }
         Ok(info)
     }
 
+    /// One trial of the line search at `v = trial_v` (`ctx = (t1, dt, iteration)`;
+    /// `current = (energy, slope b . dv, step length, residual)` of the current
+    /// iterate). Returns the accepted iterate's incremental potential (energy search) and
+    /// residual, `None` to cut the step, or an error that ends the step. On acceptance the
+    /// system's last force evaluation is at the trial point.
+    #[allow(clippy::too_many_arguments)]
+    fn try_step<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        mode: LineSearch,
+        (t1, dt, iteration): (f64, f64, usize),
+        trial_v: &[f64],
+        x: &mut [f64],
+        (energy, slope, step_length, current): (Option<f64>, f64, f64, &Residual),
+        last_cut: bool,
+    ) -> Result<Option<(Option<f64>, Residual)>, IntegrateError> {
+        if first_non_finite(trial_v).is_some() {
+            return Ok(None);
+        }
+        match (mode, energy) {
+            (LineSearch::Energy, Some(e0)) => {
+                // An undefined energy (inverted element, non-positive volume) counts as
+                // infinite: cut.
+                let e1 = match self.incremental_potential(system, t1, dt, trial_v, x) {
+                    Ok(Some(e)) if e.is_finite() => e,
+                    _ => return Ok(None),
+                };
+                if e1 <= e0 - ARMIJO * step_length * slope {
+                    return self
+                        .evaluate(system, t1, dt, trial_v, x, iteration)
+                        .map(|r| Some((Some(e1), r)));
+                }
+                // Within round-off of the energy (close to convergence the decrease is below
+                // what f64 resolves in E): accept if the residual falls instead.
+                if e1 <= e0 + ENERGY_ROUNDOFF * self.energy_magnitude {
+                    return Ok(match self.evaluate(system, t1, dt, trial_v, x, iteration) {
+                        Ok(r) if r.norm < current.norm => Some((Some(e1), r)),
+                        _ => None,
+                    });
+                }
+                Ok(None)
+            }
+            (LineSearch::Off, _) => self
+                .evaluate(system, t1, dt, trial_v, x, iteration)
+                .map(|r| Some((None, r))),
+            _ => Ok(match self.evaluate(system, t1, dt, trial_v, x, iteration) {
+                Ok(r) if r.norm <= (1.0 - ARMIJO * step_length) * current.norm => Some((None, r)),
+                // The residual search found no decrease: take the shortest step and let the
+                // iteration limit decide.
+                Ok(r) if last_cut => Some((None, r)),
+                _ => None,
+            }),
+        }
+    }
+
+    /// Evaluates the forces at `x = x^n + dt v` (written to `x`) and the Newton right-hand side
+    /// `b` (Eq. 23) into `self.b`, with its norm and the force scale of the relative residual.
+    fn evaluate<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        t1: f64,
+        dt: f64,
+        v: &[f64],
+        x: &mut [f64],
+        iteration: usize,
+    ) -> Result<Residual, IntegrateError> {
+        let n = v.len();
+        let (alpha, beta) = (self.params.mass_damping, self.params.stiffness_damping);
+        for i in 0..n {
+            x[i] = self.x_n[i] + dt * v[i];
+        }
+        if let Some(dof) = first_non_finite(x) {
+            return Err(IntegrateError::NonFinite {
+                quantity: "position",
+                dof,
+                vertex: dof / 3,
+                iteration,
+            });
+        }
+        system
+            .forces(t1, x, &mut self.f)
+            .map_err(|source| IntegrateError::System { iteration, source })?;
+        if let Some(dof) = first_non_finite(&self.f) {
+            return Err(IntegrateError::NonFinite {
+                quantity: "force",
+                dof,
+                vertex: dof / 3,
+                iteration,
+            });
+        }
+        // K v_(k) for stiffness damping.
+        self.kv.fill(0.0);
+        if beta != 0.0 {
+            self.tmp.fill(0.0);
+            system.add_force_differential(v, &mut self.tmp);
+            for i in 0..n {
+                self.kv[i] = -self.tmp[i];
+            }
+        }
+        let m = system.masses();
+        let (mut b2, mut inertia2, mut f2, mut ext2, mut damp2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for i in 0..n {
+            let cv = alpha * m[i] * v[i] + beta * self.kv[i];
+            let inertia = m[i] * (self.v_n[i] - v[i]);
+            self.b[i] = inertia + dt * (self.f[i] + self.f_ext[i] - cv);
+            b2 += self.b[i] * self.b[i];
+            inertia2 += inertia * inertia;
+            f2 += self.f[i] * self.f[i];
+            ext2 += self.f_ext[i] * self.f_ext[i];
+            damp2 += cv * cv;
+        }
+        let internal = system.force_scale().unwrap_or(f2.sqrt());
+        let terms = inertia2.sqrt() / dt + internal + ext2.sqrt() + damp2.sqrt();
+        Ok(Residual {
+            norm: b2.sqrt(),
+            scale: terms.max(self.scale_floor),
+            dt,
+        })
+    }
+
+    /// The incremental potential of the step at `x = x^n + dt v` (written to `x`), in the
+    /// velocity form `m_coef/2 |v - v^n/m_coef|_M^2 + W(x) - dt f_ext . v` (the module docs'
+    /// `E(x)` up to a constant), or `None` when the system has no potential. An error of the
+    /// system (an undefined energy) is returned as such.
+    fn incremental_potential<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        t1: f64,
+        dt: f64,
+        v: &[f64],
+        x: &mut [f64],
+    ) -> Result<Option<f64>, IntegrateError> {
+        let n = v.len();
+        for i in 0..n {
+            x[i] = self.x_n[i] + dt * v[i];
+        }
+        let w = system
+            .potential_energy(t1, x)
+            .map_err(|source| IntegrateError::System {
+                iteration: 0,
+                source,
+            })?;
+        let Some(w) = w else {
+            return Ok(None);
+        };
+        let m_coef = 1.0 + dt * self.params.mass_damping;
+        let m = system.masses();
+        let (mut kinetic, mut external) = (0.0, 0.0);
+        for i in 0..n {
+            let d = v[i] - self.v_n[i] / m_coef;
+            kinetic += m[i] * d * d;
+            external += self.f_ext[i] * v[i];
+        }
+        let kinetic = 0.5 * m_coef * kinetic;
+        let external = dt * external;
+        self.energy_magnitude = kinetic + w.abs() + external.abs();
+        Ok(Some(kinetic + w - external))
+    }
+
+    /// Solves for the Newton direction `dv` (into `self.dv`) at the current iterate, assembling
+    /// `K` first when the solver needs it and retrying an indefinite matrix with a mass shift.
+    fn newton_direction<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        m_coef: f64,
+        k_coef: f64,
+        k: usize,
+        info: &mut StepInfo,
+    ) -> Result<SolveInfo, IntegrateError> {
+        if self.solver.needs_assembled_matrix() {
+            self.triplets.clear();
+            self.use_blocks = system.stiffness_blocks().is_some()
+                && system
+                    .add_remaining_stiffness_triplets(&mut self.triplets)
+                    .is_ok();
+            if !self.use_blocks {
+                self.triplets.clear();
+                system
+                    .add_stiffness_triplets(&mut self.triplets)
+                    .map_err(|source| IntegrateError::System {
+                        iteration: k,
+                        source,
+                    })?;
+            }
+        }
+        let mut shift = 0.0;
+        let mut retries = 0;
+        loop {
+            match self.solve(system, m_coef + shift, k_coef) {
+                Ok(lin) => return Ok(lin),
+                Err(err)
+                    if err.is_indefinite()
+                        && self.params.regularize_indefinite
+                        && retries < MAX_REGULARIZATION_RETRIES =>
+                {
+                    shift = next_shift(shift, m_coef, &err, system.masses());
+                    retries += 1;
+                    info.regularized_solves += 1;
+                    info.max_regularization = info.max_regularization.max(shift);
+                }
+                Err(source) => {
+                    return Err(IntegrateError::Linear {
+                        iteration: k,
+                        source,
+                    });
+                }
+            }
+        }
+    }
     /// Solves `(m_coef M + k_coef K) dv = b` with the linear solver, assembling `A` first when
     /// the solver needs it (the triplets of `K` are already in `self.triplets` then).
     fn solve<S: ForceSystem>(
@@ -877,6 +1318,9 @@ mod tests {
         }
         fn low_rank_terms(&self) -> &[LowRankTerm] {
             &self.low_rank
+        }
+        fn potential_energy(&mut self, _t: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+            Ok(Some(self.energy(x)))
         }
         fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
             if !self.offers_diagonal {
@@ -1429,5 +1873,275 @@ mod tests {
         let (mut x, mut v) = (Chain::positions(8, 2), Rng::new(1).vector(24));
         let info = be.step(&mut sys, 0.0, 0.01, &mut x, &mut v, None).unwrap();
         assert!(!info.converged && info.linear_residuals[0] > 1e-12);
+    }
+
+    /// Particles on stiff saturating springs to the origin, per coordinate
+    /// `W = k l^2 (sqrt(1 + (x/l)^2) - 1)`: the force saturates at `k l` far from rest, so the
+    /// quadratic model of Newton overshoots there (a full step from `x` lands near `-x^3/l^2`).
+    /// `.potential` says whether it reports its energy.
+    #[derive(Debug, Clone)]
+    struct Saturating {
+        masses: Vec<f64>,
+        k: f64,
+        l: f64,
+        x: Vec<f64>,
+        potential: bool,
+    }
+
+    impl Saturating {
+        fn new(potential: bool) -> Self {
+            Self {
+                masses: vec![1e-3; 3],
+                k: 1e4,
+                l: 0.01,
+                x: vec![0.0; 3],
+                potential,
+            }
+        }
+    }
+
+    impl ForceSystem for Saturating {
+        fn num_dofs(&self) -> usize {
+            3
+        }
+        fn masses(&self) -> &[f64] {
+            &self.masses
+        }
+        fn forces(&mut self, _t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+            self.x.copy_from_slice(x);
+            for (f, x) in f.iter_mut().zip(x) {
+                *f = -self.k * x / (1.0 + (x / self.l).powi(2)).sqrt();
+            }
+            Ok(())
+        }
+        fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+            for ((df, dx), x) in df.iter_mut().zip(dx).zip(&self.x) {
+                *df -= self.k / (1.0 + (x / self.l).powi(2)).powf(1.5) * dx;
+            }
+        }
+        fn add_stiffness_triplets(
+            &self,
+            t: &mut Vec<(usize, usize, f64)>,
+        ) -> Result<(), SystemError> {
+            for (i, x) in self.x.iter().enumerate() {
+                t.push((i, i, self.k / (1.0 + (x / self.l).powi(2)).powf(1.5)));
+            }
+            Ok(())
+        }
+        fn potential_energy(&mut self, _t: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+            Ok(self.potential.then(|| {
+                x.iter()
+                    .map(|x| self.k * self.l * self.l * ((1.0 + (x / self.l).powi(2)).sqrt() - 1.0))
+                    .sum()
+            }))
+        }
+    }
+
+    fn converging(kind: LinearSolverKind, iters: usize, tol: f64) -> BackwardEulerParams {
+        BackwardEulerParams {
+            newton_tolerance: tol,
+            ..params(kind, iters)
+        }
+    }
+
+    #[test]
+    fn saturating_spring_potential_matches_its_forces() {
+        let mut sys = Saturating::new(true);
+        let x = vec![0.03, -0.002, 0.011];
+        balloon_test_support::check_gradient(
+            |x| sys.clone().potential_energy(0.0, x).unwrap().unwrap(),
+            |x| {
+                let mut f = vec![0.0; 3];
+                sys.clone().forces(0.0, x, &mut f).unwrap();
+                f.iter().map(|v| -v).collect()
+            },
+            &x,
+            1e-7,
+            1e-6,
+        );
+        let mut f = vec![0.0; 3];
+        sys.forces(0.0, &x, &mut f).unwrap();
+    }
+
+    #[test]
+    fn line_search_converges_where_full_newton_steps_overshoot() {
+        // Far out on the saturating spring (30 l) with a large step (k dt^2 / m = 1e3): the
+        // full Newton step flies to the other side, farther out each time.
+        let dt = 0.01;
+        let x0 = vec![0.3, -0.2, 0.25];
+        for kind in [LinearSolverKind::Cholesky, LinearSolverKind::MatrixFreeCg] {
+            // With the energy line search: converged, every accepted iterate lowers E.
+            let mut sys = Saturating::new(true);
+            let mut be = BackwardEuler::new(converging(kind, 100, 1e-10));
+            let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
+            let info = be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).unwrap();
+            assert!(
+                info.converged && info.relative_residual <= 1e-10,
+                "{info:?}"
+            );
+            assert!(
+                info.line_search_cuts > 0,
+                "{kind}: no cut was needed: {info:?}"
+            );
+            assert_eq!(info.energies.len(), info.newton_iterations + 1, "{info:?}");
+            for w in info.energies.windows(2) {
+                assert!(w[1] < w[0], "{kind}: energy rose: {:?}", info.energies);
+            }
+            // The result is the backward Euler solution: m (x - x0) / dt^2 = f(x).
+            let mut f = vec![0.0; 3];
+            sys.forces(0.0, &x, &mut f).unwrap();
+            for c in 0..3 {
+                let r = 1e-3 * (x[c] - x0[c]) / (dt * dt) - f[c];
+                assert!(r.abs() < 1e-8 * sys.k * sys.l, "{kind}: residual {r}");
+            }
+            // Without a potential (full Newton steps) it does not converge at all.
+            let mut sys = Saturating::new(false);
+            let mut be = BackwardEuler::new(converging(kind, 100, 1e-10));
+            let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
+            let e = be
+                .step(&mut sys, 0.0, dt, &mut x, &mut v, None)
+                .unwrap_err();
+            assert!(
+                matches!(
+                    e,
+                    IntegrateError::NotConverged { .. } | IntegrateError::NonFinite { .. }
+                ),
+                "{kind}: {e}"
+            );
+            // Nor does the paper's mode: its residual after many full steps is large.
+            let mut sys = Saturating::new(true);
+            let mut be = BackwardEuler::new(params(kind, 8));
+            let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
+            match be.step(&mut sys, 0.0, dt, &mut x, &mut v, None) {
+                Ok(info) => assert!(
+                    info.relative_residual.is_nan() || info.relative_residual >= 1e-2,
+                    "{kind}: {info:?}"
+                ),
+                Err(e) => assert!(matches!(e, IntegrateError::NonFinite { .. }), "{e}"),
+            }
+        }
+    }
+
+    #[test]
+    fn line_searched_newton_decreases_the_incremental_potential_on_the_chain() {
+        // The nonlinear chain with gravity, mass damping and external forces, with the exact
+        // incremental potential recomputed independently here.
+        let nv = 8;
+        let (dt, alpha) = (0.05, 3.0);
+        let g = [0.0, -9.81, 0.0];
+        let ext = Rng::new(12).vector(3 * nv);
+        let mut sys = Chain::new(nv, true, 5);
+        let mut be = BackwardEuler::new(BackwardEulerParams {
+            mass_damping: alpha,
+            gravity: g,
+            ..converging(LinearSolverKind::Cholesky, 50, 1e-9)
+        });
+        let x0: Vec<f64> = Chain::positions(nv, 6).iter().map(|v| 1.5 * v).collect();
+        let v0: Vec<f64> = Rng::new(7).vector(3 * nv).iter().map(|v| 3.0 * v).collect();
+        let (mut x, mut v) = (x0.clone(), v0.clone());
+        let info = be
+            .step(&mut sys, 0.0, dt, &mut x, &mut v, Some(&ext))
+            .unwrap();
+        assert!(info.converged && info.relative_residual <= 1e-9, "{info:?}");
+        // Non-increasing up to the round-off of E (the last iterates agree to ~1e-16).
+        assert!(
+            info.energies
+                .windows(2)
+                .all(|w| w[1] <= w[0] + 1e-14 * w[0].abs()),
+            "{info:?}"
+        );
+        assert!(info.energies[1] < info.energies[0]);
+        // E(x) of the module docs at the result is the minimum along random directions.
+        let m_coef = 1.0 + dt * alpha;
+        let e = |x: &[f64]| {
+            let mut total = sys.energy(x);
+            for i in 0..x.len() {
+                let m = sys.masses[i];
+                let d = x[i] - x0[i] - dt * v0[i] / m_coef;
+                total += m_coef / (2.0 * dt * dt) * m * d * d;
+                total -= (m * g[i % 3] + ext[i]) * x[i];
+            }
+            total
+        };
+        let e_min = e(&x);
+        for seed in 0..4 {
+            let d = Rng::new(100 + seed).vector(x.len());
+            for h in [1e-4, -1e-4] {
+                let xs: Vec<f64> = x.iter().zip(&d).map(|(a, b)| a + h * b).collect();
+                assert!(e(&xs) > e_min, "not a minimum along direction {seed}");
+            }
+        }
+        // The recorded energies differ from E(x) by a constant: their drop is E's drop.
+        let e_first = e(&x0
+            .iter()
+            .zip(&v0)
+            .map(|(x, v)| x + dt * v)
+            .collect::<Vec<_>>());
+        let drop = info.energies[0] - info.energies.last().unwrap();
+        assert!(
+            (drop - (e_first - e_min)).abs() < 1e-8 * drop.abs().max(1e-12),
+            "{drop} vs {}",
+            e_first - e_min
+        );
+    }
+
+    #[test]
+    fn too_few_iterations_are_not_converged_and_bounds_are_checked() {
+        let nv = 6;
+        let mut sys = Chain::new(nv, true, 3);
+        let mut be = BackwardEuler::new(converging(LinearSolverKind::Cholesky, 1, 1e-12));
+        let (mut x, mut v) = (Chain::positions(nv, 4), Rng::new(5).vector(3 * nv));
+        let e = be
+            .step(&mut sys, 0.0, 0.05, &mut x, &mut v, None)
+            .unwrap_err();
+        match e {
+            IntegrateError::NotConverged {
+                iterations,
+                residual,
+                tolerance,
+            } => {
+                assert_eq!(iterations, 1);
+                assert!(residual > tolerance && residual.is_finite());
+            }
+            e => panic!("{e}"),
+        }
+        assert!(e.to_string().contains("did not converge"), "{e}");
+        // Stiffness damping (no potential): the residual search still converges.
+        let mut be = BackwardEuler::new(BackwardEulerParams {
+            stiffness_damping: 0.01,
+            ..converging(LinearSolverKind::Cholesky, 30, 1e-10)
+        });
+        let (mut x, mut v) = (Chain::positions(nv, 4), Rng::new(5).vector(3 * nv));
+        let info = be.step(&mut sys, 0.0, 0.05, &mut x, &mut v, None).unwrap();
+        assert!(info.energies.is_empty() && info.relative_residual <= 1e-10);
+        for bad in [0, MAX_NEWTON_ITERATIONS + 1] {
+            let mut be = BackwardEuler::new(converging(LinearSolverKind::Cholesky, bad, 1e-8));
+            let e = be
+                .step(&mut sys, 0.0, 0.05, &mut x, &mut v, None)
+                .unwrap_err();
+            assert!(e.to_string().contains("newton_iterations"), "{e}");
+        }
+    }
+
+    #[test]
+    fn the_relative_residual_does_not_depend_on_units() {
+        // The same step in metres and in millimetres (forces scale with the length, masses
+        // stay): the relative residuals agree.
+        let run = |scale: f64| {
+            let mut sys = Saturating::new(true);
+            sys.l *= scale;
+            let mut be = BackwardEuler::new(converging(LinearSolverKind::Cholesky, 100, 1e-10));
+            let mut x: Vec<f64> = [0.03, -0.02, 0.025].iter().map(|v| v * scale).collect();
+            let mut v = vec![0.0; 3];
+            be.step(&mut sys, 0.0, 0.01, &mut x, &mut v, None)
+                .unwrap()
+                .relative_residuals
+        };
+        let (a, b) = (run(1.0), run(1e3));
+        assert_eq!(a.len(), b.len());
+        // Equal down to where round-off takes over.
+        for (a, b) in a.iter().zip(&b).filter(|(a, _)| **a > 1e-10) {
+            assert!((a - b).abs() <= 1e-6 * a, "{a} vs {b}");
+        }
     }
 }

@@ -239,4 +239,28 @@ pub trait ForceSystem {
     fn low_rank_terms(&self) -> &[LowRankTerm] {
         &[]
     }
+
+    /// The potential energy `W(x)` (J) whose negative gradient is [`ForceSystem::forces`] at the
+    /// same `time` (`f = -dW/dx`), or `Ok(None)` (the default) for a system that has none.
+    ///
+    /// With a potential, [`crate::implicit::BackwardEuler`] minimises the incremental potential
+    /// of the step with an Armijo line search on it; without one it falls back to a line search
+    /// on the residual norm. The value may carry any constant offset, but the offset must not
+    /// change between calls within a step. Must not change what the last
+    /// [`ForceSystem::forces`] call linearised about (no side effects on the tangent).
+    /// A state where the energy is undefined (an inverted element, a non-positive gas volume)
+    /// is an error, which the line search treats as an infinite energy.
+    fn potential_energy(&mut self, time: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+        let _ = (time, x);
+        Ok(None)
+    }
+
+    /// A typical magnitude (N, a Euclidean norm over the degrees of freedom) of the internal
+    /// forces at the last [`ForceSystem::forces`] call, summed over parts that may cancel each
+    /// other (e.g. the elastic and the pressure forces of an inflated balloon at rest, which
+    /// balance). Used only to scale Newton's relative residual; the default `None` uses the norm
+    /// of the total force.
+    fn force_scale(&self) -> Option<f64> {
+        None
+    }
 }

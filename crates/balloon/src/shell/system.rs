@@ -38,6 +38,8 @@ pub struct ShellSystem<M: Material, G: GasModel> {
     x_lin: Vec<f64>,
     /// Exact element Hessians, or projected onto the PSD cone (projected Newton).
     tangent: TangentKind,
+    /// `|f_elastic| + |f_gas|` at the last evaluation, N ([`ForceSystem::force_scale`]).
+    force_scale: f64,
 }
 
 impl<M: Material, G: GasModel> ShellSystem<M, G> {
@@ -83,6 +85,7 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
             elem_stiffness: vec![[0.0; 81]; ne],
             x_lin: Vec::new(),
             tangent: TangentKind::Exact,
+            force_scale: 0.0,
         }
     }
 
@@ -90,14 +93,62 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
         t.map(|v| Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]))
     }
 
-    /// Total elastic energy at positions `x` (J), for diagnostics and tests.
+    /// A copy with the same state (the system is not `Clone` because the material need not
+    /// be).
+    #[cfg(test)]
+    pub(crate) fn clone_for_tests(&self) -> Self
+    where
+        M: Clone,
+        G: Clone,
+    {
+        Self {
+            triangles: self.triangles.clone(),
+            elements: self.elements.clone(),
+            thickness: self.thickness.clone(),
+            material: self.material.clone(),
+            gas: self.gas.clone(),
+            masses: self.masses.clone(),
+            incident_offsets: self.incident_offsets.clone(),
+            incident: self.incident.clone(),
+            elem_forces: self.elem_forces.clone(),
+            elem_stiffness: self.elem_stiffness.clone(),
+            x_lin: self.x_lin.clone(),
+            tangent: self.tangent,
+            force_scale: self.force_scale,
+        }
+    }
+
+    /// Total elastic energy at positions `x` (J): `sum_e V_e Psi(F_e)` (seed 000, Eq. 6-7), the
+    /// energy whose negative gradient are the elastic forces (Eq. 8).
     pub fn elastic_energy(&self, x: &[f64]) -> f64 {
-        self.elements
-            .iter()
-            .zip(&self.triangles)
-            .zip(&self.thickness)
-            .map(|((el, t), &h)| el.energy(&self.material, &Self::corner_positions(x, t), h))
-            .sum()
+        let energy = |((el, t), &h): ((&ThreePrism, &[usize; 3]), &f64)| {
+            el.energy(&self.material, &Self::corner_positions(x, t), h)
+        };
+        if self.elements.len() >= PARALLEL_THRESHOLD {
+            self.elements
+                .par_iter()
+                .zip(self.triangles.par_iter())
+                .zip(self.thickness.par_iter())
+                .map(energy)
+                .sum()
+        } else {
+            self.elements
+                .iter()
+                .zip(&self.triangles)
+                .zip(&self.thickness)
+                .map(energy)
+                .sum()
+        }
+    }
+
+    /// Potential energy of the gas at `x` and `time`, J: `Phi(V, t) + p_ambient V` (the
+    /// isothermal gas `-p0 V0 ln V`, the constant pressure `-p V`, the pump `-nRT(t) ln V`,
+    /// see `balloon_gas::GasModel::potential`), whose negative gradient are the pressure forces
+    /// (Eq. 15); `None` for a gas model without a potential.
+    pub fn gas_energy(&self, time: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+        self.gas
+            .potential_at(time, x, &self.triangles)
+            .map_err(|e| SystemError::component("gas", e))
     }
 
     /// Gathers per-element corner values into per-vertex sums: `out[3v..3v+3] = sum value(e, l)`.
@@ -200,9 +251,21 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
         f.iter_mut().for_each(|v| *v = 0.0);
         let forces = &self.elem_forces;
         self.gather(f, |e, l| forces[e][l]);
+        let elastic = f.iter().map(|v| v * v).sum::<f64>().sqrt();
         self.gas
             .evaluate(time, x, &self.triangles, f)
             .map_err(|e| SystemError::component("gas", e))?;
+        // The pressure force is gauge * dV/dx (Eq. 15).
+        let gas = self.gas.state().gauge_pressure.abs()
+            * self
+                .gas
+                .low_rank_term()
+                .vector
+                .iter()
+                .map(|v| v * v)
+                .sum::<f64>()
+                .sqrt();
+        self.force_scale = elastic + gas;
         self.x_lin.clear();
         self.x_lin.extend_from_slice(x);
         Ok(())
@@ -276,6 +339,39 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
 
     fn low_rank_terms(&self) -> &[LowRankTerm] {
         std::slice::from_ref(self.gas.low_rank_term())
+    }
+
+    /// Elastic plus gas energy, [`ShellSystem::elastic_energy`] + [`ShellSystem::gas_energy`]
+    /// (`None` when the gas has no potential). An element whose energy is not finite
+    /// (inverted or degenerate) is [`SystemError::InvertedElement`].
+    fn potential_energy(&mut self, time: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+        let Some(gas) = self.gas_energy(time, x)? else {
+            return Ok(None);
+        };
+        let elastic = self.elastic_energy(x);
+        if !elastic.is_finite() {
+            let e = self
+                .elements
+                .iter()
+                .zip(&self.triangles)
+                .zip(&self.thickness)
+                .position(|((el, t), &h)| {
+                    !el.energy(&self.material, &Self::corner_positions(x, t), h)
+                        .is_finite()
+                })
+                .unwrap_or(0);
+            return Err(SystemError::InvertedElement {
+                element: e,
+                detail: format!("non-finite elastic energy {elastic:e} J"),
+            });
+        }
+        Ok(Some(elastic + gas))
+    }
+
+    /// `|f_elastic| + |f_gas|` (N) at the last evaluation: the two balance at an inflated rest
+    /// shape, where `|f|` alone is round-off.
+    fn force_scale(&self) -> Option<f64> {
+        Some(self.force_scale)
     }
 }
 
@@ -411,5 +507,61 @@ mod tests {
             "exact tangent should be indefinite: {min_eig:?}"
         );
         assert!(min_eig[1] > -1e-9, "projected tangent not PSD: {min_eig:?}");
+    }
+
+    /// The potential's gradient is minus the forces (elastic + gas) for every gas model, at
+    /// zero and standard ambient pressure, and with anchor springs on top (finite differences
+    /// on a deformed state, at the time the pump has pumped for a while).
+    #[test]
+    fn potential_energy_gradient_is_minus_the_forces_for_every_gas() {
+        use crate::shell::{AnchorSpring, WithAnchors};
+        use balloon_test_support::{Rng, check_gradient};
+        let mesh = icosphere(0.1, 1).unwrap();
+        let time = 0.3;
+        for kind in [GasKind::Ideal, GasKind::Constant, GasKind::Pump] {
+            for ambient in [0.0, crate::gas::STANDARD_ATMOSPHERE] {
+                if kind == GasKind::Pump && ambient == 0.0 {
+                    continue; // the pump starts from the ambient pressure
+                }
+                let sim = ShellBalloon::new(mesh.clone())
+                    .with_gas(kind)
+                    .with_ambient_pressure(ambient)
+                    .with_gauge_pressure(1500.0)
+                    .build()
+                    .unwrap();
+                let mut rng = Rng::new(7);
+                let x: Vec<f64> = sim
+                    .positions()
+                    .iter()
+                    .map(|v| 1.15 * v + 0.004 * rng.next_f64())
+                    .collect();
+                let springs = [AnchorSpring {
+                    vertex: 3,
+                    anchor: [0.2, -0.1, 0.05],
+                    stiffness: 50.0,
+                }];
+                for anchored in [false, true] {
+                    let energy = |x: &[f64]| {
+                        let mut sys = sim.system.clone_for_tests();
+                        let mut with = WithAnchors {
+                            inner: &mut sys,
+                            springs: if anchored { &springs[..] } else { &[] },
+                        };
+                        with.potential_energy(time, x).unwrap().unwrap()
+                    };
+                    let grad = |x: &[f64]| {
+                        let mut sys = sim.system.clone_for_tests();
+                        let mut with = WithAnchors {
+                            inner: &mut sys,
+                            springs: if anchored { &springs[..] } else { &[] },
+                        };
+                        let mut f = vec![0.0; x.len()];
+                        with.forces(time, x, &mut f).unwrap();
+                        f.iter().map(|v| -v).collect::<Vec<_>>()
+                    };
+                    check_gradient(energy, grad, &x, 1e-7, 1e-6);
+                }
+            }
+        }
     }
 }
