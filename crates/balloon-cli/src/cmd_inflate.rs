@@ -85,9 +85,18 @@ pub struct InflateArgs {
     /// Relative per-step volume change tolerance for --until-converged.
     #[arg(long, default_value_t = 1e-6)]
     pub volume_tol: f64,
-    /// Newton iterations per step (the paper uses 3).
-    #[arg(long, default_value_t = 3)]
+    /// Maximum Newton iterations per (sub-)step, 1 to 1000. Newton stops earlier when the
+    /// relative residual is below --newton-tol; a step that does not get there is retried with
+    /// dt halved. The paper's mode is `--newton-iters 3 --newton-tol 0`.
+    #[arg(long, default_value_t = balloon::integrate::implicit::DEFAULT_NEWTON_ITERATIONS,
+          value_parser = parse_newton_iters)]
     pub newton_iters: usize,
+    /// Newton's convergence test: the residual of backward Euler relative to the force scale
+    /// of the step (inertia, elastic, gas and external forces). 0 is the paper's mode: exactly
+    /// --newton-iters full Newton steps, no line search and no convergence test.
+    #[arg(long, default_value_t = balloon::integrate::implicit::DEFAULT_NEWTON_TOLERANCE,
+          value_parser = parse_newton_tol)]
+    pub newton_tol: f64,
     /// Linear solver: `cholesky` (sparse direct, with Sherman-Morrison for the gas term),
     /// `pcg` (assembled matrix, see --pcg-preconditioner), `factorized-pcg` (CG preconditioned
     /// by a Cholesky factor reused across Newton iterations and steps; needs --tangent
@@ -168,6 +177,14 @@ pub struct InflateSummary {
     pub linear_iterations_total: usize,
     /// Steps that had to be split into smaller sub-steps after a numerical failure.
     pub split_steps: usize,
+    /// Newton's relative-residual tolerance of the run (0: the paper's fixed iterations).
+    pub newton_tolerance: f64,
+    /// Largest final relative Newton residual of any accepted step.
+    pub newton_residual_max: f64,
+    /// Line-search cuts over the run.
+    pub line_search_cuts_total: usize,
+    /// Smallest sub-step taken, s.
+    pub min_dt_used: f64,
     /// Mean, min and max final thickness, m.
     pub final_thickness_mean: f64,
     /// Minimum final thickness, m.
@@ -248,6 +265,13 @@ impl<M: Material> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
         s.newton_iterations_total += d.newton_iterations;
         s.linear_iterations_total += d.linear_iterations;
         s.split_steps += usize::from(d.substeps > 1);
+        s.newton_residual_max = s.newton_residual_max.max(d.newton_residual);
+        s.line_search_cuts_total += d.line_search_cuts;
+        s.min_dt_used = if s.min_dt_used > 0.0 {
+            s.min_dt_used.min(d.dt_used)
+        } else {
+            d.dt_used
+        };
         s.shell_volume_ratio_max_deviation = s
             .shell_volume_ratio_max_deviation
             .max((d.shell_volume_ratio - 1.0).abs());
@@ -328,6 +352,25 @@ impl<M: Material> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
     }
 }
 
+/// `--newton-iters`: a whole number from 1 to `MAX_NEWTON_ITERATIONS`.
+fn parse_newton_iters(s: &str) -> Result<usize, String> {
+    let max = balloon::integrate::implicit::MAX_NEWTON_ITERATIONS;
+    match s.trim().parse::<usize>() {
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
+        _ => Err(format!("`{s}` is not a whole number from 1 to {max}")),
+    }
+}
+
+/// `--newton-tol`: a finite number >= 0 (0: the paper's fixed iterations).
+fn parse_newton_tol(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(t) if t.is_finite() && t >= 0.0 => Ok(t),
+        _ => Err(format!(
+            "`{s}` is not a finite tolerance >= 0 (0 runs the paper's fixed iterations)"
+        )),
+    }
+}
+
 /// Runs `balloon inflate`.
 pub fn run(args: InflateArgs) -> Result<()> {
     let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
@@ -349,7 +392,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
         .context("invalid --young / --poisson")?;
     let integrator = BackwardEulerParams {
         newton_iterations: args.newton_iters,
-        newton_tolerance: 0.0,
+        newton_tolerance: args.newton_tol,
         linear: LinearSolverParams {
             kind: args.linear_solver,
             max_iterations: args.cg_max_iters,
@@ -410,6 +453,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
             material: args.material.to_string(),
             linear_solver: args.linear_solver.to_string(),
             tangent: args.tangent.to_string(),
+            newton_tolerance: args.newton_tol,
             ..Default::default()
         },
         total_ms: 0.0,
