@@ -232,13 +232,13 @@ impl CellVolumeConstraints {
             ws.regularisation.fill(1e-14 * max_diag);
             ws.assembler
                 .assemble(&ws.regularisation, 1.0, &ws.triplets, 1.0)
-                .map_err(|e| solve_error(iteration, &e.to_string()))?;
+                .map_err(|source| CellVolumeError::GlobalSolve { iteration, source })?;
             ws.cholesky
                 .factorize(ws.assembler.matrix(), ws.assembler.pattern_version())
-                .map_err(|e| solve_error(iteration, &e.to_string()))?;
+                .map_err(|source| CellVolumeError::GlobalSolve { iteration, source })?;
             ws.cholesky
                 .solve_in_place(&mut ws.residual)
-                .map_err(|e| solve_error(iteration, &e.to_string()))?;
+                .map_err(|source| CellVolumeError::GlobalSolve { iteration, source })?;
             // dx = -W J^T lambda.
             for (i, dx) in ws.step.iter_mut().enumerate() {
                 let mut s = Vector3::zeros();
@@ -290,13 +290,6 @@ impl CellVolumeConstraints {
             max_error: error,
             cell: worst,
         })
-    }
-}
-
-fn solve_error(iteration: usize, detail: &str) -> CellVolumeError {
-    CellVolumeError::GlobalSolve {
-        iteration,
-        detail: detail.to_string(),
     }
 }
 
@@ -514,5 +507,29 @@ mod tests {
             matches!(e, CellVolumeError::Inverted { cell: 0, .. }),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_failed_global_factorisation_keeps_the_linear_solver_error_as_its_source() {
+        // Negative masses make J W J^T negative definite: the Cholesky factorisation of the
+        // first Newton iteration fails, and the linear solver's own error is the source.
+        let (x0, cells, tets) = cube(2);
+        let c = CellVolumeConstraints::new(cells, tets, &x0, params(CellSolver::Global)).unwrap();
+        let mut x: Vec<Point3<f64>> = x0.iter().map(|p| p * 1.01).collect();
+        let mut v = vec![Vector3::zeros(); x.len()];
+        let e = c
+            .project(&mut x, &mut v, &vec![-1.0; x0.len()], 1e-2)
+            .unwrap_err();
+        let CellVolumeError::GlobalSolve { iteration, source } = &e else {
+            panic!("expected a global solve failure, got {e}");
+        };
+        assert_eq!(*iteration, 1);
+        assert!(source.is_indefinite(), "{source}");
+        let dyn_source = std::error::Error::source(&e).expect("the solve error is the source");
+        assert_eq!(
+            dyn_source.downcast_ref::<balloon_linalg::SolveError>(),
+            Some(source)
+        );
+        assert!(e.to_string().contains("Newton iteration 1"), "{e}");
     }
 }

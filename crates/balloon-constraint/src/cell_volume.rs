@@ -162,12 +162,13 @@ pub enum CellVolumeError {
     },
     /// The sparse linear solve of the global solver failed (e.g. a degenerate lattice whose
     /// constraint gradients are dependent).
-    #[error("global cell-volume solve failed at Newton iteration {iteration}: {detail}")]
+    #[error("global cell-volume solve failed at Newton iteration {iteration}: {source}")]
     GlobalSolve {
         /// Newton iteration (1-based).
         iteration: usize,
-        /// What the linear solver reported.
-        detail: String,
+        /// What the linear solver reported (assembly, factorisation or solve).
+        #[source]
+        source: balloon_linalg::SolveError,
     },
     /// Invalid parameter.
     #[error("invalid parameter `{name}` = {value}: {reason}")]

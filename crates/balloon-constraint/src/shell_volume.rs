@@ -70,13 +70,30 @@ pub enum ShellVolumeError {
         /// Iteration at which it was detected.
         iteration: usize,
     },
-    /// A triangle has (near-)zero area, or its thickness became non-positive or non-finite.
-    #[error("element {element} is degenerate: {detail}")]
-    DegenerateElement {
+    /// A triangle has (near-)zero area (or a non-finite one) compared with its edges.
+    #[error(
+        "element {element} is degenerate: triangle area {area:e} m^2 with edge lengths {edge_a:e} m and {edge_b:e} m"
+    )]
+    DegenerateTriangle {
         /// Element (triangle) index.
         element: usize,
-        /// Numbers that explain it.
-        detail: String,
+        /// Its area (m^2).
+        area: f64,
+        /// Length of its edge from vertex 0 to vertex 1 (m).
+        edge_a: f64,
+        /// Length of its edge from vertex 0 to vertex 2 (m).
+        edge_b: f64,
+    },
+    /// An element's thickness would become (or became, after the projection) non-positive or
+    /// non-finite.
+    #[error("element {element} is degenerate: thickness {thickness:e} m (area {area:e} m^2)")]
+    BadThickness {
+        /// Element (triangle) index.
+        element: usize,
+        /// The offending thickness (m).
+        thickness: f64,
+        /// The element's area (m^2).
+        area: f64,
     },
     /// A triangle refers to a vertex that does not exist.
     #[error(
@@ -197,14 +214,11 @@ fn doubled_area_normal(
     let n2 = n.norm_squared();
     let scale = e12.norm_squared() * e13.norm_squared();
     if !n2.is_finite() || n2 <= 1e-24 * scale || n2 == 0.0 {
-        return Err(ShellVolumeError::DegenerateElement {
+        return Err(ShellVolumeError::DegenerateTriangle {
             element,
-            detail: format!(
-                "triangle area {:e} m^2 with edge lengths {:e} m and {:e} m",
-                0.5 * n2.sqrt(),
-                e12.norm(),
-                e13.norm()
-            ),
+            area: 0.5 * n2.sqrt(),
+            edge_a: e12.norm(),
+            edge_b: e13.norm(),
         });
     }
     Ok(n)
@@ -400,9 +414,10 @@ impl ShellVolumeProjection {
             let area = 0.5 * doubled_area_normal(x, t, e)?.norm();
             let h = v0 / area;
             if !h.is_finite() {
-                return Err(ShellVolumeError::DegenerateElement {
+                return Err(ShellVolumeError::BadThickness {
                     element: e,
-                    detail: format!("thickness would become {h:e} m (area {area:e} m^2)"),
+                    thickness: h,
+                    area,
                 });
             }
             before += area * thickness[e];
@@ -621,9 +636,10 @@ impl ShellVolumeProjection {
                 let h = ve / (0.5 * n.norm());
                 if !(h.is_finite() && h > 0.0) {
                     x.copy_from_slice(&self.x_backup);
-                    return Err(ShellVolumeError::DegenerateElement {
+                    return Err(ShellVolumeError::BadThickness {
                         element: e,
-                        detail: format!("thickness became {h:e} m after projection"),
+                        thickness: h,
+                        area: 0.5 * n.norm(),
                     });
                 }
                 // Stage h (the gradient scratch is free now); write only once all pass.
@@ -875,11 +891,23 @@ mod tests {
         let e = proj
             .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
             .unwrap_err();
+        let ShellVolumeError::DegenerateTriangle {
+            element,
+            area,
+            edge_a,
+            edge_b,
+        } = e
+        else {
+            panic!("expected a degenerate triangle, got {e}");
+        };
+        assert_eq!(area, 0.0);
+        assert!(edge_a >= 0.0 && edge_b >= 0.0);
         assert!(
-            matches!(e, ShellVolumeError::DegenerateElement { .. }),
+            e.to_string().contains(&format!(
+                "element {element} is degenerate: triangle area 0e0"
+            )),
             "{e}"
         );
-        assert!(e.to_string().contains("element"));
         let mut s = rest_shell(1);
         for v in &mut s.x {
             *v *= 1.5;
@@ -985,7 +1013,40 @@ mod tests {
         let e = proj
             .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
             .unwrap_err();
-        assert!(e.to_string().contains("element"), "{e}");
+        assert!(
+            matches!(e, ShellVolumeError::DegenerateTriangle { element: 3, .. }),
+            "{e}"
+        );
+        assert!(e.to_string().contains("element 3"), "{e}");
         assert_eq!(s.h, h0, "thickness untouched on failure");
+    }
+
+    #[test]
+    fn a_rest_volume_that_makes_the_thickness_infinite_is_reported_with_its_numbers() {
+        let mut s = rest_shell(1);
+        let mut volumes = element_volumes(&s);
+        volumes[2] = f64::MAX;
+        let params = ShellVolumeParams {
+            scope: ProjectionScope::PerElement,
+            ..Default::default()
+        };
+        let mut proj = ShellVolumeProjection::new(params).with_rest_element_volumes(volumes);
+        let e = proj
+            .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
+            .unwrap_err();
+        let ShellVolumeError::BadThickness {
+            element: 2,
+            thickness,
+            area,
+        } = e
+        else {
+            panic!("expected a bad thickness of element 2, got {e}");
+        };
+        assert!(thickness.is_infinite() && area > 0.0);
+        assert!(
+            e.to_string()
+                .contains(&format!("thickness inf m (area {area:e} m^2)")),
+            "{e}"
+        );
     }
 }

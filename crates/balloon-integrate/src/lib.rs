@@ -6,6 +6,10 @@
 //! Euler, midpoint or RK4 (seed 004, Ch. 5).
 //!
 //! **Not for:** knowing what the forces are. Nothing here knows about balloons, meshes or gas.
+//!
+//! Features: `parallel` (default on) forwards to `balloon-linalg/parallel`, so that
+//! `BackwardEulerParams::parallel_factorization` can run the sparse Cholesky factorisation on
+//! the rayon pool; without it the factorisation always runs on the calling thread.
 
 pub mod explicit;
 pub mod implicit;

@@ -21,7 +21,7 @@
 //! dense or general non-symmetric linear algebra (use nalgebra or faer directly), or
 //! eigenproblems.
 //!
-//! The `parallel` feature (default on) lets the numeric Cholesky factorisation run on the rayon
+//! Features: `parallel` (default on) lets the numeric Cholesky factorisation run on the rayon
 //! thread pool when asked to; without it everything runs on the calling thread.
 //!
 //! ```

@@ -8,6 +8,10 @@
 //!
 //! **Not for:** physics. Nothing here knows about materials, forces or time.
 //!
+//! Features: `parallel` (default on) runs the lattice generator's loops on rayon and makes
+//! [`parallel::prelude`] rayon's prelude; without it the same calls run sequentially with
+//! identical results.
+//!
 //! | module | what |
 //! |---|---|
 //! | [`load`], [`builtin()`] | a mesh from a path, `builtin` (the teddy) or `builtin:NAME` |

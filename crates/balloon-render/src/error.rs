@@ -16,9 +16,46 @@ pub enum RenderError {
         /// What is allowed.
         reason: String,
     },
-    /// The surface data is inconsistent (array lengths, indices, non-finite coordinates).
+    /// The flat positions array is not a whole number of `[x, y, z]` triples.
+    #[error("bad surface: positions has length {len}, not a multiple of 3")]
+    PositionsLength {
+        /// Its length.
+        len: usize,
+    },
+    /// A vertex has a NaN or infinite coordinate where every vertex must be finite.
+    #[error(
+        "bad surface: vertex {vertex} has a non-finite coordinate; POV-Ray cannot represent it"
+    )]
+    NonFiniteVertex {
+        /// The vertex.
+        vertex: usize,
+    },
+    /// A triangle refers to a vertex that does not exist.
+    #[error(
+        "bad surface: triangle {triangle} refers to vertex {vertex}, but there are only {num_vertices} vertices"
+    )]
+    VertexOutOfRange {
+        /// The triangle.
+        triangle: usize,
+        /// The vertex it names.
+        vertex: usize,
+        /// How many vertices there are.
+        num_vertices: usize,
+    },
+    /// The per-vertex scalars do not match the vertices.
+    #[error("bad surface: {len} scalars for {num_vertices} vertices (need one per vertex)")]
+    ScalarCount {
+        /// Number of scalars given.
+        len: usize,
+        /// Number of vertices.
+        num_vertices: usize,
+    },
+    /// No vertex has finite coordinates (or there is no vertex), so there is nothing to frame.
+    #[error("bad surface: no vertex has finite coordinates")]
+    NothingToFrame,
+    /// A per-vertex field of the surface (its vertex normals) could not be computed.
     #[error("bad surface: {0}")]
-    BadSurface(String),
+    Field(#[from] balloon_mesh::fields::FieldError),
     /// A file could not be written.
     #[error("{path}: {source}")]
     Io {

@@ -27,29 +27,24 @@ pub fn scene(
 ) -> Result<String, RenderError> {
     let n = surface.positions.len() / 3;
     if !surface.positions.len().is_multiple_of(3) {
-        return Err(RenderError::BadSurface(format!(
-            "positions has length {}, not a multiple of 3",
-            surface.positions.len()
-        )));
+        return Err(RenderError::PositionsLength {
+            len: surface.positions.len(),
+        });
     }
     if let Some(i) = surface.positions.iter().position(|c| !c.is_finite()) {
-        return Err(RenderError::BadSurface(format!(
-            "vertex {} has a non-finite coordinate; POV-Ray cannot represent it",
-            i / 3
-        )));
+        return Err(RenderError::NonFiniteVertex { vertex: i / 3 });
     }
     crate::camera::validate(&opts.camera)?;
     crate::image::check_size(opts.width, opts.height)?;
-    let normals = balloon_mesh::fields::vertex_normals(surface.positions, surface.triangles)
-        .map_err(|e| RenderError::BadSurface(e.to_string()))?;
+    let normals = balloon_mesh::fields::vertex_normals(surface.positions, surface.triangles)?;
     let colors: Option<Vec<[f32; 3]>> = match (&opts.color_scale, surface.scalars) {
         (Some(cs), Some(s)) => {
             cs.validate()?;
             if s.len() != n {
-                return Err(RenderError::BadSurface(format!(
-                    "{} scalars for {n} vertices (need one per vertex)",
-                    s.len()
-                )));
+                return Err(RenderError::ScalarCount {
+                    len: s.len(),
+                    num_vertices: n,
+                });
             }
             Some(s.iter().map(|&v| cs.map.eval(cs.normalize(v))).collect())
         }
@@ -57,8 +52,7 @@ pub fn scene(
     };
     let framing = match framing {
         Some(f) => *f,
-        None => Framing::of_points(surface.positions)
-            .ok_or_else(|| RenderError::BadSurface("the surface has no vertex".into()))?,
+        None => Framing::of_points(surface.positions).ok_or(RenderError::NothingToFrame)?,
     };
     let up = opts.camera.up;
     let pov = |p: [f64; 3]| match up {
@@ -298,5 +292,58 @@ mod tests {
         assert!(line.contains(", 1, "), "{line}");
         let nan = [f64::NAN, 0.0, 0.0];
         assert!(scene(&Surface::new(&nan, &[]), &opts, None).is_err());
+    }
+
+    #[test]
+    fn surface_errors_carry_their_numbers_and_the_field_error_as_source() {
+        let x = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        let opts = RenderOptions::new(64, 48);
+        // A triangle naming a missing vertex: the vertex normals' own error is the source.
+        let e = scene(&Surface::new(&x, &[[0, 1, 7]]), &opts, None).unwrap_err();
+        let source = std::error::Error::source(&e).expect("the field error is the source");
+        assert!(matches!(
+            source.downcast_ref::<balloon_mesh::fields::FieldError>(),
+            Some(balloon_mesh::fields::FieldError::VertexOutOfRange {
+                triangle: 0,
+                vertex: 7,
+                num_vertices: 3
+            })
+        ));
+        assert!(e.to_string().starts_with("bad surface: "), "{e}");
+        assert!(e.to_string().contains("vertex 7"), "{e}");
+        // Lengths and non-finite vertices are named by number.
+        let e = scene(&Surface::new(&x[..8], &[]), &opts, None).unwrap_err();
+        assert!(matches!(e, RenderError::PositionsLength { len: 8 }), "{e}");
+        assert_eq!(
+            e.to_string(),
+            "bad surface: positions has length 8, not a multiple of 3"
+        );
+        let mut bad = x;
+        bad[4] = f64::NAN;
+        let e = scene(&Surface::new(&bad, &[[0, 1, 2]]), &opts, None).unwrap_err();
+        assert!(
+            matches!(e, RenderError::NonFiniteVertex { vertex: 1 }),
+            "{e}"
+        );
+        let scalars = [1.0, 2.0];
+        let e = scene(
+            &Surface::new(&x, &[[0, 1, 2]]).with_scalars(&scalars),
+            &RenderOptions {
+                color_scale: Some(crate::ColorScale::new(0.0, 1.0, "s")),
+                ..RenderOptions::new(64, 48)
+            },
+            None,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                RenderError::ScalarCount {
+                    len: 2,
+                    num_vertices: 3
+                }
+            ),
+            "{e}"
+        );
     }
 }

@@ -36,26 +36,27 @@ impl<'a> Surface<'a> {
 
     fn validate(&self) -> Result<usize, RenderError> {
         if !self.positions.len().is_multiple_of(3) {
-            return Err(RenderError::BadSurface(format!(
-                "positions has length {}, not a multiple of 3",
-                self.positions.len()
-            )));
+            return Err(RenderError::PositionsLength {
+                len: self.positions.len(),
+            });
         }
         let n = self.positions.len() / 3;
         for (t, tri) in self.triangles.iter().enumerate() {
             if let Some(&v) = tri.iter().find(|&&v| v >= n) {
-                return Err(RenderError::BadSurface(format!(
-                    "triangle {t} refers to vertex {v}, but there are only {n} vertices"
-                )));
+                return Err(RenderError::VertexOutOfRange {
+                    triangle: t,
+                    vertex: v,
+                    num_vertices: n,
+                });
             }
         }
         if let Some(s) = self.scalars
             && s.len() != n
         {
-            return Err(RenderError::BadSurface(format!(
-                "{} scalars for {n} vertices (need one per vertex)",
-                s.len()
-            )));
+            return Err(RenderError::ScalarCount {
+                len: s.len(),
+                num_vertices: n,
+            });
         }
         Ok(n)
     }
@@ -220,9 +221,7 @@ impl Renderer {
                 }
                 *f
             }
-            None => Framing::of_points(surface.positions).ok_or_else(|| {
-                RenderError::BadSurface("no vertex has finite coordinates".into())
-            })?,
+            None => Framing::of_points(surface.positions).ok_or(RenderError::NothingToFrame)?,
         };
         let layout = Layout::new(opts);
         let (w, h) = (opts.width as i64, opts.height as i64);
@@ -281,8 +280,7 @@ impl Renderer {
         // Vertex normals (balloon_mesh::fields) in view space.
         self.normals.clear();
         if opts.smooth && !surface.triangles.is_empty() {
-            let nrm = balloon_mesh::fields::vertex_normals(surface.positions, surface.triangles)
-                .map_err(|e| RenderError::BadSurface(e.to_string()))?;
+            let nrm = balloon_mesh::fields::vertex_normals(surface.positions, surface.triangles)?;
             self.normals.extend(nrm.chunks_exact(3).map(|c| {
                 let v = view.rotate([c[0], c[1], c[2]]);
                 [v[0] as f32, v[1] as f32, v[2] as f32]

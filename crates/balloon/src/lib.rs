@@ -19,6 +19,11 @@
 //! projectors live in the re-exported stage crates), file output and pictures (the CLI and
 //! `balloon-render`).
 //!
+//! Features: `parallel` (default on) runs the shell's per-element force and stiffness loops and
+//! the lattice generator on rayon and lets the sparse Cholesky factorisation use the rayon pool
+//! when asked to; it forwards to the `parallel` features of `balloon-mesh`, `balloon-linalg` and
+//! `balloon-integrate`. Without it everything runs on the calling thread with identical results.
+//!
 //! ```
 //! use balloon::Simulation;
 //! use balloon::gas::GasKind;

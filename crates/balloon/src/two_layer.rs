@@ -90,8 +90,70 @@ pub enum TwoLayerError {
         /// A smaller time step to try (s).
         suggested_dt: f64,
         /// What was detected.
-        reason: String,
+        reason: BlowUpReason,
     },
+}
+
+/// What the blow-up check of [`TwoLayerSimulation::step`] detected, with its numbers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BlowUpReason {
+    /// A particle's position (`velocity == false`) or velocity became NaN or infinite.
+    NonFinite {
+        /// The particle.
+        particle: usize,
+        /// Whether the velocity (rather than the position) is not finite.
+        velocity: bool,
+    },
+    /// A gas-filled layer enclosed a non-positive volume.
+    InvertedLayer {
+        /// `"outer"` or `"inner"`.
+        layer: &'static str,
+        /// Its signed enclosed volume (m^3, or m^2 in 2D).
+        volume: f64,
+    },
+    /// The total energy exceeded `initial + work + tolerance * scale` (or is not finite).
+    EnergyGrowth {
+        /// Total energy after the step (J).
+        total: f64,
+        /// The bound it exceeded (J).
+        bound: f64,
+        /// Initial total energy (J).
+        initial: f64,
+        /// Work done by the drag so far (J).
+        work: f64,
+        /// Allowed growth in units of the energy scale.
+        tolerance: f64,
+        /// The energy scale (J).
+        scale: f64,
+    },
+}
+
+impl std::fmt::Display for BlowUpReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Self::NonFinite { particle, velocity } => {
+                let what = if velocity { "velocity" } else { "position" };
+                write!(f, "{what} of particle {particle} is not finite")
+            }
+            Self::InvertedLayer { layer, volume } => {
+                write!(
+                    f,
+                    "the gas-filled {layer} layer turned inside out (volume {volume:e})"
+                )
+            }
+            Self::EnergyGrowth {
+                total,
+                bound,
+                initial,
+                work,
+                tolerance,
+                scale,
+            } => write!(
+                f,
+                "total energy {total:.6e} J exceeds the bound {bound:.6e} J (initial {initial:.6e} J + work {work:.6e} J + {tolerance} x energy scale {scale:.6e} J)"
+            ),
+        }
+    }
 }
 
 pub(crate) fn positive(name: &'static str, value: f64) -> Result<f64, TwoLayerError> {

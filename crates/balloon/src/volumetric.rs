@@ -207,9 +207,21 @@ pub enum VolumetricError {
         /// The particle.
         particle: usize,
     },
-    /// A rigid sphere parameter is out of range.
-    #[error("invalid sphere: {0}")]
-    InvalidSphere(String),
+    /// A rigid sphere parameter (its mass or radius) is not positive and finite.
+    #[error("invalid sphere: {what} {value} must be > 0")]
+    InvalidSphere {
+        /// `mass` or `radius`.
+        what: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// The floor of a scene could not be placed under the body (its lowest point is not
+    /// finite).
+    #[error("invalid sphere: cannot place the floor at height {height}")]
+    FloorPlacement {
+        /// The height of the body's lowest point (m).
+        height: f64,
+    },
 }
 
 /// A deformable body ready to simulate: lattice, particle masses, constraints and springs.
@@ -374,16 +386,16 @@ impl VolumetricSimulation {
     /// Adds a rigid sphere (mass and radius must be positive and finite).
     pub fn with_sphere(mut self, sphere: RigidSphere) -> Result<Self, VolumetricError> {
         if !(sphere.mass.is_finite() && sphere.mass > 0.0) {
-            return Err(VolumetricError::InvalidSphere(format!(
-                "mass {} must be > 0",
-                sphere.mass
-            )));
+            return Err(VolumetricError::InvalidSphere {
+                what: "mass",
+                value: sphere.mass,
+            });
         }
         if !(sphere.radius.is_finite() && sphere.radius > 0.0) {
-            return Err(VolumetricError::InvalidSphere(format!(
-                "radius {} must be > 0",
-                sphere.radius
-            )));
+            return Err(VolumetricError::InvalidSphere {
+                what: "radius",
+                value: sphere.radius,
+            });
         }
         self.state.sphere = Some(sphere);
         Ok(self)
@@ -806,9 +818,8 @@ impl VolumetricScene {
                     0.5 * (lo.y + hi.y),
                     hi.z + radius + 0.5 * height,
                 );
-                let floor = Plane::new(lo, Vector3::z()).ok_or_else(|| {
-                    VolumetricError::InvalidSphere("cannot place the floor".into())
-                })?;
+                let floor = Plane::new(lo, Vector3::z())
+                    .ok_or(VolumetricError::FloorPlacement { height: lo.z })?;
                 sim.with_plane(floor).with_sphere(RigidSphere {
                     mass: 0.3 * mass,
                     radius,
@@ -866,6 +877,34 @@ mod tests {
         assert_eq!(sim.positions(), &before.0[..]);
         assert_eq!(sim.velocities(), &before.1[..]);
         assert_eq!(sim.steps(), 0);
+    }
+
+    #[test]
+    fn a_bad_sphere_is_named_with_its_number() {
+        let soup = icosphere(0.5, 1).unwrap();
+        let body = VolumetricBody::build(&soup, free_params()).unwrap();
+        let sphere = RigidSphere {
+            mass: -1.5,
+            radius: 0.1,
+            position: Point3::new(0.0, 0.0, 2.0),
+            velocity: Vector3::zeros(),
+        };
+        let e = VolumetricSimulation::new(body.clone())
+            .with_sphere(sphere)
+            .unwrap_err();
+        assert!(
+            matches!(e, VolumetricError::InvalidSphere { what: "mass", value } if value == -1.5),
+            "{e}"
+        );
+        assert_eq!(e.to_string(), "invalid sphere: mass -1.5 must be > 0");
+        let e = VolumetricSimulation::new(body)
+            .with_sphere(RigidSphere {
+                mass: 1.0,
+                radius: f64::NAN,
+                ..sphere
+            })
+            .unwrap_err();
+        assert_eq!(e.to_string(), "invalid sphere: radius NaN must be > 0");
     }
 
     #[test]

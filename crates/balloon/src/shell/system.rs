@@ -5,8 +5,8 @@ use balloon_element::ThreePrism;
 use balloon_gas::{GasModel, PressureLoad};
 use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
 use balloon_material::Material;
+use balloon_mesh::parallel::prelude::*;
 use nalgebra::{SMatrix, SMatrixView, Vector3};
-use rayon::prelude::*;
 
 /// Below this many elements the per-element loops run serially (thread start-up would dominate).
 const PARALLEL_THRESHOLD: usize = 2048;

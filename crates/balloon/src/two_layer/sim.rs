@@ -3,7 +3,7 @@
 
 use super::forces::{DragTarget, EnergyBreakdown, TwoLayerForces};
 use super::model::{Dimension, TwoLayerBody, TwoLayerModel};
-use super::{TwoLayerError, non_negative, positive};
+use super::{BlowUpReason, TwoLayerError, non_negative, positive};
 use balloon_constraint::two_layer::{
     AxisBox, collide_box, contain_inner_layer, layer_vertex_normals_into,
     polygon_vertex_normals_into, polygon_winding_number, winding_number,
@@ -236,7 +236,7 @@ impl TwoLayerSimulation {
         }
     }
 
-    fn blow_up(&self, reason: String) -> TwoLayerError {
+    fn blow_up(&self, reason: BlowUpReason) -> TwoLayerError {
         let omega = self.forces.max_frequency_estimate();
         let limit = if omega > 0.0 { 1.0 / omega } else { self.dt };
         TwoLayerError::BlowUp {
@@ -263,8 +263,10 @@ impl TwoLayerSimulation {
         self.time += self.dt;
         self.steps += 1;
         if let Some(i) = self.state.iter().position(|c| !c.is_finite()) {
-            let what = if i < n3 { "position" } else { "velocity" };
-            return Err(self.blow_up(format!("{what} of particle {} is not finite", (i % n3) / 3)));
+            return Err(self.blow_up(BlowUpReason::NonFinite {
+                particle: (i % n3) / 3,
+                velocity: i >= n3,
+            }));
         }
         let (x, v) = self.state.split_at_mut(n3);
         let m = self.forces.model();
@@ -291,17 +293,22 @@ impl TwoLayerSimulation {
             (stats.volume_inner, m.gas_inner, "inner"),
         ] {
             if gas > 0.0 && vol <= 0.0 {
-                return Err(self.blow_up(format!(
-                    "the gas-filled {name} layer turned inside out (volume {vol:e})"
-                )));
+                return Err(self.blow_up(BlowUpReason::InvertedLayer {
+                    layer: name,
+                    volume: vol,
+                }));
             }
         }
         let bound = self.energy_initial + self.work + self.tolerance * self.scale;
         if !stats.total.is_finite() || stats.total > bound {
-            return Err(self.blow_up(format!(
-                "total energy {:.6e} J exceeds the bound {:.6e} J (initial {:.6e} J + work {:.6e} J + {} x energy scale {:.6e} J)",
-                stats.total, bound, self.energy_initial, self.work, self.tolerance, self.scale
-            )));
+            return Err(self.blow_up(BlowUpReason::EnergyGrowth {
+                total: stats.total,
+                bound,
+                initial: self.energy_initial,
+                work: self.work,
+                tolerance: self.tolerance,
+                scale: self.scale,
+            }));
         }
         Ok(stats)
     }
@@ -969,11 +976,23 @@ mod tests {
                     step,
                     dt,
                     suggested_dt,
+                    reason,
                     ..
                 } => {
                     assert!((1..2000).contains(&step));
                     assert_eq!(dt, 5e-3);
                     assert!(suggested_dt < dt);
+                    // The reason carries its numbers and the message states them.
+                    match reason {
+                        BlowUpReason::NonFinite { particle, .. } => {
+                            assert!(particle < sim.forces.model().num_particles())
+                        }
+                        BlowUpReason::InvertedLayer { volume, .. } => assert!(volume <= 0.0),
+                        BlowUpReason::EnergyGrowth { total, bound, .. } => {
+                            assert!(total > bound || !total.is_finite(), "{total} {bound}")
+                        }
+                    }
+                    assert!(msg.contains(&format!(": {reason}; ")), "{msg}");
                 }
                 other => panic!("unexpected error {other}"),
             }
