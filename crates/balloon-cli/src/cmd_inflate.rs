@@ -106,7 +106,7 @@ pub struct InflateArgs {
     /// Newton tangent: `projected` (element stiffnesses projected to positive semi-definite:
     /// projected Newton, no regularisation retries; same forces and equilibria) or `exact` (the
     /// Hessian of the energy, indefinite where the membrane is compressed).
-    #[arg(long, default_value = "projected")]
+    #[arg(long, default_value = "exact")]
     pub tangent: TangentKind,
     /// Preconditioner of `--linear-solver pcg`: `jacobi` or `ic0` (zero-fill incomplete Cholesky).
     #[arg(long, default_value = "ic0")]

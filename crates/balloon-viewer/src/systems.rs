@@ -310,7 +310,7 @@ impl ShellView {
             young_mpa: 1.0,
             dt: 0.01,
             solver: LinearSolverKind::Cholesky,
-            tangent: TangentKind::Projected,
+            tangent: TangentKind::Exact,
             hold: true,
         };
         let sim = Self::build(&mesh, &settings)?;

@@ -24,6 +24,10 @@ const SUMMARY_KEYS: &[&str] = &[
     "shell_volume_ratio_max_deviation",
     "mean_step_ms",
     "newton_iterations_total",
+    "newton_tolerance",
+    "newton_residual_max",
+    "line_search_cuts_total",
+    "min_dt_used",
     "linear_iterations_total",
 ];
 
@@ -49,10 +53,59 @@ fn json_summary_has_the_documented_keys_and_sane_values() {
         "the pump inflates"
     );
     assert!(s["shell_volume_ratio_max_deviation"].as_f64().unwrap() < 1e-9);
+    // The default is the converged mode: every step's Newton residual met the tolerance.
+    assert_eq!(s["newton_tolerance"], 1e-6);
+    let worst = s["newton_residual_max"].as_f64().unwrap();
+    assert!(
+        worst > 0.0 && worst <= 1e-6,
+        "largest relative residual {worst}"
+    );
+    assert!(s["newton_iterations_total"].as_u64().unwrap() >= 5);
+    // The paper's mode is exactly 3 full Newton steps per step, no convergence test.
+    let out = run_balloon(&[
+        "inflate",
+        mesh.to_str().unwrap(),
+        "--steps",
+        "5",
+        "--json",
+        "--newton-iters",
+        "3",
+        "--newton-tol",
+        "0",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s = last_json_line(&out);
     assert_eq!(
         s["newton_iterations_total"], 15,
-        "3 Newton iterations per step by default"
+        "3 per step in the paper's mode"
     );
+    assert_eq!(s["line_search_cuts_total"], 0);
+}
+
+#[test]
+fn newton_flags_out_of_range_are_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = small_sphere(dir.path());
+    for (flag, value) in [
+        ("--newton-iters", "0"),
+        ("--newton-iters", "4294967296"),
+        ("--newton-tol", "-1"),
+        ("--newton-tol", "nan"),
+        ("--newton-tol", "inf"),
+    ] {
+        let arg = format!("{flag}={value}");
+        let out = run_balloon(&["inflate", mesh.to_str().unwrap(), &arg]);
+        assert!(!out.status.success(), "{flag} {value} accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(flag) && err.contains(value),
+            "{flag} {value}: {err}"
+        );
+    }
 }
 
 #[test]
@@ -95,7 +148,12 @@ fn out_folder_gets_frames_stats_and_summary() {
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
     assert_eq!(rows.len(), 4);
-    assert!(rows.iter().all(|r| r["newton_iterations"] == 3));
+    // Each step converged (relative residual within the default 1e-6) in at least one iteration.
+    assert!(
+        rows.iter()
+            .all(|r| r["newton_iterations"].as_u64().unwrap() >= 1
+                && r["newton_residual"].as_f64().unwrap() <= 1e-6)
+    );
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
             .unwrap();
