@@ -21,6 +21,22 @@
 //!   step (seed 003, Eq. 1); the two-layer object seed 004's drag spring on the picked outer
 //!   particle.
 //! * A panic inside a step or a command is caught and treated like a failing step.
+//!
+//! **What it is for:** looking at and playing with one simulation live, from a browser on the
+//! same machine; the simulations are driven through `balloon::Simulation`, with each system's
+//! controls typed (`ShellControl`, `VolumetricControl`, `TwoLayerControl`) and parsed once from
+//! the page's messages. **What it is not for:** file output, recording runs or serving anything
+//! beyond loopback (frames, VTK and pictures are the CLI's; the server binds loopback addresses only).
+//!
+//! The page's messages are checked before they reach a simulation:
+//!
+//! ```
+//! use balloon_viewer::protocol::{ClientMessage, parse_client_message};
+//! let msg = parse_client_message(r#"{"type": "control", "name": "pressure", "value": 1500}"#);
+//! assert!(matches!(msg, Ok(ClientMessage::Control { .. })));
+//! // Malformed input is an error message for the page, never a panic.
+//! assert!(parse_client_message("{not json").is_err());
+//! ```
 
 pub mod protocol;
 mod runner;

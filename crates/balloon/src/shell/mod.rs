@@ -72,6 +72,20 @@
 //! builder.build().unwrap().step().unwrap();
 //! ```
 //!
+//! The linear solver: any [`balloon_linalg::LinearSolver`] value, the library's or a user's
+//! (a new solver is a new type; see `balloon_integrate::implicit::BackwardEuler::with_linear_solver`
+//! for one written from scratch):
+//!
+//! ```
+//! use balloon::linalg::{FactorizedPcg, FactorizedPcgParams};
+//! use balloon::shell::ShellBalloon;
+//! let mesh = balloon::mesh::generate::icosphere(0.1, 1).unwrap();
+//! let mut sim = ShellBalloon::new(mesh).build().unwrap();
+//! sim.set_linear_solver(Box::new(FactorizedPcg::new(FactorizedPcgParams::default())));
+//! let stats = sim.step().unwrap();
+//! assert!(stats.newton_residual <= 1e-6);
+//! ```
+//!
 //! The projector: any [`ShellProjector`] (the global projection of Algorithm 2 is the default;
 //! per-element volumes, no projection, or a user's own are one call):
 //!
@@ -1104,6 +1118,17 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
     /// Mutable access to the integrator parameters (e.g. to change the linear solver mid-run).
     pub fn integrator_params_mut(&mut self) -> &mut BackwardEulerParams {
         &mut self.integrator.params
+    }
+    /// Solves Newton's linear systems with `solver` from the next step on: any
+    /// [`balloon_linalg::LinearSolver`], the library's own (`CholeskySolver`, `FactorizedPcg`,
+    /// `AssembledPcg`, `MatrixFreeCg`) or a user's type. It stays until
+    /// [`ShellSimulation::use_configured_linear_solver`].
+    pub fn set_linear_solver(&mut self, solver: Box<dyn balloon_linalg::LinearSolver>) {
+        self.integrator.set_linear_solver(solver);
+    }
+    /// Goes back to the linear solver the integrator parameters name.
+    pub fn use_configured_linear_solver(&mut self) {
+        self.integrator.use_configured_linear_solver();
     }
     /// Vertex lumped masses per degree of freedom, kg.
     pub fn masses(&self) -> &[f64] {
