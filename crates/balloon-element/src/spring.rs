@@ -114,16 +114,19 @@ impl Spring {
     }
 
     /// Rest length `L0` (m).
+    #[inline]
     pub fn rest_length(&self) -> f64 {
         self.rest_length
     }
 
     /// Stiffness `k` (N/m).
+    #[inline]
     pub fn stiffness_constant(&self) -> f64 {
         self.stiffness
     }
 
     /// Damping coefficient `c` (N s/m).
+    #[inline]
     pub fn damping(&self) -> f64 {
         self.damping
     }
@@ -163,11 +166,13 @@ impl Spring {
     }
 
     /// Current length `|x2 - x1|` (m).
+    #[inline]
     pub fn length(&self, x1: &Vector3<f64>, x2: &Vector3<f64>) -> f64 {
         (x2 - x1).norm()
     }
 
     /// Elastic energy `k/2 (l - L0)^2` (J).
+    #[inline]
     pub fn energy(&self, x1: &Vector3<f64>, x2: &Vector3<f64>) -> f64 {
         let s = (x2 - x1).norm() - self.rest_length;
         0.5 * self.stiffness * (s * s)
@@ -201,6 +206,7 @@ impl Spring {
     }
 
     /// Elastic forces only (N), `-dE/dx`.
+    #[inline]
     pub fn elastic_force(&self, x1: &Vector3<f64>, x2: &Vector3<f64>) -> [Vector3<f64>; 2] {
         let (l, u) = Self::axis(x1, x2);
         let f1 = u * (self.stiffness * (l - self.rest_length));
@@ -298,11 +304,13 @@ impl TargetSpring {
     }
 
     /// The spring constants.
+    #[inline]
     pub fn spring(&self) -> &Spring {
         &self.spring
     }
 
     /// Elastic energy `k/2 (l - L0)^2` (J) of the particle at `x` pulled toward `target`.
+    #[inline]
     pub fn energy(&self, x: &Vector3<f64>, target: &Point3<f64>) -> f64 {
         let l = (x - target.coords).norm();
         0.5 * self.spring.stiffness * (l - self.spring.rest_length).powi(2)
