@@ -25,11 +25,11 @@
 //! [`CellCentre::MassWeighted`] uses `c = sum(m_i x_i) / sum(m_i)`, for which
 //! `sum_i m_i Delta v_i = 0` exactly.
 
+use crate::ConstraintError;
 pub use crate::cell_global::CellProjectionWorkspace;
 use balloon_mesh::tet::signed_tet_volume;
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
-use thiserror::Error;
 
 /// Which centre the cell is scaled about.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -126,62 +126,6 @@ impl Default for CellVolumeParams {
     }
 }
 
-/// Failures of the volume projection.
-#[derive(Clone, Debug, PartialEq, Error)]
-pub enum CellVolumeError {
-    /// A tetrahedron of the preview has non-positive volume; the caller should halve the time
-    /// step and retry (Sec. 4).
-    #[error("tetrahedron {tet} of cell {cell} inverted in the preview (volume {volume:.3e} m^3)")]
-    Inverted {
-        /// The cell.
-        cell: usize,
-        /// Local tetrahedron (0..5) of the cell.
-        tet: usize,
-        /// Its signed volume.
-        volume: f64,
-    },
-    /// The sweeps did not bring every cell below the tolerance.
-    #[error(
-        "volume projection did not converge in {sweeps} sweeps: max relative error {max_error:.3e} in cell {cell}"
-    )]
-    NotConverged {
-        /// Sweeps done.
-        sweeps: usize,
-        /// Largest remaining relative error.
-        max_error: f64,
-        /// The worst cell.
-        cell: usize,
-    },
-    /// A cell's rest volume is not positive (the lattice is broken).
-    #[error("cell {cell} has non-positive rest volume {volume:.3e} m^3")]
-    BadRestVolume {
-        /// The cell.
-        cell: usize,
-        /// Its volume.
-        volume: f64,
-    },
-    /// The sparse linear solve of the global solver failed (e.g. a degenerate lattice whose
-    /// constraint gradients are dependent).
-    #[error("global cell-volume solve failed at Newton iteration {iteration}: {source}")]
-    GlobalSolve {
-        /// Newton iteration (1-based).
-        iteration: usize,
-        /// What the linear solver reported (assembly, factorisation or solve).
-        #[source]
-        source: balloon_linalg::SolveError,
-    },
-    /// Invalid parameter.
-    #[error("invalid parameter `{name}` = {value}: {reason}")]
-    InvalidParameter {
-        /// The parameter.
-        name: &'static str,
-        /// Its value.
-        value: String,
-        /// The allowed range.
-        reason: String,
-    },
-}
-
 /// Result of one projection.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ProjectionInfo {
@@ -228,46 +172,40 @@ impl CellVolumeConstraints {
         tets: Vec<[[usize; 4]; 5]>,
         rest_positions: &[Point3<f64>],
         params: CellVolumeParams,
-    ) -> Result<Self, CellVolumeError> {
+    ) -> Result<Self, ConstraintError> {
         if !(params.tolerance > 0.0 && params.tolerance < 1.0) {
-            return Err(CellVolumeError::InvalidParameter {
-                name: "tolerance",
-                value: params.tolerance.to_string(),
-                reason: "must be in (0, 1)".into(),
-            });
+            return Err(ConstraintError::invalid(
+                "tolerance",
+                params.tolerance,
+                "must be in (0, 1)",
+            ));
         }
         if !(params.over_relaxation > 0.0 && params.over_relaxation < 2.0) {
-            return Err(CellVolumeError::InvalidParameter {
-                name: "over_relaxation",
-                value: params.over_relaxation.to_string(),
-                reason: "must be in (0, 2)".into(),
-            });
+            return Err(ConstraintError::invalid(
+                "over_relaxation",
+                params.over_relaxation,
+                "must be in (0, 2)",
+            ));
         }
         if params.solver == CellSolver::Global {
             if params.correction != CellCorrection::Gradient {
-                return Err(CellVolumeError::InvalidParameter {
-                    name: "correction",
-                    value: "scaling".into(),
+                return Err(ConstraintError::IncompatibleOption {
+                    option: "correction",
+                    value: "scaling",
                     reason: "the global solver moves along the volume gradients: use the \
-                             gradient correction with it"
-                        .into(),
+                             gradient correction with it",
                 });
             }
             if params.over_relaxation != 1.0 {
-                return Err(CellVolumeError::InvalidParameter {
-                    name: "over_relaxation",
-                    value: params.over_relaxation.to_string(),
-                    reason: "must be 1 with the global solver (it applies to Gauss-Seidel sweeps)"
-                        .into(),
-                });
+                return Err(ConstraintError::invalid(
+                    "over_relaxation",
+                    params.over_relaxation,
+                    "must be 1 with the global solver (it applies to Gauss-Seidel sweeps)",
+                ));
             }
         }
         if params.max_sweeps == 0 {
-            return Err(CellVolumeError::InvalidParameter {
-                name: "max_sweeps",
-                value: "0".into(),
-                reason: "must be >= 1".into(),
-            });
+            return Err(ConstraintError::invalid("max_sweeps", 0.0, "must be >= 1"));
         }
         let rest_volumes: Vec<f64> = tets
             .iter()
@@ -275,7 +213,7 @@ impl CellVolumeConstraints {
             .collect();
         for (cell, &volume) in rest_volumes.iter().enumerate() {
             if volume.is_nan() || volume <= 0.0 {
-                return Err(CellVolumeError::BadRestVolume { cell, volume });
+                return Err(ConstraintError::BadRestVolume { cell, volume });
             }
         }
         Ok(Self {
@@ -309,7 +247,7 @@ impl CellVolumeConstraints {
     }
 
     /// First tetrahedron with non-positive volume, if any (Sec. 4: the step must be halved).
-    pub fn find_inverted(&self, positions: &[Point3<f64>]) -> Option<CellVolumeError> {
+    pub fn find_inverted(&self, positions: &[Point3<f64>]) -> Option<ConstraintError> {
         for (cell, tets) in self.tets.iter().enumerate() {
             for (tet, t) in tets.iter().enumerate() {
                 let volume = signed_tet_volume(
@@ -319,7 +257,7 @@ impl CellVolumeConstraints {
                     &positions[t[3]],
                 );
                 if volume.is_nan() || volume <= 0.0 {
-                    return Some(CellVolumeError::Inverted { cell, tet, volume });
+                    return Some(ConstraintError::Inverted { cell, tet, volume });
                 }
             }
         }
@@ -336,15 +274,15 @@ impl CellVolumeConstraints {
     /// * `masses`: particle masses (kg), used only by [`CellCentre::MassWeighted`];
     /// * `h`: the time step (s).
     ///
-    /// Returns [`CellVolumeError::Inverted`] when a preview tetrahedron is not positive (before
-    /// or during the sweeps), and [`CellVolumeError::NotConverged`] after `max_sweeps`.
+    /// Returns [`ConstraintError::Inverted`] when a preview tetrahedron is not positive (before
+    /// or during the sweeps), and [`ConstraintError::CellVolumeNotConverged`] after `max_sweeps`.
     pub fn project(
         &self,
         preview: &mut [Point3<f64>],
         velocities: &mut [Vector3<f64>],
         masses: &[f64],
         h: f64,
-    ) -> Result<ProjectionInfo, CellVolumeError> {
+    ) -> Result<ProjectionInfo, ConstraintError> {
         self.project_to_tolerance(preview, velocities, masses, h, self.params.tolerance)
     }
 
@@ -358,7 +296,7 @@ impl CellVolumeConstraints {
         masses: &[f64],
         h: f64,
         tolerance: f64,
-    ) -> Result<ProjectionInfo, CellVolumeError> {
+    ) -> Result<ProjectionInfo, ConstraintError> {
         self.project_with(
             &mut CellProjectionWorkspace::new(),
             preview,
@@ -377,7 +315,7 @@ impl CellVolumeConstraints {
         masses: &[f64],
         h: f64,
         tolerance: f64,
-    ) -> Result<ProjectionInfo, CellVolumeError> {
+    ) -> Result<ProjectionInfo, ConstraintError> {
         if let Some(e) = self.find_inverted(preview) {
             return Err(e);
         }
@@ -394,7 +332,7 @@ impl CellVolumeConstraints {
             for (c, cell) in self.cells.iter().enumerate() {
                 let v = cell_volume(preview, &self.tets[c]);
                 if v.is_nan() || v <= 0.0 {
-                    return Err(CellVolumeError::Inverted {
+                    return Err(ConstraintError::Inverted {
                         cell: c,
                         tet: 0,
                         volume: v,
@@ -426,7 +364,7 @@ impl CellVolumeConstraints {
                 return Ok(info);
             }
             if sweep == self.params.max_sweeps {
-                return Err(CellVolumeError::NotConverged {
+                return Err(ConstraintError::CellVolumeNotConverged {
                     sweeps: sweep,
                     max_error: err,
                     cell,
@@ -541,7 +479,7 @@ impl Default for SpringParams {
 
 impl SpringParams {
     /// Checks that all values are finite and non-negative; the error names the parameter.
-    pub fn validate(&self) -> Result<(), CellVolumeError> {
+    pub fn validate(&self) -> Result<(), ConstraintError> {
         for (name, value) in [
             ("edge_stiffness", self.edge_stiffness),
             ("edge_damping", self.edge_damping),
@@ -549,11 +487,11 @@ impl SpringParams {
             ("diagonal_damping", self.diagonal_damping),
         ] {
             if !(value.is_finite() && value >= 0.0) {
-                return Err(CellVolumeError::InvalidParameter {
+                return Err(ConstraintError::invalid(
                     name,
-                    value: value.to_string(),
-                    reason: "must be finite and >= 0".into(),
-                });
+                    value,
+                    "must be finite and >= 0",
+                ));
             }
         }
         Ok(())
@@ -792,7 +730,7 @@ pub(crate) mod tests {
             .project(&mut x, &mut v, &vec![1.0; x0.len()], 1e-2)
             .unwrap_err();
         assert!(
-            matches!(e, CellVolumeError::Inverted { cell: 0, .. }),
+            matches!(e, ConstraintError::Inverted { cell: 0, .. }),
             "{e}"
         );
     }

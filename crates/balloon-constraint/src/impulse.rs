@@ -15,7 +15,7 @@
 //!
 //! If a preview tetrahedron inverts, the state is restored and the step redone as two half
 //! steps, recursively, up to `max_halvings` times (Sec. 4); beyond that the step fails with
-//! [`ImpulseError::Inversion`]. Any failure leaves the state as it was before the failed
+//! [`ConstraintError::Inversion`]. Any failure leaves the state as it was before the failed
 //! (sub-)step.
 //!
 //! ```
@@ -39,11 +39,9 @@
 //! ```
 
 use nalgebra::{Point3, Vector3};
-use thiserror::Error;
 
-use crate::cell_volume::{
-    CellProjectionWorkspace, CellSprings, CellVolumeConstraints, CellVolumeError,
-};
+use crate::ConstraintError;
+use crate::cell_volume::{CellProjectionWorkspace, CellSprings, CellVolumeConstraints};
 use crate::rigid::{
     Plane, RigidSphere, plane_particle_contacts, plane_sphere_contact, sphere_particle_contacts,
 };
@@ -132,28 +130,6 @@ pub struct ImpulseStepInfo {
     pub contacts: usize,
 }
 
-/// Why a step failed; the state is then as before the failed (sub-)step.
-#[derive(Clone, Debug, PartialEq, Error)]
-pub enum ImpulseError {
-    /// A tetrahedron kept inverting after `halvings` nested step halvings.
-    #[error(
-        "tetrahedron {tet} of cell {cell} inverts even after {halvings} step halvings (dt {dt:.3e} s)"
-    )]
-    Inversion {
-        /// The cell.
-        cell: usize,
-        /// Local tetrahedron of the cell.
-        tet: usize,
-        /// Halvings tried.
-        halvings: u32,
-        /// The smallest sub-step tried (s).
-        dt: f64,
-    },
-    /// The volume projection failed (did not converge, bad input).
-    #[error(transparent)]
-    Projection(CellVolumeError),
-}
-
 /// The stepper: scratch buffers and the caches of the global cell-volume solve, kept from step
 /// to step. Cloning gives fresh caches.
 #[derive(Clone, Debug, Default)]
@@ -171,14 +147,14 @@ impl ImpulseStepper {
     /// Advances `state` by `dt` (s), halving on inversion (see the module docs).
     ///
     /// # Errors
-    /// [`ImpulseError`]; the state is then as before the failed (sub-)step.
+    /// [`ConstraintError`]; the state is then as before the failed (sub-)step.
     pub fn step(
         &mut self,
         model: &ImpulseModel<'_>,
         params: &ImpulseParams,
         state: &mut ImpulseState,
         dt: f64,
-    ) -> Result<ImpulseStepInfo, ImpulseError> {
+    ) -> Result<ImpulseStepInfo, ConstraintError> {
         let mut info = ImpulseStepInfo {
             min_dt: dt,
             ..ImpulseStepInfo::default()
@@ -197,7 +173,7 @@ impl ImpulseStepper {
         h: f64,
         depth: u32,
         info: &mut ImpulseStepInfo,
-    ) -> Result<(), ImpulseError> {
+    ) -> Result<(), ConstraintError> {
         let saved = (
             state.positions.clone(),
             state.velocities.clone(),
@@ -208,10 +184,10 @@ impl ImpulseStepper {
                 state.time += h;
                 Ok(())
             }
-            Err(CellVolumeError::Inverted { cell, tet, .. }) => {
+            Err(ConstraintError::Inverted { cell, tet, .. }) => {
                 (state.positions, state.velocities, state.sphere) = saved;
                 if depth >= params.max_halvings {
-                    return Err(ImpulseError::Inversion {
+                    return Err(ConstraintError::Inversion {
                         cell,
                         tet,
                         halvings: depth,
@@ -225,7 +201,7 @@ impl ImpulseStepper {
             }
             Err(source) => {
                 (state.positions, state.velocities, state.sphere) = saved;
-                Err(ImpulseError::Projection(source))
+                Err(source)
             }
         }
     }
@@ -238,7 +214,7 @@ impl ImpulseStepper {
         state: &mut ImpulseState,
         h: f64,
         info: &mut ImpulseStepInfo,
-    ) -> Result<(), CellVolumeError> {
+    ) -> Result<(), ConstraintError> {
         let g = Vector3::from(params.gravity);
         // 1. External forces: gravity and cell springs (Eq. 1).
         self.forces.clear();
@@ -445,7 +421,7 @@ mod tests {
             .step(&model(&b), &params, &mut state, 1e-3)
             .unwrap_err();
         assert!(
-            matches!(err, ImpulseError::Inversion { halvings: 0, .. }),
+            matches!(err, ConstraintError::Inversion { halvings: 0, .. }),
             "{err}"
         );
         assert_eq!(state, before);

@@ -21,8 +21,11 @@
 
 pub mod cell_global;
 pub mod cell_volume;
+pub mod error;
 pub mod impulse;
 pub mod projector;
 pub mod rigid;
 pub mod shell_volume;
 pub mod two_layer;
+
+pub use error::ConstraintError;

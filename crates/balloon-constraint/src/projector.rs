@@ -35,7 +35,8 @@
 //! }
 //! ```
 
-use crate::shell_volume::{ProjectionInfo, ShellVolumeError, ShellVolumeProjection, shell_volume};
+use crate::ConstraintError;
+use crate::shell_volume::{ProjectionInfo, ShellVolumeProjection, shell_volume};
 use std::fmt::Debug;
 
 /// What a shell projection works on, fixed over a run (the positions and thicknesses it changes
@@ -63,7 +64,7 @@ pub trait ShellProjector: Send + Sync + Debug + CloneShellProjector {
         input: &ShellProjectionInput<'_>,
         x: &mut [f64],
         thickness: &mut [f64],
-    ) -> Result<ProjectionInfo, ShellVolumeError>;
+    ) -> Result<ProjectionInfo, ConstraintError>;
 }
 
 /// Cloning of boxed projectors (implemented for every `ShellProjector + Clone`).
@@ -92,7 +93,7 @@ impl ShellProjector for ShellVolumeProjection {
         input: &ShellProjectionInput<'_>,
         x: &mut [f64],
         thickness: &mut [f64],
-    ) -> Result<ProjectionInfo, ShellVolumeError> {
+    ) -> Result<ProjectionInfo, ConstraintError> {
         if !self.has_rest_element_volumes() {
             self.set_rest_element_volumes(input.rest_element_volumes);
         }
@@ -119,7 +120,7 @@ impl ShellProjector for NoProjection {
         input: &ShellProjectionInput<'_>,
         x: &mut [f64],
         thickness: &mut [f64],
-    ) -> Result<ProjectionInfo, ShellVolumeError> {
+    ) -> Result<ProjectionInfo, ConstraintError> {
         let ratio = shell_volume(input.triangles, x, thickness) / input.rest_shell_volume;
         Ok(ProjectionInfo {
             iterations: 0,

@@ -32,102 +32,16 @@
 //! |grad_j C|^2)`, which has units of 1/mass: it reduces to the mass-weighted step only for
 //! uniform unit weights, and the fixed-point iteration converges only when `0 < s < 2`. With
 //! physical masses (`w ~ 1e4..1e8 1/kg`) `s` is far above 2 and it diverges; this implementation
-//! computes `s` each iteration and returns [`ShellVolumeError::Diverging`] instead of moving the
+//! computes `s` each iteration and returns [`ConstraintError::Diverging`] instead of moving the
 //! vertices when `|1 - s| >= 1`.
 //!
 //! After convergence each thickness is recomputed from its virtual vertex (Alg. 2, line 9):
 //! `h_e = (1/2 e14 . (e12 x e13)) / A_e`. Velocities are updated by the caller
 //! (`v = (x_new - x_old) / dt`, Alg. 1, line 11).
 
+use crate::ConstraintError;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
-use thiserror::Error;
-
-/// Errors of the shell-volume projection.
-#[derive(Debug, Error, Clone, PartialEq)]
-pub enum ShellVolumeError {
-    /// The projection did not reach the tolerance within `max_iterations`; positions and
-    /// thicknesses are left unchanged. Raise `max_iterations` or check for degenerate elements.
-    #[error(
-        "shell volume projection did not converge in {iterations} iterations: |V/V0 - 1| = {residual:e} > tolerance {tolerance:e}"
-    )]
-    NotConverged {
-        /// Iterations performed.
-        iterations: usize,
-        /// Final `|V_b / V_b0 - 1|`.
-        residual: f64,
-        /// Requested tolerance.
-        tolerance: f64,
-    },
-    /// The literal Eq. 27 weighting would diverge for these masses (see the module docs);
-    /// positions and thicknesses are left unchanged. Use `ProjectionWeighting::MassWeighted`.
-    #[error(
-        "paper Eq. 27 weighting diverges: its linearised contraction factor s = {factor:e} is outside (0, 2) (iteration {iteration}); use the mass-weighted projection"
-    )]
-    Diverging {
-        /// The factor `s`.
-        factor: f64,
-        /// Iteration at which it was detected.
-        iteration: usize,
-    },
-    /// A triangle has (near-)zero area (or a non-finite one) compared with its edges.
-    #[error(
-        "element {element} is degenerate: triangle area {area:e} m^2 with edge lengths {edge_a:e} m and {edge_b:e} m"
-    )]
-    DegenerateTriangle {
-        /// Element (triangle) index.
-        element: usize,
-        /// Its area (m^2).
-        area: f64,
-        /// Length of its edge from vertex 0 to vertex 1 (m).
-        edge_a: f64,
-        /// Length of its edge from vertex 0 to vertex 2 (m).
-        edge_b: f64,
-    },
-    /// An element's thickness would become (or became, after the projection) non-positive or
-    /// non-finite.
-    #[error("element {element} is degenerate: thickness {thickness:e} m (area {area:e} m^2)")]
-    BadThickness {
-        /// Element (triangle) index.
-        element: usize,
-        /// The offending thickness (m).
-        thickness: f64,
-        /// The element's area (m^2).
-        area: f64,
-    },
-    /// A triangle refers to a vertex that does not exist.
-    #[error(
-        "element {element} refers to vertex {vertex}, but there are only {num_vertices} vertices"
-    )]
-    VertexOutOfRange {
-        /// Element index.
-        element: usize,
-        /// Vertex index.
-        vertex: usize,
-        /// Number of vertices.
-        num_vertices: usize,
-    },
-    /// An array has the wrong length.
-    #[error("array `{name}` has length {len}, expected {expected}")]
-    LengthMismatch {
-        /// Array name.
-        name: &'static str,
-        /// Its length.
-        len: usize,
-        /// Expected length.
-        expected: usize,
-    },
-    /// A parameter or input value is out of range.
-    #[error("invalid `{name}` = {value:e}: {requirement}")]
-    InvalidParameter {
-        /// Parameter name (with the index for per-vertex / per-element arrays).
-        name: String,
-        /// The value.
-        value: f64,
-        /// What it must satisfy.
-        requirement: &'static str,
-    },
-}
 
 /// How the correction is distributed over the vertices (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -207,14 +121,14 @@ fn doubled_area_normal(
     x: &[f64],
     t: &[usize; 3],
     element: usize,
-) -> Result<Vector3<f64>, ShellVolumeError> {
+) -> Result<Vector3<f64>, ConstraintError> {
     let (a, b, c) = (vertex(x, t[0]), vertex(x, t[1]), vertex(x, t[2]));
     let (e12, e13) = (b - a, c - a);
     let n = e12.cross(&e13);
     let n2 = n.norm_squared();
     let scale = e12.norm_squared() * e13.norm_squared();
     if !n2.is_finite() || n2 <= 1e-24 * scale || n2 == 0.0 {
-        return Err(ShellVolumeError::DegenerateTriangle {
+        return Err(ConstraintError::DegenerateTriangle {
             element,
             area: 0.5 * n2.sqrt(),
             edge_a: e12.norm(),
@@ -228,16 +142,16 @@ fn check_topology(
     triangles: &[[usize; 3]],
     x: &[f64],
     thickness: &[f64],
-) -> Result<(), ShellVolumeError> {
+) -> Result<(), ConstraintError> {
     if !x.len().is_multiple_of(3) {
-        return Err(ShellVolumeError::LengthMismatch {
+        return Err(ConstraintError::LengthMismatch {
             name: "x",
             len: x.len(),
             expected: 3 * (x.len() / 3),
         });
     }
     if thickness.len() != triangles.len() {
-        return Err(ShellVolumeError::LengthMismatch {
+        return Err(ConstraintError::LengthMismatch {
             name: "thickness",
             len: thickness.len(),
             expected: triangles.len(),
@@ -247,7 +161,7 @@ fn check_topology(
     for (e, t) in triangles.iter().enumerate() {
         for &v in t {
             if v >= n {
-                return Err(ShellVolumeError::VertexOutOfRange {
+                return Err(ConstraintError::VertexOutOfRange {
                     element: e,
                     vertex: v,
                     num_vertices: n,
@@ -282,7 +196,7 @@ pub fn try_shell_volume(
     triangles: &[[usize; 3]],
     x: &[f64],
     thickness: &[f64],
-) -> Result<f64, ShellVolumeError> {
+) -> Result<f64, ConstraintError> {
     check_topology(triangles, x, thickness)?;
     let mut v = 0.0;
     for (e, t) in triangles.iter().enumerate() {
@@ -300,16 +214,16 @@ pub fn projection_inverse_masses(
     num_vertices: usize,
     rest_element_volumes: &[f64],
     density: f64,
-) -> Result<(Vec<f64>, Vec<f64>), ShellVolumeError> {
+) -> Result<(Vec<f64>, Vec<f64>), ConstraintError> {
     if !(density.is_finite() && density > 0.0) {
-        return Err(ShellVolumeError::InvalidParameter {
+        return Err(ConstraintError::InvalidParameter {
             name: "density".into(),
             value: density,
             requirement: "must be positive and finite",
         });
     }
     if rest_element_volumes.len() != triangles.len() {
-        return Err(ShellVolumeError::LengthMismatch {
+        return Err(ConstraintError::LengthMismatch {
             name: "rest_element_volumes",
             len: rest_element_volumes.len(),
             expected: triangles.len(),
@@ -319,7 +233,7 @@ pub fn projection_inverse_masses(
     let mut em = Vec::with_capacity(triangles.len());
     for (e, (t, &ve)) in triangles.iter().zip(rest_element_volumes).enumerate() {
         if !(ve.is_finite() && ve > 0.0) {
-            return Err(ShellVolumeError::InvalidParameter {
+            return Err(ConstraintError::InvalidParameter {
                 name: format!("rest_element_volumes[{e}]"),
                 value: ve,
                 requirement: "must be positive and finite",
@@ -327,7 +241,7 @@ pub fn projection_inverse_masses(
         }
         for &v in t {
             if v >= num_vertices {
-                return Err(ShellVolumeError::VertexOutOfRange {
+                return Err(ConstraintError::VertexOutOfRange {
                     element: e,
                     vertex: v,
                     num_vertices,
@@ -391,9 +305,9 @@ impl ShellVolumeProjection {
         x: &[f64],
         thickness: &mut [f64],
         rest_shell_volume: f64,
-    ) -> Result<ProjectionInfo, ShellVolumeError> {
+    ) -> Result<ProjectionInfo, ConstraintError> {
         if self.rest_element_volumes.len() != triangles.len() {
-            return Err(ShellVolumeError::LengthMismatch {
+            return Err(ConstraintError::LengthMismatch {
                 name: "rest_element_volumes (set with with_rest_element_volumes)",
                 len: self.rest_element_volumes.len(),
                 expected: triangles.len(),
@@ -405,7 +319,7 @@ impl ShellVolumeProjection {
         for (e, t) in triangles.iter().enumerate() {
             let v0 = self.rest_element_volumes[e];
             if !(v0.is_finite() && v0 > 0.0) {
-                return Err(ShellVolumeError::InvalidParameter {
+                return Err(ConstraintError::InvalidParameter {
                     name: format!("rest_element_volumes[{e}]"),
                     value: v0,
                     requirement: "must be positive and finite",
@@ -414,7 +328,7 @@ impl ShellVolumeProjection {
             let area = 0.5 * doubled_area_normal(x, t, e)?.norm();
             let h = v0 / area;
             if !h.is_finite() {
-                return Err(ShellVolumeError::BadThickness {
+                return Err(ConstraintError::BadThickness {
                     element: e,
                     thickness: h,
                     area,
@@ -477,19 +391,19 @@ impl ShellVolumeProjection {
         vertex_inverse_mass: &[f64],
         element_inverse_mass: &[f64],
         rest_shell_volume: f64,
-    ) -> Result<ProjectionInfo, ShellVolumeError> {
+    ) -> Result<ProjectionInfo, ConstraintError> {
         check_topology(triangles, x, thickness)?;
         let nv = x.len() / 3;
         let ne = triangles.len();
         if vertex_inverse_mass.len() != nv {
-            return Err(ShellVolumeError::LengthMismatch {
+            return Err(ConstraintError::LengthMismatch {
                 name: "vertex_inverse_mass",
                 len: vertex_inverse_mass.len(),
                 expected: nv,
             });
         }
         if element_inverse_mass.len() != ne {
-            return Err(ShellVolumeError::LengthMismatch {
+            return Err(ConstraintError::LengthMismatch {
                 name: "element_inverse_mass",
                 len: element_inverse_mass.len(),
                 expected: ne,
@@ -501,7 +415,7 @@ impl ShellVolumeProjection {
             ("thickness", &*thickness),
         ] {
             if let Some(i) = arr.iter().position(|w| !(w.is_finite() && *w >= 0.0)) {
-                return Err(ShellVolumeError::InvalidParameter {
+                return Err(ConstraintError::InvalidParameter {
                     name: format!("{name}[{i}]"),
                     value: arr[i],
                     requirement: "must be non-negative and finite",
@@ -510,14 +424,14 @@ impl ShellVolumeProjection {
         }
         let p = self.params;
         if !(rest_shell_volume.is_finite() && rest_shell_volume > 0.0) {
-            return Err(ShellVolumeError::InvalidParameter {
+            return Err(ConstraintError::InvalidParameter {
                 name: "rest_shell_volume".into(),
                 value: rest_shell_volume,
                 requirement: "must be positive and finite",
             });
         }
         if !(p.relative_tolerance.is_finite() && p.relative_tolerance > 0.0) {
-            return Err(ShellVolumeError::InvalidParameter {
+            return Err(ConstraintError::InvalidParameter {
                 name: "relative_tolerance".into(),
                 value: p.relative_tolerance,
                 requirement: "must be positive and finite",
@@ -548,7 +462,7 @@ impl ShellVolumeProjection {
             let ratio = v / rest_shell_volume;
             if !ratio.is_finite() {
                 x.copy_from_slice(&self.x_backup);
-                return Err(ShellVolumeError::InvalidParameter {
+                return Err(ConstraintError::InvalidParameter {
                     name: "shell volume".into(),
                     value: v,
                     requirement: "must stay finite",
@@ -559,7 +473,7 @@ impl ShellVolumeProjection {
             }
             if iterations == p.max_iterations {
                 x.copy_from_slice(&self.x_backup);
-                return Err(ShellVolumeError::NotConverged {
+                return Err(ConstraintError::ShellVolumeNotConverged {
                     iterations,
                     residual: (ratio - 1.0).abs(),
                     tolerance: p.relative_tolerance,
@@ -586,7 +500,7 @@ impl ShellVolumeProjection {
             }
             if wg2.is_nan() || wg2 <= 0.0 {
                 x.copy_from_slice(&self.x_backup);
-                return Err(ShellVolumeError::InvalidParameter {
+                return Err(ConstraintError::InvalidParameter {
                     name: "sum_j w_j |grad_j C|^2".into(),
                     value: wg2,
                     requirement: "must be positive (are all points pinned?)",
@@ -599,7 +513,7 @@ impl ShellVolumeProjection {
                     let s = npoints * w2g2 / (wsum * g2);
                     if !(s.is_finite() && (1.0 - s).abs() < 1.0) {
                         x.copy_from_slice(&self.x_backup);
-                        return Err(ShellVolumeError::Diverging {
+                        return Err(ConstraintError::Diverging {
                             factor: s,
                             iteration: iterations,
                         });
@@ -636,7 +550,7 @@ impl ShellVolumeProjection {
                 let h = ve / (0.5 * n.norm());
                 if !(h.is_finite() && h > 0.0) {
                     x.copy_from_slice(&self.x_backup);
-                    return Err(ShellVolumeError::BadThickness {
+                    return Err(ConstraintError::BadThickness {
                         element: e,
                         thickness: h,
                         area: 0.5 * n.norm(),
@@ -868,7 +782,7 @@ mod tests {
             .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
             .unwrap_err();
         assert!(
-            matches!(e, ShellVolumeError::Diverging { factor, .. } if factor > 2.0),
+            matches!(e, ConstraintError::Diverging { factor, .. } if factor > 2.0),
             "{e}"
         );
         assert_eq!((s.x.clone(), s.h.clone()), (x0, h0));
@@ -891,7 +805,7 @@ mod tests {
         let e = proj
             .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
             .unwrap_err();
-        let ShellVolumeError::DegenerateTriangle {
+        let ConstraintError::DegenerateTriangle {
             element,
             area,
             edge_a,
@@ -922,7 +836,10 @@ mod tests {
             .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
             .unwrap_err();
         assert!(
-            matches!(e, ShellVolumeError::NotConverged { iterations: 1, .. }),
+            matches!(
+                e,
+                ConstraintError::ShellVolumeNotConverged { iterations: 1, .. }
+            ),
             "{e}"
         );
         assert_eq!(s.x, x0, "state untouched on failure");
@@ -1014,7 +931,7 @@ mod tests {
             .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
             .unwrap_err();
         assert!(
-            matches!(e, ShellVolumeError::DegenerateTriangle { element: 3, .. }),
+            matches!(e, ConstraintError::DegenerateTriangle { element: 3, .. }),
             "{e}"
         );
         assert!(e.to_string().contains("element 3"), "{e}");
@@ -1034,7 +951,7 @@ mod tests {
         let e = proj
             .project(&s.tris, &mut s.x, &mut s.h, &s.wv, &s.we, s.v0)
             .unwrap_err();
-        let ShellVolumeError::BadThickness {
+        let ConstraintError::BadThickness {
             element: 2,
             thickness,
             area,

@@ -19,29 +19,10 @@
 //! outer particle* is reflected with the restitution. Use [`winding_number`] for an exact
 //! inside test (e.g. for statistics).
 
+use crate::ConstraintError;
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
-use thiserror::Error;
-
-/// Errors of the two-layer collision set-up.
-#[derive(Clone, Debug, Error, PartialEq)]
-pub enum TwoLayerConstraintError {
-    /// The box has a non-finite corner or zero or negative extent along an axis. Pass
-    /// `min < max` componentwise.
-    #[error(
-        "collision box min {min:?} / max {max:?} is invalid: need finite corners with min < max along every axis"
-    )]
-    InvalidBox {
-        /// Lower corner.
-        min: [f64; 3],
-        /// Upper corner.
-        max: [f64; 3],
-    },
-    /// The restitution is outside `[0, 1]`.
-    #[error("restitution {0} must be in [0, 1] (0: no bounce, 1: perfectly elastic)")]
-    InvalidRestitution(f64),
-}
 
 /// An axis-aligned box whose six faces (walls, floor, ceiling) the particles stay inside.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -54,12 +35,12 @@ pub struct AxisBox {
 
 impl AxisBox {
     /// A box from its corners; errors unless they are finite with `min < max` on every axis.
-    pub fn try_new(min: Point3<f64>, max: Point3<f64>) -> Result<Self, TwoLayerConstraintError> {
+    pub fn try_new(min: Point3<f64>, max: Point3<f64>) -> Result<Self, ConstraintError> {
         let ok = (0..3).all(|d| min[d].is_finite() && max[d].is_finite() && min[d] < max[d]);
         if ok {
             Ok(Self { min, max })
         } else {
-            Err(TwoLayerConstraintError::InvalidBox {
+            Err(ConstraintError::InvalidBox {
                 min: [min.x, min.y, min.z],
                 max: [max.x, max.y, max.z],
             })
@@ -67,10 +48,7 @@ impl AxisBox {
     }
 
     /// A box centred at `center` with half extents `half` (m).
-    pub fn centered(
-        center: Point3<f64>,
-        half: Vector3<f64>,
-    ) -> Result<Self, TwoLayerConstraintError> {
+    pub fn centered(center: Point3<f64>, half: Vector3<f64>) -> Result<Self, ConstraintError> {
         Self::try_new(center - half, center + half)
     }
 
@@ -81,11 +59,11 @@ impl AxisBox {
 }
 
 /// Checks that a restitution coefficient is in `[0, 1]`.
-pub fn check_restitution(restitution: f64) -> Result<f64, TwoLayerConstraintError> {
+pub fn check_restitution(restitution: f64) -> Result<f64, ConstraintError> {
     if (0.0..=1.0).contains(&restitution) {
         Ok(restitution)
     } else {
-        Err(TwoLayerConstraintError::InvalidRestitution(restitution))
+        Err(ConstraintError::InvalidRestitution(restitution))
     }
 }
 

@@ -209,6 +209,21 @@ impl StepInfo {
     }
 }
 
+/// Checks a time step (s): positive and finite. The one check of dt for the implicit
+/// integrator and the systems stepped by it (the shell calls it when dt is set, so a bad dt is
+/// refused before any work).
+pub fn check_time_step(dt: f64) -> Result<f64, IntegrateError> {
+    if dt.is_finite() && dt > 0.0 {
+        Ok(dt)
+    } else {
+        Err(IntegrateError::InvalidParameter {
+            name: "dt",
+            value: dt,
+            allowed: "positive and finite (s)",
+        })
+    }
+}
+
 /// Errors of [`BackwardEuler::step`].
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum IntegrateError {
@@ -242,9 +257,37 @@ pub enum IntegrateError {
         /// Newton iteration (0-based).
         iteration: usize,
     },
-    /// A parameter or array is invalid (message names it).
-    #[error("invalid input: {0}")]
-    InvalidInput(String),
+    /// A parameter is out of its range (the time step, a damping coefficient, the Newton
+    /// tolerance or iteration bound, gravity). Pass a value in `allowed`.
+    #[error("invalid parameter: `{name}` = {value:e} must be {allowed}")]
+    InvalidParameter {
+        /// The parameter (`dt`, `mass_damping`, ..., as in [`BackwardEulerParams`]).
+        name: &'static str,
+        /// The value given.
+        value: f64,
+        /// Its admissible range, in words.
+        allowed: &'static str,
+    },
+    /// An array handed to [`BackwardEuler::step`] does not have one entry per degree of freedom.
+    #[error("invalid input: `{what}` has length {len}, the system has {expected} dofs")]
+    LengthMismatch {
+        /// Which array (`x`, `v`, `masses`, `external_forces`).
+        what: &'static str,
+        /// Its length.
+        len: usize,
+        /// The system's number of degrees of freedom.
+        expected: usize,
+    },
+    /// A lumped mass is not positive and finite.
+    #[error("invalid input: mass of dof {dof} (vertex {vertex}) is {mass:e} kg; must be positive")]
+    InvalidMass {
+        /// Degree of freedom.
+        dof: usize,
+        /// Vertex `dof / 3`.
+        vertex: usize,
+        /// The mass, kg.
+        mass: f64,
+    },
     /// Newton did not bring the relative residual down to the tolerance within the allowed
     /// iterations (or the line search found no acceptable step): the step is not accepted.
     #[error(
@@ -612,60 +655,60 @@ impl BackwardEuler {
         ext: Option<&[f64]>,
     ) -> Result<(), IntegrateError> {
         let p = &self.params;
-        let bad = |s: String| Err(IntegrateError::InvalidInput(s));
-        if !(dt.is_finite() && dt > 0.0) {
-            return bad(format!(
-                "time step dt = {dt:e} s must be positive and finite"
-            ));
-        }
-        if !(p.mass_damping.is_finite() && p.mass_damping >= 0.0) {
-            return bad(format!(
-                "mass_damping = {:e} 1/s must be non-negative",
-                p.mass_damping
-            ));
-        }
-        if !(p.stiffness_damping.is_finite() && p.stiffness_damping >= 0.0) {
-            return bad(format!(
-                "stiffness_damping = {:e} s must be non-negative",
-                p.stiffness_damping
-            ));
-        }
-        if !(p.newton_tolerance.is_finite() && p.newton_tolerance >= 0.0) {
-            return bad(format!(
-                "newton_tolerance = {:e} must be non-negative",
-                p.newton_tolerance
-            ));
-        }
-        if !(1..=MAX_NEWTON_ITERATIONS).contains(&p.newton_iterations) {
-            return bad(format!(
-                "newton_iterations = {} must be between 1 and {MAX_NEWTON_ITERATIONS}",
-                p.newton_iterations
-            ));
-        }
-        if p.gravity.iter().any(|g| !g.is_finite()) {
-            return bad(format!("gravity {:?} must be finite", p.gravity));
-        }
-        for (what, len) in [("x", x.len()), ("v", v.len()), ("masses", masses.len())] {
-            if len != n {
-                return bad(format!(
-                    "`{what}` has length {len}, the system has {n} dofs"
-                ));
+        check_time_step(dt)?;
+        let param = |name, value: f64, ok: bool, allowed| {
+            if ok {
+                Ok(())
+            } else {
+                Err(IntegrateError::InvalidParameter {
+                    name,
+                    value,
+                    allowed,
+                })
             }
+        };
+        param(
+            "mass_damping",
+            p.mass_damping,
+            p.mass_damping.is_finite() && p.mass_damping >= 0.0,
+            "finite and non-negative (1/s)",
+        )?;
+        param(
+            "stiffness_damping",
+            p.stiffness_damping,
+            p.stiffness_damping.is_finite() && p.stiffness_damping >= 0.0,
+            "finite and non-negative (s)",
+        )?;
+        param(
+            "newton_tolerance",
+            p.newton_tolerance,
+            p.newton_tolerance.is_finite() && p.newton_tolerance >= 0.0,
+            "finite and non-negative",
+        )?;
+        param(
+            "newton_iterations",
+            p.newton_iterations as f64,
+            (1..=MAX_NEWTON_ITERATIONS).contains(&p.newton_iterations),
+            "an integer from 1 to 1000",
+        )?;
+        if let Some(g) = p.gravity.iter().find(|g| !g.is_finite()) {
+            param("gravity", *g, false, "finite in every component (m/s^2)")?;
         }
-        if let Some(e) = ext
-            && e.len() != n
-        {
-            return bad(format!(
-                "`external_forces` has length {}, the system has {n} dofs",
-                e.len()
-            ));
+        let lengths = [("x", x.len()), ("v", v.len()), ("masses", masses.len())];
+        let ext = ext.map(|e| ("external_forces", e.len()));
+        if let Some((what, len)) = lengths.into_iter().chain(ext).find(|&(_, len)| len != n) {
+            return Err(IntegrateError::LengthMismatch {
+                what,
+                len,
+                expected: n,
+            });
         }
-        if let Some(i) = masses.iter().position(|m| !(m.is_finite() && *m > 0.0)) {
-            return bad(format!(
-                "mass of dof {i} (vertex {}) is {:e} kg; must be positive",
-                i / 3,
-                masses[i]
-            ));
+        if let Some(dof) = masses.iter().position(|m| !(m.is_finite() && *m > 0.0)) {
+            return Err(IntegrateError::InvalidMass {
+                dof,
+                vertex: dof / 3,
+                mass: masses[dof],
+            });
         }
         Ok(())
     }
@@ -1379,6 +1422,57 @@ mod tests {
             },
             ..Default::default()
         }
+    }
+
+    #[test]
+    fn bad_inputs_are_typed_errors_naming_the_parameter_and_value() {
+        let mut sys = Free(vec![1.0; 6], true);
+        let (mut x, mut v) = (vec![0.0; 6], vec![0.0; 6]);
+        let mut be = BackwardEuler::new(params(LinearSolverKind::Cholesky, 1));
+        for dt in [0.0, -1e-3, f64::NAN, f64::INFINITY] {
+            let err = be
+                .step(&mut sys, 0.0, dt, &mut x, &mut v, None)
+                .unwrap_err();
+            assert!(
+                matches!(err, IntegrateError::InvalidParameter { name: "dt", value, .. }
+                    if value.to_bits() == dt.to_bits()),
+                "{err}"
+            );
+        }
+        be.params.mass_damping = -2.0;
+        let err = be
+            .step(&mut sys, 0.0, 1e-3, &mut x, &mut v, None)
+            .unwrap_err();
+        assert!(
+            matches!(err, IntegrateError::InvalidParameter { name: "mass_damping", value, .. } if value == -2.0),
+            "{err}"
+        );
+        be.params.mass_damping = 0.0;
+        let mut short = vec![0.0; 5];
+        let err = be
+            .step(&mut sys, 0.0, 1e-3, &mut x, &mut short, None)
+            .unwrap_err();
+        assert_eq!(
+            err,
+            IntegrateError::LengthMismatch {
+                what: "v",
+                len: 5,
+                expected: 6
+            }
+        );
+        sys.0[4] = 0.0;
+        let err = be
+            .step(&mut sys, 0.0, 1e-3, &mut x, &mut v, None)
+            .unwrap_err();
+        assert_eq!(
+            err,
+            IntegrateError::InvalidMass {
+                dof: 4,
+                vertex: 1,
+                mass: 0.0
+            }
+        );
+        assert!(err.to_string().contains("dof 4 (vertex 1)"), "{err}");
     }
 
     #[test]

@@ -66,4 +66,5 @@ pub mod system;
 /// old path (`balloon_integrate::linear::LinearSolverKind` etc.).
 pub use balloon_linalg as linear;
 
+pub use implicit::check_time_step;
 pub use system::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};

@@ -56,24 +56,23 @@ impl std::fmt::Display for TangentKind {
 #[derive(Debug, Error, Clone)]
 pub enum SystemError {
     /// A quantity became NaN or infinite.
-    #[error("non-finite {quantity} at {location}")]
+    #[error("non-finite {quantity} at dof {dof} (vertex {})", dof / 3)]
     NonFinite {
-        /// What became non-finite (e.g. "force", "gas volume").
-        quantity: String,
-        /// Where (e.g. "vertex 12", "element 7").
-        location: String,
+        /// What became non-finite (e.g. "force").
+        quantity: &'static str,
+        /// The degree of freedom where it was found.
+        dof: usize,
     },
-    /// An element inverted or degenerated (zero or negative area / volume).
-    #[error("element {element} is inverted or degenerate ({detail})")]
+    /// An element inverted or degenerated (zero or negative area / volume, or a non-finite
+    /// elastic force or energy), with the element's own error.
+    #[error("element {element} is inverted or degenerate: {source}")]
     InvertedElement {
         /// Element index.
         element: usize,
-        /// Numbers that explain it.
-        detail: String,
+        /// What the element reported, with its numbers.
+        #[source]
+        source: balloon_element::ElementError,
     },
-    /// Any other physical failure, described in words.
-    #[error("{0}")]
-    Other(String),
     /// A failure of a component the integrator knows nothing about (e.g. the gas model), with
     /// its typed error: `source.downcast_ref::<TheComponentsError>()` recovers it. Made by
     /// [`SystemError::component`].
@@ -126,24 +125,23 @@ impl PartialEq for SystemError {
             (
                 NonFinite {
                     quantity: a,
-                    location: b,
+                    dof: b,
                 },
                 NonFinite {
                     quantity: c,
-                    location: d,
+                    dof: d,
                 },
             ) => a == c && b == d,
             (
                 InvertedElement {
                     element: a,
-                    detail: b,
+                    source: b,
                 },
                 InvertedElement {
                     element: c,
-                    detail: d,
+                    source: d,
                 },
             ) => a == c && b == d,
-            (Other(a), Other(b)) => a == b,
             (
                 Component {
                     component: a,

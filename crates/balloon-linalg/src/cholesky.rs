@@ -3,6 +3,8 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::linalg::solvers::LltError;
+use faer::sparse::FaerError;
 use faer::sparse::linalg::cholesky::{
     LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
 };
@@ -11,6 +13,15 @@ use faer::{Par, Side};
 
 use crate::csr::CsrMatrix;
 use crate::error::SolveError;
+
+/// faer's resource error in words.
+fn faer_reason(e: FaerError) -> &'static str {
+    match e {
+        FaerError::OutOfMemory => "out of memory",
+        FaerError::IndexOverflow => "index overflow",
+        _ => "faer resource error",
+    }
+}
 
 /// The widest parallelism available: the rayon pool with the `parallel` feature, else none.
 fn max_par() -> Par {
@@ -76,16 +87,20 @@ impl SparseCholesky {
                 SymmetricOrdering::Amd,
                 Default::default(),
             )
-            .map_err(|e| SolveError::Factorization {
-                detail: format!("symbolic analysis failed: {e:?}"),
+            .map_err(|e| SolveError::FactorResources {
+                what: "symbolic analysis",
+                n: a.n,
+                reason: faer_reason(e),
             })?;
             let req = s
                 .factorize_numeric_llt_scratch::<f64>(max_par(), Default::default())
                 .or(s.solve_in_place_scratch::<f64>(1, max_par()));
             self.workspace =
                 Some(
-                    MemBuffer::try_new(req).map_err(|_| SolveError::Factorization {
-                        detail: "out of memory for the Cholesky workspace".into(),
+                    MemBuffer::try_new(req).map_err(|_| SolveError::FactorResources {
+                        what: "workspace allocation",
+                        n: a.n,
+                        reason: "out of memory",
                     })?,
                 );
             self.values.clear();
@@ -94,9 +109,7 @@ impl SparseCholesky {
         }
         let par = self.par();
         let (Some((_, symbolic)), Some(work)) = (&self.symbolic, &mut self.workspace) else {
-            return Err(SolveError::Factorization {
-                detail: "no symbolic factorisation".into(),
-            });
+            return Err(SolveError::NotFactorized);
         };
         let mat = SparseColMatRef::new(sym, &a.values);
         symbolic
@@ -109,13 +122,15 @@ impl SparseCholesky {
                 MemStack::new(work),
                 Default::default(),
             )
-            .map_err(|e| SolveError::Factorization {
-                detail: format!(
-                    "matrix ({n}x{n}, {nnz} entries) is not positive definite: {e:?}",
-                    n = a.n,
-                    nnz = a.nnz()
-                ),
-            })?;
+            .map_err(
+                |LltError::NonPositivePivot { index }| SolveError::NotPositiveDefinite {
+                    method: "sparse Cholesky",
+                    n: a.n,
+                    nnz: a.nnz(),
+                    pivot: Some(index),
+                    shift: 0.0,
+                },
+            )?;
         self.factorized = true;
         self.n = a.n;
         Ok(())
@@ -148,9 +163,7 @@ impl SparseCholesky {
         let (true, Some((_, symbolic)), Some(work)) =
             (self.factorized, &self.symbolic, &mut self.workspace)
         else {
-            return Err(SolveError::Factorization {
-                detail: "solve called before a successful factorisation".into(),
-            });
+            return Err(SolveError::NotFactorized);
         };
         if rhs.len() != self.n {
             return Err(SolveError::Dimension {

@@ -99,9 +99,7 @@ impl CsrMatrix {
             self.col_idx.clone(),
             self.values.clone(),
         )
-        .map_err(|(.., e)| SolveError::Factorization {
-            detail: format!("not a valid CSR matrix for sprs: {e}"),
-        })
+        .map_err(|(.., e)| SolveError::InvalidCsr(e))
     }
 
     /// A square [`sprs::CsMat`] (CSR or CSC; a CSC matrix is converted) as a [`CsrMatrix`].

@@ -19,13 +19,47 @@ pub enum SolveError {
         /// `|p|^2`, for scale.
         direction_norm_squared: f64,
     },
-    /// The sparse Cholesky factorisation failed: the sparse part of the matrix is not positive
-    /// definite (pivot index given when known). Use PCG or the matrix-free solver.
-    #[error("sparse Cholesky factorisation failed: {detail}")]
-    Factorization {
-        /// What faer reported, with the pivot when known.
-        detail: String,
+    /// A factorisation (sparse Cholesky or IC(0)) met a non-positive pivot: the matrix is not
+    /// positive definite. Use PCG or the matrix-free solver, or a smaller time step.
+    #[error(
+        "{method} factorisation of the {n}x{n} matrix ({nnz} entries) failed: non-positive pivot{} (diagonal shift {shift:e}); the matrix is not positive definite",
+        pivot.map(|p| format!(" at row {p}")).unwrap_or_default()
+    )]
+    NotPositiveDefinite {
+        /// `"sparse Cholesky"` or `"IC(0)"`.
+        method: &'static str,
+        /// Matrix size.
+        n: usize,
+        /// Stored entries (the lower triangle for IC(0)).
+        nnz: usize,
+        /// The row of the failing pivot, when the factoriser reports it.
+        pivot: Option<usize>,
+        /// The largest diagonal shift tried (0 for the plain Cholesky).
+        shift: f64,
     },
+    /// IC(0) needs every diagonal entry in the sparsity pattern.
+    #[error("IC(0): row {row} has no diagonal entry in the sparsity pattern")]
+    MissingDiagonal {
+        /// The row.
+        row: usize,
+    },
+    /// The sparse Cholesky's symbolic analysis or workspace could not be made (the index type
+    /// overflowed or memory ran out).
+    #[error("sparse Cholesky of the {n}x{n} matrix: {what} failed ({reason})")]
+    FactorResources {
+        /// `"symbolic analysis"` or `"workspace allocation"`.
+        what: &'static str,
+        /// Matrix size.
+        n: usize,
+        /// `"out of memory"` or `"index overflow"`.
+        reason: &'static str,
+    },
+    /// A solve with a factor was asked for before a successful factorisation.
+    #[error("solve called before a successful factorisation")]
+    NotFactorized,
+    /// The CSR arrays do not describe a valid matrix for `sprs`.
+    #[error("not a valid CSR matrix for sprs: {0}")]
+    InvalidCsr(#[source] sprs::errors::StructureError),
     /// The small Woodbury capacitance matrix `I + C U^T A^-1 U` is singular.
     #[error("Woodbury capacitance matrix of the low-rank terms ({rank}x{rank}) is singular")]
     SingularCapacitance {
@@ -89,7 +123,7 @@ impl SolveError {
     pub fn is_indefinite(&self) -> bool {
         matches!(
             self,
-            Self::NonPositiveCurvature { .. } | Self::Factorization { .. }
+            Self::NonPositiveCurvature { .. } | Self::NotPositiveDefinite { .. }
         )
     }
 }

@@ -63,9 +63,7 @@ impl IncompleteCholesky {
                     }
                 }
                 if !has_diag {
-                    return Err(SolveError::Factorization {
-                        detail: format!("IC(0): row {r} has no diagonal entry"),
-                    });
+                    return Err(SolveError::MissingDiagonal { row: r });
                 }
                 self.row_ptr.push(self.col_idx.len());
             }
@@ -82,11 +80,12 @@ impl IncompleteCholesky {
                 Err(row) => {
                     shift = if shift == 0.0 { 1e-3 } else { shift * 10.0 };
                     if shift > 1e3 {
-                        return Err(SolveError::Factorization {
-                            detail: format!(
-                                "IC(0): non-positive pivot at row {row} even with diagonal shift {:e}",
-                                shift / 10.0
-                            ),
+                        return Err(SolveError::NotPositiveDefinite {
+                            method: "IC(0)",
+                            n: a.n,
+                            nnz: self.col_idx.len(),
+                            pivot: Some(row),
+                            shift: shift / 10.0,
                         });
                     }
                 }

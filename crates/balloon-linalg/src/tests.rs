@@ -232,7 +232,10 @@ fn cholesky_with_sherman_morrison_and_woodbury_matches_dense_solve() {
         values: vec![0.0, 1.0, 1.0],
     };
     assert!(unsorted.check().is_err());
-    assert!(SparseCholesky::new().solve_in_place(&mut [1.0]).is_err());
+    assert_eq!(
+        SparseCholesky::new().solve_in_place(&mut [1.0]),
+        Err(SolveError::NotFactorized)
+    );
     // A matrix that is not positive definite is reported, not mis-solved.
     let mut bad = t.clone();
     bad.push((4, 4, -100.0));
@@ -241,6 +244,20 @@ fn cholesky_with_sherman_morrison_and_woodbury_matches_dense_solve() {
         .factorize(asm.matrix(), asm.pattern_version())
         .unwrap_err();
     assert!(err.to_string().contains("not positive definite"), "{err}");
+    assert!(err.is_indefinite());
+    match err {
+        SolveError::NotPositiveDefinite {
+            method,
+            n: m,
+            pivot,
+            ..
+        } => {
+            assert_eq!((method, m), ("sparse Cholesky", n));
+            // faer reports the pivot in its fill-reducing ordering: a row of the matrix.
+            assert!(pivot.is_some_and(|p| p < n), "{pivot:?}");
+        }
+        other => panic!("expected NotPositiveDefinite, got {other}"),
+    }
 }
 
 #[test]

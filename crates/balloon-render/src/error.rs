@@ -64,15 +64,39 @@ pub enum RenderError {
         /// The I/O error.
         source: std::io::Error,
     },
-    /// The PNG or GIF encoder failed.
-    #[error("{path}: cannot encode {format}: {message}")]
+    /// The PNG or GIF encoder failed (the encoder's own error is the source).
+    #[error("{path}: cannot encode {format}: {source}")]
     Encode {
         /// The file (or `<memory>`).
         path: PathBuf,
         /// `PNG` or `GIF`.
         format: &'static str,
-        /// The encoder's message.
-        message: String,
+        /// The encoder's error (`png::EncodingError` or `gif::EncodingError`).
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// Reading back a PNG or GIF failed (the decoder's own error is the source).
+    #[error("{path}: cannot decode {format}: {source}")]
+    Decode {
+        /// The file.
+        path: PathBuf,
+        /// `PNG` or `GIF`.
+        format: &'static str,
+        /// The decoder's error (`png::DecodingError` or `gif::DecodingError`).
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// A PNG read back is not 8-bit RGB or RGBA.
+    #[error(
+        "{path}: unsupported PNG layout {color_type} at {bit_depth} bits (8-bit RGB or RGBA only)"
+    )]
+    UnsupportedPng {
+        /// The file.
+        path: PathBuf,
+        /// The PNG colour type, as the decoder names it.
+        color_type: &'static str,
+        /// Bits per sample.
+        bit_depth: u8,
     },
 }
 

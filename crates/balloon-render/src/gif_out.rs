@@ -229,10 +229,10 @@ impl Drop for GifWriter {
 /// Reads every frame of a GIF as a full RGB image (frames composed onto the canvas as a viewer
 /// shows them) and the frame delays in hundredths of a second, e.g. to check an animation.
 pub fn read_gif(path: &Path) -> Result<Vec<(Image, u16)>, RenderError> {
-    let dec_err = |message: String| RenderError::Encode {
+    let dec_err = |e: gif::DecodingError| RenderError::Decode {
         path: path.to_path_buf(),
         format: "GIF",
-        message,
+        source: Box::new(e),
     };
     let file = File::open(path).map_err(|source| RenderError::Io {
         path: path.to_path_buf(),
@@ -242,11 +242,11 @@ pub fn read_gif(path: &Path) -> Result<Vec<(Image, u16)>, RenderError> {
     opts.set_color_output(gif::ColorOutput::RGBA);
     let mut d = opts
         .read_info(std::io::BufReader::new(file))
-        .map_err(|e| dec_err(e.to_string()))?;
+        .map_err(dec_err)?;
     let (w, h) = (d.width() as u32, d.height() as u32);
     let mut canvas = Image::new(w, h, [0; 3])?;
     let mut out = Vec::new();
-    while let Some(f) = d.read_next_frame().map_err(|e| dec_err(e.to_string()))? {
+    while let Some(f) = d.read_next_frame().map_err(dec_err)? {
         for y in 0..f.height as u32 {
             for x in 0..f.width as u32 {
                 let i = 4 * (y as usize * f.width as usize + x as usize);
@@ -268,7 +268,7 @@ fn encode_err(path: &Path, e: gif::EncodingError) -> RenderError {
     RenderError::Encode {
         path: path.to_path_buf(),
         format: "GIF",
-        message: e.to_string(),
+        source: Box::new(e),
     }
 }
 

@@ -92,7 +92,7 @@ impl Image {
         let enc_err = |e: png::EncodingError| RenderError::Encode {
             path: path.to_path_buf(),
             format: "PNG",
-            message: e.to_string(),
+            source: Box::new(e),
         };
         let mut enc = png::Encoder::new(out, self.width, self.height);
         enc.set_color(png::ColorType::Rgb);
@@ -105,10 +105,10 @@ impl Image {
 
     /// Reads an 8-bit RGB or RGBA PNG file (alpha is dropped), e.g. to check a render.
     pub fn read_png(path: &Path) -> Result<Self, RenderError> {
-        let dec_err = |message: String| RenderError::Encode {
+        let dec_err = |e: png::DecodingError| RenderError::Decode {
             path: path.to_path_buf(),
             format: "PNG",
-            message,
+            source: Box::new(e),
         };
         let file = std::fs::File::open(path).map_err(|source| RenderError::Io {
             path: path.to_path_buf(),
@@ -116,18 +116,28 @@ impl Image {
         })?;
         let mut reader = png::Decoder::new(std::io::BufReader::new(file))
             .read_info()
-            .map_err(|e| dec_err(e.to_string()))?;
+            .map_err(dec_err)?;
         let size = reader
             .output_buffer_size()
-            .ok_or_else(|| dec_err("image too large".into()))?;
+            .ok_or_else(|| dec_err(png::DecodingError::LimitsExceeded))?;
         let mut buf = vec![0; size];
-        let info = reader
-            .next_frame(&mut buf)
-            .map_err(|e| dec_err(e.to_string()))?;
+        let info = reader.next_frame(&mut buf).map_err(dec_err)?;
         let channels = match (info.color_type, info.bit_depth) {
             (png::ColorType::Rgb, png::BitDepth::Eight) => 3,
             (png::ColorType::Rgba, png::BitDepth::Eight) => 4,
-            (c, d) => return Err(dec_err(format!("unsupported PNG layout {c:?} {d:?}"))),
+            (c, d) => {
+                return Err(RenderError::UnsupportedPng {
+                    path: path.to_path_buf(),
+                    color_type: match c {
+                        png::ColorType::Grayscale => "grayscale",
+                        png::ColorType::GrayscaleAlpha => "grayscale-alpha",
+                        png::ColorType::Indexed => "indexed",
+                        png::ColorType::Rgb => "RGB",
+                        png::ColorType::Rgba => "RGBA",
+                    },
+                    bit_depth: d as u8,
+                });
+            }
         };
         let mut img = Image::new(info.width, info.height, [0; 3])?;
         for (dst, src) in img
@@ -192,6 +202,41 @@ pub(crate) fn write_atomically(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A file that is not a PNG is a typed decode error naming the file, with the decoder's
+    /// error as its source; an unsupported layout names the layout.
+    #[test]
+    fn bad_png_files_are_typed_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("not.png");
+        std::fs::write(&path, b"GIF89a, not a png").unwrap();
+        let err = Image::read_png(&path).unwrap_err();
+        assert!(
+            matches!(&err, RenderError::Decode { format: "PNG", .. }),
+            "{err}"
+        );
+        assert!(err.to_string().contains("not.png"), "{err}");
+        assert!(std::error::Error::source(&err).is_some());
+        let gray = dir.path().join("gray.png");
+        let mut enc = png::Encoder::new(std::fs::File::create(&gray).unwrap(), 2, 2);
+        enc.set_color(png::ColorType::Grayscale);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc.write_header().unwrap();
+        w.write_image_data(&[0, 1, 2, 3]).unwrap();
+        w.finish().unwrap();
+        let err = Image::read_png(&gray).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                RenderError::UnsupportedPng {
+                    color_type: "grayscale",
+                    bit_depth: 8,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+    }
 
     #[test]
     fn png_round_trips_through_the_decoder() {

@@ -67,7 +67,7 @@ pub enum TwoLayerError {
     Mesh(#[from] balloon_mesh::MeshError),
     /// The collision box or restitution is invalid.
     #[error(transparent)]
-    Collision(#[from] balloon_constraint::two_layer::TwoLayerConstraintError),
+    Collision(#[from] balloon_constraint::ConstraintError),
     /// The integrator rejected the step (bad time step or state size).
     #[error(transparent)]
     Integrator(#[from] balloon_integrate::explicit::ExplicitError),

@@ -33,12 +33,11 @@
 //! assert!(stats.max_cell_volume_error <= 1e-10);
 //! ```
 
+use balloon_constraint::ConstraintError;
 use balloon_constraint::cell_volume::{
-    CellSprings, CellVolumeConstraints, CellVolumeError, CellVolumeParams, SpringParams,
+    CellSprings, CellVolumeConstraints, CellVolumeParams, SpringParams,
 };
-use balloon_constraint::impulse::{
-    ImpulseError, ImpulseModel, ImpulseParams, ImpulseState, ImpulseStepper,
-};
+use balloon_constraint::impulse::{ImpulseModel, ImpulseParams, ImpulseState, ImpulseStepper};
 use balloon_constraint::rigid::{Plane, RigidSphere};
 use balloon_mesh::lattice::{Lattice, LatticeError, LatticeParams, build_lattice};
 use balloon_mesh::{TetMesh, TriMesh};
@@ -163,7 +162,7 @@ pub enum VolumetricError {
     Lattice(#[from] LatticeError),
     /// A constraint could not be set up (bad spring or volume parameter, broken cell).
     #[error(transparent)]
-    Constraint(#[from] CellVolumeError),
+    Constraint(#[from] ConstraintError),
     /// A parameter is out of range.
     #[error("invalid parameter `{name}` = {value}: {reason}")]
     InvalidParameter {
@@ -197,7 +196,7 @@ pub enum VolumetricError {
         /// The step.
         step: usize,
         /// The projection error.
-        source: CellVolumeError,
+        source: ConstraintError,
     },
     /// A particle position or velocity became NaN or infinite.
     #[error("step {step}: particle {particle} has a non-finite position or velocity")]
@@ -561,7 +560,7 @@ impl VolumetricSimulation {
             .stepper
             .step(&model, &impulse, &mut self.state, params.dt)
             .map_err(|e| match e {
-                ImpulseError::Inversion {
+                ConstraintError::Inversion {
                     cell,
                     tet,
                     halvings,
@@ -573,7 +572,7 @@ impl VolumetricSimulation {
                     halvings,
                     dt,
                 },
-                ImpulseError::Projection(source) => VolumetricError::NotConverged {
+                source => VolumetricError::NotConverged {
                     step: self.step,
                     source,
                 },

@@ -174,7 +174,7 @@ pub enum ShellError {
         step: usize,
         /// What failed.
         #[source]
-        source: balloon_constraint::shell_volume::ShellVolumeError,
+        source: balloon_constraint::ConstraintError,
     },
     /// The gas volume ran away (non-finite, non-positive or beyond
     /// [`RUNAWAY_VOLUME_FACTOR`] times the rest volume): a physical runaway, not retried with
@@ -341,10 +341,15 @@ pub fn default_integrator_params() -> BackwardEulerParams {
     integrator
 }
 
-/// Checks a time step (s): positive and finite. The one check of dt for the builder and
-/// [`ShellSimulation::set_dt`].
+/// Checks a time step (s) for the builder and [`ShellSimulation::set_dt`] with the integrator's
+/// own rule ([`balloon_integrate::check_time_step`]), so that a bad dt is refused before any
+/// work, with the same range the integrator enforces.
 fn check_dt(dt: f64) -> Result<f64, ShellError> {
-    positive("dt", dt).map(|()| dt)
+    balloon_integrate::check_time_step(dt).map_err(|_| ShellError::InvalidParameter {
+        name: "dt",
+        value: dt.to_string(),
+        reason: "must be a positive finite number".into(),
+    })
 }
 
 fn positive(name: &'static str, value: f64) -> Result<(), ShellError> {

@@ -1,7 +1,7 @@
 //! The shell balloon as a [`ForceSystem`]: three-prism elastic forces (seed 000, Eq. 8, 11) plus
 //! the uniform gas (Eq. 15-17), seen by the implicit integrator.
 
-use balloon_element::ThreePrism;
+use balloon_element::{ElementError, ThreePrism};
 use balloon_gas::{GasModel, PressureLoad};
 use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
 use balloon_material::Material;
@@ -239,14 +239,14 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
             .position(|fe| fe.iter().any(|c| !c.iter().all(|v| v.is_finite())))
         {
             let xs = Self::corner_positions(x, &self.triangles[e]);
-            let detail = match self.elements[e].check_state(&xs, self.thickness[e]) {
-                Err(err) => err.to_string(),
-                Ok(()) => format!(
-                    "non-finite elastic force (thickness {:.3e} m)",
-                    self.thickness[e]
-                ),
+            let source = match self.elements[e].check_state(&xs, self.thickness[e]) {
+                Err(err) => err,
+                Ok(()) => ElementError::NonFinite {
+                    element: "three-prism",
+                    quantity: "elastic force",
+                },
             };
-            return Err(SystemError::InvertedElement { element: e, detail });
+            return Err(SystemError::InvertedElement { element: e, source });
         }
         f.iter_mut().for_each(|v| *v = 0.0);
         let forces = &self.elem_forces;
@@ -362,7 +362,10 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
                 .unwrap_or(0);
             return Err(SystemError::InvertedElement {
                 element: e,
-                detail: format!("non-finite elastic energy {elastic:e} J"),
+                source: ElementError::NonFinite {
+                    element: "three-prism",
+                    quantity: "elastic energy",
+                },
             });
         }
         Ok(Some(elastic + gas))
@@ -512,6 +515,40 @@ mod tests {
     /// The potential's gradient is minus the forces (elastic + gas) for every gas model, at
     /// zero and standard ambient pressure, and with anchor springs on top (finite differences
     /// on a deformed state, at the time the pump has pumped for a while).
+    /// A collapsed element reaches the caller as the element's own typed error, with its index.
+    #[test]
+    fn a_collapsed_element_is_a_typed_inverted_element_error() {
+        use balloon_element::ElementError;
+        use balloon_integrate::SystemError;
+        let sim = ShellBalloon::new(icosphere(0.1, 1).unwrap())
+            .build()
+            .unwrap();
+        let mut sys = sim.system.clone_for_tests();
+        let mut x = sim.positions().to_vec();
+        let [a, b, _] = sys.triangles[5];
+        for k in 0..3 {
+            x[3 * b + k] = x[3 * a + k];
+        }
+        let mut f = vec![0.0; x.len()];
+        let err = sys.forces(0.0, &x, &mut f).unwrap_err();
+        match &err {
+            SystemError::InvertedElement {
+                element,
+                source:
+                    ElementError::Degenerate {
+                        quantity, value, ..
+                    },
+            } => {
+                assert!(
+                    sys.triangles[*element].contains(&a) && sys.triangles[*element].contains(&b)
+                );
+                assert_eq!((*quantity, *value), ("area", 0.0));
+            }
+            other => panic!("expected InvertedElement with a degenerate area, got {other:?}"),
+        }
+        assert!(std::error::Error::source(&err).is_some());
+    }
+
     #[test]
     fn potential_energy_gradient_is_minus_the_forces_for_every_gas() {
         use crate::shell::{AnchorSpring, WithAnchors};
