@@ -38,6 +38,7 @@
 //! assert!(parse_client_message("{not json").is_err());
 //! ```
 
+pub mod access;
 pub mod protocol;
 mod runner;
 mod server;
@@ -47,13 +48,15 @@ pub use systems::{
     DragRequest, ShellView, TwoLayerView, ViewSystem, ViewedSimulation, VolumetricView,
 };
 
+use access::{Access, MAX_CONNECTIONS, RefusalLog};
 use balloon_mesh::TriMesh;
 use runner::{Command, Runner, Shared};
-use std::net::{IpAddr, SocketAddr, TcpListener, ToSocketAddrs};
+use server::Context;
+use std::net::{IpAddr, SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
 use std::str::FromStr;
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
-use std::sync::mpsc::{self, Sender};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::{self, SyncSender};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use thiserror::Error;
@@ -106,11 +109,20 @@ pub enum ViewerError {
         /// Port.
         port: u16,
     },
-    /// A non-loopback host without `allow_remote`.
+    /// A non-loopback host without `allow_remote`: bind a loopback address, or name the hosts
+    /// clients will use with `--allow-remote`.
     #[error(
-        "refusing to listen on {0}: it is not a loopback address, and anyone who can reach it could control the simulation; pass --allow-remote to allow it"
+        "refusing to listen on {0}: it is not a loopback address, and anyone who can reach it could control the simulation; pass --allow-remote NAME[,NAME...] with the names clients use to reach it to allow it"
     )]
     NotLoopback(String),
+    /// A name given with `--allow-remote` is not a host name or address.
+    #[error("--allow-remote `{name}`: {reason}")]
+    BadAllowedName {
+        /// The name as given (control characters replaced, cut).
+        name: String,
+        /// Why it is refused.
+        reason: String,
+    },
     /// The host does not resolve.
     #[error("cannot resolve host `{host}`: {reason}")]
     BadHost {
@@ -161,8 +173,9 @@ pub struct ViewerOptions {
     pub host: String,
     /// Port (0: the OS picks one).
     pub port: u16,
-    /// Allow a non-loopback host.
-    pub allow_remote: bool,
+    /// Extra names accepted in the `Host` and `Origin` headers besides the loopback names and
+    /// the bound address (`--allow-remote`); a non-loopback `host` needs at least one.
+    pub allow_remote: Vec<String>,
 }
 
 impl ViewerOptions {
@@ -173,7 +186,7 @@ impl ViewerOptions {
             mesh: None,
             host: "127.0.0.1".into(),
             port: 0,
-            allow_remote: false,
+            allow_remote: Vec::new(),
         }
     }
 }
@@ -269,16 +282,39 @@ pub fn bind(host: &str, port: u16, allow_remote: bool) -> Result<TcpListener, Vi
 pub struct Viewer {
     listener: TcpListener,
     url: String,
-    shared: Arc<Shared>,
-    commands: Sender<Command>,
+    context: Arc<Context>,
     sim_thread: Option<JoinHandle<()>>,
+}
+
+/// Shortest and longest pause of the accept loop after a failed `accept` (out of file
+/// descriptors, memory, ...): it doubles after each failure in a row, so a lasting failure
+/// costs a few wake-ups per second instead of a busy loop.
+const ACCEPT_BACKOFF: (Duration, Duration) = (Duration::from_millis(10), Duration::from_secs(1));
+
+/// Releases a connection's slot when its thread ends (or when the thread could not start).
+struct Slot(Arc<AtomicUsize>);
+
+impl Drop for Slot {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::SeqCst);
+    }
 }
 
 impl Viewer {
     /// Binds, builds the simulation and starts it (the page can connect once
     /// [`Viewer::serve`] runs).
     pub fn start(options: &ViewerOptions) -> Result<Self, ViewerError> {
-        let listener = bind(&options.host, options.port, options.allow_remote)?;
+        let allowed = options
+            .allow_remote
+            .iter()
+            .map(|name| {
+                access::allowed_name(name).map_err(|reason| ViewerError::BadAllowedName {
+                    name: access::shown(name),
+                    reason,
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let listener = bind(&options.host, options.port, !allowed.is_empty())?;
         let port = listener
             .local_addr()
             .map_err(|source| ViewerError::Bind {
@@ -307,8 +343,12 @@ impl Viewer {
         Ok(Self {
             listener,
             url: format!("http://{host}:{port}/"),
-            shared,
-            commands: tx,
+            context: Arc::new(Context {
+                shared,
+                commands: tx,
+                access: Access::new(&options.host, port, &allowed),
+                refusals: RefusalLog::default(),
+            }),
             sim_thread: Some(sim_thread),
         })
     }
@@ -318,33 +358,97 @@ impl Viewer {
         &self.url
     }
 
+    /// The names accepted in `Host` and `Origin` headers.
+    pub fn accepted_names(&self) -> &[String] {
+        self.context.access.names()
+    }
+
     /// Serves connections until `exit_after` has passed (forever with `None`), then stops the
     /// simulation thread.
+    ///
+    /// At most [`MAX_CONNECTIONS`] are served at a time, each on its own thread; the next ones
+    /// are answered 503 by one refusal thread (dropped unanswered when even its queue is
+    /// full). A failing `accept` backs off from 10 ms to 1 s and is logged once per run of
+    /// failures.
     pub fn serve(mut self, exit_after: Option<Duration>) -> std::io::Result<()> {
         let deadline = exit_after.map(|d| Instant::now() + d);
         self.listener.set_nonblocking(true)?;
+        let active = Arc::new(AtomicUsize::new(0));
+        let (busy_tx, busy_rx) = mpsc::sync_channel::<TcpStream>(MAX_CONNECTIONS);
+        let refuser = {
+            let context = self.context.clone();
+            std::thread::Builder::new()
+                .name("balloon-view-busy".into())
+                .spawn(move || {
+                    for stream in busy_rx {
+                        server::refuse_busy(stream, &context);
+                    }
+                })?
+        };
+        let mut backoff: Option<(Duration, u64)> = None;
         while deadline.is_none_or(|d| Instant::now() < d) {
             match self.listener.accept() {
                 Ok((stream, _)) => {
-                    let _ = stream.set_nonblocking(false);
-                    let (shared, commands) = (self.shared.clone(), self.commands.clone());
-                    let _ = std::thread::Builder::new()
-                        .name("balloon-view-conn".into())
-                        .spawn(move || server::handle_connection(stream, shared, commands));
+                    if let Some((_, failures)) = backoff.take() {
+                        eprintln!("balloon view: accepting again after {failures} failed accepts");
+                    }
+                    self.dispatch(stream, &active, &busy_tx);
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
                     std::thread::sleep(Duration::from_millis(10));
                 }
-                Err(e) => eprintln!("balloon view: accept failed: {e}"),
+                Err(e) if e.kind() == std::io::ErrorKind::ConnectionAborted => {}
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    let (pause, failures) = match backoff {
+                        None => {
+                            eprintln!(
+                                "balloon view: accept failed: {e}; retrying with back-off up to {} s (not logged again until an accept succeeds)",
+                                ACCEPT_BACKOFF.1.as_secs_f64()
+                            );
+                            (ACCEPT_BACKOFF.0, 1)
+                        }
+                        Some((pause, n)) => ((pause * 2).min(ACCEPT_BACKOFF.1), n + 1),
+                    };
+                    backoff = Some((pause, failures));
+                    let left =
+                        deadline.map_or(pause, |d| d.saturating_duration_since(Instant::now()));
+                    std::thread::sleep(pause.min(left));
+                }
             }
+        }
+        drop(busy_tx);
+        let _ = refuser.join();
+        if let Some(summary) = self.context.refusals.summary() {
+            eprintln!("balloon view: {summary}");
         }
         self.stop();
         Ok(())
     }
 
+    /// Serves `stream` on a thread of its own if a slot is free, else hands it to the refusal
+    /// thread.
+    fn dispatch(&self, stream: TcpStream, active: &Arc<AtomicUsize>, busy: &SyncSender<TcpStream>) {
+        let _ = stream.set_nonblocking(false);
+        if active.fetch_add(1, Ordering::SeqCst) >= MAX_CONNECTIONS {
+            active.fetch_sub(1, Ordering::SeqCst);
+            // A full refusal queue drops the connection unanswered (the error owns it).
+            let _ = busy.try_send(stream);
+            return;
+        }
+        let slot = Slot(active.clone());
+        let context = self.context.clone();
+        let _ = std::thread::Builder::new()
+            .name("balloon-view-conn".into())
+            .spawn(move || {
+                let _slot = slot;
+                server::handle_connection(stream, &context);
+            });
+    }
+
     fn stop(&mut self) {
-        self.shared.shutdown.store(true, Ordering::SeqCst);
-        let _ = self.commands.send(Command::Shutdown);
+        self.context.shared.shutdown.store(true, Ordering::SeqCst);
+        let _ = self.context.commands.send(Command::Shutdown);
         if let Some(t) = self.sim_thread.take() {
             let _ = t.join();
         }
@@ -395,6 +499,24 @@ mod tests {
             bind("no-such-host.invalid", 0, false),
             Err(ViewerError::BadHost { .. })
         ));
+    }
+
+    #[test]
+    fn allowed_names_are_checked_before_anything_is_bound() {
+        let mut o = ViewerOptions::new(SystemKind::TwoLayer);
+        o.allow_remote = vec!["ok.lan".into(), "bad\x1b[31m name".into()];
+        let e = Viewer::start(&o).err().unwrap();
+        assert!(matches!(e, ViewerError::BadAllowedName { .. }), "{e}");
+        let text = e.to_string();
+        assert!(text.starts_with("--allow-remote `bad?[31m name`"), "{text}");
+        // A non-loopback bind needs a name; the names are accepted with the loopback ones.
+        o.allow_remote = vec!["MyBox.lan".into()];
+        o.host = "127.0.0.1".into();
+        let v = Viewer::start(&o).unwrap();
+        assert_eq!(
+            v.accepted_names(),
+            ["127.0.0.1", "[::1]", "localhost", "mybox.lan"]
+        );
     }
 
     #[test]
