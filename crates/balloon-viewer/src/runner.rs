@@ -122,6 +122,30 @@ pub struct Runner {
     last_publish: Option<Instant>,
     dirty: bool,
     pending_hello: Option<String>,
+    /// The last frame whose positions were all finite (sent again, paused, after a blow-up).
+    last_finite: Option<FiniteFrame>,
+}
+
+/// What a frame shows of a state whose positions are all finite.
+#[derive(Clone, Debug)]
+struct FiniteFrame {
+    positions: Vec<f64>,
+    step: usize,
+    time: f64,
+    stats: Map<String, Value>,
+    scalars: Vec<(&'static str, String)>,
+}
+
+/// The first vertex of the flat positions `x` with a non-finite coordinate, if any.
+pub fn first_non_finite(x: &[f64]) -> Option<usize> {
+    x.iter().position(|v| !v.is_finite()).map(|k| k / 3)
+}
+
+/// The failure text of a state with a non-finite position (after `step` steps, at `vertex`).
+fn non_finite_message(step: usize, vertex: usize) -> String {
+    format!(
+        "the state after step {step} has a non-finite position (vertex {vertex}); the last finite frame is shown"
+    )
 }
 
 /// The text of a caught panic.
@@ -158,6 +182,7 @@ impl Runner {
             last_publish: None,
             dirty: true,
             pending_hello: None,
+            last_finite: None,
         };
         r.publish_hello();
         r.publish_frame();
@@ -206,30 +231,59 @@ impl Runner {
         self.dirty = true;
     }
 
-    /// Builds and publishes the frame and the state.
+    /// Builds and publishes the frame and the state. Positions that are not all finite are
+    /// never sent: the simulation is paused with the error (once) and the last finite frame is
+    /// published again, with the current `paused` flag.
     fn publish_frame(&mut self) {
-        let x = self.system.positions();
-        let wanted: Vec<&'static str> = {
-            let p = self.shared.lock();
-            p.scalar_interest
-                .iter()
-                .filter(|(name, n)| **n > 0 && **name != self.scalar)
-                .map(|(name, _)| *name)
-                .collect()
+        let current = self.system.positions();
+        let good = match first_non_finite(&current) {
+            None => {
+                let wanted: Vec<&'static str> = {
+                    let p = self.shared.lock();
+                    p.scalar_interest
+                        .iter()
+                        .filter(|(name, n)| **n > 0 && **name != self.scalar)
+                        .map(|(name, _)| *name)
+                        .collect()
+                };
+                let scalars: Vec<(&'static str, String)> = std::iter::once(self.scalar)
+                    .chain(wanted)
+                    .map(|name| (name, self.scalar_json(name)))
+                    .collect();
+                let good = FiniteFrame {
+                    positions: current,
+                    step: self.system.steps(),
+                    time: self.system.time(),
+                    stats: self.system.stats(),
+                    scalars,
+                };
+                self.last_finite = Some(good.clone());
+                good
+            }
+            Some(vertex) => {
+                if !self.paused_by_error {
+                    let step = self.system.steps();
+                    self.fail(non_finite_message(step, vertex));
+                }
+                match &self.last_finite {
+                    Some(good) => good.clone(),
+                    None => {
+                        self.dirty = false;
+                        return;
+                    }
+                }
+            }
         };
-        let scalars: Vec<(&'static str, String)> = std::iter::once(self.scalar)
-            .chain(wanted)
-            .map(|name| (name, self.scalar_json(name)))
-            .collect();
+        let x = &good.positions;
         self.frame_number += 1;
         let frame = json!({
             "type": "frame",
             "frame": self.frame_number,
-            "step": self.system.steps(),
-            "time": self.system.time(),
+            "step": good.step,
+            "time": good.time,
             "paused": self.paused,
-            "positions": f32s(&x),
-            "stats": self.system.stats(),
+            "positions": f32s(x),
+            "stats": good.stats,
         });
         let mut head = frame.to_string();
         head.pop(); // the closing brace: `FrameMessage::text` appends the field and closes it.
@@ -262,8 +316,8 @@ impl Runner {
         let state = json!({
             "system": self.system.name(),
             "frame": self.frame_number,
-            "step": self.system.steps(),
-            "time": self.system.time(),
+            "step": good.step,
+            "time": good.time,
             "paused": self.paused,
             "vertex_count": n,
             "centroid": c,
@@ -273,7 +327,7 @@ impl Runner {
             "scalar": self.scalar,
             "drag": drag,
             "last_error": self.last_error,
-            "stats": self.system.stats(),
+            "stats": good.stats,
         });
         let mut p = self.shared.lock();
         if let Some(hello) = self.pending_hello.take() {
@@ -284,11 +338,11 @@ impl Runner {
         p.frame = Arc::new(FrameMessage {
             head,
             default: self.scalar,
-            scalars,
+            scalars: good.scalars,
         });
         p.frame_number = self.frame_number;
         p.state = state.as_object().cloned().unwrap_or_default();
-        p.positions = Arc::new(x);
+        p.positions = Arc::new(good.positions);
         drop(p);
         self.last_publish = Some(Instant::now());
         self.dirty = false;
@@ -312,6 +366,8 @@ impl Runner {
     fn rebuild(&mut self) -> Result<(), String> {
         self.drag = None;
         self.system.rebuild()?;
+        // The old simulation's frame may not match the new one's vertices.
+        self.last_finite = None;
         self.last_error = None;
         if self.paused_by_error {
             self.paused = false;
@@ -450,7 +506,14 @@ impl Runner {
                     }))
                     .unwrap_or_else(|panic| Err(panic_text(panic.as_ref())));
                     match result {
-                        Ok(()) => self.dirty = true,
+                        // A blow-up is caught at the step that made it, before any frame.
+                        Ok(()) => match self.system.simulation().first_non_finite() {
+                            None => self.dirty = true,
+                            Some(vertex) => {
+                                let step = self.system.steps();
+                                self.fail(non_finite_message(step, vertex));
+                            }
+                        },
                         Err(e) => self.fail(e),
                     }
                 }
@@ -494,6 +557,8 @@ mod tests {
         speed: f64,
         rebuilds: usize,
         drag: Option<DragRequest>,
+        /// From this step on the positions are NaN (a blow-up that does not fail the step).
+        nan_from: Option<usize>,
     }
 
     impl Toy {
@@ -505,6 +570,7 @@ mod tests {
                 speed: 1.0,
                 rebuilds: 0,
                 drag: None,
+                nan_from: None,
             }
         }
     }
@@ -532,6 +598,7 @@ mod tests {
             self.x = 0.0;
             self.steps = 0;
             self.fail_at = None;
+            self.nan_from = None;
             self.rebuilds += 1;
             Ok(())
         }
@@ -567,7 +634,12 @@ mod tests {
             vec![[0, 1, 2]]
         }
         fn positions(&self) -> Vec<f64> {
-            vec![self.x, 0.0, 0.0, self.x + 1.0, 0.0, 0.0, self.x, 1.0, 0.0]
+            let x = if self.nan_from.is_some_and(|k| self.steps >= k) {
+                f64::NAN
+            } else {
+                self.x
+            };
+            vec![x, 0.0, 0.0, x + 1.0, 0.0, 0.0, x, 1.0, 0.0]
         }
         fn time(&self) -> f64 {
             self.steps as f64 * ViewedSimulation::dt(self)
@@ -721,6 +793,80 @@ mod tests {
         std::thread::sleep(Duration::from_millis(100));
         assert_eq!(shared.lock().state["step"], step);
         assert!(frame > 1);
+        tx.send(Command::Shutdown).unwrap();
+        thread.join().unwrap();
+    }
+
+    #[test]
+    fn non_finite_positions_are_found_by_vertex() {
+        assert_eq!(first_non_finite(&[0.0, 1.0, 2.0, 3.0, 4.0, 5.0]), None);
+        assert_eq!(
+            first_non_finite(&[0.0, 1.0, 2.0, 3.0, f64::NAN, 5.0]),
+            Some(1)
+        );
+        assert_eq!(first_non_finite(&[f64::INFINITY, 0.0, 0.0]), Some(0));
+        assert_eq!(first_non_finite(&[]), None);
+    }
+
+    #[test]
+    fn a_blow_up_pauses_and_no_frame_carries_a_non_finite_position() {
+        let shared = Arc::new(Shared::default());
+        let mut toy = Toy::new(None);
+        toy.nan_from = Some(4);
+        let r = Runner::new(Box::new(toy), shared.clone());
+        let (tx, rx) = std::sync::mpsc::channel();
+        let (reply, _replies) = std::sync::mpsc::channel();
+        let thread = std::thread::spawn(move || r.run(rx));
+        // Watch every published frame until the pause.
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let mut frames = Vec::new();
+        loop {
+            let (text, paused) = {
+                let p = shared.lock();
+                (p.frame.text(None), p.state["paused"] == true)
+            };
+            frames.push(text);
+            if paused {
+                break;
+            }
+            assert!(Instant::now() < deadline, "no pause after the blow-up");
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        // A control while paused publishes again: still the last finite frame.
+        tx.send(Command::Client {
+            message: ClientMessage::Control {
+                name: "speed".into(),
+                value: json!(2.0),
+            },
+            reply,
+        })
+        .unwrap();
+        std::thread::sleep(Duration::from_millis(100));
+        frames.push(shared.lock().frame.text(None));
+        for text in &frames {
+            let f: Value = serde_json::from_str(text).unwrap();
+            let positions = f["positions"].as_array().unwrap();
+            assert!(positions.iter().all(Value::is_f64), "{text}");
+            assert!(f["step"].as_u64().unwrap() < 4, "{text}");
+        }
+        let last: Value = serde_json::from_str(frames.last().unwrap()).unwrap();
+        assert_eq!(last["paused"], true);
+        let p = shared.lock();
+        assert!(p.positions.iter().all(|v| v.is_finite()));
+        assert!(p.state["centroid"][0].is_f64(), "{:?}", p.state);
+        let e = p.state["last_error"].as_str().unwrap();
+        assert!(
+            e.contains("after step 4") && e.contains("non-finite position (vertex 0)"),
+            "{e}"
+        );
+        // Reported once, not at every publish.
+        let reports = p
+            .broadcasts
+            .iter()
+            .filter(|(_, b)| b.contains("non-finite"))
+            .count();
+        assert_eq!(reports, 1);
+        drop(p);
         tx.send(Command::Shutdown).unwrap();
         thread.join().unwrap();
     }

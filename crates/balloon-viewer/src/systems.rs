@@ -46,6 +46,10 @@ pub trait ViewedSimulation: Send {
     fn triangles(&self) -> Vec<[usize; 3]>;
     /// Positions of the drawn vertices, flat, m.
     fn positions(&self) -> Vec<f64>;
+    /// The first drawn vertex with a non-finite coordinate (a blow-up), if any.
+    fn first_non_finite(&self) -> Option<usize> {
+        crate::runner::first_non_finite(&self.positions())
+    }
 }
 
 impl<S: Simulation + Send> ViewedSimulation for S {
@@ -68,6 +72,9 @@ impl<S: Simulation + Send> ViewedSimulation for S {
     }
     fn positions(&self) -> Vec<f64> {
         self.surface().positions.into_owned()
+    }
+    fn first_non_finite(&self) -> Option<usize> {
+        crate::runner::first_non_finite(&self.surface().positions)
     }
 }
 
