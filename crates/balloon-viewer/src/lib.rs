@@ -149,17 +149,129 @@ pub enum ViewerError {
         /// What failed.
         source: balloon_mesh::MeshError,
     },
-    /// The simulation could not be built.
-    #[error("cannot build the {system} simulation: {reason}")]
+    /// The simulation could not be built from its default settings (a mesh the system cannot
+    /// use, for example an open one for the shell).
+    #[error("cannot build the {system} simulation: {source}")]
     Build {
         /// System.
         system: &'static str,
         /// What failed.
-        reason: String,
+        source: Box<ViewerError>,
     },
     /// The two-layer system takes no mesh.
     #[error("the two-layer viewer simulates its own sphere and takes no MESH (got `{0}`)")]
     MeshNotUsed(String),
+
+    // Failures while running (sent to the page as `error` messages, their text unchanged).
+    /// A step, a setting or a rebuild of the simulation failed (the system's own error).
+    #[error(transparent)]
+    Simulation(#[from] balloon::SimulationError),
+    /// The two-layer wall box could not be built.
+    #[error(transparent)]
+    WallBox(#[from] balloon::constraint::two_layer::TwoLayerConstraintError),
+    /// Young's modulus of the shell control is not a valid material parameter.
+    #[error("young: {0}")]
+    Young(#[source] balloon::material::MaterialError),
+    /// A colour field could not be computed (mismatched lengths, a degenerate rest triangle).
+    #[error("scalar field: {0}")]
+    Field(#[from] balloon::fields::FieldError),
+    /// The floor under the volumetric body could not be placed (a non-finite position).
+    #[error("cannot place the floor")]
+    Floor,
+    /// A control name the system does not have.
+    #[error("unknown control `{0}`")]
+    UnknownControl(String),
+    /// A choice the protocol validated but the system does not know (a control's choice list and
+    /// its parser disagree).
+    #[error("control `{control}`: unknown choice `{value}`")]
+    UnknownChoice {
+        /// The control.
+        control: String,
+        /// The choice.
+        value: String,
+    },
+    /// A validated value of another kind than the control takes.
+    #[error("control `{control}`: expected {expected}, got {got}")]
+    WrongKind {
+        /// The control.
+        control: String,
+        /// The kind it takes (`a number`, `a choice`, `true or false`).
+        expected: &'static str,
+        /// The value received.
+        got: String,
+    },
+    /// A colour field the system does not have.
+    #[error("unknown scalar field `{0}`")]
+    UnknownField(String),
+    /// A drag on a vertex the body does not have.
+    #[error("vertex {vertex} is out of range")]
+    VertexOutOfRange {
+        /// The vertex asked for.
+        vertex: usize,
+    },
+    /// A client message the protocol refused (the text names the field and the allowed
+    /// values; see [`protocol`]).
+    #[error("{0}")]
+    Rejected(String),
+    /// A drag mode the system does not offer.
+    #[error("`drag` message: mode `{mode}` is not available for {system} (use {available})")]
+    DragMode {
+        /// The mode asked for.
+        mode: &'static str,
+        /// The system.
+        system: &'static str,
+        /// The modes it has, comma-separated.
+        available: String,
+    },
+    /// A drag the system could not apply.
+    #[error("`drag` message: {0}")]
+    Drag(Box<ViewerError>),
+    /// Rebuilding after a control that needs it failed (the simulation is paused).
+    #[error("control `{control}`: rebuilding failed: {source}")]
+    Rebuild {
+        /// The control.
+        control: String,
+        /// What failed.
+        source: Box<ViewerError>,
+    },
+    /// `reset` failed (the simulation is paused).
+    #[error("reset failed: {0}")]
+    Reset(Box<ViewerError>),
+    /// A `scalar` message reached the simulation (each connection chooses its own field).
+    #[error("the colour field is chosen by each connection, not the simulation")]
+    ScalarNotForSimulation,
+    /// A step left a position that is not finite (a blow-up); the simulation is paused and the
+    /// last finite frame stays on the page.
+    #[error(
+        "the state after step {step} has a non-finite position (vertex {vertex}); the last finite frame is shown"
+    )]
+    NonFinite {
+        /// Steps taken, the one that blew up included.
+        step: usize,
+        /// The first vertex with a non-finite coordinate.
+        vertex: usize,
+    },
+    /// A panic inside a step or a command, caught (the simulation is paused).
+    #[error("internal error: {0}")]
+    Panic(String),
+}
+
+impl From<balloon::shell::ShellError> for ViewerError {
+    fn from(e: balloon::shell::ShellError) -> Self {
+        Self::Simulation(e.into())
+    }
+}
+
+impl From<balloon::volumetric::VolumetricError> for ViewerError {
+    fn from(e: balloon::volumetric::VolumetricError) -> Self {
+        Self::Simulation(e.into())
+    }
+}
+
+impl From<balloon::two_layer::TwoLayerError> for ViewerError {
+    fn from(e: balloon::two_layer::TwoLayerError) -> Self {
+        Self::Simulation(e.into())
+    }
 }
 
 /// Where and what to serve.
@@ -228,10 +340,10 @@ pub fn build_system(options: &ViewerOptions) -> Result<Box<dyn ViewSystem>, View
             source,
         })?,
     };
-    let build = |r: Result<Box<dyn ViewSystem>, String>| {
-        r.map_err(|reason| ViewerError::Build {
+    let build = |r: Result<Box<dyn ViewSystem>, ViewerError>| {
+        r.map_err(|source| ViewerError::Build {
             system: options.system.name(),
-            reason,
+            source: Box::new(source),
         })
     };
     match options.system {

@@ -1,6 +1,7 @@
 //! The simulation thread: applies client commands, steps in (roughly) real time, publishes the
 //! latest frame, hello and state for the connection threads.
 
+use crate::ViewerError;
 use crate::protocol::{ClientMessage, error_message, validate_control, validate_vertex};
 use crate::systems::{DragRequest, ViewSystem};
 use serde_json::{Map, Value, json};
@@ -141,21 +142,14 @@ pub fn first_non_finite(x: &[f64]) -> Option<usize> {
     x.iter().position(|v| !v.is_finite()).map(|k| k / 3)
 }
 
-/// The failure text of a state with a non-finite position (after `step` steps, at `vertex`).
-fn non_finite_message(step: usize, vertex: usize) -> String {
-    format!(
-        "the state after step {step} has a non-finite position (vertex {vertex}); the last finite frame is shown"
-    )
-}
-
-/// The text of a caught panic.
-fn panic_text(panic: &(dyn std::any::Any + Send)) -> String {
+/// The error of a caught panic.
+fn panic_error(panic: &(dyn std::any::Any + Send)) -> ViewerError {
     let what = panic
         .downcast_ref::<&str>()
         .map(|s| s.to_string())
         .or_else(|| panic.downcast_ref::<String>().cloned())
         .unwrap_or_else(|| "unknown panic".into());
-    format!("internal error: {what}")
+    ViewerError::Panic(what)
 }
 
 fn f32s(v: &[f64]) -> Vec<f32> {
@@ -221,7 +215,8 @@ impl Runner {
         p.broadcasts.drain(..excess);
     }
 
-    fn fail(&mut self, message: String) {
+    fn fail(&mut self, error: &ViewerError) {
+        let message = error.to_string();
         self.paused = true;
         self.paused_by_error = true;
         self.last_error = Some(message.clone());
@@ -263,7 +258,7 @@ impl Runner {
             Some(vertex) => {
                 if !self.paused_by_error {
                     let step = self.system.steps();
-                    self.fail(non_finite_message(step, vertex));
+                    self.fail(&ViewerError::NonFinite { step, vertex });
                 }
                 match &self.last_finite {
                     Some(good) => good.clone(),
@@ -363,7 +358,7 @@ impl Runner {
         }
     }
 
-    fn rebuild(&mut self) -> Result<(), String> {
+    fn rebuild(&mut self) -> Result<(), ViewerError> {
         self.drag = None;
         self.system.rebuild()?;
         // The old simulation's frame may not match the new one's vertices.
@@ -379,17 +374,21 @@ impl Runner {
         Ok(())
     }
 
-    /// Applies one client message; `Err` is the text of the error reply.
-    pub fn handle(&mut self, message: ClientMessage) -> Result<(), String> {
+    /// Applies one client message; `Err` is the error replied to the client.
+    pub fn handle(&mut self, message: ClientMessage) -> Result<(), ViewerError> {
         self.dirty = true;
         match message {
             ClientMessage::Control { name, value } => {
-                let v = validate_control(&self.system.controls(), &name, &value)?;
+                let v = validate_control(&self.system.controls(), &name, &value)
+                    .map_err(ViewerError::Rejected)?;
                 if self.system.set_control(&name, &v)? {
                     self.rebuild().map_err(|e| {
-                        let msg = format!("control `{name}`: rebuilding failed: {e}");
-                        self.fail(msg.clone());
-                        msg
+                        let e = ViewerError::Rebuild {
+                            control: name.clone(),
+                            source: Box::new(e),
+                        };
+                        self.fail(&e);
+                        e
                     })?;
                 }
                 self.reanchor();
@@ -406,28 +405,26 @@ impl Runner {
                 Ok(())
             }
             ClientMessage::Reset => self.rebuild().map_err(|e| {
-                let msg = format!("reset failed: {e}");
-                self.fail(msg.clone());
-                msg
+                let e = ViewerError::Reset(Box::new(e));
+                self.fail(&e);
+                e
             }),
             // Each connection chooses its colour field itself (`crate::server`); the choice
             // never reaches the simulation.
-            ClientMessage::Scalar { .. } => {
-                Err("the colour field is chosen by each connection, not the simulation".into())
-            }
+            ClientMessage::Scalar { .. } => Err(ViewerError::ScalarNotForSimulation),
             ClientMessage::Drag {
                 vertex,
                 target,
                 mode,
             } => {
-                validate_vertex(vertex, self.system.positions().len() / 3)?;
+                validate_vertex(vertex, self.system.positions().len() / 3)
+                    .map_err(ViewerError::Rejected)?;
                 if !self.system.drag_modes().contains(&mode.name()) {
-                    return Err(format!(
-                        "`drag` message: mode `{}` is not available for {} (use {})",
-                        mode.name(),
-                        self.system.name(),
-                        self.system.drag_modes().join(", ")
-                    ));
+                    return Err(ViewerError::DragMode {
+                        mode: mode.name(),
+                        system: self.system.name(),
+                        available: self.system.drag_modes().join(", "),
+                    });
                 }
                 let req = DragRequest {
                     vertex,
@@ -442,7 +439,7 @@ impl Runner {
                     Err(e) => {
                         self.drag = None;
                         let _ = self.system.apply_drag(None);
-                        Err(format!("`drag` message: {e}"))
+                        Err(ViewerError::Drag(Box::new(e)))
                     }
                 }
             }
@@ -454,12 +451,12 @@ impl Runner {
     }
 
     /// [`Runner::handle`], with a panic turned into a failure (pause, `last_error`).
-    fn handle_safely(&mut self, message: ClientMessage) -> Result<(), String> {
+    fn handle_safely(&mut self, message: ClientMessage) -> Result<(), ViewerError> {
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.handle(message)))
             .unwrap_or_else(|panic| {
-                let text = panic_text(panic.as_ref());
-                self.fail(text.clone());
-                Err(text)
+                let e = panic_error(panic.as_ref());
+                self.fail(&e);
+                Err(e)
             })
     }
 
@@ -473,7 +470,7 @@ impl Runner {
                     Ok(Command::Refresh) => self.dirty = true,
                     Ok(Command::Client { message, reply }) => {
                         if let Err(e) = self.handle_safely(message) {
-                            let _ = reply.send(error_message(&e));
+                            let _ = reply.send(error_message(&e.to_string()));
                         }
                     }
                     Err(std::sync::mpsc::TryRecvError::Empty) => break,
@@ -504,17 +501,17 @@ impl Runner {
                             .apply_drag(drag.as_ref())
                             .and_then(|()| system.step())
                     }))
-                    .unwrap_or_else(|panic| Err(panic_text(panic.as_ref())));
+                    .unwrap_or_else(|panic| Err(panic_error(panic.as_ref())));
                     match result {
                         // A blow-up is caught at the step that made it, before any frame.
                         Ok(()) => match self.system.simulation().first_non_finite() {
                             None => self.dirty = true,
                             Some(vertex) => {
                                 let step = self.system.steps();
-                                self.fail(non_finite_message(step, vertex));
+                                self.fail(&ViewerError::NonFinite { step, vertex });
                             }
                         },
-                        Err(e) => self.fail(e),
+                        Err(e) => self.fail(&e),
                     }
                 }
             }
@@ -530,7 +527,7 @@ impl Runner {
                     Ok(Command::Refresh) => self.dirty = true,
                     Ok(Command::Client { message, reply }) => {
                         if let Err(e) = self.handle_safely(message) {
-                            let _ = reply.send(error_message(&e));
+                            let _ = reply.send(error_message(&e.to_string()));
                         }
                     }
                     Err(RecvTimeoutError::Timeout) => {}
@@ -585,7 +582,7 @@ mod tests {
                 ControlSpec::choice("shape", "Shape", "a", &["a", "b"], true),
             ]
         }
-        fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
+        fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, ViewerError> {
             match name {
                 "speed" => {
                     self.speed = value.number();
@@ -594,7 +591,7 @@ mod tests {
                 _ => Ok(true),
             }
         }
-        fn rebuild(&mut self) -> Result<(), String> {
+        fn rebuild(&mut self) -> Result<(), ViewerError> {
             self.x = 0.0;
             self.steps = 0;
             self.fail_at = None;
@@ -614,7 +611,7 @@ mod tests {
         fn scalar_fields(&self) -> Vec<&'static str> {
             vec!["x", "y"]
         }
-        fn scalar(&self, name: &str) -> Result<Vec<f64>, String> {
+        fn scalar(&self, name: &str) -> Result<Vec<f64>, ViewerError> {
             match name {
                 "x" => Ok(vec![self.x, self.x + 1.0, self.x]),
                 _ => Ok(vec![0.0, 0.0, 1.0]),
@@ -623,7 +620,7 @@ mod tests {
         fn drag_modes(&self) -> Vec<&'static str> {
             vec!["grab"]
         }
-        fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
+        fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
             self.drag = drag.copied();
             Ok(())
         }
@@ -650,12 +647,15 @@ mod tests {
         fn dt(&self) -> f64 {
             0.01
         }
-        fn step(&mut self) -> Result<(), String> {
+        fn step(&mut self) -> Result<(), ViewerError> {
             if self.speed == 9.0 {
                 panic!("toy panic");
             }
             if self.fail_at == Some(self.steps) {
-                return Err(format!("toy failure at step {}", self.steps));
+                return Err(ViewerError::Rejected(format!(
+                    "toy failure at step {}",
+                    self.steps
+                )));
             }
             self.x += self.speed * ViewedSimulation::dt(self);
             self.steps += 1;
@@ -717,23 +717,24 @@ mod tests {
             name: name.into(),
             value,
         };
-        let e = r.handle(c("speed", json!(11))).unwrap_err();
+        let e = r.handle(c("speed", json!(11))).unwrap_err().to_string();
         assert!(e.contains("`speed`") && e.contains("[0, 10] m/s"), "{e}");
-        let e = r.handle(c("colour", json!(1))).unwrap_err();
+        let e = r.handle(c("colour", json!(1))).unwrap_err().to_string();
         assert!(e.contains("unknown control `colour`"), "{e}");
         // The colour field is chosen per connection (server tests), never by the simulation.
         let e = r
             .handle(ClientMessage::Scalar { name: "y".into() })
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("each connection"), "{e}");
         let drag = |vertex, mode| ClientMessage::Drag {
             vertex,
             target: [0.0; 3],
             mode,
         };
-        let e = r.handle(drag(3, DragMode::Grab)).unwrap_err();
+        let e = r.handle(drag(3, DragMode::Grab)).unwrap_err().to_string();
         assert!(e.contains("vertex 3 is out of range"), "{e}");
-        let e = r.handle(drag(0, DragMode::Pinch)).unwrap_err();
+        let e = r.handle(drag(0, DragMode::Pinch)).unwrap_err().to_string();
         assert!(e.contains("pinch") && e.contains("toy"), "{e}");
         assert!(r.drag.is_none());
         // Valid ones pass.
