@@ -74,7 +74,7 @@ pub struct Refusal {
 }
 
 /// A client's text made safe to echo: control characters replaced by `?`, cut to
-/// [`MAX_ECHO`] characters.
+/// 80 characters.
 pub fn shown(text: &str) -> String {
     let mut out: String = text
         .chars()

@@ -20,13 +20,22 @@
 //!   particles that carry it by their barycentric weights and applied as an impulse `h F` in each
 //!   step (seed 003, Eq. 1); the two-layer object seed 004's drag spring on the picked outer
 //!   particle.
-//! * A panic inside a step or a command is caught and treated like a failing step.
+//! * A panic inside a step or a command is caught and treated like a failing step, and so is a
+//!   step that leaves a non-finite position: no frame ever carries one (the last finite frame
+//!   stays on the page).
+//! * Only the viewer's own page may drive it ([`access`]): every request's `Host` must be a
+//!   loopback name (or one given with `--allow-remote`), a browser's `Origin` must be the page
+//!   itself, messages and frames over 64 KiB are refused by the transport, at most
+//!   [`access::MAX_CONNECTIONS`] connections are served at a time (the next gets a 503), and a
+//!   failing `accept` backs off instead of spinning.
+//! * Every failure is a [`ViewerError`].
 //!
 //! **What it is for:** looking at and playing with one simulation live, from a browser on the
 //! same machine; the simulations are driven through `balloon::Simulation`, with each system's
 //! controls typed (`ShellControl`, `VolumetricControl`, `TwoLayerControl`) and parsed once from
 //! the page's messages. **What it is not for:** file output, recording runs or serving anything
-//! beyond loopback (frames, VTK and pictures are the CLI's; the server binds loopback addresses only).
+//! beyond loopback (frames, VTK and pictures are the CLI's; the server binds loopback addresses
+//! unless told which other names to accept, and has no TLS or authentication).
 //!
 //! The page's messages are checked before they reach a simulation:
 //!
