@@ -21,9 +21,11 @@ pub struct ViewArgs {
     /// Bind address; anything not loopback also needs --allow-remote.
     #[arg(long, default_value = "127.0.0.1")]
     pub host: String,
-    /// Allow a non-loopback --host (anyone who can reach it controls the simulation).
-    #[arg(long)]
-    pub allow_remote: bool,
+    /// Extra host names (or addresses) clients may use in Host and Origin, comma-separated or
+    /// repeated; needed for a non-loopback --host (anyone who can reach it controls the
+    /// simulation). The loopback names and the bound address are always accepted.
+    #[arg(long, value_name = "HOST[,HOST...]", value_delimiter = ',')]
+    pub allow_remote: Vec<String>,
     /// Do not start a browser, just print the URL.
     #[arg(long)]
     pub no_open: bool,
@@ -48,7 +50,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
         mesh: args.mesh.clone(),
         host: args.host.clone(),
         port: args.port,
-        allow_remote: args.allow_remote,
+        allow_remote: args.allow_remote.clone(),
     };
     let viewer = Viewer::start(&options)?;
     let url = viewer.url().to_string();

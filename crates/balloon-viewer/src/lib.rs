@@ -20,13 +20,22 @@
 //!   particles that carry it by their barycentric weights and applied as an impulse `h F` in each
 //!   step (seed 003, Eq. 1); the two-layer object seed 004's drag spring on the picked outer
 //!   particle.
-//! * A panic inside a step or a command is caught and treated like a failing step.
+//! * A panic inside a step or a command is caught and treated like a failing step, and so is a
+//!   step that leaves a non-finite position: no frame ever carries one (the last finite frame
+//!   stays on the page).
+//! * Only the viewer's own page may drive it ([`access`]): every request's `Host` must be a
+//!   loopback name (or one given with `--allow-remote`), a browser's `Origin` must be the page
+//!   itself, messages and frames over 64 KiB are refused by the transport, at most
+//!   [`access::MAX_CONNECTIONS`] connections are served at a time (the next gets a 503), and a
+//!   failing `accept` backs off instead of spinning.
+//! * Every failure is a [`ViewerError`].
 //!
 //! **What it is for:** looking at and playing with one simulation live, from a browser on the
 //! same machine; the simulations are driven through `balloon::Simulation`, with each system's
 //! controls typed (`ShellControl`, `VolumetricControl`, `TwoLayerControl`) and parsed once from
 //! the page's messages. **What it is not for:** file output, recording runs or serving anything
-//! beyond loopback (frames, VTK and pictures are the CLI's; the server binds loopback addresses only).
+//! beyond loopback (frames, VTK and pictures are the CLI's; the server binds loopback addresses
+//! unless told which other names to accept, and has no TLS or authentication).
 //!
 //! The page's messages are checked before they reach a simulation:
 //!
@@ -38,6 +47,7 @@
 //! assert!(parse_client_message("{not json").is_err());
 //! ```
 
+pub mod access;
 pub mod protocol;
 mod runner;
 mod server;
@@ -47,13 +57,15 @@ pub use systems::{
     DragRequest, ShellView, TwoLayerView, ViewSystem, ViewedSimulation, VolumetricView,
 };
 
+use access::{Access, MAX_CONNECTIONS, RefusalLog};
 use balloon_mesh::TriMesh;
 use runner::{Command, Runner, Shared};
-use std::net::{IpAddr, SocketAddr, TcpListener, ToSocketAddrs};
+use server::Context;
+use std::net::{IpAddr, SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
 use std::str::FromStr;
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
-use std::sync::mpsc::{self, Sender};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::{self, SyncSender};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use thiserror::Error;
@@ -106,11 +118,20 @@ pub enum ViewerError {
         /// Port.
         port: u16,
     },
-    /// A non-loopback host without `allow_remote`.
+    /// A non-loopback host without `allow_remote`: bind a loopback address, or name the hosts
+    /// clients will use with `--allow-remote`.
     #[error(
-        "refusing to listen on {0}: it is not a loopback address, and anyone who can reach it could control the simulation; pass --allow-remote to allow it"
+        "refusing to listen on {0}: it is not a loopback address, and anyone who can reach it could control the simulation; pass --allow-remote NAME[,NAME...] with the names clients use to reach it to allow it"
     )]
     NotLoopback(String),
+    /// A name given with `--allow-remote` is not a host name or address.
+    #[error("--allow-remote `{name}`: {reason}")]
+    BadAllowedName {
+        /// The name as given (control characters replaced, cut).
+        name: String,
+        /// Why it is refused.
+        reason: String,
+    },
     /// The host does not resolve.
     #[error("cannot resolve host `{host}`: {reason}")]
     BadHost {
@@ -137,17 +158,129 @@ pub enum ViewerError {
         /// What failed.
         source: balloon_mesh::MeshError,
     },
-    /// The simulation could not be built.
-    #[error("cannot build the {system} simulation: {reason}")]
+    /// The simulation could not be built from its default settings (a mesh the system cannot
+    /// use, for example an open one for the shell).
+    #[error("cannot build the {system} simulation: {source}")]
     Build {
         /// System.
         system: &'static str,
         /// What failed.
-        reason: String,
+        source: Box<ViewerError>,
     },
     /// The two-layer system takes no mesh.
     #[error("the two-layer viewer simulates its own sphere and takes no MESH (got `{0}`)")]
     MeshNotUsed(String),
+
+    // Failures while running (sent to the page as `error` messages, their text unchanged).
+    /// A step, a setting or a rebuild of the simulation failed (the system's own error).
+    #[error(transparent)]
+    Simulation(#[from] balloon::SimulationError),
+    /// The two-layer wall box could not be built.
+    #[error(transparent)]
+    WallBox(#[from] balloon::constraint::two_layer::TwoLayerConstraintError),
+    /// Young's modulus of the shell control is not a valid material parameter.
+    #[error("young: {0}")]
+    Young(#[source] balloon::material::MaterialError),
+    /// A colour field could not be computed (mismatched lengths, a degenerate rest triangle).
+    #[error("scalar field: {0}")]
+    Field(#[from] balloon::fields::FieldError),
+    /// The floor under the volumetric body could not be placed (a non-finite position).
+    #[error("cannot place the floor")]
+    Floor,
+    /// A control name the system does not have.
+    #[error("unknown control `{0}`")]
+    UnknownControl(String),
+    /// A choice the protocol validated but the system does not know (a control's choice list and
+    /// its parser disagree).
+    #[error("control `{control}`: unknown choice `{value}`")]
+    UnknownChoice {
+        /// The control.
+        control: String,
+        /// The choice.
+        value: String,
+    },
+    /// A validated value of another kind than the control takes.
+    #[error("control `{control}`: expected {expected}, got {got}")]
+    WrongKind {
+        /// The control.
+        control: String,
+        /// The kind it takes (`a number`, `a choice`, `true or false`).
+        expected: &'static str,
+        /// The value received.
+        got: String,
+    },
+    /// A colour field the system does not have.
+    #[error("unknown scalar field `{0}`")]
+    UnknownField(String),
+    /// A drag on a vertex the body does not have.
+    #[error("vertex {vertex} is out of range")]
+    VertexOutOfRange {
+        /// The vertex asked for.
+        vertex: usize,
+    },
+    /// A client message the protocol refused (the text names the field and the allowed
+    /// values; see [`protocol`]).
+    #[error("{0}")]
+    Rejected(String),
+    /// A drag mode the system does not offer.
+    #[error("`drag` message: mode `{mode}` is not available for {system} (use {available})")]
+    DragMode {
+        /// The mode asked for.
+        mode: &'static str,
+        /// The system.
+        system: &'static str,
+        /// The modes it has, comma-separated.
+        available: String,
+    },
+    /// A drag the system could not apply.
+    #[error("`drag` message: {0}")]
+    Drag(Box<ViewerError>),
+    /// Rebuilding after a control that needs it failed (the simulation is paused).
+    #[error("control `{control}`: rebuilding failed: {source}")]
+    Rebuild {
+        /// The control.
+        control: String,
+        /// What failed.
+        source: Box<ViewerError>,
+    },
+    /// `reset` failed (the simulation is paused).
+    #[error("reset failed: {0}")]
+    Reset(Box<ViewerError>),
+    /// A `scalar` message reached the simulation (each connection chooses its own field).
+    #[error("the colour field is chosen by each connection, not the simulation")]
+    ScalarNotForSimulation,
+    /// A step left a position that is not finite (a blow-up); the simulation is paused and the
+    /// last finite frame stays on the page.
+    #[error(
+        "the state after step {step} has a non-finite position (vertex {vertex}); the last finite frame is shown"
+    )]
+    NonFinite {
+        /// Steps taken, the one that blew up included.
+        step: usize,
+        /// The first vertex with a non-finite coordinate.
+        vertex: usize,
+    },
+    /// A panic inside a step or a command, caught (the simulation is paused).
+    #[error("internal error: {0}")]
+    Panic(String),
+}
+
+impl From<balloon::shell::ShellError> for ViewerError {
+    fn from(e: balloon::shell::ShellError) -> Self {
+        Self::Simulation(e.into())
+    }
+}
+
+impl From<balloon::volumetric::VolumetricError> for ViewerError {
+    fn from(e: balloon::volumetric::VolumetricError) -> Self {
+        Self::Simulation(e.into())
+    }
+}
+
+impl From<balloon::two_layer::TwoLayerError> for ViewerError {
+    fn from(e: balloon::two_layer::TwoLayerError) -> Self {
+        Self::Simulation(e.into())
+    }
 }
 
 /// Where and what to serve.
@@ -161,8 +294,9 @@ pub struct ViewerOptions {
     pub host: String,
     /// Port (0: the OS picks one).
     pub port: u16,
-    /// Allow a non-loopback host.
-    pub allow_remote: bool,
+    /// Extra names accepted in the `Host` and `Origin` headers besides the loopback names and
+    /// the bound address (`--allow-remote`); a non-loopback `host` needs at least one.
+    pub allow_remote: Vec<String>,
 }
 
 impl ViewerOptions {
@@ -173,7 +307,7 @@ impl ViewerOptions {
             mesh: None,
             host: "127.0.0.1".into(),
             port: 0,
-            allow_remote: false,
+            allow_remote: Vec::new(),
         }
     }
 }
@@ -215,10 +349,10 @@ pub fn build_system(options: &ViewerOptions) -> Result<Box<dyn ViewSystem>, View
             source,
         })?,
     };
-    let build = |r: Result<Box<dyn ViewSystem>, String>| {
-        r.map_err(|reason| ViewerError::Build {
+    let build = |r: Result<Box<dyn ViewSystem>, ViewerError>| {
+        r.map_err(|source| ViewerError::Build {
             system: options.system.name(),
-            reason,
+            source: Box::new(source),
         })
     };
     match options.system {
@@ -269,16 +403,39 @@ pub fn bind(host: &str, port: u16, allow_remote: bool) -> Result<TcpListener, Vi
 pub struct Viewer {
     listener: TcpListener,
     url: String,
-    shared: Arc<Shared>,
-    commands: Sender<Command>,
+    context: Arc<Context>,
     sim_thread: Option<JoinHandle<()>>,
+}
+
+/// Shortest and longest pause of the accept loop after a failed `accept` (out of file
+/// descriptors, memory, ...): it doubles after each failure in a row, so a lasting failure
+/// costs a few wake-ups per second instead of a busy loop.
+const ACCEPT_BACKOFF: (Duration, Duration) = (Duration::from_millis(10), Duration::from_secs(1));
+
+/// Releases a connection's slot when its thread ends (or when the thread could not start).
+struct Slot(Arc<AtomicUsize>);
+
+impl Drop for Slot {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::SeqCst);
+    }
 }
 
 impl Viewer {
     /// Binds, builds the simulation and starts it (the page can connect once
     /// [`Viewer::serve`] runs).
     pub fn start(options: &ViewerOptions) -> Result<Self, ViewerError> {
-        let listener = bind(&options.host, options.port, options.allow_remote)?;
+        let allowed = options
+            .allow_remote
+            .iter()
+            .map(|name| {
+                access::allowed_name(name).map_err(|reason| ViewerError::BadAllowedName {
+                    name: access::shown(name),
+                    reason,
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let listener = bind(&options.host, options.port, !allowed.is_empty())?;
         let port = listener
             .local_addr()
             .map_err(|source| ViewerError::Bind {
@@ -307,8 +464,12 @@ impl Viewer {
         Ok(Self {
             listener,
             url: format!("http://{host}:{port}/"),
-            shared,
-            commands: tx,
+            context: Arc::new(Context {
+                shared,
+                commands: tx,
+                access: Access::new(&options.host, port, &allowed),
+                refusals: RefusalLog::default(),
+            }),
             sim_thread: Some(sim_thread),
         })
     }
@@ -318,33 +479,97 @@ impl Viewer {
         &self.url
     }
 
+    /// The names accepted in `Host` and `Origin` headers.
+    pub fn accepted_names(&self) -> &[String] {
+        self.context.access.names()
+    }
+
     /// Serves connections until `exit_after` has passed (forever with `None`), then stops the
     /// simulation thread.
+    ///
+    /// At most [`MAX_CONNECTIONS`] are served at a time, each on its own thread; the next ones
+    /// are answered 503 by one refusal thread (dropped unanswered when even its queue is
+    /// full). A failing `accept` backs off from 10 ms to 1 s and is logged once per run of
+    /// failures.
     pub fn serve(mut self, exit_after: Option<Duration>) -> std::io::Result<()> {
         let deadline = exit_after.map(|d| Instant::now() + d);
         self.listener.set_nonblocking(true)?;
+        let active = Arc::new(AtomicUsize::new(0));
+        let (busy_tx, busy_rx) = mpsc::sync_channel::<TcpStream>(MAX_CONNECTIONS);
+        let refuser = {
+            let context = self.context.clone();
+            std::thread::Builder::new()
+                .name("balloon-view-busy".into())
+                .spawn(move || {
+                    for stream in busy_rx {
+                        server::refuse_busy(stream, &context);
+                    }
+                })?
+        };
+        let mut backoff: Option<(Duration, u64)> = None;
         while deadline.is_none_or(|d| Instant::now() < d) {
             match self.listener.accept() {
                 Ok((stream, _)) => {
-                    let _ = stream.set_nonblocking(false);
-                    let (shared, commands) = (self.shared.clone(), self.commands.clone());
-                    let _ = std::thread::Builder::new()
-                        .name("balloon-view-conn".into())
-                        .spawn(move || server::handle_connection(stream, shared, commands));
+                    if let Some((_, failures)) = backoff.take() {
+                        eprintln!("balloon view: accepting again after {failures} failed accepts");
+                    }
+                    self.dispatch(stream, &active, &busy_tx);
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
                     std::thread::sleep(Duration::from_millis(10));
                 }
-                Err(e) => eprintln!("balloon view: accept failed: {e}"),
+                Err(e) if e.kind() == std::io::ErrorKind::ConnectionAborted => {}
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    let (pause, failures) = match backoff {
+                        None => {
+                            eprintln!(
+                                "balloon view: accept failed: {e}; retrying with back-off up to {} s (not logged again until an accept succeeds)",
+                                ACCEPT_BACKOFF.1.as_secs_f64()
+                            );
+                            (ACCEPT_BACKOFF.0, 1)
+                        }
+                        Some((pause, n)) => ((pause * 2).min(ACCEPT_BACKOFF.1), n + 1),
+                    };
+                    backoff = Some((pause, failures));
+                    let left =
+                        deadline.map_or(pause, |d| d.saturating_duration_since(Instant::now()));
+                    std::thread::sleep(pause.min(left));
+                }
             }
+        }
+        drop(busy_tx);
+        let _ = refuser.join();
+        if let Some(summary) = self.context.refusals.summary() {
+            eprintln!("balloon view: {summary}");
         }
         self.stop();
         Ok(())
     }
 
+    /// Serves `stream` on a thread of its own if a slot is free, else hands it to the refusal
+    /// thread.
+    fn dispatch(&self, stream: TcpStream, active: &Arc<AtomicUsize>, busy: &SyncSender<TcpStream>) {
+        let _ = stream.set_nonblocking(false);
+        if active.fetch_add(1, Ordering::SeqCst) >= MAX_CONNECTIONS {
+            active.fetch_sub(1, Ordering::SeqCst);
+            // A full refusal queue drops the connection unanswered (the error owns it).
+            let _ = busy.try_send(stream);
+            return;
+        }
+        let slot = Slot(active.clone());
+        let context = self.context.clone();
+        let _ = std::thread::Builder::new()
+            .name("balloon-view-conn".into())
+            .spawn(move || {
+                let _slot = slot;
+                server::handle_connection(stream, &context);
+            });
+    }
+
     fn stop(&mut self) {
-        self.shared.shutdown.store(true, Ordering::SeqCst);
-        let _ = self.commands.send(Command::Shutdown);
+        self.context.shared.shutdown.store(true, Ordering::SeqCst);
+        let _ = self.context.commands.send(Command::Shutdown);
         if let Some(t) = self.sim_thread.take() {
             let _ = t.join();
         }
@@ -395,6 +620,24 @@ mod tests {
             bind("no-such-host.invalid", 0, false),
             Err(ViewerError::BadHost { .. })
         ));
+    }
+
+    #[test]
+    fn allowed_names_are_checked_before_anything_is_bound() {
+        let mut o = ViewerOptions::new(SystemKind::TwoLayer);
+        o.allow_remote = vec!["ok.lan".into(), "bad\x1b[31m name".into()];
+        let e = Viewer::start(&o).err().unwrap();
+        assert!(matches!(e, ViewerError::BadAllowedName { .. }), "{e}");
+        let text = e.to_string();
+        assert!(text.starts_with("--allow-remote `bad?[31m name`"), "{text}");
+        // A non-loopback bind needs a name; the names are accepted with the loopback ones.
+        o.allow_remote = vec!["MyBox.lan".into()];
+        o.host = "127.0.0.1".into();
+        let v = Viewer::start(&o).unwrap();
+        assert_eq!(
+            v.accepted_names(),
+            ["127.0.0.1", "[::1]", "localhost", "mybox.lan"]
+        );
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! The simulation thread: applies client commands, steps in (roughly) real time, publishes the
 //! latest frame, hello and state for the connection threads.
 
+use crate::ViewerError;
 use crate::protocol::{ClientMessage, error_message, validate_control, validate_vertex};
 use crate::systems::{DragRequest, ViewSystem};
 use serde_json::{Map, Value, json};
@@ -122,16 +123,33 @@ pub struct Runner {
     last_publish: Option<Instant>,
     dirty: bool,
     pending_hello: Option<String>,
+    /// The last frame whose positions were all finite (sent again, paused, after a blow-up).
+    last_finite: Option<FiniteFrame>,
 }
 
-/// The text of a caught panic.
-fn panic_text(panic: &(dyn std::any::Any + Send)) -> String {
+/// What a frame shows of a state whose positions are all finite.
+#[derive(Clone, Debug)]
+struct FiniteFrame {
+    positions: Vec<f64>,
+    step: usize,
+    time: f64,
+    stats: Map<String, Value>,
+    scalars: Vec<(&'static str, String)>,
+}
+
+/// The first vertex of the flat positions `x` with a non-finite coordinate, if any.
+pub fn first_non_finite(x: &[f64]) -> Option<usize> {
+    x.iter().position(|v| !v.is_finite()).map(|k| k / 3)
+}
+
+/// The error of a caught panic.
+fn panic_error(panic: &(dyn std::any::Any + Send)) -> ViewerError {
     let what = panic
         .downcast_ref::<&str>()
         .map(|s| s.to_string())
         .or_else(|| panic.downcast_ref::<String>().cloned())
         .unwrap_or_else(|| "unknown panic".into());
-    format!("internal error: {what}")
+    ViewerError::Panic(what)
 }
 
 fn f32s(v: &[f64]) -> Vec<f32> {
@@ -158,6 +176,7 @@ impl Runner {
             last_publish: None,
             dirty: true,
             pending_hello: None,
+            last_finite: None,
         };
         r.publish_hello();
         r.publish_frame();
@@ -196,7 +215,8 @@ impl Runner {
         p.broadcasts.drain(..excess);
     }
 
-    fn fail(&mut self, message: String) {
+    fn fail(&mut self, error: &ViewerError) {
+        let message = error.to_string();
         self.paused = true;
         self.paused_by_error = true;
         self.last_error = Some(message.clone());
@@ -206,30 +226,59 @@ impl Runner {
         self.dirty = true;
     }
 
-    /// Builds and publishes the frame and the state.
+    /// Builds and publishes the frame and the state. Positions that are not all finite are
+    /// never sent: the simulation is paused with the error (once) and the last finite frame is
+    /// published again, with the current `paused` flag.
     fn publish_frame(&mut self) {
-        let x = self.system.positions();
-        let wanted: Vec<&'static str> = {
-            let p = self.shared.lock();
-            p.scalar_interest
-                .iter()
-                .filter(|(name, n)| **n > 0 && **name != self.scalar)
-                .map(|(name, _)| *name)
-                .collect()
+        let current = self.system.positions();
+        let good = match first_non_finite(&current) {
+            None => {
+                let wanted: Vec<&'static str> = {
+                    let p = self.shared.lock();
+                    p.scalar_interest
+                        .iter()
+                        .filter(|(name, n)| **n > 0 && **name != self.scalar)
+                        .map(|(name, _)| *name)
+                        .collect()
+                };
+                let scalars: Vec<(&'static str, String)> = std::iter::once(self.scalar)
+                    .chain(wanted)
+                    .map(|name| (name, self.scalar_json(name)))
+                    .collect();
+                let good = FiniteFrame {
+                    positions: current,
+                    step: self.system.steps(),
+                    time: self.system.time(),
+                    stats: self.system.stats(),
+                    scalars,
+                };
+                self.last_finite = Some(good.clone());
+                good
+            }
+            Some(vertex) => {
+                if !self.paused_by_error {
+                    let step = self.system.steps();
+                    self.fail(&ViewerError::NonFinite { step, vertex });
+                }
+                match &self.last_finite {
+                    Some(good) => good.clone(),
+                    None => {
+                        self.dirty = false;
+                        return;
+                    }
+                }
+            }
         };
-        let scalars: Vec<(&'static str, String)> = std::iter::once(self.scalar)
-            .chain(wanted)
-            .map(|name| (name, self.scalar_json(name)))
-            .collect();
+        let x = &good.positions;
         self.frame_number += 1;
         let frame = json!({
             "type": "frame",
             "frame": self.frame_number,
-            "step": self.system.steps(),
-            "time": self.system.time(),
+            "step": good.step,
+            "time": good.time,
             "paused": self.paused,
-            "positions": f32s(&x),
-            "stats": self.system.stats(),
+            "positions": f32s(x),
+            "stats": good.stats,
         });
         let mut head = frame.to_string();
         head.pop(); // the closing brace: `FrameMessage::text` appends the field and closes it.
@@ -262,8 +311,8 @@ impl Runner {
         let state = json!({
             "system": self.system.name(),
             "frame": self.frame_number,
-            "step": self.system.steps(),
-            "time": self.system.time(),
+            "step": good.step,
+            "time": good.time,
             "paused": self.paused,
             "vertex_count": n,
             "centroid": c,
@@ -273,7 +322,7 @@ impl Runner {
             "scalar": self.scalar,
             "drag": drag,
             "last_error": self.last_error,
-            "stats": self.system.stats(),
+            "stats": good.stats,
         });
         let mut p = self.shared.lock();
         if let Some(hello) = self.pending_hello.take() {
@@ -284,11 +333,11 @@ impl Runner {
         p.frame = Arc::new(FrameMessage {
             head,
             default: self.scalar,
-            scalars,
+            scalars: good.scalars,
         });
         p.frame_number = self.frame_number;
         p.state = state.as_object().cloned().unwrap_or_default();
-        p.positions = Arc::new(x);
+        p.positions = Arc::new(good.positions);
         drop(p);
         self.last_publish = Some(Instant::now());
         self.dirty = false;
@@ -309,9 +358,11 @@ impl Runner {
         }
     }
 
-    fn rebuild(&mut self) -> Result<(), String> {
+    fn rebuild(&mut self) -> Result<(), ViewerError> {
         self.drag = None;
         self.system.rebuild()?;
+        // The old simulation's frame may not match the new one's vertices.
+        self.last_finite = None;
         self.last_error = None;
         if self.paused_by_error {
             self.paused = false;
@@ -323,17 +374,21 @@ impl Runner {
         Ok(())
     }
 
-    /// Applies one client message; `Err` is the text of the error reply.
-    pub fn handle(&mut self, message: ClientMessage) -> Result<(), String> {
+    /// Applies one client message; `Err` is the error replied to the client.
+    pub fn handle(&mut self, message: ClientMessage) -> Result<(), ViewerError> {
         self.dirty = true;
         match message {
             ClientMessage::Control { name, value } => {
-                let v = validate_control(&self.system.controls(), &name, &value)?;
+                let v = validate_control(&self.system.controls(), &name, &value)
+                    .map_err(ViewerError::Rejected)?;
                 if self.system.set_control(&name, &v)? {
                     self.rebuild().map_err(|e| {
-                        let msg = format!("control `{name}`: rebuilding failed: {e}");
-                        self.fail(msg.clone());
-                        msg
+                        let e = ViewerError::Rebuild {
+                            control: name.clone(),
+                            source: Box::new(e),
+                        };
+                        self.fail(&e);
+                        e
                     })?;
                 }
                 self.reanchor();
@@ -350,28 +405,26 @@ impl Runner {
                 Ok(())
             }
             ClientMessage::Reset => self.rebuild().map_err(|e| {
-                let msg = format!("reset failed: {e}");
-                self.fail(msg.clone());
-                msg
+                let e = ViewerError::Reset(Box::new(e));
+                self.fail(&e);
+                e
             }),
             // Each connection chooses its colour field itself (`crate::server`); the choice
             // never reaches the simulation.
-            ClientMessage::Scalar { .. } => {
-                Err("the colour field is chosen by each connection, not the simulation".into())
-            }
+            ClientMessage::Scalar { .. } => Err(ViewerError::ScalarNotForSimulation),
             ClientMessage::Drag {
                 vertex,
                 target,
                 mode,
             } => {
-                validate_vertex(vertex, self.system.positions().len() / 3)?;
+                validate_vertex(vertex, self.system.positions().len() / 3)
+                    .map_err(ViewerError::Rejected)?;
                 if !self.system.drag_modes().contains(&mode.name()) {
-                    return Err(format!(
-                        "`drag` message: mode `{}` is not available for {} (use {})",
-                        mode.name(),
-                        self.system.name(),
-                        self.system.drag_modes().join(", ")
-                    ));
+                    return Err(ViewerError::DragMode {
+                        mode: mode.name(),
+                        system: self.system.name(),
+                        available: self.system.drag_modes().join(", "),
+                    });
                 }
                 let req = DragRequest {
                     vertex,
@@ -386,7 +439,7 @@ impl Runner {
                     Err(e) => {
                         self.drag = None;
                         let _ = self.system.apply_drag(None);
-                        Err(format!("`drag` message: {e}"))
+                        Err(ViewerError::Drag(Box::new(e)))
                     }
                 }
             }
@@ -398,12 +451,12 @@ impl Runner {
     }
 
     /// [`Runner::handle`], with a panic turned into a failure (pause, `last_error`).
-    fn handle_safely(&mut self, message: ClientMessage) -> Result<(), String> {
+    fn handle_safely(&mut self, message: ClientMessage) -> Result<(), ViewerError> {
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.handle(message)))
             .unwrap_or_else(|panic| {
-                let text = panic_text(panic.as_ref());
-                self.fail(text.clone());
-                Err(text)
+                let e = panic_error(panic.as_ref());
+                self.fail(&e);
+                Err(e)
             })
     }
 
@@ -417,7 +470,7 @@ impl Runner {
                     Ok(Command::Refresh) => self.dirty = true,
                     Ok(Command::Client { message, reply }) => {
                         if let Err(e) = self.handle_safely(message) {
-                            let _ = reply.send(error_message(&e));
+                            let _ = reply.send(error_message(&e.to_string()));
                         }
                     }
                     Err(std::sync::mpsc::TryRecvError::Empty) => break,
@@ -448,10 +501,17 @@ impl Runner {
                             .apply_drag(drag.as_ref())
                             .and_then(|()| system.step())
                     }))
-                    .unwrap_or_else(|panic| Err(panic_text(panic.as_ref())));
+                    .unwrap_or_else(|panic| Err(panic_error(panic.as_ref())));
                     match result {
-                        Ok(()) => self.dirty = true,
-                        Err(e) => self.fail(e),
+                        // A blow-up is caught at the step that made it, before any frame.
+                        Ok(()) => match self.system.simulation().first_non_finite() {
+                            None => self.dirty = true,
+                            Some(vertex) => {
+                                let step = self.system.steps();
+                                self.fail(&ViewerError::NonFinite { step, vertex });
+                            }
+                        },
+                        Err(e) => self.fail(&e),
                     }
                 }
             }
@@ -467,7 +527,7 @@ impl Runner {
                     Ok(Command::Refresh) => self.dirty = true,
                     Ok(Command::Client { message, reply }) => {
                         if let Err(e) = self.handle_safely(message) {
-                            let _ = reply.send(error_message(&e));
+                            let _ = reply.send(error_message(&e.to_string()));
                         }
                     }
                     Err(RecvTimeoutError::Timeout) => {}
@@ -494,6 +554,8 @@ mod tests {
         speed: f64,
         rebuilds: usize,
         drag: Option<DragRequest>,
+        /// From this step on the positions are NaN (a blow-up that does not fail the step).
+        nan_from: Option<usize>,
     }
 
     impl Toy {
@@ -505,6 +567,7 @@ mod tests {
                 speed: 1.0,
                 rebuilds: 0,
                 drag: None,
+                nan_from: None,
             }
         }
     }
@@ -519,7 +582,7 @@ mod tests {
                 ControlSpec::choice("shape", "Shape", "a", &["a", "b"], true),
             ]
         }
-        fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
+        fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, ViewerError> {
             match name {
                 "speed" => {
                     self.speed = value.number();
@@ -528,10 +591,11 @@ mod tests {
                 _ => Ok(true),
             }
         }
-        fn rebuild(&mut self) -> Result<(), String> {
+        fn rebuild(&mut self) -> Result<(), ViewerError> {
             self.x = 0.0;
             self.steps = 0;
             self.fail_at = None;
+            self.nan_from = None;
             self.rebuilds += 1;
             Ok(())
         }
@@ -547,7 +611,7 @@ mod tests {
         fn scalar_fields(&self) -> Vec<&'static str> {
             vec!["x", "y"]
         }
-        fn scalar(&self, name: &str) -> Result<Vec<f64>, String> {
+        fn scalar(&self, name: &str) -> Result<Vec<f64>, ViewerError> {
             match name {
                 "x" => Ok(vec![self.x, self.x + 1.0, self.x]),
                 _ => Ok(vec![0.0, 0.0, 1.0]),
@@ -556,7 +620,7 @@ mod tests {
         fn drag_modes(&self) -> Vec<&'static str> {
             vec!["grab"]
         }
-        fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
+        fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
             self.drag = drag.copied();
             Ok(())
         }
@@ -567,7 +631,12 @@ mod tests {
             vec![[0, 1, 2]]
         }
         fn positions(&self) -> Vec<f64> {
-            vec![self.x, 0.0, 0.0, self.x + 1.0, 0.0, 0.0, self.x, 1.0, 0.0]
+            let x = if self.nan_from.is_some_and(|k| self.steps >= k) {
+                f64::NAN
+            } else {
+                self.x
+            };
+            vec![x, 0.0, 0.0, x + 1.0, 0.0, 0.0, x, 1.0, 0.0]
         }
         fn time(&self) -> f64 {
             self.steps as f64 * ViewedSimulation::dt(self)
@@ -578,12 +647,15 @@ mod tests {
         fn dt(&self) -> f64 {
             0.01
         }
-        fn step(&mut self) -> Result<(), String> {
+        fn step(&mut self) -> Result<(), ViewerError> {
             if self.speed == 9.0 {
                 panic!("toy panic");
             }
             if self.fail_at == Some(self.steps) {
-                return Err(format!("toy failure at step {}", self.steps));
+                return Err(ViewerError::Rejected(format!(
+                    "toy failure at step {}",
+                    self.steps
+                )));
             }
             self.x += self.speed * ViewedSimulation::dt(self);
             self.steps += 1;
@@ -645,23 +717,24 @@ mod tests {
             name: name.into(),
             value,
         };
-        let e = r.handle(c("speed", json!(11))).unwrap_err();
+        let e = r.handle(c("speed", json!(11))).unwrap_err().to_string();
         assert!(e.contains("`speed`") && e.contains("[0, 10] m/s"), "{e}");
-        let e = r.handle(c("colour", json!(1))).unwrap_err();
+        let e = r.handle(c("colour", json!(1))).unwrap_err().to_string();
         assert!(e.contains("unknown control `colour`"), "{e}");
         // The colour field is chosen per connection (server tests), never by the simulation.
         let e = r
             .handle(ClientMessage::Scalar { name: "y".into() })
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("each connection"), "{e}");
         let drag = |vertex, mode| ClientMessage::Drag {
             vertex,
             target: [0.0; 3],
             mode,
         };
-        let e = r.handle(drag(3, DragMode::Grab)).unwrap_err();
+        let e = r.handle(drag(3, DragMode::Grab)).unwrap_err().to_string();
         assert!(e.contains("vertex 3 is out of range"), "{e}");
-        let e = r.handle(drag(0, DragMode::Pinch)).unwrap_err();
+        let e = r.handle(drag(0, DragMode::Pinch)).unwrap_err().to_string();
         assert!(e.contains("pinch") && e.contains("toy"), "{e}");
         assert!(r.drag.is_none());
         // Valid ones pass.
@@ -721,6 +794,80 @@ mod tests {
         std::thread::sleep(Duration::from_millis(100));
         assert_eq!(shared.lock().state["step"], step);
         assert!(frame > 1);
+        tx.send(Command::Shutdown).unwrap();
+        thread.join().unwrap();
+    }
+
+    #[test]
+    fn non_finite_positions_are_found_by_vertex() {
+        assert_eq!(first_non_finite(&[0.0, 1.0, 2.0, 3.0, 4.0, 5.0]), None);
+        assert_eq!(
+            first_non_finite(&[0.0, 1.0, 2.0, 3.0, f64::NAN, 5.0]),
+            Some(1)
+        );
+        assert_eq!(first_non_finite(&[f64::INFINITY, 0.0, 0.0]), Some(0));
+        assert_eq!(first_non_finite(&[]), None);
+    }
+
+    #[test]
+    fn a_blow_up_pauses_and_no_frame_carries_a_non_finite_position() {
+        let shared = Arc::new(Shared::default());
+        let mut toy = Toy::new(None);
+        toy.nan_from = Some(4);
+        let r = Runner::new(Box::new(toy), shared.clone());
+        let (tx, rx) = std::sync::mpsc::channel();
+        let (reply, _replies) = std::sync::mpsc::channel();
+        let thread = std::thread::spawn(move || r.run(rx));
+        // Watch every published frame until the pause.
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let mut frames = Vec::new();
+        loop {
+            let (text, paused) = {
+                let p = shared.lock();
+                (p.frame.text(None), p.state["paused"] == true)
+            };
+            frames.push(text);
+            if paused {
+                break;
+            }
+            assert!(Instant::now() < deadline, "no pause after the blow-up");
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        // A control while paused publishes again: still the last finite frame.
+        tx.send(Command::Client {
+            message: ClientMessage::Control {
+                name: "speed".into(),
+                value: json!(2.0),
+            },
+            reply,
+        })
+        .unwrap();
+        std::thread::sleep(Duration::from_millis(100));
+        frames.push(shared.lock().frame.text(None));
+        for text in &frames {
+            let f: Value = serde_json::from_str(text).unwrap();
+            let positions = f["positions"].as_array().unwrap();
+            assert!(positions.iter().all(Value::is_f64), "{text}");
+            assert!(f["step"].as_u64().unwrap() < 4, "{text}");
+        }
+        let last: Value = serde_json::from_str(frames.last().unwrap()).unwrap();
+        assert_eq!(last["paused"], true);
+        let p = shared.lock();
+        assert!(p.positions.iter().all(|v| v.is_finite()));
+        assert!(p.state["centroid"][0].is_f64(), "{:?}", p.state);
+        let e = p.state["last_error"].as_str().unwrap();
+        assert!(
+            e.contains("after step 4") && e.contains("non-finite position (vertex 0)"),
+            "{e}"
+        );
+        // Reported once, not at every publish.
+        let reports = p
+            .broadcasts
+            .iter()
+            .filter(|(_, b)| b.contains("non-finite"))
+            .count();
+        assert_eq!(reports, 1);
+        drop(p);
         tx.send(Command::Shutdown).unwrap();
         thread.join().unwrap();
     }

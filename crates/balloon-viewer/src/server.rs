@@ -1,6 +1,9 @@
 //! The HTTP side: one thread per connection, embedded assets, `/api/state`, and the WebSocket
 //! session that forwards client messages to the simulation thread and streams frames back.
 
+use crate::access::{
+    Access, MAX_CONNECTIONS, MAX_TRANSPORT_MESSAGE, Refusal, RefusalKind, RefusalLog, shown,
+};
 use crate::protocol::{ClientMessage, error_message, parse_client_message};
 use crate::runner::{Command, FRAME_INTERVAL, Shared};
 use include_dir::{Dir, include_dir};
@@ -10,6 +13,9 @@ use std::net::TcpStream;
 use std::sync::Arc;
 use std::sync::mpsc::{self, Sender};
 use std::time::{Duration, Instant};
+use tungstenite::protocol::WebSocketConfig;
+use tungstenite::protocol::frame::CloseFrame;
+use tungstenite::protocol::frame::coding::CloseCode;
 use tungstenite::{Message, WebSocket};
 
 /// The page's files (index.html, app.js, style.css, vendor/...), embedded at build time.
@@ -58,6 +64,11 @@ pub struct RequestHead {
     pub query: String,
     /// Whether it asks for a WebSocket upgrade.
     pub upgrade: bool,
+    /// Values of its `Host` headers (one in a well-formed request).
+    pub hosts: Vec<String>,
+    /// Values of its `Origin` headers (browsers send one with WebSocket handshakes and
+    /// cross-origin requests).
+    pub origins: Vec<String>,
     /// Length of the head in bytes (up to and including the blank line).
     pub length: usize,
 }
@@ -76,22 +87,28 @@ pub fn parse_head(buf: &[u8]) -> Result<Option<RequestHead>, String> {
     let line = lines.next().unwrap_or("");
     let parts: Vec<&str> = line.split(' ').collect();
     let [method, target, version] = parts[..] else {
-        return Err(format!("malformed request line `{line}`"));
+        return Err(format!("malformed request line `{}`", shown(line)));
     };
     if !version.starts_with("HTTP/1.") {
-        return Err(format!("unsupported protocol `{version}`"));
+        return Err(format!("unsupported protocol `{}`", shown(version)));
     }
     if !target.starts_with('/') {
-        return Err(format!("malformed request target `{target}`"));
+        return Err(format!("malformed request target `{}`", shown(target)));
     }
     let (path, query) = target.split_once('?').unwrap_or((target, ""));
     let mut upgrade = false;
+    let (mut hosts, mut origins) = (Vec::new(), Vec::new());
     for h in lines {
         let Some((k, v)) = h.split_once(':') else {
-            return Err(format!("malformed header line `{h}`"));
+            return Err(format!("malformed header line `{}`", shown(h)));
         };
-        if k.trim().eq_ignore_ascii_case("upgrade") && v.trim().eq_ignore_ascii_case("websocket") {
+        let (k, v) = (k.trim(), v.trim());
+        if k.eq_ignore_ascii_case("upgrade") && v.eq_ignore_ascii_case("websocket") {
             upgrade = true;
+        } else if k.eq_ignore_ascii_case("host") {
+            hosts.push(v.to_string());
+        } else if k.eq_ignore_ascii_case("origin") {
+            origins.push(v.to_string());
         }
     }
     Ok(Some(RequestHead {
@@ -99,6 +116,8 @@ pub fn parse_head(buf: &[u8]) -> Result<Option<RequestHead>, String> {
         path: path.to_string(),
         query: query.to_string(),
         upgrade,
+        hosts,
+        origins,
         length: end + 4,
     }))
 }
@@ -155,8 +174,76 @@ pub fn state_json(shared: &Shared, query: &str) -> Result<String, String> {
     Ok(Value::Object(state).to_string())
 }
 
+/// What every connection thread needs: the simulation's published data, the command channel,
+/// the access rules and the refusal log.
+pub struct Context {
+    /// The published data.
+    pub shared: Arc<Shared>,
+    /// Commands for the simulation thread.
+    pub commands: Sender<Command>,
+    /// Accepted `Host` / `Origin` names and the port.
+    pub access: Access,
+    /// Refusals counted (the first of each kind logged).
+    pub refusals: RefusalLog,
+}
+
+impl Context {
+    /// Answers `refusal` with `status` and logs it if it is the first of its kind.
+    fn refuse(&self, stream: &mut TcpStream, status: &str, refusal: &Refusal) {
+        if let Some(line) = self.refusals.record(refusal) {
+            eprintln!("{line}");
+        }
+        respond_error(stream, status, &refusal.reason);
+    }
+}
+
+/// The WebSocket settings: the transport refuses messages and frames longer than the
+/// application's limit before buffering them ([`MAX_TRANSPORT_MESSAGE`]).
+pub fn websocket_config() -> WebSocketConfig {
+    WebSocketConfig::default()
+        .max_message_size(Some(MAX_TRANSPORT_MESSAGE))
+        .max_frame_size(Some(MAX_TRANSPORT_MESSAGE))
+}
+
+/// Reads (consumes) the request head of `stream` until its blank line, [`MAX_HEAD`] bytes or
+/// `wait`, so that an answer sent next is not lost to a reset on close.
+fn drain_head(stream: &mut TcpStream, wait: Duration) {
+    let deadline = Instant::now() + wait;
+    let mut head = Vec::new();
+    let mut chunk = [0u8; 1024];
+    let _ = stream.set_read_timeout(Some(Duration::from_millis(50)));
+    while Instant::now() < deadline && head.len() < MAX_HEAD {
+        match stream.read(&mut chunk) {
+            Ok(0) => return,
+            Ok(n) => {
+                head.extend_from_slice(&chunk[..n]);
+                if head.windows(4).any(|w| w == b"\r\n\r\n") {
+                    return;
+                }
+            }
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+            Err(_) => return,
+        }
+    }
+}
+
+/// Answers a connection beyond [`MAX_CONNECTIONS`] with a 503 (on the accept loop's refusal
+/// thread: it reads at most the request head, for at most half a second).
+pub fn refuse_busy(mut stream: TcpStream, context: &Context) {
+    let _ = stream.set_write_timeout(Some(Duration::from_millis(500)));
+    drain_head(&mut stream, Duration::from_millis(500));
+    let refusal = Refusal {
+        kind: RefusalKind::Busy,
+        reason: format!(
+            "refused: too many connections (the viewer serves at most {MAX_CONNECTIONS} at a time); close another page and retry"
+        ),
+    };
+    context.refuse(&mut stream, "503 Service Unavailable", &refusal);
+    let _ = stream.shutdown(std::net::Shutdown::Write);
+}
+
 /// Serves one connection (run on its own thread).
-pub fn handle_connection(mut stream: TcpStream, shared: Arc<Shared>, commands: Sender<Command>) {
+pub fn handle_connection(mut stream: TcpStream, context: &Context) {
     let _ = stream.set_read_timeout(Some(Duration::from_secs(5)));
     let _ = stream.set_write_timeout(Some(Duration::from_secs(5)));
     // Peek the head (the WebSocket handshake reads it again itself).
@@ -187,6 +274,18 @@ pub fn handle_connection(mut stream: TcpStream, shared: Arc<Shared>, commands: S
             }
         }
     };
+    // DNS rebinding and cross-site requests are refused before anything else is looked at.
+    let hosts: Vec<&str> = head.hosts.iter().map(String::as_str).collect();
+    let origins: Vec<&str> = head.origins.iter().map(String::as_str).collect();
+    if let Err(refusal) = context
+        .access
+        .check_host(&hosts)
+        .and_then(|()| context.access.check_origin(&origins))
+    {
+        let _ = stream.read_exact(&mut buf[..head.length]);
+        context.refuse(&mut stream, "403 Forbidden", &refusal);
+        return;
+    }
     if head.path == "/ws" {
         if !head.upgrade || head.method != "GET" {
             let _ = stream.read_exact(&mut buf[..head.length]);
@@ -197,8 +296,8 @@ pub fn handle_connection(mut stream: TcpStream, shared: Arc<Shared>, commands: S
             );
             return;
         }
-        match tungstenite::accept(stream) {
-            Ok(ws) => websocket_session(ws, &shared, &commands),
+        match tungstenite::accept_with_config(stream, Some(websocket_config())) {
+            Ok(ws) => websocket_session(ws, &context.shared, &context.commands),
             Err(e) => eprintln!("balloon view: WebSocket handshake failed: {e}"),
         }
         return;
@@ -208,12 +307,12 @@ pub fn handle_connection(mut stream: TcpStream, shared: Arc<Shared>, commands: S
         respond_error(
             &mut stream,
             "405 Method Not Allowed",
-            &format!("method {} is not supported (use GET)", head.method),
+            &format!("method {} is not supported (use GET)", shown(&head.method)),
         );
         return;
     }
     if head.path == "/api/state" {
-        match state_json(&shared, &head.query) {
+        match state_json(&context.shared, &head.query) {
             Ok(body) => respond(&mut stream, "200 OK", "application/json", body.as_bytes()),
             Err(e) => respond_error(&mut stream, "400 Bad Request", &e),
         }
@@ -232,7 +331,7 @@ pub fn handle_connection(mut stream: TcpStream, shared: Arc<Shared>, commands: S
         None => respond_error(
             &mut stream,
             "404 Not Found",
-            &format!("no such file `{}`", head.path),
+            &format!("no such file `{}`", shown(&head.path)),
         ),
     }
 }
@@ -395,6 +494,17 @@ fn websocket_session(mut ws: WebSocket<TcpStream>, shared: &Shared, commands: &S
             Err(e) if is_timeout(&e) => {}
             Err(tungstenite::Error::Protocol(p)) => {
                 eprintln!("balloon view: WebSocket protocol error: {p}");
+                return;
+            }
+            // Longer than the limit: refused by the transport before it was buffered; the
+            // connection is closed with 1009 (message too big).
+            Err(tungstenite::Error::Capacity(_)) => {
+                let reason = format!("message longer than {MAX_TRANSPORT_MESSAGE} bytes");
+                let _ = ws.close(Some(CloseFrame {
+                    code: CloseCode::Size,
+                    reason: reason.into(),
+                }));
+                let _ = ws.flush();
                 return;
             }
             Err(_) => return,

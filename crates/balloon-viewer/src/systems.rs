@@ -1,6 +1,7 @@
 //! The three simulations behind one interface: controls, stepping, positions, scalar fields and
 //! drags, as the server needs them.
 
+use crate::ViewerError;
 use crate::protocol::{ControlSpec, ControlValue, DragMode};
 use balloon::Simulation;
 use balloon::constraint::cell_volume::{CellCorrection, CellSolver};
@@ -35,7 +36,7 @@ pub struct DragRequest {
 /// (implemented by hand only by test doubles).
 pub trait ViewedSimulation: Send {
     /// Advances one step; the error is the simulation's message.
-    fn step(&mut self) -> Result<(), String>;
+    fn step(&mut self) -> Result<(), ViewerError>;
     /// Simulated time, s.
     fn time(&self) -> f64;
     /// Steps since the start.
@@ -46,13 +47,17 @@ pub trait ViewedSimulation: Send {
     fn triangles(&self) -> Vec<[usize; 3]>;
     /// Positions of the drawn vertices, flat, m.
     fn positions(&self) -> Vec<f64>;
+    /// The first drawn vertex with a non-finite coordinate (a blow-up), if any.
+    fn first_non_finite(&self) -> Option<usize> {
+        crate::runner::first_non_finite(&self.positions())
+    }
 }
 
 impl<S: Simulation + Send> ViewedSimulation for S {
-    fn step(&mut self) -> Result<(), String> {
+    fn step(&mut self) -> Result<(), ViewerError> {
         Simulation::step(self)
             .map(|_| ())
-            .map_err(|e| e.to_string())
+            .map_err(ViewerError::from)
     }
     fn time(&self) -> f64 {
         Simulation::time(self)
@@ -69,6 +74,9 @@ impl<S: Simulation + Send> ViewedSimulation for S {
     fn positions(&self) -> Vec<f64> {
         self.surface().positions.into_owned()
     }
+    fn first_non_finite(&self) -> Option<usize> {
+        crate::runner::first_non_finite(&self.surface().positions)
+    }
 }
 
 /// One simulation as the viewer drives it: its controls (typed inside, parsed from the
@@ -81,9 +89,9 @@ pub trait ViewSystem: Send {
     fn controls(&self) -> Vec<ControlSpec>;
     /// Parses a validated value of the control `name` into the system's control type and applies
     /// it. Returns `true` when the simulation must be rebuilt.
-    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String>;
+    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, ViewerError>;
     /// Rebuilds the simulation from the current control values (back to the start).
-    fn rebuild(&mut self) -> Result<(), String>;
+    fn rebuild(&mut self) -> Result<(), ViewerError>;
     /// The running simulation.
     fn simulation(&self) -> &dyn ViewedSimulation;
     /// The running simulation, to step it.
@@ -93,7 +101,7 @@ pub trait ViewSystem: Send {
     /// Names of the per-vertex scalar fields, the default first.
     fn scalar_fields(&self) -> Vec<&'static str>;
     /// One scalar per drawn vertex.
-    fn scalar(&self, name: &str) -> Result<Vec<f64>, String>;
+    fn scalar(&self, name: &str) -> Result<Vec<f64>, ViewerError>;
     /// Supported drag modes.
     fn drag_modes(&self) -> Vec<&'static str>;
     /// The up direction of the scene (gravity points the other way).
@@ -101,7 +109,7 @@ pub trait ViewSystem: Send {
         [0.0, 1.0, 0.0]
     }
     /// Sets (or removes) the drag; called again before every step so forces follow the body.
-    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String>;
+    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError>;
 
     /// Triangles of the drawn surface.
     fn triangles(&self) -> Vec<[usize; 3]> {
@@ -124,44 +132,50 @@ pub trait ViewSystem: Send {
         self.simulation().dt()
     }
     /// Advances one step (the drag forces set by `apply_drag` act on it).
-    fn step(&mut self) -> Result<(), String> {
+    fn step(&mut self) -> Result<(), ViewerError> {
         self.simulation_mut().step()
     }
 }
 
 /// The error text of a choice the protocol validated but this system does not know (only
 /// reachable if a control's choice list and its parser disagree).
-fn unknown_choice(control: &str, value: &str) -> String {
-    format!("control `{control}`: unknown choice `{value}`")
+fn unknown_choice(control: &str, value: &str) -> ViewerError {
+    ViewerError::UnknownChoice {
+        control: control.to_string(),
+        value: value.to_string(),
+    }
+}
+
+/// The error of a validated value of the wrong kind for `control`.
+fn wrong_kind(control: &str, expected: &'static str, got: &ControlValue) -> ViewerError {
+    ViewerError::WrongKind {
+        control: control.to_string(),
+        expected,
+        got: format!("{got:?}"),
+    }
 }
 
 /// A validated number, or an error naming the control if the value is not a number.
-fn number(control: &str, value: &ControlValue) -> Result<f64, String> {
+fn number(control: &str, value: &ControlValue) -> Result<f64, ViewerError> {
     match value {
         ControlValue::Number(v) => Ok(*v),
-        other => Err(format!(
-            "control `{control}`: expected a number, got {other:?}"
-        )),
+        other => Err(wrong_kind(control, "a number", other)),
     }
 }
 
 /// A validated choice, or an error naming the control.
-fn choice<'v>(control: &str, value: &'v ControlValue) -> Result<&'v str, String> {
+fn choice<'v>(control: &str, value: &'v ControlValue) -> Result<&'v str, ViewerError> {
     match value {
         ControlValue::Choice(c) => Ok(c),
-        other => Err(format!(
-            "control `{control}`: expected a choice, got {other:?}"
-        )),
+        other => Err(wrong_kind(control, "a choice", other)),
     }
 }
 
 /// A validated boolean, or an error naming the control.
-fn boolean(control: &str, value: &ControlValue) -> Result<bool, String> {
+fn boolean(control: &str, value: &ControlValue) -> Result<bool, ViewerError> {
     match value {
         ControlValue::Bool(b) => Ok(*b),
-        other => Err(format!(
-            "control `{control}`: expected true or false, got {other:?}"
-        )),
+        other => Err(wrong_kind(control, "true or false", other)),
     }
 }
 
@@ -182,10 +196,6 @@ fn bbox_diagonal(x: &[f64]) -> f64 {
         hi = hi.sup(&p);
     }
     (hi - lo).norm()
-}
-
-fn field_err(e: fields::FieldError) -> String {
-    format!("scalar field: {e}")
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -239,7 +249,7 @@ enum ShellControl {
 }
 
 impl ShellControl {
-    fn parse(name: &str, value: &ControlValue) -> Result<Self, String> {
+    fn parse(name: &str, value: &ControlValue) -> Result<Self, ViewerError> {
         let kind = |v: &str| unknown_choice(name, v);
         Ok(match name {
             "gas" => {
@@ -261,7 +271,7 @@ impl ShellControl {
                 Self::Tangent(c.parse().map_err(|_| kind(c))?)
             }
             "hold" => Self::Hold(boolean(name, value)?),
-            other => return Err(format!("unknown control `{other}`")),
+            other => return Err(ViewerError::UnknownControl(other.to_string())),
         })
     }
 }
@@ -303,7 +313,7 @@ const VIEWER_NEWTON_ITERATIONS: usize = 3;
 
 impl ShellView {
     /// A shell view of `mesh` (closed, outward, m) with the default controls.
-    pub fn new(mesh: TriMesh) -> Result<Self, String> {
+    pub fn new(mesh: TriMesh) -> Result<Self, ViewerError> {
         let settings = ShellSettings {
             gas: GasKind::Constant,
             pressure: 2000.0,
@@ -338,9 +348,9 @@ impl ShellView {
         })
     }
 
-    fn build(mesh: &TriMesh, s: &ShellSettings) -> Result<ShellSimulation, String> {
+    fn build(mesh: &TriMesh, s: &ShellSettings) -> Result<ShellSimulation, ViewerError> {
         let lame = Lame::try_from_young_poisson(s.young_mpa * 1e6, balloon::shell::DEFAULT_POISSON)
-            .map_err(|e| format!("young: {e}"))?;
+            .map_err(ViewerError::Young)?;
         ShellBalloon::new(mesh.clone())
             .with_material(MaterialModel::from_lame(s.material, lame))
             .with_gas(s.gas)
@@ -361,24 +371,24 @@ impl ShellView {
                 p.newton_tolerance = 0.0;
                 sim
             })
-            .map_err(|e| e.to_string())
+            .map_err(ViewerError::from)
     }
 
     /// Applies a control; `true` when the simulation must be rebuilt.
-    fn apply(&mut self, control: ShellControl) -> Result<bool, String> {
+    fn apply(&mut self, control: ShellControl) -> Result<bool, ViewerError> {
         let s = &mut self.settings;
         match control {
             ShellControl::Gas(gas) => s.gas = gas,
             ShellControl::Pressure(p) => {
                 if s.gas != GasKind::Pump {
-                    self.sim.set_gauge_pressure(p).map_err(|e| e.to_string())?;
+                    self.sim.set_gauge_pressure(p).map_err(ViewerError::from)?;
                 }
                 s.pressure = p;
                 return Ok(false);
             }
             ShellControl::PumpRate(rate) => {
                 if s.gas == GasKind::Pump {
-                    self.sim.set_pump_rate(rate).map_err(|e| e.to_string())?;
+                    self.sim.set_pump_rate(rate).map_err(ViewerError::from)?;
                 }
                 s.pump_rate = rate;
                 return Ok(false);
@@ -387,7 +397,7 @@ impl ShellView {
             ShellControl::Material(kind) => s.material = kind,
             ShellControl::YoungMpa(e) => s.young_mpa = e,
             ShellControl::Dt(dt) => {
-                self.sim.set_dt(dt).map_err(|e| e.to_string())?;
+                self.sim.set_dt(dt).map_err(ViewerError::from)?;
                 s.dt = dt;
                 return Ok(false);
             }
@@ -483,11 +493,11 @@ impl ViewSystem for ShellView {
         ]
     }
 
-    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
+    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, ViewerError> {
         self.apply(ShellControl::parse(name, value)?)
     }
 
-    fn rebuild(&mut self) -> Result<(), String> {
+    fn rebuild(&mut self) -> Result<(), ViewerError> {
         self.sim = Self::build(&self.mesh, &self.settings)?;
         self.drag = None;
         Ok(())
@@ -525,33 +535,33 @@ impl ViewSystem for ShellView {
         ]
     }
 
-    fn scalar(&self, name: &str) -> Result<Vec<f64>, String> {
+    fn scalar(&self, name: &str) -> Result<Vec<f64>, ViewerError> {
         let (x, t) = (self.sim.positions(), self.sim.triangles());
         let per_face = match name {
             "thickness" => self.sim.thickness().to_vec(),
-            "stretch" => {
-                fields::face_area_stretch(self.sim.rest_positions(), x, t).map_err(field_err)?
+            "stretch" => fields::face_area_stretch(self.sim.rest_positions(), x, t)
+                .map_err(ViewerError::from)?,
+            "max_stretch" => fields::face_max_stretch(self.sim.rest_positions(), x, t)
+                .map_err(ViewerError::from)?,
+            "speed" => {
+                return fields::vertex_speeds(self.sim.velocities()).map_err(ViewerError::from);
             }
-            "max_stretch" => {
-                fields::face_max_stretch(self.sim.rest_positions(), x, t).map_err(field_err)?
-            }
-            "speed" => return fields::vertex_speeds(self.sim.velocities()).map_err(field_err),
             "pressure_force" => {
                 // |f_p| per vertex (seed 000 Eq. 15), the norm of each vertex's 3-vector.
-                let f =
-                    fields::pressure_forces(x, t, self.sim.gauge_pressure()).map_err(field_err)?;
-                return fields::vertex_speeds(&f).map_err(field_err);
+                let f = fields::pressure_forces(x, t, self.sim.gauge_pressure())
+                    .map_err(ViewerError::from)?;
+                return fields::vertex_speeds(&f).map_err(ViewerError::from);
             }
-            other => return Err(format!("unknown scalar field `{other}`")),
+            other => return Err(ViewerError::UnknownField(other.to_string())),
         };
-        fields::face_to_vertex(x, t, &per_face).map_err(field_err)
+        fields::face_to_vertex(x, t, &per_face).map_err(ViewerError::from)
     }
 
     fn drag_modes(&self) -> Vec<&'static str> {
         vec!["grab", "pinch"]
     }
 
-    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
+    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
         let k = SHELL_DRAG_STIFFNESS
             * self.settings.young_mpa
             * 1e6
@@ -608,7 +618,7 @@ impl ViewSystem for ShellView {
         }
         self.sim
             .set_anchor_springs(springs)
-            .map_err(|e| e.to_string())
+            .map_err(ViewerError::from)
     }
 }
 
@@ -659,7 +669,11 @@ fn name_of<T: PartialEq>(table: &[(&'static str, T)], value: &T) -> &'static str
 }
 
 /// The value named `name` in `table`.
-fn lookup<T: Copy>(table: &[(&'static str, T)], control: &str, name: &str) -> Result<T, String> {
+fn lookup<T: Copy>(
+    table: &[(&'static str, T)],
+    control: &str,
+    name: &str,
+) -> Result<T, ViewerError> {
     table
         .iter()
         .find(|(n, _)| *n == name)
@@ -668,14 +682,14 @@ fn lookup<T: Copy>(table: &[(&'static str, T)], control: &str, name: &str) -> Re
 }
 
 impl VolumetricControl {
-    fn parse(name: &str, value: &ControlValue) -> Result<Self, String> {
+    fn parse(name: &str, value: &ControlValue) -> Result<Self, ViewerError> {
         Ok(match name {
             "stiffness" => Self::Stiffness(number(name, value)?),
             "correction" => Self::Correction(lookup(&CORRECTIONS, name, choice(name, value)?)?),
             "solver" => Self::Solver(lookup(&CELL_SOLVERS, name, choice(name, value)?)?),
             "gravity" => Self::Gravity(number(name, value)?),
             "dt" => Self::Dt(number(name, value)?),
-            other => return Err(format!("unknown control `{other}`")),
+            other => return Err(ViewerError::UnknownControl(other.to_string())),
         })
     }
 }
@@ -698,7 +712,7 @@ const LATTICE: (usize, usize) = (36, 3);
 
 impl VolumetricView {
     /// A volumetric view of the soup `soup` (m) with the default controls.
-    pub fn new(soup: TriMesh) -> Result<Self, String> {
+    pub fn new(soup: TriMesh) -> Result<Self, ViewerError> {
         let settings = VolumetricSettings {
             stiffness: 0.1,
             // The paper's scaling correction gains energy on the floor and inverts cells of the
@@ -717,7 +731,7 @@ impl VolumetricView {
         })
     }
 
-    fn build(soup: &TriMesh, s: &VolumetricSettings) -> Result<VolumetricSimulation, String> {
+    fn build(soup: &TriMesh, s: &VolumetricSettings) -> Result<VolumetricSimulation, ViewerError> {
         let mut params = VolumetricParams {
             lattice: LatticeParams {
                 resolution: LATTICE.0,
@@ -733,11 +747,11 @@ impl VolumetricView {
         params.volume.tolerance = VOLUME_TOLERANCE;
         params.volume.correction = s.correction;
         params.volume.solver = s.solver;
-        let body = VolumetricBody::build(soup, params).map_err(|e| e.to_string())?;
+        let body = VolumetricBody::build(soup, params).map_err(ViewerError::from)?;
         // Springs relative to the particle mass and the time step, as `balloon volumetric`
         // does: `k = s m / dt^2` (explicit, stable for s well below 1), damping `m / (1000 dt)`.
         let springs = body.mass_scaled_springs(s.stiffness, 1.0 / 1000.0);
-        let body = body.with_springs(springs).map_err(|e| e.to_string())?;
+        let body = body.with_springs(springs).map_err(ViewerError::from)?;
         let sim = VolumetricSimulation::new(body);
         let lowest = sim
             .positions()
@@ -750,12 +764,12 @@ impl VolumetricView {
             Point3::new(0.0, lowest - 1e-3 * height, 0.0),
             Vector3::y(),
         )
-        .ok_or("cannot place the floor")?;
+        .ok_or(ViewerError::Floor)?;
         Ok(sim.with_plane(floor))
     }
 
     /// Applies a control; `true` when the simulation must be rebuilt.
-    fn apply(&mut self, control: VolumetricControl) -> Result<bool, String> {
+    fn apply(&mut self, control: VolumetricControl) -> Result<bool, ViewerError> {
         let s = &mut self.settings;
         match control {
             VolumetricControl::Stiffness(k) => s.stiffness = k,
@@ -764,12 +778,12 @@ impl VolumetricView {
             VolumetricControl::Gravity(g) => {
                 self.sim
                     .set_gravity([0.0, -g, 0.0])
-                    .map_err(|e| e.to_string())?;
+                    .map_err(ViewerError::from)?;
                 s.gravity = g;
                 return Ok(false);
             }
             VolumetricControl::Dt(dt) => {
-                VolumetricSimulation::set_dt(&mut self.sim, dt).map_err(|e| e.to_string())?;
+                VolumetricSimulation::set_dt(&mut self.sim, dt).map_err(ViewerError::from)?;
                 s.dt = dt;
                 return Ok(false);
             }
@@ -824,11 +838,11 @@ impl ViewSystem for VolumetricView {
         ]
     }
 
-    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
+    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, ViewerError> {
         self.apply(VolumetricControl::parse(name, value)?)
     }
 
-    fn rebuild(&mut self) -> Result<(), String> {
+    fn rebuild(&mut self) -> Result<(), ViewerError> {
         self.sim = Self::build(&self.soup, &self.settings)?;
         Ok(())
     }
@@ -857,7 +871,7 @@ impl ViewSystem for VolumetricView {
         vec!["speed", "stretch"]
     }
 
-    fn scalar(&self, name: &str) -> Result<Vec<f64>, String> {
+    fn scalar(&self, name: &str) -> Result<Vec<f64>, ViewerError> {
         let emb = &self.sim.lattice().embedding;
         match name {
             "speed" => {
@@ -872,7 +886,7 @@ impl ViewSystem for VolumetricView {
                         [s.x, s.y, s.z]
                     })
                     .collect();
-                fields::vertex_speeds(&v).map_err(field_err)
+                fields::vertex_speeds(&v).map_err(ViewerError::from)
             }
             "stretch" => {
                 let rest = flat(&emb.positions(&self.sim.lattice().tet_mesh.vertices));
@@ -880,10 +894,10 @@ impl ViewSystem for VolumetricView {
                 // A soup may hold zero-area triangles: their stretch is undefined (NaN, drawn
                 // in the neutral colour), the rest of the surface is coloured.
                 let f = fields::face_area_stretch_or_nan(&rest, &x, &emb.triangles)
-                    .map_err(field_err)?;
-                fields::face_to_vertex(&x, &emb.triangles, &f).map_err(field_err)
+                    .map_err(ViewerError::from)?;
+                fields::face_to_vertex(&x, &emb.triangles, &f).map_err(ViewerError::from)
             }
-            other => Err(format!("unknown scalar field `{other}`")),
+            other => Err(ViewerError::UnknownField(other.to_string())),
         }
     }
 
@@ -891,12 +905,12 @@ impl ViewSystem for VolumetricView {
         vec!["grab"]
     }
 
-    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
+    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
         let Some(d) = drag else {
             return self
                 .sim
                 .set_external_forces(None)
-                .map_err(|e| e.to_string());
+                .map_err(ViewerError::from);
         };
         let e = self
             .sim
@@ -904,7 +918,7 @@ impl ViewSystem for VolumetricView {
             .embedding
             .vertices
             .get(d.vertex)
-            .ok_or_else(|| format!("vertex {} is out of range", d.vertex))?;
+            .ok_or(ViewerError::VertexOutOfRange { vertex: d.vertex })?;
         let (x, v, m) = (
             self.sim.positions(),
             self.sim.velocities(),
@@ -942,7 +956,7 @@ impl ViewSystem for VolumetricView {
         }
         self.sim
             .set_external_forces(Some(&f))
-            .map_err(|e| e.to_string())
+            .map_err(ViewerError::from)
     }
 }
 
@@ -974,7 +988,7 @@ enum TwoLayerControl {
 }
 
 impl TwoLayerControl {
-    fn parse(name: &str, value: &ControlValue) -> Result<Self, String> {
+    fn parse(name: &str, value: &ControlValue) -> Result<Self, ViewerError> {
         Ok(match name {
             "pressure" => Self::Pressure(number(name, value)?),
             "integrator" => {
@@ -984,7 +998,7 @@ impl TwoLayerControl {
             "gravity" => Self::Gravity(number(name, value)?),
             "dt" => Self::Dt(number(name, value)?),
             "box" => Self::WallBox(boolean(name, value)?),
-            other => return Err(format!("unknown control `{other}`")),
+            other => return Err(ViewerError::UnknownControl(other.to_string())),
         })
     }
 }
@@ -1003,7 +1017,7 @@ const TWO_LAYER_DRAG: (f64, f64) = (20.0, 4.0);
 
 impl TwoLayerView {
     /// A two-layer octahedron sphere (level 3) with the default controls.
-    pub fn new() -> Result<Self, String> {
+    pub fn new() -> Result<Self, ViewerError> {
         let settings = TwoLayerSettings {
             pressure: 50.0,
             integrator: ExplicitMethod::Rk4,
@@ -1019,11 +1033,11 @@ impl TwoLayerView {
         })
     }
 
-    fn build(s: &TwoLayerSettings) -> Result<TwoLayerSimulation, String> {
+    fn build(s: &TwoLayerSettings) -> Result<TwoLayerSimulation, ViewerError> {
         let collision_box = if s.wall_box {
             Some(
                 AxisBox::centered(Point3::origin(), Vector3::new(2.0, 2.0, 2.0))
-                    .map_err(|e| e.to_string())?,
+                    .map_err(ViewerError::from)?,
             )
         } else {
             None
@@ -1036,11 +1050,11 @@ impl TwoLayerView {
             .with_gravity(s.gravity)
             .with_box(collision_box)
             .simulate(s.integrator, s.dt)
-            .map_err(|e| e.to_string())
+            .map_err(ViewerError::from)
     }
 
     /// Applies a control; `true` when the simulation must be rebuilt.
-    fn apply(&mut self, control: TwoLayerControl) -> Result<bool, String> {
+    fn apply(&mut self, control: TwoLayerControl) -> Result<bool, ViewerError> {
         let s = &mut self.settings;
         match control {
             TwoLayerControl::Pressure(p) => s.pressure = p,
@@ -1052,7 +1066,7 @@ impl TwoLayerView {
                 return Ok(false);
             }
             TwoLayerControl::Dt(dt) => {
-                TwoLayerSimulation::set_dt(&mut self.sim, dt).map_err(|e| e.to_string())?;
+                TwoLayerSimulation::set_dt(&mut self.sim, dt).map_err(ViewerError::from)?;
                 s.dt = dt;
                 return Ok(false);
             }
@@ -1097,11 +1111,11 @@ impl ViewSystem for TwoLayerView {
         ]
     }
 
-    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, String> {
+    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, ViewerError> {
         self.apply(TwoLayerControl::parse(name, value)?)
     }
 
-    fn rebuild(&mut self) -> Result<(), String> {
+    fn rebuild(&mut self) -> Result<(), ViewerError> {
         self.sim = Self::build(&self.settings)?;
         self.drag = None;
         Ok(())
@@ -1134,16 +1148,16 @@ impl ViewSystem for TwoLayerView {
         vec!["speed", "layer"]
     }
 
-    fn scalar(&self, name: &str) -> Result<Vec<f64>, String> {
+    fn scalar(&self, name: &str) -> Result<Vec<f64>, ViewerError> {
         match name {
-            "speed" => fields::vertex_speeds(self.sim.velocities()).map_err(field_err),
+            "speed" => fields::vertex_speeds(self.sim.velocities()).map_err(ViewerError::from),
             "layer" => {
                 let n = self.sim.model().layer_size;
                 Ok((0..self.sim.model().num_particles())
                     .map(|i| if i < n { 0.0 } else { 1.0 })
                     .collect())
             }
-            other => Err(format!("unknown scalar field `{other}`")),
+            other => Err(ViewerError::UnknownField(other.to_string())),
         }
     }
 
@@ -1155,14 +1169,14 @@ impl ViewSystem for TwoLayerView {
         [0.0, 0.0, 1.0]
     }
 
-    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), String> {
+    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
         let Some(d) = drag else {
             self.drag = None;
             return self
                 .sim
                 .set_drag(None)
                 .map(|_| ())
-                .map_err(|e| e.to_string());
+                .map_err(ViewerError::from);
         };
         // The target moves only when the page sends a new one; the spring itself acts every
         // step without being set again.
@@ -1183,7 +1197,7 @@ impl ViewSystem for TwoLayerView {
                     rest_length: 0.0,
                 },
             )
-            .map_err(|e| e.to_string())?;
+            .map_err(ViewerError::from)?;
         self.drag = Some(*d);
         Ok(())
     }
@@ -1247,7 +1261,10 @@ mod tests {
             .unwrap();
         v.set_control("solver", &ControlValue::Choice("global"))
             .unwrap();
-        let e = v.rebuild().expect_err("global + scaling refused");
+        let e = v
+            .rebuild()
+            .expect_err("global + scaling refused")
+            .to_string();
         assert!(e.contains("`correction`"), "{e}");
     }
     const SECONDS: f64 = 0.25;
@@ -1453,7 +1470,7 @@ mod tests {
     /// is announced back unchanged; unknown names and wrong kinds are refused.
     fn check_controls<C: std::fmt::Debug>(
         controls: &[ControlSpec],
-        parse: impl Fn(&str, &ControlValue) -> Result<C, String>,
+        parse: impl Fn(&str, &ControlValue) -> Result<C, ViewerError>,
     ) {
         use crate::protocol::ControlKind;
         for c in controls {
@@ -1496,13 +1513,30 @@ mod tests {
         let v = VolumetricView::new(soup).unwrap();
         check_controls(&v.controls(), VolumetricControl::parse);
         assert_eq!(
-            VolumetricControl::parse("solver", &ControlValue::Choice("gauss-seidel")),
-            Ok(VolumetricControl::Solver(CellSolver::GaussSeidel))
+            VolumetricControl::parse("solver", &ControlValue::Choice("gauss-seidel")).ok(),
+            Some(VolumetricControl::Solver(CellSolver::GaussSeidel))
         );
         assert_eq!(
-            ShellControl::parse("solver", &ControlValue::Choice("factorized-pcg")),
-            Ok(ShellControl::Solver(LinearSolverKind::FactorizedPcg))
+            ShellControl::parse("solver", &ControlValue::Choice("factorized-pcg")).ok(),
+            Some(ShellControl::Solver(LinearSolverKind::FactorizedPcg))
         );
+        // Wrong kinds and unknown names keep their messages, now typed.
+        let e = ShellControl::parse("hold", &ControlValue::Number(1.0)).unwrap_err();
+        assert!(matches!(
+            e,
+            ViewerError::WrongKind {
+                expected: "true or false",
+                ..
+            }
+        ));
+        assert_eq!(
+            e.to_string(),
+            "control `hold`: expected true or false, got Number(1.0)"
+        );
+        let e = TwoLayerControl::parse("colour", &ControlValue::Number(1.0)).unwrap_err();
+        assert_eq!(e.to_string(), "unknown control `colour`");
+        let e = ShellControl::parse("gas", &ControlValue::Choice("helium")).unwrap_err();
+        assert_eq!(e.to_string(), "control `gas`: unknown choice `helium`");
     }
 
     #[test]

@@ -23,9 +23,15 @@ impl Drop for Server {
 }
 
 fn start(args: &[&str]) -> Server {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_balloon"))
-        .arg("view")
-        .args(args)
+    let mut command = Command::new(env!("CARGO_BIN_EXE_balloon"));
+    command.arg("view").args(args);
+    start_command(command, args[0])
+}
+
+/// Starts `command` (a `balloon view SYSTEM ...` without the port options) on an OS-chosen port
+/// and reads the address from its first line.
+fn start_command(mut command: Command, system: &str) -> Server {
+    let mut child = command
         .args(["--no-open", "--port", "0", "--exit-after", "60"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -41,7 +47,7 @@ fn start(args: &[&str]) -> Server {
     let line = rx
         .recv_timeout(Duration::from_secs(30))
         .expect("no URL line within 30 s");
-    let prefix = format!("balloon view: serving {} at http://", args[0]);
+    let prefix = format!("balloon view: serving {system} at http://");
     let addr = line
         .trim()
         .strip_prefix(&prefix)
@@ -538,7 +544,8 @@ fn view_rejects_malformed_http_and_survives() {
     let (status, _, body) = raw_request(&srv.addr, b"NONSENSE\r\n\r\n");
     assert_eq!(status, 400);
     assert!(String::from_utf8_lossy(&body).contains("malformed request line"));
-    let (status, _, _) = raw_request(&srv.addr, b"POST /api/state HTTP/1.1\r\n\r\n");
+    let post = format!("POST /api/state HTTP/1.1\r\nHost: {}\r\n\r\n", srv.addr);
+    let (status, _, _) = raw_request(&srv.addr, post.as_bytes());
     assert_eq!(status, 405);
     assert_eq!(get(&srv.addr, "/api/state?vertex=99999").0, 400);
     assert_eq!(get(&srv.addr, "/ws").0, 400);
@@ -668,4 +675,304 @@ fn view_starts_the_given_browser_with_the_url() {
         .unwrap()
         .to_string();
     assert_eq!(std::fs::read_to_string(&log).unwrap().trim(), url);
+}
+
+impl Server {
+    /// The port the server listens on.
+    fn port(&self) -> &str {
+        self.addr.rsplit(':').next().unwrap_or("")
+    }
+
+    /// Stops the server and returns what it wrote to stderr.
+    fn stop(mut self) -> String {
+        let mut err = String::new();
+        let stderr = self.child.stderr.take();
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        if let Some(mut e) = stderr {
+            let _ = e.read_to_string(&mut err);
+        }
+        err
+    }
+}
+
+/// GET `path` with the raw header lines `headers` (no `Host` unless given).
+fn get_with(addr: &str, path: &str, headers: &str) -> (u16, String) {
+    let (status, _, body) = raw_request(
+        addr,
+        format!("GET {path} HTTP/1.1\r\n{headers}\r\n").as_bytes(),
+    );
+    (status, String::from_utf8_lossy(&body).into_owned())
+}
+
+/// A WebSocket handshake with the extra headers `headers` (replacing the client's own `Host`
+/// when one is given): the socket, or the HTTP status and body of the refusal.
+fn handshake(
+    addr: &str,
+    headers: &[(&'static str, &str)],
+) -> Result<WebSocket<TcpStream>, (u16, String)> {
+    use tungstenite::client::IntoClientRequest;
+    let mut request = format!("ws://{addr}/ws").into_client_request().unwrap();
+    for (name, value) in headers {
+        request.headers_mut().insert(*name, value.parse().unwrap());
+    }
+    let stream = TcpStream::connect(addr).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
+    match tungstenite::client(request, stream) {
+        Ok((ws, _)) => Ok(ws),
+        Err(tungstenite::HandshakeError::Failure(tungstenite::Error::Http(response))) => {
+            let body = response.body().clone().unwrap_or_default();
+            Err((
+                response.status().as_u16(),
+                String::from_utf8_lossy(&body).into_owned(),
+            ))
+        }
+        Err(e) => panic!("handshake failed otherwise: {e}"),
+    }
+}
+
+#[test]
+fn view_refuses_foreign_hosts_and_origins_and_accepts_its_own_page() {
+    let srv = start(&["two-layer"]);
+    let port = srv.port().to_string();
+    // DNS rebinding: a page of evil.example whose name now points at 127.0.0.1.
+    let (status, body) = get_with(
+        &srv.addr,
+        "/api/state",
+        &format!("Host: evil.example:{port}\r\n"),
+    );
+    assert_eq!(status, 403, "{body}");
+    assert!(body.contains("Host `evil.example:"), "{body}");
+    assert_eq!(get_with(&srv.addr, "/", "Host: evil.example\r\n").0, 403);
+    assert_eq!(get_with(&srv.addr, "/api/state", "").0, 403, "no Host");
+    for name in ["localhost", "127.0.0.1", "[::1]"] {
+        let (status, body) = get_with(&srv.addr, "/api/state", &format!("Host: {name}:{port}\r\n"));
+        assert_eq!(status, 200, "{name}: {body}");
+    }
+    // Cross-site WebSocket hijacking: another page's script opening our socket.
+    for origin in [
+        "http://evil.example".to_string(),
+        format!("http://evil.example:{port}"),
+        "http://127.0.0.1:1".to_string(),
+        "null".to_string(),
+    ] {
+        let (status, _) = handshake(&srv.addr, &[("Origin", &origin)])
+            .err()
+            .unwrap_or_else(|| panic!("Origin {origin} accepted"));
+        assert_eq!(status, 403, "{origin}");
+    }
+    // The reason is one line in the body.
+    let (status, body) = get_with(
+        &srv.addr,
+        "/ws",
+        &format!(
+            "Host: {}\r\nOrigin: http://evil.example\r\nUpgrade: websocket\r\n",
+            srv.addr
+        ),
+    );
+    assert_eq!(status, 403);
+    assert!(
+        body.contains("Origin `http://evil.example` is not this viewer's page")
+            && !body.contains('\n'),
+        "{body}"
+    );
+    let host = format!("evil.example:{port}");
+    let origin = format!("http://127.0.0.1:{port}");
+    let (status, _) = handshake(&srv.addr, &[("Host", &host), ("Origin", &origin)])
+        .expect_err("foreign Host accepted on /ws");
+    assert_eq!(status, 403);
+    // The page's own origin, under each loopback name, gets the hello.
+    for name in ["127.0.0.1", "localhost", "[::1]"] {
+        let origin = format!("http://{name}:{port}");
+        let host = format!("{name}:{port}");
+        let mut ws = handshake(&srv.addr, &[("Host", &host), ("Origin", &origin)])
+            .unwrap_or_else(|e| panic!("{origin} refused: {e:?}"));
+        assert_eq!(next_of(&mut ws, "hello")["system"], "two-layer");
+    }
+    // Every refusal was answered; each kind was logged once.
+    let err = srv.stop();
+    assert_eq!(err.matches("refused: Host").count(), 1, "{err}");
+    assert_eq!(err.matches("refused: Origin").count(), 1, "{err}");
+}
+
+#[test]
+fn view_allow_remote_names_the_extra_hosts() {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_balloon"));
+    command.args(["view", "two-layer", "--allow-remote", "MyBox.lan,10.1.2.3"]);
+    let srv = start_command(command, "two-layer");
+    let port = srv.port().to_string();
+    for host in ["mybox.lan", "10.1.2.3", "localhost"] {
+        let (status, body) = get_with(&srv.addr, "/api/state", &format!("Host: {host}:{port}\r\n"));
+        assert_eq!(status, 200, "{host}: {body}");
+    }
+    assert_eq!(
+        get_with(
+            &srv.addr,
+            "/api/state",
+            &format!("Host: other.lan:{port}\r\n")
+        )
+        .0,
+        403
+    );
+    let host = format!("mybox.lan:{port}");
+    let origin = format!("http://mybox.lan:{port}");
+    let mut ws = handshake(&srv.addr, &[("Host", &host), ("Origin", &origin)]).unwrap();
+    assert_eq!(next_of(&mut ws, "hello")["system"], "two-layer");
+    drop(srv);
+    // A name with a port or a wildcard is refused before anything is bound.
+    for bad in ["host:80", "*"] {
+        let out = run_view(&[
+            "two-layer",
+            "--no-open",
+            "--allow-remote",
+            bad,
+            "--exit-after",
+            "1",
+        ]);
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(&format!("--allow-remote `{bad}`")), "{err}");
+    }
+}
+
+#[test]
+fn view_closes_a_connection_whose_message_is_over_the_limit() {
+    const LIMIT: usize = 64 * 1024;
+    let srv = start(&["two-layer"]);
+    let mut ws = connect(&srv.addr);
+    next_of(&mut ws, "hello");
+    // At the limit the message reaches the application (and is not JSON).
+    ws.send(Message::text("x".repeat(LIMIT))).unwrap();
+    assert!(
+        next_of(&mut ws, "error")["message"]
+            .to_string()
+            .contains("malformed JSON")
+    );
+    // One byte more and the transport refuses it: the connection is closed.
+    ws.send(Message::text("x".repeat(LIMIT + 1))).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let close = loop {
+        match ws.read() {
+            Ok(Message::Close(frame)) => break frame,
+            Ok(_) => assert!(Instant::now() < deadline, "still open after 10 s"),
+            Err(_) => break None,
+        }
+    };
+    if let Some(frame) = close {
+        assert_eq!(u16::from(frame.code), 1009, "{frame:?}");
+    }
+    // A frame header announcing 64 MiB is refused as well, before any payload arrives.
+    let mut raw = connect(&srv.addr);
+    next_of(&mut raw, "hello");
+    let stream = raw.get_mut();
+    let mut header = vec![0x81u8, 0xFF];
+    header.extend_from_slice(&(64u64 << 20).to_be_bytes());
+    header.extend_from_slice(&[1, 2, 3, 4]);
+    stream.write_all(&header).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        match raw.read() {
+            Ok(Message::Close(_)) | Err(_) => break,
+            Ok(_) => assert!(Instant::now() < deadline, "still open after 10 s"),
+        }
+    }
+    // The server lives on.
+    let mut other = connect(&srv.addr);
+    assert_eq!(next_of(&mut other, "hello")["system"], "two-layer");
+}
+
+#[test]
+fn view_answers_503_beyond_sixteen_connections_and_frees_slots() {
+    let srv = start(&["two-layer"]);
+    let mut sockets: Vec<WebSocket<TcpStream>> = (0..16)
+        .map(|_| {
+            let mut ws = connect(&srv.addr);
+            next_of(&mut ws, "hello");
+            ws
+        })
+        .collect();
+    let (status, body) = get_with(&srv.addr, "/api/state", &format!("Host: {}\r\n", srv.addr));
+    assert_eq!(status, 503, "{body}");
+    assert!(body.contains("at most 16"), "{body}");
+    assert_eq!(handshake(&srv.addr, &[]).err().map(|e| e.0), Some(503));
+    // A client that leaves frees its slot (and its thread).
+    let mut gone = sockets.pop().unwrap();
+    let _ = gone.close(None);
+    drop(gone);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        let (status, body) = get_with(&srv.addr, "/api/state", &format!("Host: {}\r\n", srv.addr));
+        if status == 200 {
+            break;
+        }
+        assert_eq!(status, 503, "{body}");
+        assert!(Instant::now() < deadline, "the slot was never freed");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    drop(sockets);
+    let err = srv.stop();
+    // Two refusals, logged once.
+    assert_eq!(err.matches("too many connections").count(), 1, "{err}");
+}
+
+/// CPU time (user + system) of thread `tid` of process `pid`, clock ticks.
+#[cfg(target_os = "linux")]
+fn thread_ticks(pid: u32, tid: u32) -> u64 {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/task/{tid}/stat")).unwrap();
+    let fields: Vec<&str> = stat[stat.rfind(')').unwrap() + 2..].split(' ').collect();
+    fields[11].parse::<u64>().unwrap() + fields[12].parse::<u64>().unwrap()
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn view_backs_off_when_out_of_file_descriptors() {
+    // 12 descriptors: about 7 connections past stdin/out/err and the listener. Idle clients
+    // hold them (each connection waits 5 s for its request head), the next accept fails with
+    // EMFILE and must neither spin nor flood the log.
+    let mut command = Command::new("sh");
+    command.args([
+        "-c",
+        "ulimit -n 12 && exec \"$0\" \"$@\"",
+        env!("CARGO_BIN_EXE_balloon"),
+        "view",
+        "two-layer",
+    ]);
+    let srv = start_command(command, "two-layer");
+    let pid = srv.child.id();
+    let idle: Vec<TcpStream> = (0..20)
+        .map(|_| TcpStream::connect(&srv.addr).unwrap())
+        .collect();
+    std::thread::sleep(Duration::from_millis(800));
+    // The accept loop runs on the main thread (its id is the process id).
+    let t0 = thread_ticks(pid, pid);
+    std::thread::sleep(Duration::from_secs(2));
+    let busy = thread_ticks(pid, pid) - t0;
+    drop(idle);
+    // The held connections time out, the descriptors come back and the server answers again.
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let s = TcpStream::connect(&srv.addr).and_then(|mut s| {
+            s.set_read_timeout(Some(Duration::from_secs(10)))?;
+            let head = format!("GET /api/state HTTP/1.1\r\nHost: {}\r\n\r\n", srv.addr);
+            s.write_all(head.as_bytes())?;
+            let mut buf = Vec::new();
+            s.read_to_end(&mut buf)?;
+            Ok(buf)
+        });
+        if s.is_ok_and(|b| b.starts_with(b"HTTP/1.1 200")) {
+            break;
+        }
+        assert!(Instant::now() < deadline, "the server never recovered");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let err = srv.stop();
+    eprintln!("accept loop: {busy} ticks in 2 s while out of descriptors\n{err}");
+    let failures = err.matches("accept failed").count();
+    assert!(failures >= 1, "no accept failed with EMFILE: {err}");
+    assert!(failures <= 5, "{failures} failure lines: {err}");
+    assert!(err.contains("accepting again after"), "{err}");
+    // A busy loop takes the whole 2 s (about 200 ticks); backing off, a few wake-ups.
+    assert!(busy <= 20, "the accept loop used {busy} ticks in 2 s");
 }
