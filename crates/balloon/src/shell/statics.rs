@@ -41,7 +41,9 @@
 use std::time::Instant;
 
 use balloon_gas::GasModel;
-use balloon_integrate::statics::{LoadScaling, StaticError, StaticInfo, StaticParams, StaticSolver};
+use balloon_integrate::statics::{
+    LoadScaling, StaticError, StaticInfo, StaticParams, StaticSolver,
+};
 use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
 use balloon_material::Material;
 use serde::{Deserialize, Serialize};
