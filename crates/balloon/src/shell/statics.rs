@@ -611,3 +611,118 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
         report.solve_ms = started.elapsed().as_secs_f64() * 1e3;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gas::GasKind;
+    use crate::shell::ShellBalloon;
+    use balloon_test_support::{Rng, check_gradient, check_jacobian};
+
+    /// Every gas term of the static energy (the sim's ideal, constant and pump gases, and the
+    /// augmented Lagrangian of the volume control) at a load factor below 1, with the follower
+    /// term: the energy's gradient is minus the forces, the force differential is the forces'
+    /// derivative (the exact Hessian), and the assembled stiffness plus the rank-1 term is the
+    /// same matrix as the differential (the system the linear solver sees).
+    fn scaled<'a, M: Material, G: GasModel>(
+        sys: &'a mut ShellSystem<M, G>,
+        term: GasTerm,
+    ) -> StaticShell<'a, M, G> {
+        let mut s = StaticShell::new(sys, term, true);
+        s.set_load_factor(0.7);
+        s
+    }
+
+    #[test]
+    fn static_energy_gradient_and_hessian_match_finite_differences_for_every_gas_control() {
+        let mesh = balloon_mesh::generate::icosphere(0.1, 1).unwrap();
+        let time = 0.2;
+        for (kind, volume) in [
+            (GasKind::Ideal, false),
+            (GasKind::Constant, false),
+            (GasKind::Pump, false),
+            (GasKind::Constant, true),
+        ] {
+            let sim = ShellBalloon::new(mesh.clone())
+                .with_gas(kind)
+                .with_gauge_pressure(1500.0)
+                .build()
+                .unwrap();
+            let v0 = sim.rest_gas_volume();
+            let term = if volume {
+                GasTerm::Volume {
+                    lambda: 800.0,
+                    rho: 3e7,
+                    start: v0,
+                    target: 1.4 * v0,
+                }
+            } else {
+                GasTerm::Own
+            };
+            let mut rng = Rng::new(11);
+            let x: Vec<f64> = sim
+                .positions()
+                .iter()
+                .map(|v| 1.12 * v + 0.003 * rng.next_f64())
+                .collect();
+            let n = x.len();
+            let forces = |x: &[f64]| {
+                let mut sys = sim.system.clone_for_tests();
+                let mut s = scaled(&mut sys, term);
+                let mut f = vec![0.0; n];
+                s.forces(time, x, &mut f).unwrap();
+                f
+            };
+            let energy = |x: &[f64]| {
+                let mut sys = sim.system.clone_for_tests();
+                scaled(&mut sys, term).potential_energy(time, x).unwrap().unwrap()
+            };
+            check_gradient(
+                energy,
+                |x| forces(x).iter().map(|f| -f).collect(),
+                &x,
+                1e-7,
+                1e-6,
+            );
+            let differential = |x: &[f64], dx: &[f64]| {
+                let mut sys = sim.system.clone_for_tests();
+                let mut s = scaled(&mut sys, term);
+                let mut f = vec![0.0; n];
+                s.forces(time, x, &mut f).unwrap();
+                let mut df = vec![0.0; n];
+                s.add_force_differential(dx, &mut df);
+                df
+            };
+            check_jacobian(forces, differential, &x, 1e-7, 1e-5, 3);
+            // The assembled form: triplets (blocks + follower) plus the low-rank term.
+            let mut sys = sim.system.clone_for_tests();
+            let mut s = scaled(&mut sys, term);
+            let mut f = vec![0.0; n];
+            s.forces(time, &x, &mut f).unwrap();
+            let mut t = Vec::new();
+            s.add_stiffness_triplets(&mut t).unwrap();
+            let dx = rng.vector(n);
+            let mut kdx = vec![0.0; n];
+            for (r, c, v) in t {
+                kdx[r] += v * dx[c];
+            }
+            for lr in s.low_rank_terms() {
+                let gd: f64 = lr.vector.iter().zip(&dx).map(|(a, b)| a * b).sum();
+                for i in 0..n {
+                    kdx[i] += lr.coefficient * gd * lr.vector[i];
+                }
+            }
+            let mut df = vec![0.0; n];
+            s.add_force_differential(&dx, &mut df);
+            let scale = kdx.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for i in 0..n {
+                assert!(
+                    (kdx[i] + df[i]).abs() <= 1e-10 * scale,
+                    "{kind} volume={volume}: dof {i}: {} vs {}",
+                    kdx[i],
+                    -df[i]
+                );
+            }
+        }
+    }
+}
