@@ -675,7 +675,10 @@ mod tests {
             };
             let energy = |x: &[f64]| {
                 let mut sys = sim.system.clone_for_tests();
-                scaled(&mut sys, term).potential_energy(time, x).unwrap().unwrap()
+                scaled(&mut sys, term)
+                    .potential_energy(time, x)
+                    .unwrap()
+                    .unwrap()
             };
             check_gradient(
                 energy,
