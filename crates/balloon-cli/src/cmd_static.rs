@@ -61,10 +61,8 @@ pub fn parse_volume_ratios(s: &str) -> Result<Vec<f64>, String> {
         .map(|p| p.trim().parse::<f64>().map_err(|_| bad()))
         .collect::<Result<_, _>>()?;
     let (start, end, step) = (v[0], v[1], v[2]);
-    if !(start.is_finite() && end.is_finite() && start > 0.0 && end > 0.0)
-        || !(step.is_finite() && step != 0.0)
-        || (end - start) * step < 0.0
-    {
+    let finite = [start, end, step].iter().all(|v| v.is_finite());
+    if !(finite && start > 0.0 && end > 0.0 && step != 0.0) || (end - start) * step < 0.0 {
         return Err(bad());
     }
     let count = ((end - start) / step + 1e-9).floor() as usize + 1;

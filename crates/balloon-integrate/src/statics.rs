@@ -562,7 +562,13 @@ impl StaticSolver {
             let probe: Vec<f64> = x
                 .iter()
                 .enumerate()
-                .map(|(i, v)| if n % 3 == 0 { v - c[i % 3] } else { *v })
+                .map(|(i, v)| {
+                    if n.is_multiple_of(3) {
+                        v - c[i % 3]
+                    } else {
+                        *v
+                    }
+                })
                 .collect();
             let mut kp = vec![0.0; n];
             Stiffness(system).apply(&probe, &mut kp);
