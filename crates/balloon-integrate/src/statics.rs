@@ -54,6 +54,7 @@
 //! [`StaticParams::tolerance`].
 //!
 //! ```
+//! use balloon_integrate::linear::LinearSolverKind;
 //! use balloon_integrate::statics::{StaticParams, StaticSolver};
 //! use balloon_integrate::{ForceSystem, SystemError};
 //!
@@ -86,7 +87,10 @@
 //! }
 //!
 //! let mut system = Anchor { k: 100.0, m: [1.0; 3] };
-//! let mut solver = StaticSolver::new(StaticParams::default());
+//! // This system cannot assemble its stiffness: matrix-free CG instead of the default Cholesky.
+//! let mut params = StaticParams::default();
+//! params.solver.linear.kind = LinearSolverKind::MatrixFreeCg;
+//! let mut solver = StaticSolver::new(params);
 //! let mut x = vec![0.0; 3];
 //! let info = solver.solve(&mut system, 0.0, &mut x, Some(&[2.0, 0.0, -1.0]))?;
 //! assert!(info.converged && info.relative_residual <= 1e-6);
