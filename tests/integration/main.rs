@@ -2,5 +2,6 @@
 
 mod newton;
 mod shell;
+mod statics;
 mod two_layer;
 mod volumetric;

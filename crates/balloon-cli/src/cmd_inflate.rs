@@ -1,12 +1,12 @@
 //! `balloon inflate [MESH|builtin]`: the main job, a shell balloon with thickness (seed 000).
 
+use crate::cmd_static::GasArg;
 use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
 };
 use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result};
 use balloon::constraint::shell_volume::{ProjectionScope, ShellVolumeParams};
-use balloon::gas::GasKind;
 use balloon::integrate::TangentKind;
 use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::integrate::linear::{LinearSolverKind, LinearSolverParams, PcgPreconditioner};
@@ -51,9 +51,10 @@ pub struct InflateArgs {
     pub thickness: f64,
     /// Gas model: `pump` (ambient air added at --pump-rate from the rest shape: the process of
     /// inflating), `ideal` (isothermal, fixed amount, Eq. 12-14) or `constant` (fixed pressure).
-    /// The paper's model is `--gas ideal --ambient 0`.
-    #[arg(long, default_value = "pump")]
-    pub gas: GasKind,
+    /// The paper's model is `--gas ideal --ambient 0`. With --static also `volume` (a given
+    /// enclosed volume, --volume-ratio / --volume-ratios; the pressure is reported).
+    #[arg(long, value_enum, default_value_t = GasArg::Pump)]
+    pub gas: GasArg,
     /// Gauge pressure, Pa: initial for `ideal`, fixed for `constant`, unused by `pump`.
     #[arg(long, default_value_t = shell::DEFAULT_GAUGE_PRESSURE, allow_hyphen_values = true)]
     pub pressure: f64,
@@ -142,6 +143,17 @@ pub struct InflateArgs {
     /// Print the summary as one JSON line (the last line on stdout); no progress bar.
     #[arg(long)]
     pub json: bool,
+    /// Solve for the rest shape directly (static equilibrium: Newton with line search,
+    /// Levenberg-Marquardt shift and load continuation) instead of stepping in time.
+    #[arg(long = "static")]
+    pub static_solve: bool,
+    /// `--static --gas volume`: the enclosed volume over the rest volume.
+    #[arg(long)]
+    pub volume_ratio: Option<f64>,
+    /// `--static --gas volume`: a continuation START:END:STEP of volume ratios, one
+    /// `stats.jsonl` line (and frame) per point.
+    #[arg(long, value_parser = crate::cmd_static::parse_volume_ratios)]
+    pub volume_ratios: Option<std::vec::Vec<f64>>,
 }
 
 /// The run summary (`summary.json`, and the `--json` line).
@@ -218,7 +230,7 @@ fn style() -> PictureStyle {
 
 /// The current state as a frame with its fields: velocity, speed, pressure force (Eq. 15),
 /// thickness, stretch and max_stretch against the rest shape.
-fn shell_frame<M: balloon::material::Material>(
+pub(crate) fn shell_frame<M: balloon::material::Material>(
     sim: &ShellSimulation<M>,
     step: usize,
 ) -> Result<Frame> {
@@ -416,7 +428,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
         .with_material(material)
         .with_thickness(args.thickness)
         .with_density(args.density)
-        .with_gas(args.gas)
+        .with_gas(args.gas.kind())
         .with_gauge_pressure(args.pressure)
         .with_ambient_pressure(args.ambient)
         .with_pump_rate(args.pump_rate)
@@ -427,6 +439,9 @@ pub fn run(args: InflateArgs) -> Result<()> {
         .build()
         .with_context(|| format!("cannot set up the balloon for `{}`", args.mesh))?;
 
+    if !args.static_solve && args.gas == GasArg::Volume {
+        anyhow::bail!("--gas volume is a static control: add --static");
+    }
     let out = match &args.out {
         Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
             &args.pictures,
@@ -435,6 +450,9 @@ pub fn run(args: InflateArgs) -> Result<()> {
         )?),
         None => None,
     };
+    if args.static_solve {
+        return crate::cmd_static::run(&args, &mut sim, out);
+    }
     let plan = RunPlan {
         steps: args.steps,
         frames: FramePolicy {

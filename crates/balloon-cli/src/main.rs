@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 
 mod cmd_inflate;
 mod cmd_mesh;
+mod cmd_static;
 mod cmd_two_layer;
 mod cmd_view;
 mod cmd_volumetric;

@@ -438,15 +438,15 @@ impl<S: ForceSystem> StiffnessOperator for SystemStiffness<'_, S> {
 /// Sufficient-decrease constant of the Armijo line search: a step of length `s` along `dv` is
 /// accepted when `E(v + s dv) <= E(v) - ARMIJO s (b . dv)` (or, for the residual-norm search,
 /// `|b(v + s dv)| <= (1 - ARMIJO s) |b(v)|`).
-const ARMIJO: f64 = 1e-4;
+pub(crate) const ARMIJO: f64 = 1e-4;
 
 /// Halvings of the Newton step the line search tries before giving up (shortest step
 /// `2^-20`).
-const MAX_LINE_SEARCH_CUTS: usize = 20;
+pub(crate) const MAX_LINE_SEARCH_CUTS: usize = 20;
 
 /// Relative round-off of the incremental potential: energy changes below this times the
 /// magnitude of its parts are not resolved, and the residual decides instead.
-const ENERGY_ROUNDOFF: f64 = 1e-12;
+pub(crate) const ENERGY_ROUNDOFF: f64 = 1e-12;
 
 /// Upper bound on [`BackwardEulerParams::newton_iterations`].
 pub const MAX_NEWTON_ITERATIONS: usize = 1000;
@@ -465,15 +465,15 @@ enum LineSearch {
 
 /// The Newton residual at one iterate: `|b|` (N s) and the force scale (N) it is relative to.
 #[derive(Clone, Copy, Debug)]
-struct Residual {
-    norm: f64,
-    scale: f64,
-    dt: f64,
+pub(crate) struct Residual {
+    pub(crate) norm: f64,
+    pub(crate) scale: f64,
+    pub(crate) dt: f64,
 }
 
 impl Residual {
     /// `|b| / (dt F)`: the residual force relative to the force scale `F` (module docs).
-    fn relative(&self) -> f64 {
+    pub(crate) fn relative(&self) -> f64 {
         let force = self.norm / self.dt;
         if force == 0.0 {
             0.0
@@ -486,7 +486,7 @@ impl Residual {
 }
 
 /// Retries of an indefinite linear solve with a growing mass shift before giving up.
-const MAX_REGULARIZATION_RETRIES: usize = 14;
+pub(crate) const MAX_REGULARIZATION_RETRIES: usize = 14;
 
 /// The next mass shift `tau` after an indefinite solve: from CG's Rayleigh quotient when there
 /// is one (enough to make that direction positive with margin), otherwise 1% of the mass
@@ -515,13 +515,13 @@ fn next_shift(previous: f64, m_coef: f64, err: &SolveError, masses: &[f64]) -> f
 /// The floor of the force scale relative to `|m| L / dt^2` (module docs).
 const SCALE_FLOOR: f64 = 1e-3;
 
-fn norm(v: &[f64]) -> f64 {
+pub(crate) fn norm(v: &[f64]) -> f64 {
     v.iter().map(|a| a * a).sum::<f64>().sqrt()
 }
 
 /// The diagonal of the bounding box of `x` read as 3D points (the range of the values when the
 /// length is not a multiple of 3), m.
-fn extent(x: &[f64]) -> f64 {
+pub(crate) fn extent(x: &[f64]) -> f64 {
     if !x.len().is_multiple_of(3) {
         let (lo, hi) = x
             .iter()
@@ -544,7 +544,7 @@ fn extent(x: &[f64]) -> f64 {
         .sqrt()
 }
 
-fn first_non_finite(v: &[f64]) -> Option<usize> {
+pub(crate) fn first_non_finite(v: &[f64]) -> Option<usize> {
     v.iter().position(|a| !a.is_finite())
 }
 

@@ -3,7 +3,9 @@
 //! **For:** advancing any mechanical system that can report masses, forces and force
 //! differentials ([`ForceSystem`]) with backward Euler + Newton (seed 000, Eq. 18-23) using a
 //! run-time choice of linear solver (any [`linear::LinearSolver`], from `balloon-linalg`), and any first-order ODE with explicit Euler, symplectic
-//! Euler, midpoint or RK4 (seed 004, Ch. 5).
+//! Euler, midpoint or RK4 (seed 004, Ch. 5); and solving for the static equilibrium of such a
+//! system directly ([`statics::StaticSolver`]: the same energy without the inertia term, Newton
+//! with a Levenberg-Marquardt shift, line search and load continuation).
 //!
 //! **Not for:** knowing what the forces are. Nothing here knows about balloons, meshes or gas.
 //!
@@ -60,6 +62,7 @@
 
 pub mod explicit;
 pub mod implicit;
+pub mod statics;
 pub mod system;
 
 /// The linear algebra behind Newton's method: the `balloon-linalg` crate, re-exported under its

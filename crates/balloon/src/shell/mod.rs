@@ -105,6 +105,7 @@
 //! ```
 
 pub mod analytic;
+pub mod statics;
 mod system;
 
 pub use system::ShellSystem;
@@ -211,6 +212,31 @@ pub enum ShellError {
         residual: f64,
         /// The Newton tolerance.
         tolerance: f64,
+    },
+    /// The static solve (`ShellSimulation::solve_static`) failed in one of its Newton solves.
+    #[error(
+        "static solve (outer iteration {outer}): {source}; try more --newton-iters (per load stage), a looser --newton-tol, --tangent projected, or the dynamic run (--until-converged)"
+    )]
+    Static {
+        /// Outer iteration (thickness fixed point / multiplier update), 0-based.
+        outer: usize,
+        /// What failed.
+        #[source]
+        source: balloon_integrate::statics::StaticError,
+    },
+    /// The static solve's outer loop (thickness fixed point, volume multiplier) did not settle.
+    #[error(
+        "static solve did not settle after {outer_iterations} outer iterations: Newton residual {residual:.3e}, thickness change {thickness_change:.3e}, volume error {volume_error:.3e}; the load may be near a limit point: try volume control (--gas volume) or a smaller load"
+    )]
+    StaticNotConverged {
+        /// Outer iterations done.
+        outer_iterations: usize,
+        /// Relative Newton residual of the last solve.
+        residual: f64,
+        /// Relative thickness change of the last projection.
+        thickness_change: f64,
+        /// Relative volume error under volume control (0 otherwise).
+        volume_error: f64,
     },
     /// The run diverged (non-finite or inverted state).
     #[error("step {step} (t = {time:.6} s): diverged: {quantity}: {detail}")]

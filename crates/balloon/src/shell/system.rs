@@ -170,7 +170,7 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
     }
 
     /// Elastic part of the force differential, `df += -K_elastic dx`.
-    fn add_elastic_differential(&self, dx: &[f64], df: &mut [f64]) {
+    pub(crate) fn add_elastic_differential(&self, dx: &[f64], df: &mut [f64]) {
         let tris = &self.triangles;
         let ks = &self.elem_stiffness;
         self.gather(df, |e, l| {

@@ -1,0 +1,731 @@
+//! The static rest shape of a shell balloon: [`ShellSimulation::solve_static`].
+//!
+//! The equilibrium minimises the static energy `W_elastic(x) + W_gas(x) - f_ext . x` (seed 000,
+//! elastic energy Eq. 6-8, gas Eq. 12-17) with the generic
+//! [`balloon_integrate::statics::StaticSolver`] (Newton, Levenberg-Marquardt mass shift, Armijo
+//! line search, load continuation). Three ways to hold the gas ([`StaticControl`]):
+//!
+//! * **given amount** (the simulation's ideal gas or pump, the amount at the current time):
+//!   `W_gas = -p0 V0 ln V + p_ambient V` (Eq. 14 integrated);
+//! * **given pressure** (the simulation's constant-pressure gas): `W_gas = -(p - p_ambient) V`;
+//! * **given volume** ([`StaticControl::Volume`]): the constraint `V(x) = V_target` with the
+//!   gauge pressure as its Lagrange multiplier `lambda`, by an augmented Lagrangian
+//!   `W_elastic - lambda (V - V_t) + rho/2 (V - V_t)^2`: each inner solve is the energy of a
+//!   gas with `p_gauge(V) = lambda - rho (V - V_t)` and `dp/dV = -rho` (the rank-1 tangent of
+//!   Eq. 16-17, solved by Sherman-Morrison like any gas), followed by the multiplier update
+//!   `lambda <- lambda - rho (V - V_t)`. `rho` starts at 100 times the shell's own volume
+//!   stiffness along `dV/dx` (`g^T K g / |g|^4` at the start shape), so the multiplier gains
+//!   about two digits per update; it grows tenfold when an update gains less than one. The
+//!   reported pressure is `lambda` at the converged volume. Past a pressure maximum (a limit
+//!   point of the membrane) this control stays on the branch, where pressure control snaps.
+//!
+//! The pressure tangent includes the follower term `-(p - p_ambient) d^2V/dx^2` by default, so
+//! the Hessian is exact and Newton converges quadratically (the shift absorbs its
+//! indefiniteness).
+//!
+//! # Thickness at rest
+//!
+//! The rule that holds at the returned equilibrium: **the shape is a static equilibrium at the
+//! thickness `h*`, and `h*` is what the simulation's shell-volume projection (Algorithm 2,
+//! Eq. 24-28, or the projector set on the builder) gives for that shape**, i.e. projecting the
+//! result again changes the thickness by less than [`StaticOptions::thickness_tolerance`]
+//! (relative). It is reached by a fixed-point iteration: solve at the current thickness, project
+//! the solution (keeping the projection's thickness and discarding its small position
+//! correction, so the shape stays an exact equilibrium), repeat. The multiplier update of the
+//! volume control shares this loop. Without a projector the thickness stays the current one.
+//!
+//! Anchor springs are not part of the static energy: a simulation with anchor springs set is
+//! refused. External forces ([`ShellSimulation::set_external_forces`]) are included, scaled
+//! with the gas load during continuation.
+
+use std::time::Instant;
+
+use balloon_gas::GasModel;
+use balloon_integrate::statics::{
+    LoadScaling, StaticError, StaticInfo, StaticParams, StaticSolver,
+};
+use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
+use balloon_material::Material;
+use serde::{Deserialize, Serialize};
+
+use super::{ShellError, ShellSimulation, ShellSystem};
+use balloon_constraint::projector::ShellProjectionInput;
+
+/// How the gas is held in a static solve.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StaticControl {
+    /// The simulation's own gas model at the current time: a given amount (ideal gas, pump)
+    /// or a given pressure (constant pressure).
+    #[default]
+    Gas,
+    /// A given enclosed volume, m^3; the gauge pressure is its Lagrange multiplier.
+    Volume {
+        /// The target gas volume, m^3 (positive).
+        target: f64,
+    },
+}
+
+/// Options of [`ShellSimulation::solve_static`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct StaticOptions {
+    /// How the gas is held.
+    pub control: StaticControl,
+    /// The Newton solver's parameters (tolerance, iterations per load stage, linear solver,
+    /// shifts, continuation).
+    pub solver: StaticParams,
+    /// Include the pressure follower term in the tangent (default `true`: the exact Hessian).
+    pub follower_term: bool,
+    /// Most outer iterations (thickness fixed point and multiplier updates; default 60).
+    pub max_outer_iterations: usize,
+    /// Relative thickness change of one projection below which the thickness is at its fixed
+    /// point (default `1e-8`).
+    pub thickness_tolerance: f64,
+    /// Relative volume error `|V - V_t| / V_t` at which the volume control is met (default
+    /// `1e-8`).
+    pub volume_tolerance: f64,
+}
+
+impl Default for StaticOptions {
+    fn default() -> Self {
+        Self {
+            control: StaticControl::Gas,
+            solver: StaticParams::default(),
+            follower_term: true,
+            max_outer_iterations: 60,
+            thickness_tolerance: 1e-8,
+            volume_tolerance: 1e-8,
+        }
+    }
+}
+
+/// What [`ShellSimulation::solve_static`] found.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StaticReport {
+    /// Whether the equilibrium, the thickness fixed point and the volume target were all met
+    /// (always `true` for a returned report; failures are errors).
+    pub converged: bool,
+    /// Relative Newton residual of the last solve (the dynamic Newton's measure).
+    pub relative_residual: f64,
+    /// Newton iterations over all solves.
+    pub newton_iterations: usize,
+    /// Outer iterations (solves).
+    pub outer_iterations: usize,
+    /// Load-continuation stages over all solves (1 per solve when no continuation was
+    /// needed).
+    pub load_steps: usize,
+    /// Line-search cuts over all solves.
+    pub line_search_cuts: usize,
+    /// Enclosed gas volume, m^3.
+    pub gas_volume: f64,
+    /// Gauge pressure, Pa (the multiplier under volume control).
+    pub gauge_pressure: f64,
+    /// `|V - V_t| / V_t` under volume control (0 otherwise).
+    pub volume_error: f64,
+    /// Relative thickness change of the last projection.
+    pub thickness_change: f64,
+    /// Smallest element area over its rest area.
+    pub min_area_stretch: f64,
+    /// Largest element area over its rest area.
+    pub max_area_stretch: f64,
+    /// Mean thickness, m.
+    pub thickness_mean: f64,
+    /// Smallest thickness, m.
+    pub thickness_min: f64,
+    /// Largest thickness, m.
+    pub thickness_max: f64,
+    /// Shell material volume over its rest value.
+    pub shell_volume_ratio: f64,
+    /// Wall-clock time, ms.
+    pub solve_ms: f64,
+    /// The last solve's details (energies, residuals, shift, factorisations).
+    pub last_solve: StaticInfo,
+}
+
+/// How the gas acts in the static energy.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum GasTerm {
+    /// The shell's own gas model, scaled by the load factor.
+    Own,
+    /// `p_gauge(V) = lambda - rho (V - V_t(s))`, `V_t(s) = V_start + s (V_target - V_start)`.
+    Volume {
+        lambda: f64,
+        rho: f64,
+        start: f64,
+        target: f64,
+    },
+}
+
+/// The shell as seen by the static solver: its elastic part plus a [`GasTerm`] with a load
+/// factor, and optionally the follower term of the pressure tangent.
+pub(crate) struct StaticShell<'a, M: Material, G: GasModel> {
+    pub(crate) inner: &'a mut ShellSystem<M, G>,
+    pub(crate) gas: GasTerm,
+    pub(crate) factor: f64,
+    pub(crate) follower: bool,
+    /// Positions, gauge pressure and volume of the last evaluation.
+    x: Vec<f64>,
+    gauge: f64,
+    volume: f64,
+    rank1: LowRankTerm,
+    scale: f64,
+}
+
+impl<'a, M: Material, G: GasModel> StaticShell<'a, M, G> {
+    pub(crate) fn new(inner: &'a mut ShellSystem<M, G>, gas: GasTerm, follower: bool) -> Self {
+        Self {
+            inner,
+            gas,
+            factor: 1.0,
+            follower,
+            x: Vec::new(),
+            gauge: 0.0,
+            volume: 0.0,
+            rank1: LowRankTerm::default(),
+            scale: 0.0,
+        }
+    }
+
+    /// The gauge pressure (Pa) and `dp/dV` (Pa/m^3) of the gas term at volume `v`, from the
+    /// inner gas state of the same evaluation for [`GasTerm::Own`].
+    fn pressure(&self, v: f64) -> (f64, f64) {
+        match self.gas {
+            GasTerm::Own => (
+                self.factor * self.inner.gas.state().gauge_pressure,
+                self.factor * self.inner.gas.dpressure_dvolume(),
+            ),
+            GasTerm::Volume {
+                lambda,
+                rho,
+                start,
+                target,
+            } => {
+                let vt = start + self.factor * (target - start);
+                (lambda - rho * (v - vt), -rho)
+            }
+        }
+    }
+
+    /// The gauge pressure of the last evaluation, Pa.
+    pub(crate) fn gauge_pressure(&self) -> f64 {
+        self.gauge
+    }
+}
+
+impl<M: Material, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
+    fn num_dofs(&self) -> usize {
+        self.inner.num_dofs()
+    }
+
+    fn masses(&self) -> &[f64] {
+        self.inner.masses()
+    }
+
+    fn forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+        self.inner.forces(time, x, f)?;
+        // Remove the inner gas force (gauge * dV/dx, Eq. 15): `f` is then elastic only.
+        let inner_gauge = self.inner.gas.state().gauge_pressure;
+        let g = &self.inner.gas.low_rank_term().vector;
+        for (fi, gi) in f.iter_mut().zip(g) {
+            *fi -= inner_gauge * gi;
+        }
+        let elastic = f.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let volume = self.inner.gas.state().volume;
+        let (gauge, dpdv) = self.pressure(volume);
+        for (fi, gi) in f.iter_mut().zip(g) {
+            *fi += gauge * gi;
+        }
+        let gnorm = g.iter().map(|v| v * v).sum::<f64>().sqrt();
+        self.scale = elastic + gauge.abs() * gnorm;
+        self.rank1.coefficient = -dpdv;
+        self.rank1.vector.clear();
+        self.rank1.vector.extend_from_slice(g);
+        self.gauge = gauge;
+        self.volume = volume;
+        self.x.clear();
+        self.x.extend_from_slice(x);
+        Ok(())
+    }
+
+    fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+        self.inner.add_elastic_differential(dx, df);
+        let g = &self.rank1.vector;
+        let gdx: f64 = g.iter().zip(dx).map(|(a, b)| a * b).sum();
+        let s = -self.rank1.coefficient * gdx;
+        for (d, gi) in df.iter_mut().zip(g) {
+            *d += s * gi;
+        }
+        if self.follower {
+            balloon_gas::add_volume_hessian_product(
+                &self.x,
+                &self.inner.triangles,
+                self.gauge,
+                dx,
+                df,
+            );
+        }
+    }
+
+    fn add_stiffness_triplets(
+        &self,
+        triplets: &mut Vec<(usize, usize, f64)>,
+    ) -> Result<(), SystemError> {
+        let blocks = self
+            .inner
+            .stiffness_blocks()
+            .ok_or(SystemError::AssemblyUnsupported)?;
+        let k = blocks.nodes_per_block;
+        let size = 3 * k;
+        for (nodes, values) in blocks
+            .nodes
+            .chunks_exact(k)
+            .zip(blocks.values.chunks_exact(size * size))
+        {
+            for a in 0..k {
+                for b in 0..k {
+                    for i in 0..3 {
+                        for j in 0..3 {
+                            // Column-major: entry (row, col) at col * size + row.
+                            let v = values[(3 * b + j) * size + 3 * a + i];
+                            triplets.push((3 * nodes[a] + i, 3 * nodes[b] + j, v));
+                        }
+                    }
+                }
+            }
+        }
+        self.add_remaining_stiffness_triplets(triplets)
+    }
+
+    fn stiffness_blocks(&self) -> Option<StiffnessBlocks<'_>> {
+        self.inner.stiffness_blocks()
+    }
+
+    /// The follower term `-(p - p_ambient) d^2V/dx^2`, when enabled.
+    fn add_remaining_stiffness_triplets(
+        &self,
+        triplets: &mut Vec<(usize, usize, f64)>,
+    ) -> Result<(), SystemError> {
+        if self.follower {
+            balloon_gas::add_volume_hessian_triplets(
+                &self.x,
+                &self.inner.triangles,
+                -self.gauge,
+                triplets,
+            );
+        }
+        Ok(())
+    }
+
+    fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
+        self.inner.add_stiffness_diagonal(diagonal)
+    }
+
+    fn set_tangent(&mut self, kind: TangentKind) -> Result<(), SystemError> {
+        self.inner.set_tangent(kind)
+    }
+
+    fn low_rank_terms(&self) -> &[LowRankTerm] {
+        std::slice::from_ref(&self.rank1)
+    }
+
+    /// `W_elastic + s W_gas` (own gas) or `W_elastic - lambda V + rho/2 (V - V_t(s))^2`.
+    fn potential_energy(&mut self, time: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+        let elastic = self.inner.elastic_energy(x);
+        if !elastic.is_finite() {
+            return Err(SystemError::InvertedElement {
+                element: 0,
+                detail: format!("non-finite elastic energy {elastic:e} J"),
+            });
+        }
+        let gas = match self.gas {
+            GasTerm::Own => match self.inner.gas_energy(time, x)? {
+                Some(w) => self.factor * w,
+                None => return Ok(None),
+            },
+            GasTerm::Volume {
+                lambda,
+                rho,
+                start,
+                target,
+            } => {
+                let v = balloon_gas::enclosed_volume(x, &self.inner.triangles)
+                    .map_err(|e| SystemError::component("gas", e))?;
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(SystemError::Other(format!("gas volume {v:e} m^3")));
+                }
+                let vt = start + self.factor * (target - start);
+                -lambda * v + 0.5 * rho * (v - vt) * (v - vt)
+            }
+        };
+        Ok(Some(elastic + gas))
+    }
+
+    fn force_scale(&self) -> Option<f64> {
+        Some(self.scale)
+    }
+}
+
+impl<M: Material, G: GasModel> LoadScaling for StaticShell<'_, M, G> {
+    fn set_load_factor(&mut self, factor: f64) {
+        self.factor = factor;
+    }
+}
+
+/// The relative change `max_e |a_e - b_e| / b_e`.
+fn max_relative_change(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE))
+        .fold(0.0, f64::max)
+}
+
+fn triangle_area(x: &[f64], t: &[usize; 3]) -> f64 {
+    let p = |v: usize| nalgebra::Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
+    0.5 * (p(t[1]) - p(t[0])).cross(&(p(t[2]) - p(t[0]))).norm()
+}
+
+impl<M: Material, G: GasModel> ShellSimulation<M, G> {
+    /// Solves for the static rest shape directly (module docs of `balloon::shell::statics`)
+    /// from the current shape and leaves the simulation there: positions at the equilibrium,
+    /// velocities zero, thickness at the projection's fixed point; time and the gas model are
+    /// unchanged. On error the simulation is left as it was.
+    ///
+    /// ```
+    /// use balloon::gas::GasKind;
+    /// use balloon::shell::ShellBalloon;
+    /// use balloon::shell::statics::StaticOptions;
+    /// let mesh = balloon::mesh::generate::icosphere(0.1, 2).unwrap();
+    /// let mut sim = ShellBalloon::new(mesh)
+    ///     .with_gas(GasKind::Ideal)
+    ///     .with_gauge_pressure(3000.0)
+    ///     .build()
+    ///     .unwrap();
+    /// let report = sim.solve_static(&StaticOptions::default())?;
+    /// assert!(report.converged && report.relative_residual <= 1e-6);
+    /// assert!(sim.gas_volume() > sim.rest_gas_volume());
+    /// # Ok::<(), balloon::shell::ShellError>(())
+    /// ```
+    pub fn solve_static(&mut self, options: &StaticOptions) -> Result<StaticReport, ShellError> {
+        let started = Instant::now();
+        if !self.anchor_springs.is_empty() {
+            return Err(ShellError::InvalidParameter {
+                name: "anchor springs",
+                value: format!("{} springs", self.anchor_springs.len()),
+                reason: "the static solve has no energy for anchor springs; remove them first"
+                    .into(),
+            });
+        }
+        for (name, v) in [
+            ("thickness tolerance", options.thickness_tolerance),
+            ("volume tolerance", options.volume_tolerance),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ShellError::InvalidParameter {
+                    name,
+                    value: v.to_string(),
+                    reason: "must be positive and finite".into(),
+                });
+            }
+        }
+        let saved = (self.x.clone(), self.system.thickness.clone());
+        let result = self.static_loop(options, started);
+        if result.is_err() {
+            (self.x, self.system.thickness) = saved;
+        }
+        result
+    }
+
+    fn static_loop(
+        &mut self,
+        options: &StaticOptions,
+        started: Instant,
+    ) -> Result<StaticReport, ShellError> {
+        let time = self.time;
+        let external = (!self.external_forces.is_empty()).then(|| self.external_forces.clone());
+        let mut solver = StaticSolver::new(options.solver);
+        let mut x = self.x.clone();
+        let mut report = StaticReport::default();
+        let start_volume = balloon_gas::enclosed_volume(&x, &self.system.triangles)?;
+        let mut gas = match options.control {
+            StaticControl::Gas => GasTerm::Own,
+            StaticControl::Volume { target } => {
+                if !(target.is_finite() && target > 0.0) {
+                    return Err(ShellError::InvalidParameter {
+                        name: "volume",
+                        value: target.to_string(),
+                        reason: "the target gas volume must be positive".into(),
+                    });
+                }
+                GasTerm::Volume {
+                    lambda: self.system.gas.state().gauge_pressure,
+                    rho: 100.0 * self.volume_stiffness(time, &x)?,
+                    start: start_volume,
+                    target,
+                }
+            }
+        };
+        let mut last_error = f64::INFINITY;
+        let max_outer = options.max_outer_iterations.max(1);
+        for outer in 0..max_outer {
+            let (info, gauge, volume) = {
+                let mut shell = StaticShell::new(&mut self.system, gas, options.follower_term);
+                let info = solver
+                    .solve_with_continuation(&mut shell, time, &mut x, external.as_deref())
+                    .map_err(|source| ShellError::Static { outer, source })?;
+                (info, shell.gauge_pressure(), shell.volume)
+            };
+            report.outer_iterations = outer + 1;
+            report.newton_iterations += info.iterations;
+            report.load_steps += info.load_steps;
+            report.line_search_cuts += info.line_search_cuts;
+            report.relative_residual = info.relative_residual;
+            report.last_solve = info;
+            report.gauge_pressure = gauge;
+            report.gas_volume = volume;
+            // The volume control's multiplier update (from now on the target is reached at
+            // factor 1 directly: start = target).
+            let mut volume_met = true;
+            if let GasTerm::Volume {
+                lambda,
+                rho,
+                target,
+                ..
+            } = gas
+            {
+                let c = volume - target;
+                report.volume_error = c.abs() / target;
+                volume_met = report.volume_error <= options.volume_tolerance;
+                let new_rho = if report.volume_error > 0.1 * last_error {
+                    10.0 * rho
+                } else {
+                    rho
+                };
+                last_error = report.volume_error;
+                gas = GasTerm::Volume {
+                    lambda: lambda - rho * c,
+                    rho: new_rho,
+                    start: target,
+                    target,
+                };
+                if volume_met {
+                    // The multiplier at the converged volume is the pressure.
+                    report.gauge_pressure = gauge;
+                }
+            }
+            // The thickness rule at rest: project the equilibrium, keep the thickness.
+            report.thickness_change = 0.0;
+            if let Some(proj) = &mut self.projection {
+                let input = ShellProjectionInput {
+                    triangles: &self.system.triangles,
+                    vertex_inverse_mass: &self.vertex_inv_mass,
+                    element_inverse_mass: &self.element_inv_mass,
+                    rest_shell_volume: self.rest_shell_volume,
+                    rest_element_volumes: &self.rest_element_volumes,
+                };
+                let mut xp = x.clone();
+                let mut h = self.system.thickness.clone();
+                proj.project(&input, &mut xp, &mut h)
+                    .map_err(|source| ShellError::Projection {
+                        step: self.step,
+                        source,
+                    })?;
+                if let Some((e, bad)) = h
+                    .iter()
+                    .enumerate()
+                    .find(|(_, h)| !(h.is_finite() && **h > 0.0))
+                {
+                    return Err(ShellError::Diverged {
+                        step: self.step,
+                        time,
+                        quantity: format!("thickness of element {e}"),
+                        detail: format!(
+                            "{bad:e} m after projecting the static equilibrium; lower the load"
+                        ),
+                    });
+                }
+                report.thickness_change = max_relative_change(&h, &self.system.thickness);
+                self.system.thickness = h;
+            }
+            if volume_met && report.thickness_change <= options.thickness_tolerance {
+                self.finish_static(x, &mut report, started);
+                return Ok(report);
+            }
+        }
+        Err(ShellError::StaticNotConverged {
+            outer_iterations: report.outer_iterations,
+            residual: report.relative_residual,
+            thickness_change: report.thickness_change,
+            volume_error: report.volume_error,
+        })
+    }
+
+    /// The shell's volume stiffness along `g = dV/dx` at `x`, `g^T K g / |g|^4` (Pa/m^3), a
+    /// positive floor when the shape has none.
+    fn volume_stiffness(&mut self, time: f64, x: &[f64]) -> Result<f64, ShellError> {
+        let n = x.len();
+        let mut f = vec![0.0; n];
+        self.system
+            .forces(time, x, &mut f)
+            .map_err(|source| ShellError::Static {
+                outer: 0,
+                source: StaticError::System {
+                    iteration: 0,
+                    source,
+                },
+            })?;
+        let g = self.system.gas.low_rank_term().vector.clone();
+        let mut df = vec![0.0; n];
+        self.system.add_elastic_differential(&g, &mut df);
+        let gg: f64 = g.iter().map(|v| v * v).sum();
+        let gkg: f64 = -g.iter().zip(&df).map(|(a, b)| a * b).sum::<f64>();
+        let v = self.system.gas.state().volume;
+        let k = gkg / (gg * gg);
+        // Floor: 1 Pa per 1% of the volume.
+        Ok(if k.is_finite() && k > 0.0 {
+            k
+        } else {
+            100.0 / v
+        })
+    }
+
+    fn finish_static(&mut self, x: Vec<f64>, report: &mut StaticReport, started: Instant) {
+        self.x = x;
+        self.v.iter_mut().for_each(|v| *v = 0.0);
+        self.x_prev.copy_from_slice(&self.x);
+        self.gas_volume = report.gas_volume;
+        let th = &self.system.thickness;
+        report.thickness_min = th.iter().copied().fold(f64::INFINITY, f64::min);
+        report.thickness_max = th.iter().copied().fold(0.0, f64::max);
+        report.thickness_mean = th.iter().sum::<f64>() / th.len().max(1) as f64;
+        let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+        for t in &self.system.triangles {
+            let r = triangle_area(&self.x, t) / triangle_area(&self.rest_positions, t);
+            lo = lo.min(r);
+            hi = hi.max(r);
+        }
+        report.min_area_stretch = lo;
+        report.max_area_stretch = hi;
+        report.shell_volume_ratio = self.shell_volume() / self.rest_shell_volume;
+        report.converged = true;
+        report.solve_ms = started.elapsed().as_secs_f64() * 1e3;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gas::GasKind;
+    use crate::shell::ShellBalloon;
+    use balloon_test_support::{Rng, check_gradient, check_jacobian};
+
+    /// Every gas term of the static energy (the sim's ideal, constant and pump gases, and the
+    /// augmented Lagrangian of the volume control) at a load factor below 1, with the follower
+    /// term: the energy's gradient is minus the forces, the force differential is the forces'
+    /// derivative (the exact Hessian), and the assembled stiffness plus the rank-1 term is the
+    /// same matrix as the differential (the system the linear solver sees).
+    fn scaled<'a, M: Material, G: GasModel>(
+        sys: &'a mut ShellSystem<M, G>,
+        term: GasTerm,
+    ) -> StaticShell<'a, M, G> {
+        let mut s = StaticShell::new(sys, term, true);
+        s.set_load_factor(0.7);
+        s
+    }
+
+    #[test]
+    fn static_energy_gradient_and_hessian_match_finite_differences_for_every_gas_control() {
+        let mesh = balloon_mesh::generate::icosphere(0.1, 1).unwrap();
+        let time = 0.2;
+        for (kind, volume) in [
+            (GasKind::Ideal, false),
+            (GasKind::Constant, false),
+            (GasKind::Pump, false),
+            (GasKind::Constant, true),
+        ] {
+            let sim = ShellBalloon::new(mesh.clone())
+                .with_gas(kind)
+                .with_gauge_pressure(1500.0)
+                .build()
+                .unwrap();
+            let v0 = sim.rest_gas_volume();
+            let term = if volume {
+                GasTerm::Volume {
+                    lambda: 800.0,
+                    rho: 3e7,
+                    start: v0,
+                    target: 1.4 * v0,
+                }
+            } else {
+                GasTerm::Own
+            };
+            let mut rng = Rng::new(11);
+            let x: Vec<f64> = sim
+                .positions()
+                .iter()
+                .map(|v| 1.12 * v + 0.003 * rng.next_f64())
+                .collect();
+            let n = x.len();
+            let forces = |x: &[f64]| {
+                let mut sys = sim.system.clone_for_tests();
+                let mut s = scaled(&mut sys, term);
+                let mut f = vec![0.0; n];
+                s.forces(time, x, &mut f).unwrap();
+                f
+            };
+            let energy = |x: &[f64]| {
+                let mut sys = sim.system.clone_for_tests();
+                scaled(&mut sys, term)
+                    .potential_energy(time, x)
+                    .unwrap()
+                    .unwrap()
+            };
+            check_gradient(
+                energy,
+                |x| forces(x).iter().map(|f| -f).collect(),
+                &x,
+                1e-7,
+                1e-6,
+            );
+            let differential = |x: &[f64], dx: &[f64]| {
+                let mut sys = sim.system.clone_for_tests();
+                let mut s = scaled(&mut sys, term);
+                let mut f = vec![0.0; n];
+                s.forces(time, x, &mut f).unwrap();
+                let mut df = vec![0.0; n];
+                s.add_force_differential(dx, &mut df);
+                df
+            };
+            check_jacobian(forces, differential, &x, 1e-7, 1e-5, 3);
+            // The assembled form: triplets (blocks + follower) plus the low-rank term.
+            let mut sys = sim.system.clone_for_tests();
+            let mut s = scaled(&mut sys, term);
+            let mut f = vec![0.0; n];
+            s.forces(time, &x, &mut f).unwrap();
+            let mut t = Vec::new();
+            s.add_stiffness_triplets(&mut t).unwrap();
+            let dx = rng.vector(n);
+            let mut kdx = vec![0.0; n];
+            for (r, c, v) in t {
+                kdx[r] += v * dx[c];
+            }
+            for lr in s.low_rank_terms() {
+                let gd: f64 = lr.vector.iter().zip(&dx).map(|(a, b)| a * b).sum();
+                for i in 0..n {
+                    kdx[i] += lr.coefficient * gd * lr.vector[i];
+                }
+            }
+            let mut df = vec![0.0; n];
+            s.add_force_differential(&dx, &mut df);
+            let scale = kdx.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for i in 0..n {
+                assert!(
+                    (kdx[i] + df[i]).abs() <= 1e-10 * scale,
+                    "{kind} volume={volume}: dof {i}: {} vs {}",
+                    kdx[i],
+                    -df[i]
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,202 @@
+//! The static rest shape (`ShellSimulation::solve_static`): against the analytic sphere, against
+//! the rest shape of the dynamic run, under each gas control, and the thickness rule at rest.
+
+use balloon::gas::GasKind;
+use balloon::material::{Lame, StVenantKirchhoff};
+use balloon::mesh::generate::icosphere;
+use balloon::mesh::generate::teddy::{TeddyParams, teddy};
+use balloon::mesh::{TriMesh, geometry};
+use balloon::shell::analytic::sphere_stretch;
+use balloon::shell::statics::{StaticControl, StaticOptions};
+use balloon::shell::{ShellBalloon, ShellError, ShellSimulation};
+
+fn material() -> StVenantKirchhoff {
+    StVenantKirchhoff::new(Lame::try_from_young_poisson(1.0e6, 0.45).unwrap())
+}
+
+fn effective_radius(mesh: &TriMesh) -> f64 {
+    3.0 * geometry::enclosed_volume(mesh) / geometry::surface_area(mesh)
+}
+
+fn bbox_diagonal(x: &[f64]) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in x.chunks_exact(3) {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt()
+}
+
+fn build(mesh: TriMesh, gas: GasKind, pressure: f64) -> ShellSimulation<StVenantKirchhoff> {
+    ShellBalloon::new(mesh)
+        .with_material(material())
+        .with_gas(gas)
+        .with_gauge_pressure(pressure)
+        .build()
+        .unwrap()
+}
+
+/// Dynamic steps until the shape stops moving (the library form of `--until-converged`, tighter).
+fn settle_dynamic(sim: &mut ShellSimulation<StVenantKirchhoff>, max_steps: usize) -> usize {
+    let mut last = sim.positions().to_vec();
+    let l = bbox_diagonal(&last);
+    for n in 0..max_steps {
+        sim.step().unwrap();
+        let moved = sim
+            .positions()
+            .iter()
+            .zip(&last)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if moved < 1e-8 * l {
+            return n + 1;
+        }
+        last.copy_from_slice(sim.positions());
+    }
+    panic!("the dynamic run did not settle in {max_steps} steps");
+}
+
+fn max_distance(a: &[f64], b: &[f64]) -> f64 {
+    a.chunks_exact(3)
+        .zip(b.chunks_exact(3))
+        .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn static_sphere_matches_the_analytic_stretch_at_constant_pressure() {
+    let mesh = icosphere(0.1, 3).unwrap();
+    let r = effective_radius(&mesh);
+    for p in [1000.0, 3000.0] {
+        let mut sim = build(mesh.clone(), GasKind::Constant, p);
+        let report = sim.solve_static(&StaticOptions::default()).unwrap();
+        assert!(
+            report.converged && report.relative_residual <= 1e-6,
+            "{report:?}"
+        );
+        let lambda = (sim.gas_volume() / sim.rest_gas_volume()).cbrt();
+        let expected = sphere_stretch(&material(), 3e-4, r, p).unwrap();
+        assert!(
+            (lambda / expected - 1.0).abs() < 2e-3,
+            "p = {p}: stretch {lambda} vs analytic {expected}"
+        );
+        // The energy fell at every accepted iterate of the last solve.
+        let e = &report.last_solve.energies;
+        assert!(
+            e.windows(2).all(|w| w[1] <= w[0] + 1e-12 * w[0].abs()),
+            "{e:?}"
+        );
+        // The thickness rule at rest: the projection of the result keeps its thickness, and
+        // the shell's material volume is the rest one.
+        assert!(report.thickness_change <= 1e-8, "{report:?}");
+        assert!((report.shell_volume_ratio - 1.0).abs() < 1e-6, "{report:?}");
+        let h = sim.thickness()[0];
+        assert!((h / (3e-4 / (lambda * lambda)) - 1.0).abs() < 1e-2, "h {h}");
+        assert!(sim.velocities().iter().all(|v| *v == 0.0));
+    }
+}
+
+#[test]
+fn static_and_dynamic_rest_shapes_agree_on_the_sphere() {
+    let mesh = icosphere(0.1, 3).unwrap();
+    let mut dynamic = build(mesh.clone(), GasKind::Ideal, 2000.0);
+    dynamic.set_dt(0.05).unwrap();
+    settle_dynamic(&mut dynamic, 2000);
+    let mut stat = build(mesh, GasKind::Ideal, 2000.0);
+    let report = stat.solve_static(&StaticOptions::default()).unwrap();
+    let l = bbox_diagonal(dynamic.positions());
+    let d = max_distance(dynamic.positions(), stat.positions());
+    assert!(
+        d <= 1e-4 * l,
+        "static vs dynamic: {d:e} m of {l} m ({report:?})"
+    );
+    assert!((report.gauge_pressure - dynamic.gauge_pressure()).abs() < 1e-3 * 2000.0);
+}
+
+#[test]
+fn static_and_dynamic_rest_shapes_agree_on_the_coarse_teddy() {
+    let mesh = teddy(&TeddyParams {
+        resolution: 14,
+        ..TeddyParams::default()
+    })
+    .unwrap();
+    let mut dynamic = build(mesh.clone(), GasKind::Ideal, 2000.0);
+    dynamic.set_dt(0.05).unwrap();
+    settle_dynamic(&mut dynamic, 3000);
+    let mut stat = build(mesh, GasKind::Ideal, 2000.0);
+    let report = stat.solve_static(&StaticOptions::default()).unwrap();
+    assert!(report.converged, "{report:?}");
+    let l = bbox_diagonal(dynamic.positions());
+    let d = max_distance(dynamic.positions(), stat.positions());
+    assert!(
+        d <= 1e-4 * l,
+        "static vs dynamic: {d:e} m of {l} m ({report:?})"
+    );
+}
+
+#[test]
+fn volume_control_reports_the_pressure_that_holds_that_volume() {
+    let mesh = icosphere(0.1, 3).unwrap();
+    // Pressure control first: the volume it reaches.
+    let mut by_pressure = build(mesh.clone(), GasKind::Constant, 2500.0);
+    by_pressure.solve_static(&StaticOptions::default()).unwrap();
+    let v = by_pressure.gas_volume();
+    // Volume control at that volume (the simulation's own gas is ignored): the multiplier is
+    // the pressure.
+    let mut by_volume = build(mesh, GasKind::Ideal, 0.0);
+    let report = by_volume
+        .solve_static(&StaticOptions {
+            control: StaticControl::Volume { target: v },
+            ..Default::default()
+        })
+        .unwrap();
+    assert!(report.volume_error <= 1e-8, "{report:?}");
+    assert!(
+        (report.gauge_pressure - 2500.0).abs() < 1e-4 * 2500.0,
+        "{report:?}"
+    );
+    let d = max_distance(by_pressure.positions(), by_volume.positions());
+    assert!(d < 1e-6 * bbox_diagonal(by_volume.positions()), "{d:e}");
+}
+
+#[test]
+fn the_papers_gas_without_ambient_converges_with_continuation_or_directly() {
+    // The paper's own gas (ideal, no ambient) at a high initial pressure, from the rest shape.
+    let mesh = icosphere(0.1, 2).unwrap();
+    let mut sim = ShellBalloon::new(mesh)
+        .with_material(material())
+        .with_gas(GasKind::Ideal)
+        .with_ambient_pressure(0.0)
+        .with_gauge_pressure(28_000.0)
+        .build()
+        .unwrap();
+    let report = sim.solve_static(&StaticOptions::default()).unwrap();
+    assert!(report.relative_residual <= 1e-6, "{report:?}");
+    // The gas volume grew (no collapse), and the gas law holds: p V = p0 V0.
+    assert!(sim.gas_volume() > sim.rest_gas_volume());
+    let pv = report.gauge_pressure * report.gas_volume;
+    assert!((pv / (28_000.0 * sim.rest_gas_volume()) - 1.0).abs() < 1e-9);
+}
+
+#[test]
+fn static_solve_refuses_anchor_springs_and_bad_targets() {
+    let mesh = icosphere(0.1, 1).unwrap();
+    let mut sim = build(mesh, GasKind::Constant, 1000.0);
+    let e = sim
+        .solve_static(&StaticOptions {
+            control: StaticControl::Volume { target: -1.0 },
+            ..Default::default()
+        })
+        .unwrap_err();
+    assert!(matches!(e, ShellError::InvalidParameter { .. }), "{e}");
+    sim.set_anchor_springs(vec![balloon::shell::AnchorSpring {
+        vertex: 0,
+        anchor: [0.0; 3],
+        stiffness: 1.0,
+    }])
+    .unwrap();
+    assert!(sim.solve_static(&StaticOptions::default()).is_err());
+}
