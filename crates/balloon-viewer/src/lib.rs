@@ -177,7 +177,7 @@ pub enum ViewerError {
     Simulation(#[from] balloon::SimulationError),
     /// The two-layer wall box could not be built.
     #[error(transparent)]
-    WallBox(#[from] balloon::constraint::two_layer::TwoLayerConstraintError),
+    WallBox(#[from] balloon::constraint::ConstraintError),
     /// Young's modulus of the shell control is not a valid material parameter.
     #[error("young: {0}")]
     Young(#[source] balloon::material::MaterialError),

@@ -333,10 +333,7 @@ impl<M: Material, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
     fn potential_energy(&mut self, time: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
         let elastic = self.inner.elastic_energy(x);
         if !elastic.is_finite() {
-            return Err(SystemError::InvertedElement {
-                element: 0,
-                detail: format!("non-finite elastic energy {elastic:e} J"),
-            });
+            return Err(self.inner.non_finite_energy_error(x));
         }
         let gas = match self.gas {
             GasTerm::Own => match self.inner.gas_energy(time, x)? {
@@ -352,7 +349,10 @@ impl<M: Material, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
                 let v = balloon_gas::enclosed_volume(x, &self.inner.triangles)
                     .map_err(|e| SystemError::component("gas", e))?;
                 if !(v.is_finite() && v > 0.0) {
-                    return Err(SystemError::Other(format!("gas volume {v:e} m^3")));
+                    return Err(SystemError::component(
+                        "gas",
+                        balloon_gas::GasError::InvalidVolume { volume: v },
+                    ));
                 }
                 let vt = start + self.factor * (target - start);
                 -lambda * v + 0.5 * rho * (v - vt) * (v - vt)

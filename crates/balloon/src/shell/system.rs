@@ -89,6 +89,40 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
         }
     }
 
+    /// The error for a non-finite elastic energy at `x`: the first element whose energy is not
+    /// finite, with its own check of the state (or a non-finite energy when the state passes).
+    pub(crate) fn non_finite_energy_error(&self, x: &[f64]) -> SystemError {
+        let found = self
+            .elements
+            .iter()
+            .zip(&self.triangles)
+            .zip(&self.thickness)
+            .enumerate()
+            .find(|(_, ((el, t), h))| {
+                !el.energy(&self.material, &Self::corner_positions(x, t), **h)
+                    .is_finite()
+            });
+        let (element, source) = match found {
+            Some((e, ((el, t), &h))) => (
+                e,
+                el.check_state(&Self::corner_positions(x, t), h)
+                    .err()
+                    .unwrap_or(ElementError::NonFinite {
+                        element: "three-prism",
+                        quantity: "elastic energy",
+                    }),
+            ),
+            None => (
+                0,
+                ElementError::NonFinite {
+                    element: "three-prism",
+                    quantity: "elastic energy",
+                },
+            ),
+        };
+        SystemError::InvertedElement { element, source }
+    }
+
     fn corner_positions(x: &[f64], t: &[usize; 3]) -> [Vector3<f64>; 3] {
         t.map(|v| Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]))
     }
@@ -350,23 +384,7 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
         };
         let elastic = self.elastic_energy(x);
         if !elastic.is_finite() {
-            let e = self
-                .elements
-                .iter()
-                .zip(&self.triangles)
-                .zip(&self.thickness)
-                .position(|((el, t), &h)| {
-                    !el.energy(&self.material, &Self::corner_positions(x, t), h)
-                        .is_finite()
-                })
-                .unwrap_or(0);
-            return Err(SystemError::InvertedElement {
-                element: e,
-                source: ElementError::NonFinite {
-                    element: "three-prism",
-                    quantity: "elastic energy",
-                },
-            });
+            return Err(self.non_finite_energy_error(x));
         }
         Ok(Some(elastic + gas))
     }
