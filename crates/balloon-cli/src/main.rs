@@ -12,6 +12,7 @@ mod cmd_mesh;
 mod cmd_two_layer;
 mod cmd_view;
 mod cmd_volumetric;
+mod material_args;
 mod output;
 mod run;
 
