@@ -84,7 +84,7 @@ pub struct MaterialArgs {
     /// Ogden exponents alpha_p, comma-separated (non-zero, one per --ogden-mu).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 1)]
     pub ogden_alpha: Option<Vec<f64>>,
-    /// Yeoh constants c1[,c2[,c3]], Pa (c1 > 0; missing ones are 0):
+    /// Yeoh constants `c1[,c2[,c3]]`, Pa (c1 > 0; missing ones are 0):
     /// W = c1 (I1 - 3) + c2 (I1 - 3)^2 + c3 (I1 - 3)^3.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 1)]
     pub yeoh: Option<Vec<f64>>,
