@@ -337,6 +337,36 @@ mod tests {
         }
     }
 
+    /// A state beyond Gent's limit (`I1 - 3 >= jm`) is reported as an invalid element naming
+    /// the membrane and its area stretch, not as a silent NaN.
+    #[test]
+    fn a_state_beyond_the_gent_limit_is_an_element_error() {
+        use balloon_integrate::{ForceSystem, SystemError};
+        let mesh = icosphere(0.1, 1).unwrap();
+        let mut sim = ShellBalloon::new(mesh)
+            .with_membrane(MembraneGent::try_new(4e5, 2.0).unwrap())
+            .with_gas(GasKind::Constant)
+            .build()
+            .unwrap();
+        // Stretch 1.6: I1 - 3 = 2 l^2 + l^-4 - 3 = 2.27 > jm = 2.
+        let x: Vec<f64> = sim.positions().iter().map(|v| 1.6 * v).collect();
+        let mut f = vec![0.0; x.len()];
+        let err = sim.system.forces(0.0, &x, &mut f).unwrap_err();
+        match &err {
+            SystemError::InvertedElement { detail, .. } => {
+                assert!(
+                    detail.contains("hyper membrane") && detail.contains("area stretch"),
+                    "{detail}"
+                );
+            }
+            other => panic!("expected an invalid element, got {other:?}"),
+        }
+        assert!(sim.system.potential_energy(0.0, &x).is_err());
+        // Below the limit the same sphere is fine.
+        let x: Vec<f64> = sim.positions().iter().map(|v| 1.3 * v).collect();
+        sim.system.forces(0.0, &x, &mut f).unwrap();
+    }
+
     /// The analytic helper inverts `ThinSphere::pressure` on the rising branch.
     #[test]
     fn sphere_stretch_inverts_the_pressure_curve() {

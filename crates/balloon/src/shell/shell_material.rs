@@ -70,14 +70,20 @@ pub trait ShellMaterial: Clone + Send + Sync + std::fmt::Debug {
         projected: bool,
     ) -> ([Vector3<f64>; 3], SMatrix<f64, 9, 9>);
 
-    /// Why the state of `element` is invalid (non-finite, degenerate, outside the model's
-    /// admissible set), or `None` when it is valid. Used to explain a non-finite force.
-    fn invalid_state(
+    /// Checks the state of `element` (finite, not degenerate, inside the model's admissible
+    /// set). Used to explain a non-finite force or energy.
+    ///
+    /// # Errors
+    /// The element's [`ElementError`] naming what is wrong.
+    fn check_state(
         &self,
         element: &Self::Element,
         x: &[Vector3<f64>; 3],
         h: f64,
-    ) -> Option<String>;
+    ) -> Result<(), ElementError>;
+
+    /// The element kind's name in errors (`three-prism`, `hyper membrane`).
+    fn element_name(&self) -> &'static str;
 
     /// Whether the thickness is a function of the stretch (an incompressible membrane, `h = H /
     /// (l1 l2)`) rather than a state of its own that the shell-volume projection moves. When
@@ -136,8 +142,17 @@ impl<M: Material> ShellMaterial for M {
         }
     }
 
-    fn invalid_state(&self, element: &ThreePrism, x: &[Vector3<f64>; 3], h: f64) -> Option<String> {
-        element.check_state(x, h).err().map(|e| e.to_string())
+    fn check_state(
+        &self,
+        element: &ThreePrism,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+    ) -> Result<(), ElementError> {
+        element.check_state(x, h)
+    }
+
+    fn element_name(&self) -> &'static str {
+        PRISM
     }
 }
 
@@ -189,13 +204,17 @@ impl<W: MembraneMaterial> ShellMaterial for Membrane<W> {
         }
     }
 
-    fn invalid_state(
+    fn check_state(
         &self,
         element: &HyperMembrane,
         x: &[Vector3<f64>; 3],
         _h: f64,
-    ) -> Option<String> {
-        membrane_invalid_state(&self.0, element, x)
+    ) -> Result<(), ElementError> {
+        membrane_check_state(&self.0, element, x)
+    }
+
+    fn element_name(&self) -> &'static str {
+        MEMBRANE
     }
 
     fn thickness_follows_stretch(&self) -> bool {
@@ -208,29 +227,28 @@ impl<W: MembraneMaterial> ShellMaterial for Membrane<W> {
     }
 }
 
-/// Why a membrane triangle's state is invalid: degenerate or non-finite, or outside the model's
-/// admissible set; `None` when valid.
-fn membrane_invalid_state<W: MembraneMaterial>(
+/// Element names in errors (as the elements name themselves).
+const PRISM: &str = "three-prism";
+const MEMBRANE: &str = "hyper membrane";
+
+/// Checks a membrane triangle: finite and not degenerate ([`HyperMembrane::check_state`]), and
+/// inside the model's admissible set (for example below Gent's limit), reported as the area
+/// stretch `sqrt(det C)` that is out of range.
+fn membrane_check_state<W: MembraneMaterial>(
     material: &W,
     element: &HyperMembrane,
     x: &[Vector3<f64>; 3],
-) -> Option<String> {
-    if let Err(e) = element.check_state(x) {
-        return Some(e.to_string());
-    }
+) -> Result<(), ElementError> {
+    element.check_state(x)?;
     if !element.is_admissible(material, x) {
-        let c = element.right_cauchy_green(x);
-        return Some(format!(
-            "the membrane model is not defined at this stretch (C = [{:.4} {:.4}; {:.4} {:.4}], \
-             area stretch {:.4}; e.g. beyond Gent's limit I1 - 3 < jm)",
-            c[(0, 0)],
-            c[(0, 1)],
-            c[(1, 0)],
-            c[(1, 1)],
-            c.determinant().max(0.0).sqrt()
-        ));
+        return Err(ElementError::InvalidParameter {
+            element: MEMBRANE,
+            name: "area stretch",
+            value: element.right_cauchy_green(x).determinant().max(0.0).sqrt(),
+            allowed: "a stretch where the membrane model is defined (Gent: I1 - 3 < jm)",
+        });
     }
-    None
+    Ok(())
 }
 
 /// A shell material chosen at run time (the command line's `--material`): a 3D material on
@@ -363,19 +381,28 @@ impl ShellMaterial for ShellMaterialModel {
         }
     }
 
-    fn invalid_state(
+    fn check_state(
         &self,
         element: &ShellElement,
         x: &[Vector3<f64>; 3],
         h: f64,
-    ) -> Option<String> {
+    ) -> Result<(), ElementError> {
         match (self, element) {
-            (Self::Solid(m), ShellElement::Prism(e)) => m.invalid_state(e, x, h),
-            (Self::Membrane(m), ShellElement::Membrane(e)) => membrane_invalid_state(m, e, x),
-            _ => Some(format!(
-                "element kind {element:?} does not belong to material {}",
-                self.name()
-            )),
+            (Self::Solid(_), ShellElement::Prism(e)) => e.check_state(x, h),
+            (Self::Membrane(m), ShellElement::Membrane(e)) => membrane_check_state(m, e, x),
+            _ => Err(ElementError::InvalidParameter {
+                element: self.element_name(),
+                name: "element kind",
+                value: f64::NAN,
+                allowed: "the element kind of the material (made by the builder)",
+            }),
+        }
+    }
+
+    fn element_name(&self) -> &'static str {
+        match self {
+            Self::Solid(_) => PRISM,
+            Self::Membrane(_) => MEMBRANE,
         }
     }
 

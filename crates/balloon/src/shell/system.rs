@@ -269,17 +269,17 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
             .position(|fe| fe.iter().any(|c| !c.iter().all(|v| v.is_finite())))
         {
             let xs = Self::corner_positions(x, &self.triangles[e]);
-            let detail =
-                match self
-                    .material
-                    .invalid_state(&self.elements[e], &xs, self.thickness[e])
-                {
-                    Some(reason) => reason,
-                    None => format!(
-                        "non-finite elastic force (thickness {:.3e} m)",
-                        self.thickness[e]
-                    ),
-                };
+            let detail = match self
+                .material
+                .check_state(&self.elements[e], &xs, self.thickness[e])
+            {
+                Err(err) => err.to_string(),
+                Ok(()) => format!(
+                    "{}: non-finite elastic force (thickness {:.3e} m)",
+                    self.material.element_name(),
+                    self.thickness[e]
+                ),
+            };
             return Err(SystemError::InvertedElement { element: e, detail });
         }
         f.iter_mut().for_each(|v| *v = 0.0);
