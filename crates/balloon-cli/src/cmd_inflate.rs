@@ -1,6 +1,7 @@
 //! `balloon inflate [MESH|builtin]`: the main job, a shell balloon with thickness (seed 000).
 
 use crate::cmd_static::GasArg;
+use crate::material_args::MaterialArgs;
 use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
 };
@@ -10,8 +11,9 @@ use balloon::constraint::shell_volume::{ProjectionScope, ShellVolumeParams};
 use balloon::integrate::TangentKind;
 use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::integrate::linear::{LinearSolverKind, LinearSolverParams, PcgPreconditioner};
-use balloon::material::{Material, MaterialKind, MaterialModel};
-use balloon::shell::{self, ShellBalloon, ShellSimulation, ShellStepStats};
+use balloon::shell::{
+    self, ShellBalloon, ShellMaterial, ShellMaterialModel, ShellSimulation, ShellStepStats,
+};
 use balloon::{SimulationError, SimulationStats};
 use balloon_render::UpAxis;
 use serde::Serialize;
@@ -24,7 +26,8 @@ pub enum ProjectionMode {
     Global,
     /// Every element keeps its own material volume (thickness H A0 / A per element).
     PerElement,
-    /// No projection: the thickness stays at its rest value.
+    /// No projection: the thickness stays at its rest value (a membrane's still follows its
+    /// stretch).
     Off,
 }
 
@@ -34,15 +37,9 @@ pub struct InflateArgs {
     /// Mesh file (.obj, .off, .ply, .stl) or `builtin[:NAME]`; default: the built-in teddy.
     #[arg(default_value = "builtin")]
     pub mesh: String,
-    /// Constitutive model: `stvk` (St. Venant-Kirchhoff, the paper's) or `neo-hookean`.
-    #[arg(long, default_value = "stvk")]
-    pub material: MaterialKind,
-    /// Young's modulus E, Pa (latex: about 1 MPa).
-    #[arg(long, default_value_t = shell::DEFAULT_YOUNG, allow_hyphen_values = true)]
-    pub young: f64,
-    /// Poisson's ratio nu, -1 < nu < 0.5.
-    #[arg(long, default_value_t = shell::DEFAULT_POISSON, allow_hyphen_values = true)]
-    pub poisson: f64,
+    /// Material: --material, its parameters, --material-preset.
+    #[command(flatten)]
+    pub material: MaterialArgs,
     /// Shell density, kg/m^3.
     #[arg(long, default_value_t = shell::DEFAULT_DENSITY, allow_hyphen_values = true)]
     pub density: f64,
@@ -121,9 +118,11 @@ pub struct InflateArgs {
     /// Include the area-normal (follower) term of the pressure tangent (the paper drops it).
     #[arg(long)]
     pub follower_term: bool,
-    /// Shell-volume projection: `global` (seed 000, Algorithm 2) or `off`.
-    #[arg(long, value_enum, default_value_t = ProjectionMode::Global)]
-    pub volume_projection: ProjectionMode,
+    /// Shell-volume projection: `global` (seed 000, Algorithm 2), `per-element` or `off`
+    /// [default: global; off for membranes, whose thickness H / (l1 l2) keeps every element's
+    /// volume exactly, so the projection has nothing to correct].
+    #[arg(long, value_enum)]
+    pub volume_projection: Option<ProjectionMode>,
     /// Multiply mesh coordinates by this factor (mesh units -> metres).
     #[arg(long, default_value_t = 1.0)]
     pub scale: f64,
@@ -205,6 +204,9 @@ pub struct InflateSummary {
     pub final_thickness_max: f64,
     /// Material model.
     pub material: String,
+    /// The material with its parameters, as the scenario format writes it (e.g.
+    /// `{"model": "membrane-gent", "mu": 4e5, "jm": 40}`).
+    pub material_parameters: Option<ShellMaterialModel>,
     /// Linear solver.
     pub linear_solver: String,
     /// Newton tangent (`exact` or `projected`).
@@ -230,7 +232,7 @@ fn style() -> PictureStyle {
 
 /// The current state as a frame with its fields: velocity, speed, pressure force (Eq. 15),
 /// thickness, stretch and max_stretch against the rest shape.
-pub(crate) fn shell_frame<M: balloon::material::Material>(
+pub(crate) fn shell_frame<M: ShellMaterial>(
     sim: &ShellSimulation<M>,
     step: usize,
 ) -> Result<Frame> {
@@ -258,7 +260,7 @@ struct InflateHooks<'a> {
     args: &'a InflateArgs,
 }
 
-impl<M: Material> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
+impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
     type Summary = InflateSummary;
 
     fn frame(&self, sim: &ShellSimulation<M>, step: usize) -> Result<Frame> {
@@ -314,6 +316,7 @@ impl<M: Material> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
         Some(InflateSummary {
             mesh: self.summary.mesh.clone(),
             material: self.summary.material.clone(),
+            material_parameters: self.summary.material_parameters.clone(),
             linear_solver: self.summary.linear_solver.clone(),
             tangent: self.summary.tangent.clone(),
             steps: run.steps,
@@ -385,6 +388,9 @@ fn parse_newton_tol(s: &str) -> Result<f64, String> {
 
 /// Runs `balloon inflate`.
 pub fn run(args: InflateArgs) -> Result<()> {
+    // The material flags are checked together before anything is loaded.
+    let material = args.material.resolve()?;
+    let membrane = material.thickness_follows_stretch();
     let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
     let mut mesh = balloon::mesh::load(&args.mesh)
         .with_context(|| format!("cannot load mesh `{}`", args.mesh))?;
@@ -400,8 +406,6 @@ pub fn run(args: InflateArgs) -> Result<()> {
     if args.frame_every == 0 && args.steps == 0 {
         anyhow::bail!("nothing to do: --steps is 0");
     }
-    let material = MaterialModel::from_young_poisson(args.material, args.young, args.poisson)
-        .context("invalid --young / --poisson")?;
     let integrator = BackwardEulerParams {
         newton_iterations: args.newton_iters,
         newton_tolerance: args.newton_tol,
@@ -416,7 +420,11 @@ pub fn run(args: InflateArgs) -> Result<()> {
         tangent: args.tangent,
         ..Default::default()
     };
-    let projection = match args.volume_projection {
+    let projection = match args.volume_projection.unwrap_or(if membrane {
+        ProjectionMode::Off
+    } else {
+        ProjectionMode::Global
+    }) {
         ProjectionMode::Global => Some(Default::default()),
         ProjectionMode::PerElement => Some(ShellVolumeParams {
             scope: ProjectionScope::PerElement,
@@ -425,7 +433,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
         ProjectionMode::Off => None,
     };
     let mut sim = ShellBalloon::new(mesh.clone())
-        .with_material(material)
+        .with_material(material.clone())
         .with_thickness(args.thickness)
         .with_density(args.density)
         .with_gas(args.gas.kind())
@@ -468,7 +476,8 @@ pub fn run(args: InflateArgs) -> Result<()> {
             triangles: mesh.num_triangles(),
             initial_gas_volume: sim.rest_gas_volume(),
             shell_volume_ratio_final: 1.0,
-            material: args.material.to_string(),
+            material: material.name(),
+            material_parameters: Some(material),
             linear_solver: args.linear_solver.to_string(),
             tangent: args.tangent.to_string(),
             newton_tolerance: args.newton_tol,

@@ -4,7 +4,7 @@
 use crate::cmd_inflate::{InflateArgs, shell_frame};
 use crate::output::{OutputDir, print_json_line};
 use anyhow::{Result, bail};
-use balloon::material::Material;
+use balloon::shell::ShellMaterial;
 use balloon::shell::ShellSimulation;
 use balloon::shell::statics::{StaticControl, StaticOptions, StaticReport};
 use serde::Serialize;
@@ -161,7 +161,7 @@ struct StaticSummary {
 }
 
 /// Runs the static solve(s) of `balloon inflate --static` on the built simulation.
-pub fn run<M: Material>(
+pub fn run<M: ShellMaterial>(
     args: &InflateArgs,
     sim: &mut ShellSimulation<M>,
     mut out: Option<OutputDir>,

@@ -13,6 +13,7 @@ mod cmd_static;
 mod cmd_two_layer;
 mod cmd_view;
 mod cmd_volumetric;
+mod material_args;
 mod output;
 mod run;
 

@@ -42,11 +42,11 @@
 //! assert_eq!(surface.positions.len(), Simulation::positions(&sim).len());
 //! ```
 
+use crate::shell::ShellMaterial;
 use crate::shell::{ShellError, ShellSimulation, ShellStepStats};
 use crate::two_layer::{TwoLayerError, TwoLayerSimulation, TwoLayerStats};
 use crate::volumetric::{StepStats, VolumetricError, VolumetricSimulation};
 use balloon_gas::GasModel;
-use balloon_material::Material;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use thiserror::Error;
@@ -138,7 +138,7 @@ fn flat<T: bytemuck::Pod>(v: &[T]) -> &[f64] {
     bytemuck::cast_slice(v)
 }
 
-impl<M: Material, G: GasModel> Simulation for ShellSimulation<M, G> {
+impl<M: ShellMaterial, G: GasModel> Simulation for ShellSimulation<M, G> {
     type Detail = ShellStepStats;
 
     fn name(&self) -> &'static str {

@@ -1,6 +1,7 @@
 //! End-to-end tests of the `balloon` binary: one test binary for all subcommands.
 
 mod inflate;
+mod membrane;
 mod mesh;
 mod render;
 mod two_layer;

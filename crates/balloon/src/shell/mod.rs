@@ -7,6 +7,12 @@
 //! moving the vertices and the thickness, and the velocities are set to `(x_new - x_old) / dt`
 //! (Algorithm 1, lines 11-12).
 //!
+//! The same system also runs incompressible rubber membranes (neo-Hookean, Mooney-Rivlin, Gent,
+//! Ogden, Yeoh; `docs/membranes.md`): [`ShellBalloon::with_membrane`] puts a
+//! [`balloon_element::HyperMembrane`] on every triangle, whose thickness follows the stretch
+//! (`h = H / (l1 l2)`), so the volume projection is not needed. The element kind is part of the
+//! material seam, [`ShellMaterial`].
+//!
 //! ```no_run
 //! use balloon::shell::ShellBalloon;
 //! let mesh = balloon::mesh::generate::icosphere(0.1, 3).unwrap();
@@ -23,7 +29,8 @@
 //! `.with_projector(my_projector)` or `.with_projection(None)`. Each is shown below on a small
 //! sphere.
 //!
-//! The material (any [`Material`]):
+//! The material (any [`Material`](balloon_material::Material) on three-prism elements, or an
+//! incompressible membrane, see [`Membrane`] and [`ShellBalloon::with_membrane`]):
 //!
 //! ```
 //! use balloon::material::{Lame, NeoHookean};
@@ -105,21 +112,24 @@
 //! ```
 
 pub mod analytic;
+mod membrane;
+mod shell_material;
 pub mod statics;
 mod system;
 
+pub use membrane::{Membrane, membrane_sphere_stretch};
+pub use shell_material::{ShellElement, ShellMaterial, ShellMaterialModel};
 pub use system::ShellSystem;
 
 use balloon_constraint::projector::{ShellProjectionInput, ShellProjector};
 use balloon_constraint::shell_volume::{ShellVolumeParams, ShellVolumeProjection, shell_volume};
-use balloon_element::ThreePrism;
 use balloon_gas::{
     ConstantPressure, Gas, GasKind, GasModel, IdealGas, PressureLoad, STANDARD_ATMOSPHERE,
 };
 use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
 use balloon_integrate::linear::{LinearSolverKind, PcgPreconditioner};
 use balloon_integrate::{ForceSystem, TangentKind};
-use balloon_material::{Lame, Material, MaterialKind, MaterialModel};
+use balloon_material::{Lame, MaterialKind, MaterialModel};
 use balloon_mesh::TriMesh;
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -275,7 +285,7 @@ pub enum Thickness {
 /// uses a fixed amount of gas at `with_gauge_pressure` (default 2 kPa) over ambient; the paper's
 /// own gas model (Eq. 14, no ambient) is `with_ambient_pressure(0.0)`.
 #[derive(Clone, Debug)]
-pub struct ShellBalloon<M: Material = MaterialModel, G: ShellGas = GasKind> {
+pub struct ShellBalloon<M: ShellMaterial = MaterialModel, G: ShellGas = GasKind> {
     mesh: TriMesh,
     material: M,
     thickness: Thickness,
@@ -438,9 +448,9 @@ impl ShellBalloon<MaterialModel> {
     }
 }
 
-impl<M: Material, G: ShellGas> ShellBalloon<M, G> {
+impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
     /// The same builder with the material and gas replaced by `f(material, gas)`.
-    fn replace<N: Material, H: ShellGas>(
+    fn replace<N: ShellMaterial, H: ShellGas>(
         self,
         f: impl FnOnce(M, G) -> (N, H),
     ) -> ShellBalloon<N, H> {
@@ -479,8 +489,11 @@ impl<M: Material, G: ShellGas> ShellBalloon<M, G> {
         }
     }
 
-    /// Uses another material (any `Material`, e.g. `NeoHookean::new(lame)`).
-    pub fn with_material<N: Material>(self, material: N) -> ShellBalloon<N, G> {
+    /// Uses another material: any [`Material`](balloon_material::Material) on three-prism elements (e.g.
+    /// `NeoHookean::new(lame)`), a [`Membrane`] or a [`ShellMaterialModel`] (any
+    /// [`ShellMaterial`]). The projection stays as set; [`ShellBalloon::with_membrane`] also
+    /// switches it off.
+    pub fn with_material<N: ShellMaterial>(self, material: N) -> ShellBalloon<N, G> {
         self.replace(|_, gas| (material, gas))
     }
 
@@ -649,10 +662,12 @@ impl<M: Material, G: ShellGas> ShellBalloon<M, G> {
         let mut vertex_proj_mass = vec![0.0; nv];
         let mut element_proj_mass = Vec::with_capacity(nt);
         for (e, t) in self.mesh.triangles.iter().enumerate() {
-            let el = ThreePrism::try_new(t.map(|v| verts[v]), thickness[e])
+            let el = self
+                .material
+                .element(t.map(|v| verts[v]), thickness[e])
                 .map_err(|source| ShellError::Element { element: e, source })?;
-            let m = el.lumped_masses(self.density);
-            let (mp, m4) = el.projection_masses(self.density);
+            let m = self.material.lumped_masses(&el, self.density);
+            let (mp, m4) = self.material.projection_masses(&el, self.density);
             for c in 0..3 {
                 vertex_mass[t[c]] += m[c];
                 vertex_proj_mass[t[c]] += mp[c];
@@ -785,7 +800,7 @@ pub const EASY_NEWTON_ITERATIONS: usize = 6;
 
 /// A running shell balloon simulation.
 #[derive(Debug)]
-pub struct ShellSimulation<M: Material = MaterialModel, G: GasModel = Gas> {
+pub struct ShellSimulation<M: ShellMaterial = MaterialModel, G: GasModel = Gas> {
     system: ShellSystem<M, G>,
     integrator: BackwardEuler,
     projection: Option<Box<dyn ShellProjector>>,
@@ -817,7 +832,7 @@ pub struct ShellSimulation<M: Material = MaterialModel, G: GasModel = Gas> {
 /// Gas volume growth beyond this factor of the rest volume is reported as a runaway.
 pub const RUNAWAY_VOLUME_FACTOR: f64 = 1.0e4;
 
-impl<M: Material, G: GasModel> ShellSimulation<M, G> {
+impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// Advances one time step (Algorithm 1, lines 5-12). On error the state is rolled back to the
     /// start of the step, so what was written before stays consistent.
     pub fn step(&mut self) -> Result<ShellStepStats, ShellError> {
@@ -1012,6 +1027,9 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
                 .step(&mut system, time, dt, &mut self.x, &mut self.v, external)
         }
         .map_err(|source| ShellError::Integrate { step, time, source })?;
+        // A membrane's thickness is `H / (l1 l2)` of the new positions (a no-op for the
+        // three-prism, whose thickness only the projection moves).
+        self.system.refresh_thickness(&self.x);
         let mut proj_iters = 0;
         if let Some(proj) = &mut self.projection {
             let input = ShellProjectionInput {
@@ -1025,6 +1043,7 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
                 .project(&input, &mut self.x, &mut self.system.thickness)
                 .map_err(|source| ShellError::Projection { step, source })?;
             proj_iters = pi.iterations;
+            self.system.refresh_thickness(&self.x);
         }
         // Algorithm 1, lines 11-12.
         for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x_prev) {
@@ -1167,7 +1186,7 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
     }
 }
 
-impl<M: Material, G: GasModel> ShellSimulation<M, G> {
+impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// Sets external forces (N) per degree of freedom, flat `[fx0, fy0, fz0, ...]`, applied in
     /// every following step as the `f_ext` of backward Euler (Eq. 18-19) until changed; `None`
     /// removes them. Used by the live viewer for grabbing and pinching. The length must be
@@ -1209,7 +1228,7 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
     }
 }
 
-impl<M: Material> ShellSimulation<M, Gas> {
+impl<M: ShellMaterial> ShellSimulation<M, Gas> {
     /// Changes the gas while the simulation runs (the pressure control of the live viewer):
     /// for a constant-pressure gas the held gauge pressure becomes `gauge` (Pa); for the ideal
     /// gas the amount `nRT = p0 V0` (Eq. 12, 14) is set so that the gas would have gauge pressure
@@ -1282,7 +1301,7 @@ pub struct AnchorSpring {
     pub stiffness: f64,
 }
 
-impl<M: Material, G: GasModel> ShellSimulation<M, G> {
+impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// Replaces the anchor springs acting in the following steps (an empty list removes them).
     /// Every vertex must exist, every anchor be finite and every stiffness finite and >= 0.
     pub fn set_anchor_springs(&mut self, springs: Vec<AnchorSpring>) -> Result<(), ShellError> {

@@ -40,12 +40,12 @@
 
 use std::time::Instant;
 
+use super::ShellMaterial;
 use balloon_gas::GasModel;
 use balloon_integrate::statics::{
     LoadScaling, StaticError, StaticInfo, StaticParams, StaticSolver,
 };
 use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
-use balloon_material::Material;
 use serde::{Deserialize, Serialize};
 
 use super::{ShellError, ShellSimulation, ShellSystem};
@@ -159,7 +159,7 @@ pub(crate) enum GasTerm {
 
 /// The shell as seen by the static solver: its elastic part plus a [`GasTerm`] with a load
 /// factor, and optionally the follower term of the pressure tangent.
-pub(crate) struct StaticShell<'a, M: Material, G: GasModel> {
+pub(crate) struct StaticShell<'a, M: ShellMaterial, G: GasModel> {
     pub(crate) inner: &'a mut ShellSystem<M, G>,
     pub(crate) gas: GasTerm,
     pub(crate) factor: f64,
@@ -172,7 +172,7 @@ pub(crate) struct StaticShell<'a, M: Material, G: GasModel> {
     scale: f64,
 }
 
-impl<'a, M: Material, G: GasModel> StaticShell<'a, M, G> {
+impl<'a, M: ShellMaterial, G: GasModel> StaticShell<'a, M, G> {
     pub(crate) fn new(inner: &'a mut ShellSystem<M, G>, gas: GasTerm, follower: bool) -> Self {
         Self {
             inner,
@@ -213,7 +213,7 @@ impl<'a, M: Material, G: GasModel> StaticShell<'a, M, G> {
     }
 }
 
-impl<M: Material, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
+impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
     fn num_dofs(&self) -> usize {
         self.inner.num_dofs()
     }
@@ -366,7 +366,7 @@ impl<M: Material, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
     }
 }
 
-impl<M: Material, G: GasModel> LoadScaling for StaticShell<'_, M, G> {
+impl<M: ShellMaterial, G: GasModel> LoadScaling for StaticShell<'_, M, G> {
     fn set_load_factor(&mut self, factor: f64) {
         self.factor = factor;
     }
@@ -385,7 +385,7 @@ fn triangle_area(x: &[f64], t: &[usize; 3]) -> f64 {
     0.5 * (p(t[1]) - p(t[0])).cross(&(p(t[2]) - p(t[0]))).norm()
 }
 
-impl<M: Material, G: GasModel> ShellSimulation<M, G> {
+impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// Solves for the static rest shape directly (module docs of `balloon::shell::statics`)
     /// from the current shape and leaves the simulation there: positions at the equilibrium,
     /// velocities zero, thickness at the projection's fixed point; time and the gas model are
@@ -513,6 +513,8 @@ impl<M: Material, G: GasModel> ShellSimulation<M, G> {
                     report.gauge_pressure = gauge;
                 }
             }
+            // An incompressible membrane's thickness follows its stretch (h = H / (l1 l2)).
+            self.system.refresh_thickness(&self.x);
             // The thickness rule at rest: project the equilibrium, keep the thickness.
             report.thickness_change = 0.0;
             if let Some(proj) = &mut self.projection {
@@ -624,7 +626,7 @@ mod tests {
     /// term: the energy's gradient is minus the forces, the force differential is the forces'
     /// derivative (the exact Hessian), and the assembled stiffness plus the rank-1 term is the
     /// same matrix as the differential (the system the linear solver sees).
-    fn scaled<'a, M: Material, G: GasModel>(
+    fn scaled<'a, M: ShellMaterial, G: GasModel>(
         sys: &'a mut ShellSystem<M, G>,
         term: GasTerm,
     ) -> StaticShell<'a, M, G> {

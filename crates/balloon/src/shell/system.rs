@@ -1,10 +1,11 @@
-//! The shell balloon as a [`ForceSystem`]: three-prism elastic forces (seed 000, Eq. 8, 11) plus
-//! the uniform gas (Eq. 15-17), seen by the implicit integrator.
+//! The shell balloon as a [`ForceSystem`]: elastic forces of the material's elements (three-prism,
+//! seed 000 Eq. 8, 11, or membrane triangles, `docs/membranes.md` M24-M25) plus the uniform gas
+//! (Eq. 15-17), seen by the implicit integrator.
 
-use balloon_element::{ElementError, ThreePrism};
+use super::ShellMaterial;
+use balloon_element::ElementError;
 use balloon_gas::{GasModel, PressureLoad};
 use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
-use balloon_material::Material;
 use balloon_mesh::parallel::prelude::*;
 use nalgebra::{SMatrix, SMatrixView, Vector3};
 
@@ -12,17 +13,18 @@ use nalgebra::{SMatrix, SMatrixView, Vector3};
 const PARALLEL_THRESHOLD: usize = 2048;
 
 /// One element's inputs (element, triangle, thickness) and outputs (forces, stiffness block).
-type ElementWork<'a> = (
-    ((&'a ThreePrism, &'a [usize; 3]), &'a f64),
+type ElementWork<'a, E> = (
+    ((&'a E, &'a [usize; 3]), &'a f64),
     (&'a mut [Vector3<f64>; 3], &'a mut [f64; 81]),
 );
 
 /// Elastic shell + gas, with per-element force and stiffness caches filled at each linearisation.
 #[derive(Debug)]
-pub struct ShellSystem<M: Material, G: GasModel> {
+pub struct ShellSystem<M: ShellMaterial, G: GasModel> {
     pub(crate) triangles: Vec<[usize; 3]>,
-    pub(crate) elements: Vec<ThreePrism>,
-    /// Current thickness per element, m (changed by the volume projection).
+    pub(crate) elements: Vec<M::Element>,
+    /// Current thickness per element, m (changed by the volume projection; for a membrane,
+    /// `H / (l1 l2)` refreshed by [`ShellSystem::refresh_thickness`]).
     pub(crate) thickness: Vec<f64>,
     pub(crate) material: M,
     pub(crate) gas: PressureLoad<G>,
@@ -42,12 +44,12 @@ pub struct ShellSystem<M: Material, G: GasModel> {
     force_scale: f64,
 }
 
-impl<M: Material, G: GasModel> ShellSystem<M, G> {
+impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
     /// Builds the system. `masses` is per vertex (kg); it is expanded to degrees of freedom.
     pub(crate) fn new(
         num_vertices: usize,
         triangles: Vec<[usize; 3]>,
-        elements: Vec<ThreePrism>,
+        elements: Vec<M::Element>,
         thickness: Vec<f64>,
         material: M,
         gas: PressureLoad<G>,
@@ -99,23 +101,26 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
             .zip(&self.thickness)
             .enumerate()
             .find(|(_, ((el, t), h))| {
-                !el.energy(&self.material, &Self::corner_positions(x, t), **h)
+                !self
+                    .material
+                    .energy(el, &Self::corner_positions(x, t), **h)
                     .is_finite()
             });
         let (element, source) = match found {
             Some((e, ((el, t), &h))) => (
                 e,
-                el.check_state(&Self::corner_positions(x, t), h)
+                self.material
+                    .check_state(el, &Self::corner_positions(x, t), h)
                     .err()
                     .unwrap_or(ElementError::NonFinite {
-                        element: "three-prism",
+                        element: self.material.element_name(),
                         quantity: "elastic energy",
                     }),
             ),
             None => (
                 0,
                 ElementError::NonFinite {
-                    element: "three-prism",
+                    element: self.material.element_name(),
                     quantity: "elastic energy",
                 },
             ),
@@ -152,11 +157,12 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
         }
     }
 
-    /// Total elastic energy at positions `x` (J): `sum_e V_e Psi(F_e)` (seed 000, Eq. 6-7), the
-    /// energy whose negative gradient are the elastic forces (Eq. 8).
+    /// Total elastic energy at positions `x` (J): `sum_e V_e Psi(F_e)` (seed 000, Eq. 6-7; for a
+    /// membrane `sum_e A0_e H_e W(C_e)`, `docs/membranes.md` M23), the energy whose negative
+    /// gradient are the elastic forces (Eq. 8).
     pub fn elastic_energy(&self, x: &[f64]) -> f64 {
-        let energy = |((el, t), &h): ((&ThreePrism, &[usize; 3]), &f64)| {
-            el.energy(&self.material, &Self::corner_positions(x, t), h)
+        let energy = |((el, t), &h): ((&M::Element, &[usize; 3]), &f64)| {
+            self.material.energy(el, &Self::corner_positions(x, t), h)
         };
         if self.elements.len() >= PARALLEL_THRESHOLD {
             self.elements
@@ -203,6 +209,38 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
         }
     }
 
+    /// For a material whose thickness follows the stretch ([`ShellMaterial::thickness_follows_stretch`],
+    /// the incompressible membranes) sets every element's thickness to its value at `x`,
+    /// `h = H / (l1 l2)` (`docs/membranes.md` M2); otherwise does nothing (the three-prism
+    /// thickness is a state moved only by the projection).
+    pub(crate) fn refresh_thickness(&mut self, x: &[f64]) {
+        if !self.material.thickness_follows_stretch() {
+            return;
+        }
+        let material = &self.material;
+        let update = |((el, t), h): ((&M::Element, &[usize; 3]), &mut f64)| {
+            *h = material.current_thickness(el, &Self::corner_positions(x, t), *h);
+        };
+        if self.elements.len() >= PARALLEL_THRESHOLD {
+            self.elements
+                .par_iter()
+                .zip(self.triangles.par_iter())
+                .zip(self.thickness.par_iter_mut())
+                .for_each(update);
+        } else {
+            self.elements
+                .iter()
+                .zip(&self.triangles)
+                .zip(self.thickness.iter_mut())
+                .for_each(update);
+        }
+    }
+
+    /// The material the elements are evaluated with.
+    pub fn material(&self) -> &M {
+        &self.material
+    }
+
     /// Elastic part of the force differential, `df += -K_elastic dx`.
     pub(crate) fn add_elastic_differential(&self, dx: &[f64], df: &mut [f64]) {
         let tris = &self.triangles;
@@ -220,7 +258,7 @@ impl<M: Material, G: GasModel> ShellSystem<M, G> {
     }
 }
 
-impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
+impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
     fn num_dofs(&self) -> usize {
         self.masses.len()
     }
@@ -233,13 +271,9 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
         let material = &self.material;
         let triangles = &self.triangles;
         let projected = self.tangent == TangentKind::Projected;
-        let work = |(((el, t), &h), (fe, ke)): ElementWork<'_>| {
+        let work = |(((el, t), &h), (fe, ke)): ElementWork<'_, M::Element>| {
             let xs = Self::corner_positions(x, t);
-            let (forces, stiffness) = if projected {
-                el.forces_and_projected_stiffness(material, &xs, h)
-            } else {
-                el.forces_and_stiffness(material, &xs, h)
-            };
+            let (forces, stiffness) = material.forces_and_stiffness(el, &xs, h, projected);
             *fe = forces;
             ke.copy_from_slice(stiffness.as_slice());
         };
@@ -273,10 +307,13 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
             .position(|fe| fe.iter().any(|c| !c.iter().all(|v| v.is_finite())))
         {
             let xs = Self::corner_positions(x, &self.triangles[e]);
-            let source = match self.elements[e].check_state(&xs, self.thickness[e]) {
+            let source = match self
+                .material
+                .check_state(&self.elements[e], &xs, self.thickness[e])
+            {
                 Err(err) => err,
                 Ok(()) => ElementError::NonFinite {
-                    element: "three-prism",
+                    element: self.material.element_name(),
                     quantity: "elastic force",
                 },
             };
@@ -364,7 +401,8 @@ impl<M: Material, G: GasModel> ForceSystem for ShellSystem<M, G> {
     }
 
     /// Both kinds: [`TangentKind::Projected`] projects each element's Hessian onto the PSD cone
-    /// (`ThreePrism::forces_and_projected_stiffness`); the gas terms are unchanged (the
+    /// (`ThreePrism::forces_and_projected_stiffness`, `HyperMembrane::forces_and_projected_stiffness`,
+    /// through [`ShellMaterial::forces_and_stiffness`]); the gas terms are unchanged (the
     /// rank-1 volume coupling is PSD, the optional follower term is not projected).
     fn set_tangent(&mut self, kind: TangentKind) -> Result<(), SystemError> {
         self.tangent = kind;
