@@ -29,6 +29,7 @@ fn shell_step(c: &mut Criterion) {
         (LinearSolverKind::FactorizedPcg, TangentKind::Projected),
     ] {
         let mut sim = ShellBalloon::new(mesh.clone())
+            .with_pump_rate(2e-3) // the fixed 2 L/s these figures were measured with
             .with_linear_solver(kind)
             .build()
             .expect("valid balloon");

@@ -59,6 +59,7 @@ fn main() {
     params.refactor_iterations = arg(6, "8").parse().expect("REFACTOR is a number");
     params.parallel_factorization = arg(7, "seq") == "par";
     let mut sim = ShellBalloon::new(mesh.clone())
+        .with_pump_rate(2e-3) // the fixed 2 L/s these figures were measured with
         .with_integrator(params)
         .with_linear_solver(kind)
         .build()

@@ -158,6 +158,7 @@ fn time_shell(
     params.linear.relative_tolerance = DEFAULT_LINEAR_TOLERANCE;
     let run = |row: &mut ShellRow| -> Result<()> {
         let mut sim = ShellBalloon::new(mesh.clone())
+            .with_pump_rate(2e-3) // the fixed 2 L/s these figures were measured with
             .with_integrator(params)
             .with_linear_solver(kind)
             .build()?;

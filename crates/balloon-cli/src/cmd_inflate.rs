@@ -58,9 +58,11 @@ pub struct InflateArgs {
     /// Ambient (outside) pressure, Pa.
     #[arg(long, default_value_t = balloon::gas::STANDARD_ATMOSPHERE, allow_hyphen_values = true)]
     pub ambient: f64,
-    /// Pump rate for `--gas pump`, m^3/s of ambient air (2e-3 = 2 L/s, about what a person blows).
-    #[arg(long, default_value_t = shell::DEFAULT_PUMP_RATE, allow_hyphen_values = true)]
-    pub pump_rate: f64,
+    /// Pump rate for `--gas pump`, m^3/s of ambient air (2e-3 = 2 L/s, about what a person
+    /// blows). Default: 0.7 rest volumes of the body per second, so that a 0.1 m model and a 1 m
+    /// one inflate alike (2.0 L/s for the built-in 2.9 L teddy).
+    #[arg(long, allow_hyphen_values = true)]
+    pub pump_rate: Option<f64>,
     /// Mass-proportional damping alpha, 1/s.
     #[arg(long, default_value_t = shell::DEFAULT_MASS_DAMPING, allow_hyphen_values = true)]
     pub mass_damping: f64,
@@ -432,14 +434,18 @@ pub fn run(args: InflateArgs) -> Result<()> {
         }),
         ProjectionMode::Off => None,
     };
-    let mut sim = ShellBalloon::new(mesh.clone())
+    let builder = ShellBalloon::new(mesh.clone());
+    let builder = match args.pump_rate {
+        Some(rate) => builder.with_pump_rate(rate),
+        None => builder.with_relative_pump_rate(shell::DEFAULT_PUMP_VOLUMES_PER_SECOND),
+    };
+    let mut sim = builder
         .with_material(material.clone())
         .with_thickness(args.thickness)
         .with_density(args.density)
         .with_gas(args.gas.kind())
         .with_gauge_pressure(args.pressure)
         .with_ambient_pressure(args.ambient)
-        .with_pump_rate(args.pump_rate)
         .with_follower_term(args.follower_term)
         .with_integrator(integrator)
         .with_projection(projection)

@@ -451,6 +451,14 @@ pub(crate) const ENERGY_ROUNDOFF: f64 = 1e-12;
 /// Upper bound on [`BackwardEulerParams::newton_iterations`].
 pub const MAX_NEWTON_ITERATIONS: usize = 1000;
 
+/// Newton iterations over which the relative residual must at least halve. When it does not
+/// (and is still above the tolerance) the solve has stalled, typically because the time step
+/// is far longer than the time scale of the motion, so that the incremental potential is
+/// strongly non-convex along the way: the step stops at once as
+/// [`IntegrateError::NotConverged`], and the caller's step halving takes over instead of
+/// spending the remaining iterations. Not applied in the paper's mode.
+pub const NEWTON_STALL_WINDOW: usize = 8;
+
 /// How the Newton step is shortened in one iteration.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum LineSearch {
@@ -881,6 +889,17 @@ impl BackwardEuler {
             }
             info.newton_residuals.push(res.norm);
             info.relative_residuals.push(res.relative());
+            let r = &info.relative_residuals;
+            if r.len() > NEWTON_STALL_WINDOW
+                && res.relative() > p.newton_tolerance
+                && res.relative() > 0.5 * r[r.len() - 1 - NEWTON_STALL_WINDOW]
+            {
+                return Err(IntegrateError::NotConverged {
+                    iterations: info.newton_iterations,
+                    residual: res.relative(),
+                    tolerance: p.newton_tolerance,
+                });
+            }
         }
         // The paper's mode does not evaluate its result (see `StepInfo::relative_residual`).
         if !paper_mode && !newton_converged && res.relative() <= p.newton_tolerance {
@@ -2044,6 +2063,33 @@ mod tests {
         );
         let mut f = vec![0.0; 3];
         sys.forces(0.0, &x, &mut f).unwrap();
+    }
+
+    /// A solve that makes no headway stops after the stall window instead of spending every
+    /// allowed iteration (the caller's step halving is the remedy), and says how far it got.
+    #[test]
+    fn a_stalled_newton_solve_stops_after_the_stall_window() {
+        let (dt, x0) = (0.01, vec![0.3, -0.2, 0.25]);
+        for kind in [LinearSolverKind::Cholesky, LinearSolverKind::MatrixFreeCg] {
+            // No potential: the residual line search only asks for a small decrease.
+            let mut sys = Saturating::new(false);
+            let mut be = BackwardEuler::new(converging(kind, 500, 1e-10));
+            let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
+            match be.step(&mut sys, 0.0, dt, &mut x, &mut v, None) {
+                Err(IntegrateError::NotConverged {
+                    iterations,
+                    residual,
+                    ..
+                }) => {
+                    assert!(
+                        (NEWTON_STALL_WINDOW..3 * NEWTON_STALL_WINDOW).contains(&iterations),
+                        "{kind}: stopped after {iterations} iterations"
+                    );
+                    assert!(residual > 1e-10, "{kind}: {residual}");
+                }
+                other => panic!("{kind}: expected NotConverged, got {other:?}"),
+            }
+        }
     }
 
     #[test]

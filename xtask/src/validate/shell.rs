@@ -60,6 +60,7 @@ fn sphere_stretch_sim<M: Material>(
     scope: ProjectionScope,
 ) -> Result<(f64, f64, f64)> {
     let mut sim = ShellBalloon::new(mesh.clone())
+        .with_pump_rate(2e-3) // the fixed 2 L/s these figures were measured with
         .with_material(material.clone())
         .with_thickness(h)
         .with_gas(GasKind::Constant)
@@ -342,6 +343,7 @@ fn thickness_scaling(cases: &mut Vec<Case>) -> Result<()> {
 /// Isothermal ideal gas (Eq. 12-14): `pV` stays `p0 V0` while the balloon inflates.
 fn gas_law(cases: &mut Vec<Case>) -> Result<()> {
     let mut sim = ShellBalloon::new(icosphere(0.1, 3)?)
+        .with_pump_rate(2e-3) // the fixed 2 L/s these figures were measured with
         .with_gas(GasKind::Ideal)
         .with_ambient_pressure(0.0)
         .with_gauge_pressure(2000.0)
@@ -428,6 +430,7 @@ fn long_run(opts: &Options, figs: &mut Figures, cases: &mut Vec<Case>) -> Result
     // The sparse direct solver: the long run checks the projection, not the linear solver, and
     // it is the fastest on this mesh (see docs/benchmarks.md).
     let mut sim = ShellBalloon::new(mesh.clone())
+        .with_pump_rate(2e-3) // the fixed 2 L/s these figures were measured with
         .with_linear_solver(LinearSolverKind::Cholesky)
         .build()?;
     let mut gas = Vec::new();

@@ -205,7 +205,7 @@ pub enum ShellError {
     },
     /// Newton did not converge even at the smallest sub-step the step halvings allow.
     #[error(
-        "step {step} (t = {time:.6} s): Newton did not converge: relative residual {residual:.3e} after {iterations} iterations (tolerance {tolerance:e}) at dt = {dt:e} s after {halvings} halvings; try a smaller --dt, more --newton-iters, a looser --newton-tol, --tangent projected, or more mass damping"
+        "step {step} (t = {time:.6} s): Newton did not converge: relative residual {residual:.3e} after {iterations} iterations (tolerance {tolerance:e}) at a sub-step of {dt:e} s, the smallest allowed ({halvings} halvings in this step, at most {max_halvings} below the step); try a smaller --dt, more --newton-iters, a looser --newton-tol, --tangent projected, or more mass damping"
     )]
     NotConverged {
         /// Step index (0-based).
@@ -214,8 +214,11 @@ pub enum ShellError {
         time: f64,
         /// The sub-step size that failed last, s.
         dt: f64,
-        /// Halvings tried in this step.
+        /// Halvings tried in this step (a sub-step size reached in an earlier step carries
+        /// over, so this can be 0 at the smallest size).
         halvings: usize,
+        /// The most halvings allowed below the step (`ShellBalloon::with_max_step_halvings`).
+        max_halvings: usize,
         /// Newton iterations of the last attempt.
         iterations: usize,
         /// Its final relative residual.
@@ -293,7 +296,7 @@ pub struct ShellBalloon<M: ShellMaterial = MaterialModel, G: ShellGas = GasKind>
     gas: G,
     gauge_pressure: f64,
     ambient_pressure: f64,
-    pump_rate: f64,
+    pump_rate: PumpRate,
     follower_term: bool,
     integrator: BackwardEulerParams,
     projector: Option<Box<dyn ShellProjector>>,
@@ -412,12 +415,35 @@ pub const DEFAULT_THICKNESS: f64 = 3.0e-4;
 pub const DEFAULT_GAUGE_PRESSURE: f64 = 2000.0;
 /// Default time step, s.
 pub const DEFAULT_DT: f64 = 1.0e-2;
-/// Default pump rate, m^3/s of ambient air.
-pub const DEFAULT_PUMP_RATE: f64 = 2.0e-3;
+/// Default pump rate in rest volumes of ambient air per second: the flow follows the body, so a
+/// default run inflates a 0.1 m model and a 1 m one alike (a fixed 2 L/s fills a 0.1 m
+/// armadillo 30 times per second and barely moves a 1 m one). 0.7 is about what the former
+/// fixed 2 L/s gave the built-in 2.9 L teddy.
+pub const DEFAULT_PUMP_VOLUMES_PER_SECOND: f64 = 0.7;
+
+/// The pump's flow of ambient air (free-air delivery).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum PumpRate {
+    /// A fixed flow, m^3/s.
+    Absolute(f64),
+    /// A flow in rest volumes of the body per second, 1/s (resolved at build time).
+    RestVolumesPerSecond(f64),
+}
+
+impl PumpRate {
+    /// The flow in m^3/s for a body of `rest_volume` m^3.
+    pub fn resolve(self, rest_volume: f64) -> f64 {
+        match self {
+            Self::Absolute(rate) => rate,
+            Self::RestVolumesPerSecond(k) => k * rest_volume,
+        }
+    }
+}
 /// Default relative tolerance of the CG linear solves inside Newton (inexact Newton).
 pub const DEFAULT_LINEAR_TOLERANCE: f64 = 1e-3;
-/// Default number of times a step that fails numerically may be halved (dt / 2^4 at most).
-pub const DEFAULT_MAX_STEP_HALVINGS: usize = 4;
+/// Default number of times a step that fails numerically may be halved (dt / 2^10 at most: a
+/// sudden load on a small, light shell moves on a time scale of a millisecond or less).
+pub const DEFAULT_MAX_STEP_HALVINGS: usize = 10;
 /// Default mass damping, 1/s.
 pub const DEFAULT_MASS_DAMPING: f64 = 10.0;
 
@@ -435,7 +461,7 @@ impl ShellBalloon<MaterialModel> {
             gas: GasKind::Pump,
             gauge_pressure: DEFAULT_GAUGE_PRESSURE,
             ambient_pressure: STANDARD_ATMOSPHERE,
-            pump_rate: DEFAULT_PUMP_RATE,
+            pump_rate: PumpRate::RestVolumesPerSecond(DEFAULT_PUMP_VOLUMES_PER_SECOND),
             follower_term: false,
             integrator,
             projector: Some(Box::new(ShellVolumeProjection::new(
@@ -537,8 +563,16 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
     /// Pump rate for [`GasKind::Pump`] as a flow of ambient air, m^3/s (free-air delivery: a
     /// person blowing up a balloon manages about 1e-3 m^3/s). The gas content grows by
     /// `p_ambient * rate` joules of `nRT` per second.
+    /// The default is [`DEFAULT_PUMP_VOLUMES_PER_SECOND`] rest volumes per second
+    /// ([`ShellBalloon::with_relative_pump_rate`]).
     pub fn with_pump_rate(mut self, rate: f64) -> Self {
-        self.pump_rate = rate;
+        self.pump_rate = PumpRate::Absolute(rate);
+        self
+    }
+    /// Pump rate for [`GasKind::Pump`] in rest volumes of the body per second (1/s): the flow
+    /// is `volumes_per_second` times the enclosed rest volume, m^3/s of ambient air.
+    pub fn with_relative_pump_rate(mut self, volumes_per_second: f64) -> Self {
+        self.pump_rate = PumpRate::RestVolumesPerSecond(volumes_per_second);
         self
     }
     /// Includes the area-normal (follower) term of the pressure tangent (the paper neglects it).
@@ -681,7 +715,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             rest_volume: rest_gas_volume,
             gauge_pressure: self.gauge_pressure,
             ambient_pressure: self.ambient_pressure,
-            pump_rate_joules: self.pump_rate * self.ambient_pressure,
+            pump_rate_joules: self.pump_rate.resolve(rest_gas_volume) * self.ambient_pressure,
         })?;
         let load = PressureLoad::new(gas)
             .with_ambient_pressure(self.ambient_pressure)?
@@ -964,7 +998,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                     if runaway || 0.5 * this < min_h * (1.0 - 1e-9) {
                         // Back to the start of the whole step, not only of this sub-step.
                         (self.x, self.v, self.system.thickness) = start;
-                        return Err(Self::explain(e, halvings, this));
+                        return Err(Self::explain(e, halvings, self.max_step_halvings, this));
                     }
                     h = 0.5 * this;
                     halvings += 1;
@@ -978,7 +1012,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
 
     /// A Newton solve that still does not converge at the smallest sub-step becomes
     /// [`ShellError::NotConverged`] (with what to try); other errors pass unchanged.
-    fn explain(e: ShellError, halvings: usize, dt: f64) -> ShellError {
+    fn explain(e: ShellError, halvings: usize, max_halvings: usize, dt: f64) -> ShellError {
         match e {
             ShellError::Integrate {
                 step,
@@ -994,6 +1028,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 time,
                 dt,
                 halvings,
+                max_halvings,
                 iterations,
                 residual,
                 tolerance,
@@ -1511,6 +1546,39 @@ mod viewer_api_tests {
         assert!(sim.set_dt(0.0).is_err());
         sim.set_dt(0.005).unwrap();
         assert_eq!(sim.dt(), 0.005);
+    }
+
+    /// The default pump delivers DEFAULT_PUMP_VOLUMES_PER_SECOND rest volumes of ambient air
+    /// per second whatever the body's size: read back from the ideal gas law on the state
+    /// (p V = p_amb V0 (1 + k t)), at 5 cm and 1 m.
+    #[test]
+    fn the_default_pump_follows_the_body_size() {
+        for radius in [0.05, 1.0] {
+            let mesh = balloon_mesh::generate::icosphere(radius, 1).unwrap();
+            let mut sim = ShellBalloon::new(mesh).build().unwrap();
+            let v0 = sim.rest_gas_volume();
+            for _ in 0..3 {
+                sim.step().unwrap();
+            }
+            let s = sim.gas_state();
+            let pumped = s.absolute_pressure * s.volume / (STANDARD_ATMOSPHERE * v0) - 1.0;
+            let expected = DEFAULT_PUMP_VOLUMES_PER_SECOND * sim.time();
+            assert!(
+                (pumped - expected).abs() < 1e-9 * expected.max(1.0),
+                "radius {radius}: pumped {pumped} rest volumes, expected {expected}"
+            );
+            assert!(s.volume > v0, "radius {radius}: the body did not grow");
+        }
+        // An absolute rate stays absolute.
+        let mesh = balloon_mesh::generate::icosphere(0.05, 1).unwrap();
+        let mut sim = ShellBalloon::new(mesh)
+            .with_pump_rate(1e-4)
+            .build()
+            .unwrap();
+        sim.step().unwrap();
+        let s = sim.gas_state();
+        let pumped = s.absolute_pressure * s.volume - STANDARD_ATMOSPHERE * sim.rest_gas_volume();
+        assert!((pumped - STANDARD_ATMOSPHERE * 1e-4 * sim.time()).abs() < 1e-9);
     }
 
     #[test]
