@@ -363,15 +363,28 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
             GasArg::Pump => self.args.pump_rate > 0.0,
             _ => self.args.pressure != 0.0,
         };
+        // Moved: some vertex left its rest position by more than round-off (1e-12 of the
+        // rest shape's size).
+        let rest = sim.rest_positions();
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in rest.chunks_exact(3) {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let size = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
         let moved = sim
             .positions()
             .iter()
-            .zip(sim.rest_positions())
-            .any(|(x, x0)| x != x0);
+            .zip(rest)
+            .any(|(x, x0)| !((x - x0).abs() <= 1e-12 * size));
         (run.steps > 0 && loaded && !moved).then(|| {
             format!(
-                "no progress: the shell did not move in {} step(s) although the gas loads it; \
-                 the solver made no progress (check --linear-solver, --cg-tol, --cg-max-iters)",
+                "no progress: the shell did not move (beyond round-off) in {} step(s) although the gas loads it \
+                 (a linear solver that makes no progress, or a load too small to move any \
+                 coordinate: check --linear-solver, --cg-tol, --cg-max-iters, --pressure, \
+                 --pump-rate)",
                 run.steps
             )
         })

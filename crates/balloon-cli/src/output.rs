@@ -521,11 +521,7 @@ pub fn prepare_out_dir(dir: &Path, overwrite: bool) -> Result<()> {
 
 /// Writes a file at `path` through `tmp` and a rename; on any failure `tmp` is removed, so a
 /// failed write leaves no temporary file, and the error names `path`.
-fn write_via_tmp(
-    path: &Path,
-    tmp: &Path,
-    write: impl FnOnce(&Path) -> Result<()>,
-) -> Result<()> {
+fn write_via_tmp(path: &Path, tmp: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let result = write(tmp).and_then(|()| {
         std::fs::rename(tmp, path).with_context(|| format!("cannot write {}", path.display()))
     });
@@ -547,7 +543,10 @@ impl OutputDir {
         let pvd = match format {
             FrameFormat::Vtk => {
                 let p = dir.join("series.pvd");
-                Some(PvdWriter::create(&p).with_context(|| format!("cannot write {}", p.display()))?)
+                Some(
+                    PvdWriter::create(&p)
+                        .with_context(|| format!("cannot write {}", p.display()))?,
+                )
             }
             _ => None,
         };
