@@ -378,7 +378,7 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
             .positions()
             .iter()
             .zip(rest)
-            .any(|(x, x0)| !((x - x0).abs() <= 1e-12 * size));
+            .any(|(x, x0)| (x - x0).abs() > 1e-12 * size || !x.is_finite());
         (run.steps > 0 && loaded && !moved).then(|| {
             format!(
                 "no progress: the shell did not move (beyond round-off) in {} step(s) although the gas loads it \
