@@ -48,6 +48,44 @@ const CASES: &[(&[&str], &str, &str)] = &[
     (&["inflate", "--frame-every", "2.5"], "--frame-every", "2.5"),
     (&["inflate", "--volume-ratio", "0"], "--volume-ratio", "0"),
     (&["inflate", "--newton-tol", "inf"], "--newton-tol", "inf"),
+    // inflate: material parameters (their sign and model checks come after, still up front).
+    (&["inflate", "--young", "1e308"], "--young", "1e308"),
+    (&["inflate", "--poisson", "nan"], "--poisson", "nan"),
+    (
+        &[
+            "inflate",
+            "--material",
+            "membrane-neo-hookean",
+            "--mu",
+            "inf",
+        ],
+        "--mu",
+        "inf",
+    ),
+    (
+        &[
+            "inflate",
+            "--material",
+            "membrane-gent",
+            "--mu",
+            "4e5",
+            "--jm",
+            "1e300",
+        ],
+        "--jm",
+        "1e300",
+    ),
+    (
+        &[
+            "inflate",
+            "--material",
+            "membrane-yeoh",
+            "--yeoh",
+            "1e5,1e308",
+        ],
+        "--yeoh",
+        "1e308",
+    ),
     // volumetric.
     (
         &["volumetric", "--resolution", "400"],
