@@ -2,6 +2,7 @@
 //! measurements that do not go through the quantity under test.
 
 use balloon::gas::GasModel;
+use balloon::mesh::lattice::Lattice;
 use balloon::mesh::{TriMesh, geometry};
 use balloon::shell::{ShellMaterial, ShellSimulation};
 use nalgebra::Point3;
@@ -65,4 +66,29 @@ pub fn shared_meshes_dir() -> Option<PathBuf> {
         dir.display()
     );
     None
+}
+
+/// Each lattice cell's volume at `points`: the sum of its five tetrahedra's signed volumes,
+/// computed here from the positions (not the cell-volume solver's own error measure).
+pub fn cell_volumes(points: &[Point3<f64>], lattice: &Lattice) -> Vec<f64> {
+    let tet = |t: &[usize; 4]| {
+        let o = points[t[0]];
+        (points[t[1]] - o)
+            .cross(&(points[t[2]] - o))
+            .dot(&(points[t[3]] - o))
+            / 6.0
+    };
+    lattice
+        .cell_tets
+        .iter()
+        .map(|tets| tets.iter().map(|&k| tet(&lattice.tet_mesh.tets[k])).sum())
+        .collect()
+}
+
+/// The largest `|v / v0 - 1|` over matching entries.
+pub fn max_relative_change(v: &[f64], v0: &[f64]) -> f64 {
+    v.iter()
+        .zip(v0)
+        .map(|(a, b)| (a / b - 1.0).abs())
+        .fold(0.0, f64::max)
 }

@@ -69,13 +69,15 @@ pub struct TwoLayerArgs {
     #[arg(long, default_value_t = 1.0, allow_hyphen_values = true,
           value_parser = real(Open(0.0), Closed(1e3)))]
     pub outer_radius: f64,
-    /// Mass of each inner particle (kg), in (0, 1e6].
+    /// Mass of each inner particle (kg), in [1e-9, 1e6] (a lighter particle on a stiff spring
+    /// has no stable explicit step).
     #[arg(long, default_value_t = 0.01, allow_hyphen_values = true,
-          value_parser = real(Open(0.0), Closed(1e6)))]
+          value_parser = real(Closed(1e-9), Closed(1e6)))]
     pub inner_mass: f64,
-    /// Mass of each outer particle (kg; the free particle in 1D), in (0, 1e6].
+    /// Mass of each outer particle (kg; the free particle in 1D), in [1e-9, 1e6] (a lighter particle on a stiff spring
+    /// has no stable explicit step).
     #[arg(long, default_value_t = 0.01, allow_hyphen_values = true,
-          value_parser = real(Open(0.0), Closed(1e6)))]
+          value_parser = real(Closed(1e-9), Closed(1e6)))]
     pub outer_mass: f64,
     /// Structural spring stiffness (N/m), in [0, 1e9].
     #[arg(long, default_value_t = 100.0, allow_hyphen_values = true,
