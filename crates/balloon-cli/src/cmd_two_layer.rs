@@ -376,7 +376,11 @@ impl RunHooks<TwoLayerSimulation> for TwoLayerHooks<'_> {
         let last = run.last.as_ref().map_or_else(|| sim.stats(), |s| s.detail);
         let taken = run.steps.max(1);
         Summary {
-            status: if failed { "blew_up" } else { "ok" },
+            status: match (failed, run.interrupted.is_some()) {
+                (true, _) => "blew_up",
+                (false, true) => "interrupted",
+                (false, false) => "ok",
+            },
             error: run.failure.as_ref().map(|e| e.to_string()),
             dim: args.dim,
             integrator: args.integrator,

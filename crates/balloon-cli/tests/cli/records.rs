@@ -140,6 +140,10 @@ fn sigint_stops_a_two_layer_run_with_its_records_and_status_130() {
     wait_for(&mut child, &run.join("frame_00100.obj"));
     let out = signal_and_wait(&mut child, "INT");
     check_interrupted(&out, &run, 130, ".obj");
+    assert_eq!(
+        read_json(&run.join("summary.json"))["status"],
+        "interrupted"
+    );
 }
 
 #[test]
