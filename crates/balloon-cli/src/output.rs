@@ -956,6 +956,73 @@ mod tests {
     use super::*;
 
     #[test]
+    fn only_files_this_program_writes_count_as_an_earlier_run() {
+        for ours in [
+            "stats.jsonl",
+            "summary.json",
+            ".summary.json.tmp",
+            "series.pvd",
+            ".series.pvd.tmp",
+            "frame_00000.obj",
+            "frame_12345.vtp",
+            ".frame_00010.vtp.tmp",
+            "frame_00002.tmp",
+            "final.ply",
+            "final.pov",
+            "run.gif",
+            ".run.gif.tmp",
+            "lattice.vtk",
+            "lattice_00020.vtk",
+            "input_soup.obj",
+        ] {
+            assert!(is_run_file(ours), "{ours}");
+        }
+        for theirs in [
+            "notes.txt",
+            "frame_.obj",
+            "frame_abc.obj",
+            "frame_00001.png",
+            "final.txt",
+            "my_summary.json",
+            "lattice_1.vtp",
+            "teddy.obj",
+        ] {
+            assert!(!is_run_file(theirs), "{theirs}");
+        }
+    }
+
+    #[test]
+    fn prepare_refuses_a_reused_folder_and_overwrite_removes_only_run_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("run");
+        prepare_out_dir(&out, false).unwrap();
+        std::fs::create_dir_all(out.join("renders")).unwrap();
+        for f in [
+            "frame_00000.obj",
+            "summary.json",
+            "mine.txt",
+            "renders/frame_00003.png",
+        ] {
+            std::fs::write(out.join(f), "x").unwrap();
+        }
+        let e = prepare_out_dir(&out, false).unwrap_err().to_string();
+        assert!(
+            e.contains(&out.display().to_string()) && e.contains("--overwrite"),
+            "{e}"
+        );
+        prepare_out_dir(&out, true).unwrap();
+        let left: Vec<_> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(left, ["mine.txt"]);
+        let file = dir.path().join("file");
+        std::fs::write(&file, "x").unwrap();
+        let e = prepare_out_dir(&file, true).unwrap_err().to_string();
+        assert!(e.contains("not a folder"), "{e}");
+    }
+
+    #[test]
     fn render_specs_and_sizes_parse_or_explain() {
         let s = RenderSpec::parse("0, 50,last").unwrap();
         assert!(s.last && !s.all);

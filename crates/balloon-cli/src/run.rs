@@ -338,6 +338,46 @@ mod tests {
     use super::*;
 
     #[test]
+    fn summaries_get_interrupted_frames_and_a_missing_or_null_error() {
+        let mut with_error_field = serde_json::json!({"steps": 3, "error": null, "frames": 7});
+        annotate(&mut with_error_field, true, 2, Some("boom"));
+        assert_eq!(
+            with_error_field,
+            serde_json::json!({"steps": 3, "error": "boom", "frames": 7, "interrupted": true})
+        );
+        let mut bare = serde_json::json!({"steps": 0});
+        annotate(&mut bare, false, 1, None);
+        assert_eq!(
+            bare,
+            serde_json::json!({"steps": 0, "error": null, "frames": 1, "interrupted": false})
+        );
+        // The subcommand's own error text is kept.
+        let mut own = serde_json::json!({"error": "step 4: diverged"});
+        annotate(&mut own, false, 0, Some("other"));
+        assert_eq!(own["error"], "step 4: diverged");
+    }
+
+    #[test]
+    fn stats_rows_carry_the_one_based_step() {
+        #[derive(Serialize)]
+        struct Detail {
+            step: usize,
+            x: f64,
+        }
+        let stats = SimulationStats {
+            steps: 5,
+            time: 0.5,
+            dt: 0.1,
+            kinetic_energy: 0.0,
+            detail: Detail { step: 4, x: 1.5 },
+        };
+        assert_eq!(
+            stats_row(&stats).unwrap(),
+            serde_json::json!({"step": 5, "x": 1.5})
+        );
+    }
+
+    #[test]
     fn frame_policies_pick_the_steps_of_each_subcommand() {
         let picked = |p: FramePolicy, steps: usize| -> Vec<usize> {
             (1..=steps).filter(|&s| p.writes(s, steps)).collect()
