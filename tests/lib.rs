@@ -1,9 +1,94 @@
-//! Cross-crate integration tests live in `integration/`; this library only offers paths.
+//! Cross-crate integration tests live in `integration/`; this library offers paths and
+//! measurements that do not go through the quantity under test.
 
+use balloon::gas::GasModel;
+use balloon::mesh::lattice::Lattice;
+use balloon::mesh::{TriMesh, geometry};
+use balloon::shell::{ShellMaterial, ShellSimulation};
+use nalgebra::Point3;
 use std::path::PathBuf;
 
+/// The volume the surface `x` (flat positions) over `triangles` encloses, by the divergence
+/// theorem on the mesh (seed 000, Eq. 13): not the gas model's own volume.
+pub fn mesh_volume(x: &[f64], triangles: &[[usize; 3]]) -> f64 {
+    let points = x
+        .chunks_exact(3)
+        .map(|c| Point3::new(c[0], c[1], c[2]))
+        .collect();
+    geometry::enclosed_volume(&TriMesh::new(points, triangles.to_vec()))
+}
+
+/// The gas pressure the simulation's pressure forces imply at its current shape, Pa (absolute
+/// minus ambient: the gauge pressure): `-dE/dV` along a uniform scaling of the surface about its
+/// centroid, by central differences of the gas potential `E` (whose negative gradient are the
+/// pressure forces, Eq. 15) over the change of the volume the mesh encloses ([`mesh_volume`]).
+/// Neither the gas state's pressure nor its volume enter.
+pub fn implied_gauge_pressure<M: ShellMaterial, G: GasModel>(sim: &ShellSimulation<M, G>) -> f64 {
+    let x = sim.positions();
+    let tris = sim.triangles();
+    let n = (x.len() / 3) as f64;
+    let mut c = [0.0; 3];
+    for p in x.chunks_exact(3) {
+        for k in 0..3 {
+            c[k] += p[k] / n;
+        }
+    }
+    let scaled = |s: f64| -> Vec<f64> {
+        x.iter()
+            .enumerate()
+            .map(|(i, v)| c[i % 3] + s * (v - c[i % 3]))
+            .collect()
+    };
+    let eps = 1e-4;
+    let (xp, xm) = (scaled(1.0 + eps), scaled(1.0 - eps));
+    let energy = |x: &[f64]| {
+        sim.system()
+            .gas_energy(sim.time(), x)
+            .expect("gas energy")
+            .expect("this gas has a potential")
+    };
+    -(energy(&xp) - energy(&xm)) / (mesh_volume(&xp, tris) - mesh_volume(&xm, tris))
+}
+
 /// The shared real meshes folder (`../shared/meshes` beside the repository), if present.
+///
+/// # Panics
+/// When it is absent and the `CI` environment variable is set: in CI the tests on the real
+/// meshes must run, not skip.
 pub fn shared_meshes_dir() -> Option<PathBuf> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes");
-    dir.is_dir().then_some(dir)
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "CI is set but {} is missing: the tests on the real meshes would be skipped",
+        dir.display()
+    );
+    None
+}
+
+/// Each lattice cell's volume at `points`: the sum of its five tetrahedra's signed volumes,
+/// computed here from the positions (not the cell-volume solver's own error measure).
+pub fn cell_volumes(points: &[Point3<f64>], lattice: &Lattice) -> Vec<f64> {
+    let tet = |t: &[usize; 4]| {
+        let o = points[t[0]];
+        (points[t[1]] - o)
+            .cross(&(points[t[2]] - o))
+            .dot(&(points[t[3]] - o))
+            / 6.0
+    };
+    lattice
+        .cell_tets
+        .iter()
+        .map(|tets| tets.iter().map(|&k| tet(&lattice.tet_mesh.tets[k])).sum())
+        .collect()
+}
+
+/// The largest `|v / v0 - 1|` over matching entries.
+pub fn max_relative_change(v: &[f64], v0: &[f64]) -> f64 {
+    v.iter()
+        .zip(v0)
+        .map(|(a, b)| (a / b - 1.0).abs())
+        .fold(0.0, f64::max)
 }

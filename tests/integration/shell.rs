@@ -158,15 +158,24 @@ fn isothermal_gas_keeps_pv_constant_during_inflation() {
         .with_gauge_pressure(2000.0)
         .build()
         .unwrap();
-    let p0v0 = 2000.0 * sim.rest_gas_volume();
+    // Measured independently of the gas state: the volume the mesh encloses and the pressure
+    // its forces imply (the derivative of the gas potential along a scaling of the surface).
+    let tris = sim.triangles().to_vec();
+    let v0 = balloon_tests::mesh_volume(sim.rest_positions(), &tris);
+    let p0 = balloon_tests::implied_gauge_pressure(&sim);
+    assert!((p0 / 2000.0 - 1.0).abs() < 1e-6, "implied p0 = {p0}");
     for _ in 0..20 {
         sim.step().unwrap();
-        let g = sim.gas_state();
+        let v = balloon_tests::mesh_volume(sim.positions(), &tris);
+        let p = balloon_tests::implied_gauge_pressure(&sim);
         assert!(
-            (g.absolute_pressure * g.volume / p0v0 - 1.0).abs() < 1e-12,
-            "pV = {}",
-            g.absolute_pressure * g.volume
+            (p * v / (p0 * v0) - 1.0).abs() < 1e-6,
+            "pV = {} against p0 V0 = {}",
+            p * v,
+            p0 * v0
         );
+        // The pressure fell as the volume grew: the check is not at a fixed state.
+        assert!(p < p0 && v > v0);
     }
     // It did inflate, so the check above is not at a fixed volume.
     assert!(sim.gas_volume() > 1.02 * sim.rest_gas_volume());
@@ -189,12 +198,34 @@ fn shell_volume_ratio_stays_within_1e_9_over_300_steps_of_teddy_inflation() {
         .with_linear_solver(LinearSolverKind::Cholesky)
         .build()
         .unwrap();
+    // The shell's material volume sum A_e h_e measured here from the positions and thickness
+    // (not the projection's own ratio, which is its stopping rule), every 10 steps.
+    let tris = sim.triangles().to_vec();
+    let area = |x: &[f64], t: &[usize; 3]| {
+        let p = |i: usize| nalgebra::Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
+        0.5 * (p(t[1]) - p(t[0])).cross(&(p(t[2]) - p(t[0]))).norm()
+    };
+    let material_volume =
+        |x: &[f64], h: &[f64]| -> f64 { tris.iter().zip(h).map(|(t, h)| area(x, t) * h).sum() };
+    let h0 = sim.thickness().to_vec();
+    let v0 = material_volume(sim.rest_positions(), &h0);
     let mut worst: f64 = 0.0;
-    for _ in 0..300 {
-        let s = sim.step().unwrap();
-        worst = worst.max((s.shell_volume_ratio - 1.0).abs());
+    for k in 1..=300 {
+        sim.step().unwrap();
+        if k % 10 == 0 {
+            let v = material_volume(sim.positions(), sim.thickness());
+            worst = worst.max((v / v0 - 1.0).abs());
+        }
     }
-    assert!(worst <= 1e-9, "max |ratio - 1| = {worst:e}");
+    assert!(worst <= 1e-9, "max |V_b / V_b0 - 1| = {worst:e}");
+    // The measure is sensitive: the rest thickness on the inflated surface (no projection)
+    // would be off by the area growth.
+    let unprojected = material_volume(sim.positions(), &h0);
+    assert!(
+        unprojected / v0 - 1.0 > 0.1,
+        "area growth {}",
+        unprojected / v0
+    );
     // The run inflated the teddy (the pump added gas), so the projection had work to do.
     assert!(
         sim.gas_volume() > 1.2 * sim.rest_gas_volume(),

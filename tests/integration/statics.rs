@@ -179,6 +179,17 @@ fn the_papers_gas_without_ambient_converges_with_continuation_or_directly() {
     assert!(sim.gas_volume() > sim.rest_gas_volume());
     let pv = report.gauge_pressure * report.gas_volume;
     assert!((pv / (28_000.0 * sim.rest_gas_volume()) - 1.0).abs() < 1e-9);
+    // The same from measurements that do not go through the gas state: the volume the mesh
+    // encloses and the pressure its forces imply.
+    let v = balloon_tests::mesh_volume(sim.positions(), sim.triangles());
+    let v0 = balloon_tests::mesh_volume(sim.rest_positions(), sim.triangles());
+    let p = balloon_tests::implied_gauge_pressure(&sim);
+    assert!(
+        (p * v / (28_000.0 * v0) - 1.0).abs() < 1e-6,
+        "pV = {} against p0 V0 = {}",
+        p * v,
+        28_000.0 * v0
+    );
 }
 
 #[test]

@@ -1,7 +1,9 @@
 //! Project automation for the `balloon` workspace.
 //!
 //! * `cargo xtask ci`: format check, clippy with warnings denied, docs with warnings denied, the
-//!   whole test suite, and every criterion bench once in test mode. `.ci/run` calls exactly this.
+//!   whole test suite, the viewer's end-to-end test, `validate --quick` (no files written), and
+//!   every criterion bench once in test mode; with `CI` set, a missing `../shared/meshes` fails
+//!   it. `.ci/run` calls exactly this.
 //! * `cargo xtask validate [--quick] [--meshes DIR]`: every validation case (analytic sphere,
 //!   thickness scaling, gas law, pressure equilibrium, volume projection, volumetric bodies,
 //!   two-layer integrators, real meshes); prints a table, writes `docs/validation.md` and
@@ -35,7 +37,8 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Task {
     /// fmt --check, clippy -D warnings, doc -D warnings, tests, the viewer's end-to-end test,
-    /// benches in test mode.
+    /// `validate --quick` (nothing written), benches in test mode. With `CI` set, a missing
+    /// `../shared/meshes` fails the run.
     Ci {
         /// Skip clippy and docs (faster local runs).
         #[arg(long)]
@@ -115,8 +118,36 @@ fn ci(quick: bool) -> Result<()> {
             &[("RUSTDOCFLAGS", "-D warnings")],
         )?;
     }
+    // In CI the shared real meshes must be there: tests that read them would otherwise pass
+    // by skipping (they fail too when `CI` is set; this names the cause once, up front).
+    if std::env::var_os("CI").is_some() {
+        let meshes = workspace_root().join("../shared/meshes");
+        if !meshes.is_dir() {
+            bail!(
+                "CI is set but {} is missing: the tests and validation cases on the real meshes \
+                 would be skipped",
+                meshes.display()
+            );
+        }
+    }
     cargo(&["test", "--workspace"], &[])?;
     e2e::run(&e2e::Options::default())?;
+    // The validation cases (analytic sphere, gas law, volume conservation, ...) in their quick
+    // subset, without rewriting docs/validation.md: a failing case fails CI.
+    cargo(
+        &[
+            "run",
+            "--quiet",
+            "--release",
+            "-p",
+            "xtask",
+            "--",
+            "validate",
+            "--quick",
+            "--no-write",
+        ],
+        &[],
+    )?;
     // Every criterion bench once in test mode so none rots; the dev profile reuses the test
     // build instead of compiling the workspace again in release.
     cargo(

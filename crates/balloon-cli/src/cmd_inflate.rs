@@ -5,6 +5,7 @@ use crate::material_args::MaterialArgs;
 use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
 };
+use crate::params::{End::Closed, End::Open, MAX_STEPS, count, real};
 use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result};
 use balloon::constraint::shell_volume::{ProjectionScope, ShellVolumeParams};
@@ -40,11 +41,13 @@ pub struct InflateArgs {
     /// Material: --material, its parameters, --material-preset.
     #[command(flatten)]
     pub material: MaterialArgs,
-    /// Shell density, kg/m^3.
-    #[arg(long, default_value_t = shell::DEFAULT_DENSITY, allow_hyphen_values = true)]
+    /// Shell density, kg/m^3, in (0, 1e5] (above any solid's: osmium is 2.26e4).
+    #[arg(long, default_value_t = shell::DEFAULT_DENSITY, allow_hyphen_values = true,
+          value_parser = real(Open(0.0), Closed(1e5)))]
     pub density: f64,
-    /// Rest shell thickness, m (the paper uses 0.3 mm).
-    #[arg(long, default_value_t = shell::DEFAULT_THICKNESS, allow_hyphen_values = true)]
+    /// Rest shell thickness, m (the paper uses 0.3 mm), in (0, 1] (a thin shell).
+    #[arg(long, default_value_t = shell::DEFAULT_THICKNESS, allow_hyphen_values = true,
+          value_parser = real(Open(0.0), Closed(1.0)))]
     pub thickness: f64,
     /// Gas model: `pump` (ambient air added at --pump-rate from the rest shape: the process of
     /// inflating), `ideal` (isothermal, fixed amount, Eq. 12-14) or `constant` (fixed pressure).
@@ -52,38 +55,48 @@ pub struct InflateArgs {
     /// enclosed volume, --volume-ratio / --volume-ratios; the pressure is reported).
     #[arg(long, value_enum, default_value_t = GasArg::Pump)]
     pub gas: GasArg,
-    /// Gauge pressure, Pa: initial for `ideal`, fixed for `constant`, unused by `pump`.
-    #[arg(long, default_value_t = shell::DEFAULT_GAUGE_PRESSURE, allow_hyphen_values = true)]
+    /// Gauge pressure, Pa: initial for `ideal`, fixed for `constant`, unused by `pump`; in
+    /// [-1e7, 1e7] (100 bar: far beyond what any inflatable shell holds).
+    #[arg(long, default_value_t = shell::DEFAULT_GAUGE_PRESSURE, allow_hyphen_values = true,
+          value_parser = real(Closed(-1e7), Closed(1e7)))]
     pub pressure: f64,
-    /// Ambient (outside) pressure, Pa.
-    #[arg(long, default_value_t = balloon::gas::STANDARD_ATMOSPHERE, allow_hyphen_values = true)]
+    /// Ambient (outside) pressure, Pa, in [0, 1e7] (0 is the paper's model; 100 bar is
+    /// deeper than any dive, and far larger values overflow the gas law's p V).
+    #[arg(long, default_value_t = balloon::gas::STANDARD_ATMOSPHERE, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(1e7)))]
     pub ambient: f64,
     /// Pump rate for `--gas pump`, m^3/s of ambient air (2e-3 = 2 L/s, about what a person
-    /// blows). Default: 0.7 rest volumes of the body per second, so that a 0.1 m model and a 1 m
-    /// one inflate alike (2.0 L/s for the built-in 2.9 L teddy).
-    #[arg(long, allow_hyphen_values = true)]
+    /// blows), in [0, 100] (an industrial blower moves a few m^3/s). Default: 0.7 rest volumes
+    /// of the body per second, so that a 0.1 m model and a 1 m one inflate alike (2.0 L/s for
+    /// the built-in 2.9 L teddy).
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(0.0), Closed(100.0)))]
     pub pump_rate: Option<f64>,
-    /// Mass-proportional damping alpha, 1/s.
-    #[arg(long, default_value_t = shell::DEFAULT_MASS_DAMPING, allow_hyphen_values = true)]
+    /// Mass-proportional damping alpha, 1/s, in [0, 1e6] (beyond, the shell only creeps).
+    #[arg(long, default_value_t = shell::DEFAULT_MASS_DAMPING, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(1e6)))]
     pub mass_damping: f64,
-    /// Stiffness-proportional damping beta, s.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    /// Stiffness-proportional damping beta, s, in [0, 10].
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(10.0)))]
     pub stiffness_damping: f64,
-    /// Time step, s.
-    #[arg(long, default_value_t = shell::DEFAULT_DT, allow_hyphen_values = true)]
+    /// Time step, s, in (0, 1]: a balloon inflates in seconds, so a step of a second or more
+    /// skips its whole motion (the default is 0.01 s).
+    #[arg(long, default_value_t = shell::DEFAULT_DT, allow_hyphen_values = true,
+          value_parser = real(Open(0.0), Closed(1.0)))]
     pub dt: f64,
-    /// Number of steps (the maximum with --until-converged).
-    #[arg(long, default_value_t = 300)]
+    /// Number of steps (the maximum with --until-converged), 0 to 1e8.
+    #[arg(long, default_value_t = 300, value_parser = count(0, MAX_STEPS))]
     pub steps: usize,
     /// Stop when the largest vertex speed is below --speed-tol and the per-step relative gas
     /// volume change is below --volume-tol.
     #[arg(long)]
     pub until_converged: bool,
-    /// Speed tolerance for --until-converged, m/s.
-    #[arg(long, default_value_t = 1e-3)]
+    /// Speed tolerance for --until-converged, m/s, in (0, 1e3].
+    #[arg(long, default_value_t = 1e-3, value_parser = real(Open(0.0), Closed(1e3)))]
     pub speed_tol: f64,
-    /// Relative per-step volume change tolerance for --until-converged.
-    #[arg(long, default_value_t = 1e-6)]
+    /// Relative per-step volume change tolerance for --until-converged, in (0, 1) (at 1 or
+    /// more any step would count as converged).
+    #[arg(long, default_value_t = 1e-6, value_parser = real(Open(0.0), Open(1.0)))]
     pub volume_tol: f64,
     /// Maximum Newton iterations per (sub-)step, 1 to 1000. Newton stops earlier when the
     /// relative residual is below --newton-tol; a step that does not get there is retried with
@@ -111,11 +124,14 @@ pub struct InflateArgs {
     /// Preconditioner of `--linear-solver pcg`: `jacobi` or `ic0` (zero-fill incomplete Cholesky).
     #[arg(long, default_value = "ic0")]
     pub pcg_preconditioner: PcgPreconditioner,
-    /// Relative tolerance of the CG solvers (inexact Newton).
-    #[arg(long, default_value_t = shell::DEFAULT_LINEAR_TOLERANCE)]
+    /// Relative tolerance of the CG solvers (inexact Newton), in (0, 1): CG stops once the
+    /// residual is below this fraction of its start, so at 1 or more it returns a zero update
+    /// and the shell never moves.
+    #[arg(long, default_value_t = shell::DEFAULT_LINEAR_TOLERANCE,
+          value_parser = real(Open(0.0), Open(1.0)))]
     pub cg_tol: f64,
-    /// Maximum CG iterations per Newton iteration.
-    #[arg(long, default_value_t = 500)]
+    /// Maximum CG iterations per Newton iteration, 1 to 1e6 (0 would never update the shell).
+    #[arg(long, default_value_t = 500, value_parser = count(1, 1_000_000))]
     pub cg_max_iters: usize,
     /// Include the area-normal (follower) term of the pressure tangent (the paper drops it).
     #[arg(long)]
@@ -125,14 +141,18 @@ pub struct InflateArgs {
     /// volume exactly, so the projection has nothing to correct].
     #[arg(long, value_enum)]
     pub volume_projection: Option<ProjectionMode>,
-    /// Multiply mesh coordinates by this factor (mesh units -> metres).
-    #[arg(long, default_value_t = 1.0)]
+    /// Multiply mesh coordinates by this factor (mesh units -> metres), in (0, 1e6].
+    #[arg(long, default_value_t = 1.0, value_parser = real(Open(0.0), Closed(1e6)))]
     pub scale: f64,
     /// Output folder: frames, final mesh, stats.jsonl, summary.json.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Write a frame every K steps (0: only the first and final frames).
-    #[arg(long, default_value_t = 10)]
+    /// Replace the files of an earlier run in --out (frames, records, pictures: only files
+    /// this program writes); without it, a folder holding them is refused.
+    #[arg(long)]
+    pub overwrite: bool,
+    /// Write a frame every K steps (0: only the first and final frames), 0 to 1e8.
+    #[arg(long, default_value_t = 10, value_parser = count(0, MAX_STEPS))]
     pub frame_every: usize,
     /// Frame file format: obj, ply, or vtk (`.vtp` frames with velocity, speed, pressure force,
     /// thickness, stretch and max_stretch, listed with their times in `series.pvd`).
@@ -148,8 +168,8 @@ pub struct InflateArgs {
     /// Levenberg-Marquardt shift and load continuation) instead of stepping in time.
     #[arg(long = "static")]
     pub static_solve: bool,
-    /// `--static --gas volume`: the enclosed volume over the rest volume.
-    #[arg(long)]
+    /// `--static --gas volume`: the enclosed volume over the rest volume, in (0, 1e3].
+    #[arg(long, value_parser = real(Open(0.0), Closed(1e3)))]
     pub volume_ratio: Option<f64>,
     /// `--static --gas volume`: a continuation START:END:STEP of volume ratios, one
     /// `stats.jsonl` line (and frame) per point.
@@ -309,13 +329,9 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
         Ok(())
     }
 
-    fn summary(
-        &self,
-        sim: &ShellSimulation<M>,
-        run: &RunRecord<ShellStepStats>,
-    ) -> Option<InflateSummary> {
+    fn summary(&self, sim: &ShellSimulation<M>, run: &RunRecord<ShellStepStats>) -> InflateSummary {
         let th = sim.thickness();
-        Some(InflateSummary {
+        InflateSummary {
             mesh: self.summary.mesh.clone(),
             material: self.summary.material.clone(),
             material_parameters: self.summary.material_parameters.clone(),
@@ -336,11 +352,53 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
             final_thickness_max: th.iter().copied().fold(0.0, f64::max),
             error: run.failure.as_ref().map(|e| e.to_string()),
             ..self.summary
+        }
+    }
+
+    fn no_progress(
+        &self,
+        sim: &ShellSimulation<M>,
+        run: &RunRecord<ShellStepStats>,
+    ) -> Option<String> {
+        let loaded = match self.args.gas {
+            GasArg::Pump => self.args.pump_rate.is_none_or(|r| r > 0.0),
+            _ => self.args.pressure != 0.0,
+        };
+        // Moved: some vertex left its rest position by more than round-off (1e-12 of the
+        // rest shape's size).
+        let rest = sim.rest_positions();
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in rest.chunks_exact(3) {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let size = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
+        let moved = sim
+            .positions()
+            .iter()
+            .zip(rest)
+            .any(|(x, x0)| (x - x0).abs() > 1e-12 * size || !x.is_finite());
+        (run.steps > 0 && loaded && !moved).then(|| {
+            format!(
+                "no progress: the shell did not move (beyond round-off) in {} step(s) although the gas loads it \
+                 (a linear solver that makes no progress, or a load too small to move any \
+                 coordinate: check --linear-solver, --cg-tol, --cg-max-iters, --pressure, \
+                 --pump-rate)",
+                run.steps
+            )
         })
     }
 
-    fn print(&self, summary: &InflateSummary, out: Option<&OutputDir>) {
-        println!(
+    fn print(
+        &self,
+        summary: &InflateSummary,
+        out: Option<&OutputDir>,
+        w: &mut dyn std::io::Write,
+    ) -> std::io::Result<()> {
+        writeln!(
+            w,
             "{} steps, t = {:.3} s: gas volume {:.4e} -> {:.4e} m^3 (x{:.3}), gauge pressure {:.1} Pa, shell volume ratio {:.10}, {:.1} ms/step{}",
             summary.steps,
             summary.sim_time_s,
@@ -351,20 +409,26 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
             summary.shell_volume_ratio_final,
             summary.mean_step_ms,
             if summary.converged { ", converged" } else { "" }
-        );
+        )?;
         if let Some(o) = out {
-            println!("output written to {}", o.path().display());
+            writeln!(w, "output written to {}", o.path().display())?;
         }
+        Ok(())
     }
 
     fn print_after_failure(&self) -> bool {
         true
     }
 
-    fn failure(&self, error: SimulationError, _step: usize) -> anyhow::Error {
+    fn failure(&self, error: SimulationError, step: usize) -> anyhow::Error {
+        let kept = match &self.args.out {
+            Some(dir) => format!("; the output of the steps before is in {}", dir.display()),
+            None => String::new(),
+        };
         anyhow::Error::new(error).context(format!(
-            "the simulation of `{}` failed; output written so far is complete",
-            self.args.mesh
+            "the simulation of `{}` failed at step {step} ({} step(s) completed){kept}",
+            self.args.mesh,
+            step - 1
         ))
     }
 }
@@ -394,19 +458,19 @@ pub fn run(args: InflateArgs) -> Result<()> {
     let material = args.material.resolve()?;
     let membrane = material.thickness_follows_stretch();
     let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
-    let mut mesh = balloon::mesh::load(&args.mesh)
-        .with_context(|| format!("cannot load mesh `{}`", args.mesh))?;
-    if !(args.scale.is_finite() && args.scale > 0.0) {
-        anyhow::bail!(
-            "invalid parameter `--scale` = {}: must be a positive finite number",
-            args.scale
-        );
-    }
-    if args.scale != 1.0 {
-        mesh.scale(args.scale);
+    if let Some(dir) = &args.out {
+        crate::output::prepare_out_dir(dir, args.overwrite)?;
     }
     if args.frame_every == 0 && args.steps == 0 {
         anyhow::bail!("nothing to do: --steps is 0");
+    }
+    if !args.static_solve && args.gas == GasArg::Volume {
+        anyhow::bail!("--gas volume is a static control: add --static");
+    }
+    let mut mesh = balloon::mesh::load(&args.mesh)
+        .with_context(|| format!("cannot load mesh `{}`", args.mesh))?;
+    if args.scale != 1.0 {
+        mesh.scale(args.scale);
     }
     let integrator = BackwardEulerParams {
         newton_iterations: args.newton_iters,
@@ -453,9 +517,6 @@ pub fn run(args: InflateArgs) -> Result<()> {
         .build()
         .with_context(|| format!("cannot set up the balloon for `{}`", args.mesh))?;
 
-    if !args.static_solve && args.gas == GasArg::Volume {
-        anyhow::bail!("--gas volume is a static control: add --static");
-    }
     let out = match &args.out {
         Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
             &args.pictures,

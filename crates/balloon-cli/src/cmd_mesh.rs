@@ -6,6 +6,7 @@ use balloon_mesh::geometry;
 use balloon_mesh::topology::Topology;
 use balloon_mesh::validate::{ValidationOptions, validate};
 use serde::Serialize;
+use std::io::Write;
 
 /// Mesh subcommands.
 #[derive(Debug, clap::Subcommand)]
@@ -105,25 +106,33 @@ pub fn run(cmd: MeshCommand) -> Result<()> {
             if args.json {
                 print_json_line(&info)?;
             } else {
+                let mut out = std::io::stdout().lock();
+                let w = &mut out;
                 let yn = |b: bool| if b { "yes" } else { "no" };
-                println!("mesh:                  {}", info.mesh);
-                println!("vertices:              {}", info.vertices);
-                println!("triangles:             {}", info.triangles);
-                println!("edges:                 {}", info.edges);
-                println!("components:            {}", info.components);
-                println!("closed:                {}", yn(info.closed));
-                println!("manifold:              {}", yn(info.manifold));
-                println!("consistently oriented: {}", yn(info.consistently_oriented));
-                println!("outward:               {}", yn(info.outward));
+                writeln!(w, "mesh:                  {}", info.mesh)?;
+                writeln!(w, "vertices:              {}", info.vertices)?;
+                writeln!(w, "triangles:             {}", info.triangles)?;
+                writeln!(w, "edges:                 {}", info.edges)?;
+                writeln!(w, "components:            {}", info.components)?;
+                writeln!(w, "closed:                {}", yn(info.closed))?;
+                writeln!(w, "manifold:              {}", yn(info.manifold))?;
+                writeln!(
+                    w,
+                    "consistently oriented: {}",
+                    yn(info.consistently_oriented)
+                )?;
+                writeln!(w, "outward:               {}", yn(info.outward))?;
                 match info.genus {
-                    Some(g) => println!("genus:                 {g}"),
-                    None => println!(
+                    Some(g) => writeln!(w, "genus:                 {g}")?,
+                    None => writeln!(
+                        w,
                         "genus:                 undefined (not a closed orientable manifold)"
-                    ),
+                    )?,
                 }
-                println!("surface area:          {:.6e}", info.surface_area);
-                println!("enclosed volume:       {:.6e}", info.enclosed_volume);
-                println!(
+                writeln!(w, "surface area:          {:.6e}", info.surface_area)?;
+                writeln!(w, "enclosed volume:       {:.6e}", info.enclosed_volume)?;
+                writeln!(
+                    w,
                     "bounding box:          [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}]",
                     info.bbox_min[0],
                     info.bbox_min[1],
@@ -131,15 +140,16 @@ pub fn run(cmd: MeshCommand) -> Result<()> {
                     info.bbox_max[0],
                     info.bbox_max[1],
                     info.bbox_max[2]
-                );
+                )?;
                 match info.min_angle_degrees {
-                    Some(a) => println!("minimum angle:         {a:.3} deg"),
-                    None => println!("minimum angle:         n/a"),
+                    Some(a) => writeln!(w, "minimum angle:         {a:.3} deg")?,
+                    None => writeln!(w, "minimum angle:         n/a")?,
                 }
                 match &info.first_defect {
-                    None => println!("defects:               none (ready to simulate)"),
-                    Some(d) => println!("defects:               {} (first: {d})", info.defects),
+                    None => writeln!(w, "defects:               none (ready to simulate)")?,
+                    Some(d) => writeln!(w, "defects:               {} (first: {d})", info.defects)?,
                 }
+                w.flush()?;
             }
             Ok(())
         }

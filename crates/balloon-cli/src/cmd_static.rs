@@ -8,6 +8,7 @@ use balloon::shell::ShellMaterial;
 use balloon::shell::ShellSimulation;
 use balloon::shell::statics::{StaticControl, StaticOptions, StaticReport};
 use serde::Serialize;
+use std::io::Write;
 
 /// How the gas is held (`--gas`): the three gas models, or a given volume (static only).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -157,6 +158,10 @@ struct StaticSummary {
     max_area_stretch: f64,
     /// Wall-clock ms of all solves.
     solve_ms: f64,
+    /// Frame files written (the rest shape included).
+    frames: usize,
+    /// Stopped by SIGINT / SIGTERM between two points.
+    interrupted: bool,
     error: Option<String>,
 }
 
@@ -205,9 +210,15 @@ pub fn run<M: ShellMaterial>(
     };
     if let Some(o) = &mut out {
         o.frame(&shell_frame(sim, 0)?, true)?;
+        summary.frames += 1;
     }
     let mut failure = None;
+    let mut interrupted = None;
     for (i, ratio) in ratios.iter().enumerate() {
+        if let Some(sig) = crate::interrupt::pending() {
+            interrupted = Some(sig);
+            break;
+        }
         options.control = match ratio {
             Some(r) => StaticControl::Volume {
                 target: r * sim.rest_gas_volume(),
@@ -230,6 +241,7 @@ pub fn run<M: ShellMaterial>(
                     o.append_stats(&StaticPoint::new(i, *ratio, &report))?;
                     if ratios.len() > 1 {
                         o.frame(&shell_frame(sim, i + 1)?, true)?;
+                        summary.frames += 1;
                     }
                 }
             }
@@ -247,6 +259,7 @@ pub fn run<M: ShellMaterial>(
     summary.final_thickness_min = th.iter().copied().fold(f64::INFINITY, f64::min);
     summary.final_thickness_max = th.iter().copied().fold(0.0, f64::max);
     summary.error = failure.as_ref().map(|e| e.to_string());
+    summary.interrupted = interrupted.is_some();
     if let Some(o) = &mut out {
         let last = shell_frame(sim, summary.points.max(1))?;
         o.write_named_frame("final", &last)?;
@@ -260,7 +273,9 @@ pub fn run<M: ShellMaterial>(
     if args.json {
         print_json_line(&summary)?;
     } else {
-        println!(
+        let mut w = std::io::stdout().lock();
+        writeln!(
+            w,
             "static: {} point(s), gas volume {:.4e} -> {:.4e} m^3 (x{:.4}), gauge pressure {:.2} Pa, Newton residual {:.2e} after {} iterations, {:.1} ms{}",
             summary.points,
             summary.initial_gas_volume,
@@ -271,17 +286,25 @@ pub fn run<M: ShellMaterial>(
             summary.newton_iterations_total,
             summary.solve_ms,
             if summary.converged { ", converged" } else { "" }
-        );
+        )?;
         if let Some(o) = &out {
-            println!("output written to {}", o.path().display());
+            writeln!(w, "output written to {}", o.path().display())?;
         }
+        w.flush()?;
     }
     match failure {
         Some(e) => Err(anyhow::Error::new(e).context(format!(
             "the static solve of `{}` did not converge (the simulation is left at the last converged point)",
             args.mesh
         ))),
-        None => Ok(()),
+        None => match interrupted {
+            Some(signal) => Err(crate::interrupt::Interrupted {
+                signal,
+                steps: summary.points,
+            }
+            .into()),
+            None => Ok(()),
+        },
     }
 }
 

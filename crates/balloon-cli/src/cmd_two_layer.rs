@@ -15,6 +15,7 @@
 use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
 };
+use crate::params::{End::Closed, End::Open, MAX_STEPS, count, real};
 use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result, bail};
 use balloon::two_layer::{
@@ -44,77 +45,93 @@ pub struct TwoLayerArgs {
     /// 3D sphere construction.
     #[arg(long, value_enum, default_value_t = SphereArg::Octa)]
     pub sphere: SphereArg,
-    /// Octahedron subdivision level (3D, `--sphere octa`).
-    #[arg(long, default_value_t = 3)]
+    /// Octahedron subdivision level (3D, `--sphere octa`), 0 to 7.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=7))]
     pub level: u32,
-    /// UV sphere meridians (3D, `--sphere uv`).
-    #[arg(long, default_value_t = 16)]
+    /// UV sphere meridians (3D, `--sphere uv`), 3 to 4096.
+    #[arg(long, default_value_t = 16, value_parser = count(3, 4096))]
     pub slices: usize,
-    /// UV sphere latitude bands (3D, `--sphere uv`).
-    #[arg(long, default_value_t = 12)]
+    /// UV sphere latitude bands (3D, `--sphere uv`), 2 to 4096.
+    #[arg(long, default_value_t = 12, value_parser = count(2, 4096))]
     pub stacks: usize,
-    /// Particles per layer (2D).
-    #[arg(long, default_value_t = 24)]
+    /// Particles per layer (2D), 3 to 1e6.
+    #[arg(long, default_value_t = 24, value_parser = count(3, 1_000_000))]
     pub particles: usize,
-    /// Rest length of the spring (1D, m).
-    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
+    /// Rest length of the spring (1D, m), in (0, 1e3].
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true,
+          value_parser = real(Open(0.0), Closed(1e3)))]
     pub length: f64,
-    /// Inner layer radius (m).
-    #[arg(long, default_value_t = 0.8, allow_hyphen_values = true)]
+    /// Inner layer radius (m), in (0, 1e3].
+    #[arg(long, default_value_t = 0.8, allow_hyphen_values = true,
+          value_parser = real(Open(0.0), Closed(1e3)))]
     pub inner_radius: f64,
-    /// Outer layer radius (m).
-    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
+    /// Outer layer radius (m), in (0, 1e3].
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true,
+          value_parser = real(Open(0.0), Closed(1e3)))]
     pub outer_radius: f64,
-    /// Mass of each inner particle (kg).
-    #[arg(long, default_value_t = 0.01, allow_hyphen_values = true)]
+    /// Mass of each inner particle (kg), in [1e-9, 1e6] (a lighter particle on a stiff spring
+    /// has no stable explicit step).
+    #[arg(long, default_value_t = 0.01, allow_hyphen_values = true,
+          value_parser = real(Closed(1e-9), Closed(1e6)))]
     pub inner_mass: f64,
-    /// Mass of each outer particle (kg; the free particle in 1D).
-    #[arg(long, default_value_t = 0.01, allow_hyphen_values = true)]
+    /// Mass of each outer particle (kg; the free particle in 1D), in [1e-9, 1e6] (a lighter particle on a stiff spring
+    /// has no stable explicit step).
+    #[arg(long, default_value_t = 0.01, allow_hyphen_values = true,
+          value_parser = real(Closed(1e-9), Closed(1e6)))]
     pub outer_mass: f64,
-    /// Structural spring stiffness (N/m).
-    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true)]
+    /// Structural spring stiffness (N/m), in [0, 1e9].
+    #[arg(long, default_value_t = 100.0, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(1e9)))]
     pub k_structural: f64,
-    /// Radius spring stiffness (N/m).
-    #[arg(long, default_value_t = 50.0, allow_hyphen_values = true)]
+    /// Radius spring stiffness (N/m), in [0, 1e9].
+    #[arg(long, default_value_t = 50.0, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(1e9)))]
     pub k_radius: f64,
-    /// Shear spring stiffness, left and right (N/m).
-    #[arg(long, default_value_t = 50.0, allow_hyphen_values = true)]
+    /// Shear spring stiffness, left and right (N/m), in [0, 1e9].
+    #[arg(long, default_value_t = 50.0, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(1e9)))]
     pub k_shear: f64,
-    /// Left shear spring stiffness (N/m), overrides --k-shear.
-    #[arg(long, allow_hyphen_values = true)]
+    /// Left shear spring stiffness (N/m), overrides --k-shear; in [0, 1e9].
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(0.0), Closed(1e9)))]
     pub k_shear_left: Option<f64>,
-    /// Right shear spring stiffness (N/m), overrides --k-shear.
-    #[arg(long, allow_hyphen_values = true)]
+    /// Right shear spring stiffness (N/m), overrides --k-shear; in [0, 1e9].
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(0.0), Closed(1e9)))]
     pub k_shear_right: Option<f64>,
-    /// Damping of every spring type (N s/m).
-    #[arg(long, default_value_t = 0.1, allow_hyphen_values = true)]
+    /// Damping of every spring type (N s/m), in [0, 1e6].
+    #[arg(long, default_value_t = 0.1, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(1e6)))]
     pub damping: f64,
-    /// Damping of the structural springs (N s/m), overrides --damping.
-    #[arg(long, allow_hyphen_values = true)]
+    /// Damping of the structural springs (N s/m), overrides --damping; in [0, 1e6].
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(0.0), Closed(1e6)))]
     pub damping_structural: Option<f64>,
-    /// Damping of the radius springs (N s/m), overrides --damping.
-    #[arg(long, allow_hyphen_values = true)]
+    /// Damping of the radius springs (N s/m), overrides --damping; in [0, 1e6].
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(0.0), Closed(1e6)))]
     pub damping_radius: Option<f64>,
-    /// Damping of the shear springs (N s/m), overrides --damping.
-    #[arg(long, allow_hyphen_values = true)]
+    /// Damping of the shear springs (N s/m), overrides --damping; in [0, 1e6].
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(0.0), Closed(1e6)))]
     pub damping_shear: Option<f64>,
-    /// Initial gas pressure of the outer layer at its rest volume (Pa; N/m in 2D).
-    #[arg(long, default_value_t = 50.0, allow_hyphen_values = true)]
+    /// Initial gas pressure of the outer layer at its rest volume (Pa; N/m in 2D), in [0, 1e7].
+    #[arg(long, default_value_t = 50.0, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(1e7)))]
     pub pressure: f64,
-    /// Initial gas pressure of the inner layer at its rest volume (Pa; N/m in 2D).
-    #[arg(long, default_value_t = 25.0, allow_hyphen_values = true)]
+    /// Initial gas pressure of the inner layer at its rest volume (Pa; N/m in 2D), in [0, 1e7].
+    #[arg(long, default_value_t = 25.0, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(1e7)))]
     pub inner_pressure: f64,
-    /// Gravitational acceleration (m/s^2) pulling along -z (3D), -y (2D), -x (1D).
-    #[arg(long, default_value_t = 9.81, allow_hyphen_values = true)]
+    /// Gravitational acceleration (m/s^2) pulling along -z (3D), -y (2D), -x (1D), in [-1e3, 1e3] (100 g).
+    #[arg(long, default_value_t = 9.81, allow_hyphen_values = true,
+          value_parser = real(Closed(-1e3), Closed(1e3)))]
     pub gravity: f64,
-    /// Side of the cubic collision box centred on the body at rest (m).
-    #[arg(long = "box", default_value_t = 4.0, allow_hyphen_values = true)]
+    /// Side of the cubic collision box centred on the body at rest (m), in (0, 1e4].
+    #[arg(long = "box", default_value_t = 4.0, allow_hyphen_values = true,
+          value_parser = real(Open(0.0), Closed(1e4)))]
     pub box_size: f64,
     /// No collision box.
     #[arg(long)]
     pub no_box: bool,
-    /// Coefficient of restitution [0, 1] of the walls and of the inner layer against the outer.
-    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
+    /// Coefficient of restitution [0, 1] of the walls and of the inner layer against the outer, in [0, 1].
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(1.0)))]
     pub restitution: f64,
     /// Normalise spring forces by valence (seed Sec. 3.5.3).
     #[arg(long)]
@@ -122,26 +139,33 @@ pub struct TwoLayerArgs {
     /// Integrator: euler | midpoint | rk4 | symplectic.
     #[arg(long, default_value = "rk4", value_parser = parse_method)]
     pub integrator: ExplicitMethod,
-    /// Time step (s).
-    #[arg(long, default_value_t = 5e-4, allow_hyphen_values = true)]
+    /// Time step (s), in (0, 0.1]: the explicit integrators are stable only far below a tenth of a second for any spring this tool builds (the default is 5e-4 s).
+    #[arg(long, default_value_t = 5e-4, allow_hyphen_values = true,
+          value_parser = real(Open(0.0), Closed(0.1)))]
     pub dt: f64,
-    /// Number of steps.
-    #[arg(long, default_value_t = 2000)]
+    /// Number of steps, 0 to 1e8.
+    #[arg(long, default_value_t = 2000, value_parser = count(0, MAX_STEPS))]
     pub steps: usize,
     /// Drag ("mouse") target `X,Y,Z` (m), optionally active only in a time window `@T0:T1` (s).
     #[arg(long, allow_hyphen_values = true)]
     pub drag: Option<String>,
-    /// Drag spring stiffness (N/m).
-    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
+    /// Drag spring stiffness (N/m), in [0, 1e9].
+    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(1e9)))]
     pub drag_stiffness: f64,
-    /// Drag spring damping (N s/m).
-    #[arg(long, default_value_t = 0.1, allow_hyphen_values = true)]
+    /// Drag spring damping (N s/m), in [0, 1e6].
+    #[arg(long, default_value_t = 0.1, allow_hyphen_values = true,
+          value_parser = real(Closed(0.0), Closed(1e6)))]
     pub drag_damping: f64,
     /// Output folder.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Write a frame every N steps (0: only the first and last).
-    #[arg(long, default_value_t = 20)]
+    /// Replace the files of an earlier run in --out (frames, records, pictures: only files
+    /// this program writes); without it, a folder holding them is refused.
+    #[arg(long)]
+    pub overwrite: bool,
+    /// Write a frame every N steps (0: only the first and last), 0 to 1e8.
+    #[arg(long, default_value_t = 20, value_parser = count(0, MAX_STEPS))]
     pub frame_every: usize,
     /// Frame file format: obj, ply, or vtk (`.vtp` frames with velocity, speed, and per-face
     /// stretch and max_stretch against the initial shape, listed in `series.pvd`).
@@ -346,19 +370,23 @@ impl RunHooks<TwoLayerSimulation> for TwoLayerHooks<'_> {
         Ok(())
     }
 
-    fn summary(&self, sim: &TwoLayerSimulation, run: &RunRecord<TwoLayerStats>) -> Option<Summary> {
+    fn summary(&self, sim: &TwoLayerSimulation, run: &RunRecord<TwoLayerStats>) -> Summary {
         let args = self.args;
         let failed = run.failure.is_some();
         let last = run.last.as_ref().map_or_else(|| sim.stats(), |s| s.detail);
-        let taken = sim.step_count().max(1);
-        Some(Summary {
-            status: if failed { "blew_up" } else { "ok" },
+        let taken = run.steps.max(1);
+        Summary {
+            status: match (failed, run.interrupted.is_some()) {
+                (true, _) => "blew_up",
+                (false, true) => "interrupted",
+                (false, false) => "ok",
+            },
             error: run.failure.as_ref().map(|e| e.to_string()),
             dim: args.dim,
             integrator: args.integrator,
             particles: sim.model().num_particles(),
             springs: sim.model().springs.len(),
-            steps: sim.step_count(),
+            steps: run.steps,
             dt: args.dt,
             time: sim.time(),
             final_volume_outer: last.volume_outer,
@@ -375,11 +403,17 @@ impl RunHooks<TwoLayerSimulation> for TwoLayerHooks<'_> {
                 0.0
             },
             frames: run.frames,
-        })
+        }
     }
 
-    fn print(&self, summary: &Summary, _out: Option<&OutputDir>) {
-        println!(
+    fn print(
+        &self,
+        summary: &Summary,
+        _out: Option<&OutputDir>,
+        w: &mut dyn std::io::Write,
+    ) -> std::io::Result<()> {
+        writeln!(
+            w,
             "two-layer {}D ({} particles, {} springs), {} x {:e} s with {}: outer volume {:.6}, inner {:.6}, energy {:.6e} -> {:.6e} J, min height {:.4} m, {} escaped, {:.3} ms/step",
             summary.dim,
             summary.particles,
@@ -394,13 +428,16 @@ impl RunHooks<TwoLayerSimulation> for TwoLayerHooks<'_> {
             summary.min_height,
             summary.escaped_particles,
             summary.mean_step_ms
-        );
+        )
     }
 }
 
 /// Runs the subcommand.
 pub fn run(args: TwoLayerArgs) -> Result<()> {
     let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style(args.dim))?;
+    if let Some(dir) = &args.out {
+        crate::output::prepare_out_dir(dir, args.overwrite)?;
+    }
     if args.dim == 1 && (render_spec.is_some() || args.pictures.gif || args.pictures.pov) {
         bail!("--render, --gif and --pov need a surface: use --dim 2 or 3 (1D has two particles)");
     }

@@ -32,19 +32,15 @@ pub struct ViewArgs {
     /// Browser command to open the URL with (default: $BROWSER, then xdg-open / open).
     #[arg(long)]
     pub browser: Option<String>,
-    /// Stop serving after this many seconds (tests, demos).
-    #[arg(long)]
+    /// Stop serving after this many seconds (tests, demos), in [0, 1e7] (about 4 months).
+    #[arg(long, value_parser = crate::params::real(crate::params::End::Closed(0.0), crate::params::End::Closed(1e7)))]
     pub exit_after: Option<f64>,
 }
 
 /// Runs the viewer.
 pub fn run(args: ViewArgs) -> Result<()> {
     let system: SystemKind = args.system.parse()?;
-    let exit_after = match args.exit_after {
-        None => None,
-        Some(s) if s.is_finite() && s >= 0.0 => Some(Duration::from_secs_f64(s)),
-        Some(s) => anyhow::bail!("--exit-after {s}: must be a number of seconds >= 0"),
-    };
+    let exit_after = args.exit_after.map(Duration::from_secs_f64);
     let options = ViewerOptions {
         system,
         mesh: args.mesh.clone(),

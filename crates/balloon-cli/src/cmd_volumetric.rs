@@ -11,6 +11,7 @@
 use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
 };
+use crate::params::{End::Closed, End::Open, MAX_STEPS, count, real};
 use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result};
 use balloon::volumetric::{
@@ -61,8 +62,8 @@ pub struct VolumetricArgs {
     /// `builtin:NAME`.
     #[arg(default_value = "builtin")]
     pub mesh: String,
-    /// Scale factor applied to the mesh coordinates (to metres).
-    #[arg(long, default_value_t = 1.0)]
+    /// Scale factor applied to the mesh coordinates (to metres), in (0, 1e6].
+    #[arg(long, default_value_t = 1.0, value_parser = real(Open(0.0), Closed(1e6)))]
     pub scale: f64,
     /// Lattice generator flags (boxed to keep the subcommand enum small).
     #[command(flatten)]
@@ -75,32 +76,36 @@ pub struct VolumetricArgs {
     #[arg(long)]
     pub soft_diagonals: bool,
     /// Edge spring stiffness (N/m); default: m / (50 dt^2) with m the particle mass, which keeps
-    /// the explicit spring update stable.
-    #[arg(long)]
+    /// the explicit spring update stable. In (0, 1e12].
+    #[arg(long, value_parser = real(Open(0.0), Closed(1e12)))]
     pub edge_stiffness: Option<f64>,
     /// Diagonal spring stiffness (N/m); default: the edge stiffness (/20 with --soft-diagonals).
-    #[arg(long)]
+    /// In [0, 1e12].
+    #[arg(long, value_parser = real(Closed(0.0), Closed(1e12)))]
     pub diagonal_stiffness: Option<f64>,
-    /// Edge spring damping (N s/m); default: m / (1000 dt).
-    #[arg(long)]
+    /// Edge spring damping (N s/m); default: m / (1000 dt). In [0, 1e9].
+    #[arg(long, value_parser = real(Closed(0.0), Closed(1e9)))]
     pub damping: Option<f64>,
     /// Diagonal spring damping (N s/m); default: the edge damping (/2 with --soft-diagonals).
-    #[arg(long)]
+    /// In [0, 1e9].
+    #[arg(long, value_parser = real(Closed(0.0), Closed(1e9)))]
     pub diagonal_damping: Option<f64>,
-    /// Mass density (kg/m^3).
-    #[arg(long, default_value_t = 100.0)]
+    /// Mass density (kg/m^3), in (0, 1e5] (above any solid's: osmium is 2.26e4).
+    #[arg(long, default_value_t = 100.0, value_parser = real(Open(0.0), Closed(1e5)))]
     pub density: f64,
-    /// Gravity along z (m/s^2).
-    #[arg(long, default_value_t = -9.81, allow_hyphen_values = true)]
+    /// Gravity along z (m/s^2), in [-1e3, 1e3] (100 g).
+    #[arg(long, default_value_t = -9.81, allow_hyphen_values = true,
+          value_parser = real(Closed(-1e3), Closed(1e3)))]
     pub gravity: f64,
-    /// Contact restitution [0, 1].
-    #[arg(long, default_value_t = 0.2)]
+    /// Contact restitution, in [0, 1].
+    #[arg(long, default_value_t = 0.2, value_parser = real(Closed(0.0), Closed(1.0)))]
     pub restitution: f64,
-    /// Relative cell-volume tolerance of the impulse iteration.
-    #[arg(long, default_value_t = 1e-10)]
+    /// Relative cell-volume tolerance of the impulse iteration, in (0, 0.1] (a looser one
+    /// no longer conserves volume).
+    #[arg(long, default_value_t = 1e-10, value_parser = real(Open(0.0), Closed(0.1)))]
     pub tolerance: f64,
     /// Over-relaxation of the Gauss-Seidel volume sweeps, in (0, 2) (1 = the paper).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = real(Open(0.0), Open(2.0)))]
     pub over_relaxation: f64,
     /// Lumped masses and mass-weighted cell centres instead of equal masses.
     #[arg(long)]
@@ -116,17 +121,22 @@ pub struct VolumetricArgs {
     /// any size).
     #[arg(long, value_enum, default_value_t = VolumeSolver::GaussSeidel)]
     pub volume_solver: VolumeSolver,
-    /// Time step (s).
-    #[arg(long, default_value_t = 5e-4)]
+    /// Time step (s), in (0, 0.1]: the explicit spring update is stable only for steps far
+    /// below a tenth of a second (the default is 5e-4 s).
+    #[arg(long, default_value_t = 5e-4, value_parser = real(Open(0.0), Closed(0.1)))]
     pub dt: f64,
-    /// Number of steps.
-    #[arg(long, default_value_t = 600)]
+    /// Number of steps, 0 to 1e8.
+    #[arg(long, default_value_t = 600, value_parser = count(0, MAX_STEPS))]
     pub steps: usize,
     /// Output folder.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Write a surface frame every N steps.
-    #[arg(long, default_value_t = 20)]
+    /// Replace the files of an earlier run in --out (frames, records, pictures: only files
+    /// this program writes); without it, a folder holding them is refused.
+    #[arg(long)]
+    pub overwrite: bool,
+    /// Write a surface frame every N steps, 1 to 1e8.
+    #[arg(long, default_value_t = 20, value_parser = count(1, MAX_STEPS))]
     pub frame_every: usize,
     /// Also write the deformed lattice as VTK with each frame.
     #[arg(long)]
@@ -143,38 +153,45 @@ pub struct VolumetricArgs {
     pub json: bool,
 }
 
+/// Largest `--resolution` (and `--voxels-per-cell`): bounds the voxel grid (resolution^3
+/// voxels at most) before anything is built.
+const MAX_RESOLUTION: usize = 200;
+
 /// Flags of the soup -> lattice generator (seed 003, Sec. 3).
 #[derive(Debug, clap::Args)]
 pub struct LatticeArgs {
-    /// Voxels along the longest side of the bounding box.
-    #[arg(long, default_value_t = 24)]
+    /// Voxels along the longest side of the bounding box, 4 to 200: the voxel grid holds up to
+    /// resolution^3 voxels (at 200 the teddy's lattice took 3.8 s and 140 MB; 400 took 26 s
+    /// and 920 MB).
+    #[arg(long, default_value_t = 24, value_parser = count(4, MAX_RESOLUTION))]
     pub resolution: usize,
-    /// Voxels along one side of a lattice cell.
-    #[arg(long, default_value_t = 3)]
+    /// Voxels along one side of a lattice cell, 1 to 200 (at most --resolution).
+    #[arg(long, default_value_t = 3, value_parser = count(1, MAX_RESOLUTION))]
     pub voxels_per_cell: usize,
-    /// Ray directions in the inside/outside vote (6 axes, 14 with body diagonals, 26 all).
-    #[arg(long, default_value_t = 14)]
+    /// Ray directions in the inside/outside vote, 1 to 26 (6 axes, 14 with body diagonals,
+    /// 26 all).
+    #[arg(long, default_value_t = 14, value_parser = count(1, 26))]
     pub rays: usize,
-    /// Distance band in voxels (P = 1 - |d| / band).
-    #[arg(long, default_value_t = 4.0)]
+    /// Distance band in voxels (P = 1 - |d| / band), in [1.5, 64].
+    #[arg(long, default_value_t = 4.0, value_parser = real(Closed(1.5), Closed(64.0)))]
     pub band_voxels: f64,
-    /// P_in: a ray enters/leaves where P > P_in and dP/dv > 0.
-    #[arg(long, default_value_t = 0.8)]
+    /// P_in: a ray enters/leaves where P > P_in and dP/dv > 0; in (0, 1).
+    #[arg(long, default_value_t = 0.8, value_parser = real(Open(0.0), Open(1.0)))]
     pub p_in: f64,
-    /// P_subs: the next change needs P < P_subs with dP/dv < 0 first.
-    #[arg(long, default_value_t = 0.6)]
+    /// P_subs: the next change needs P < P_subs with dP/dv < 0 first; in (0, 1), at most P_in.
+    #[arg(long, default_value_t = 0.6, value_parser = real(Open(0.0), Open(1.0)))]
     pub p_subs: f64,
-    /// Pseudo-density threshold m(V)/M(V) for keeping a cell.
-    #[arg(long, default_value_t = 0.5)]
+    /// Pseudo-density threshold m(V)/M(V) for keeping a cell, in [0, 1).
+    #[arg(long, default_value_t = 0.5, value_parser = real(Closed(0.0), Open(1.0)))]
     pub density_threshold: f64,
-    /// Hole-filling rounds.
-    #[arg(long, default_value_t = 2)]
+    /// Hole-filling rounds, 0 to 1000.
+    #[arg(long, default_value_t = 2, value_parser = count(0, 1000))]
     pub fill_iterations: usize,
-    /// Axis-aligned second-order Laplacian smoothing iterations.
-    #[arg(long, default_value_t = 2)]
+    /// Axis-aligned second-order Laplacian smoothing iterations, 0 to 1000.
+    #[arg(long, default_value_t = 2, value_parser = count(0, 1000))]
     pub smoothing_iterations: usize,
-    /// Weight of one smoothing iteration (0, 0.5].
-    #[arg(long, default_value_t = 0.25)]
+    /// Weight of one smoothing iteration, in (0, 0.5].
+    #[arg(long, default_value_t = 0.25, value_parser = real(Open(0.0), Closed(0.5)))]
     pub smoothing_weight: f64,
 }
 
@@ -287,19 +304,16 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
         Ok(false)
     }
 
-    fn summary(&self, sim: &VolumetricSimulation, run: &RunRecord<StepStats>) -> Option<Summary> {
-        if run.failure.is_some() {
-            return None;
-        }
+    fn summary(&self, sim: &VolumetricSimulation, run: &RunRecord<StepStats>) -> Summary {
         let args = self.args;
         let gravity_impulse = Vector3::new(0.0, 0.0, args.gravity) * (self.total_mass * sim.time());
-        Some(Summary {
+        Summary {
             mesh: args.mesh.clone(),
             scene: format!("{:?}", args.scene),
             cells: self.lattice.cells.len(),
             tetrahedra: self.lattice.tet_mesh.tets.len(),
             particles: self.lattice.tet_mesh.vertices.len(),
-            steps: sim.steps(),
+            steps: run.steps,
             max_cell_volume_error: self.max_err,
             total_volume_ratio: run
                 .last
@@ -311,9 +325,9 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
                 VolumeSolver::GaussSeidel => "gauss-seidel".into(),
                 VolumeSolver::Global => "global".into(),
             },
-            mean_sweeps: self.total_sweeps as f64 / sim.steps().max(1) as f64,
-            mean_step_ms: if args.steps > 0 {
-                run.step_seconds * 1e3 / args.steps as f64
+            mean_sweeps: self.total_sweeps as f64 / run.steps.max(1) as f64,
+            mean_step_ms: if run.steps > 0 {
+                run.step_seconds * 1e3 / run.steps as f64
             } else {
                 0.0
             },
@@ -321,11 +335,17 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
             mass: sim.masses().iter().sum(),
             stiffness: self.stiffness,
             max_strain: self.max_strain,
-        })
+        }
     }
 
-    fn print(&self, summary: &Summary, _out: Option<&OutputDir>) {
-        println!(
+    fn print(
+        &self,
+        summary: &Summary,
+        _out: Option<&OutputDir>,
+        w: &mut dyn std::io::Write,
+    ) -> std::io::Result<()> {
+        writeln!(
+            w,
             "{}: {} cells, {} tetrahedra, {} particles; {} steps, max cell volume error {:.2e}, volume ratio {:.12}, {} halvings, {:.3} ms/step",
             summary.mesh,
             summary.cells,
@@ -336,17 +356,17 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
             summary.total_volume_ratio,
             summary.step_halvings,
             summary.mean_step_ms
-        );
+        )
     }
 
     fn failure(&self, error: SimulationError, step: usize) -> anyhow::Error {
+        let kept = match &self.args.out {
+            Some(dir) => format!("; the output of the steps before is in {}", dir.display()),
+            None => String::new(),
+        };
         anyhow::Error::new(error).context(format!(
-            "simulation stopped at step {}; output written so far is in {}",
-            step - 1,
-            self.args
-                .out
-                .as_ref()
-                .map_or("(no --out)".into(), |p| p.display().to_string())
+            "the simulation failed at step {step} ({} step(s) completed){kept}",
+            step - 1
         ))
     }
 }
@@ -354,6 +374,9 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
 /// Runs the subcommand.
 pub fn run(args: VolumetricArgs) -> Result<()> {
     let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
+    if let Some(dir) = &args.out {
+        crate::output::prepare_out_dir(dir, args.overwrite)?;
+    }
     if !(args.scale.is_finite() && args.scale > 0.0) {
         anyhow::bail!("invalid --scale {}: must be > 0", args.scale);
     }

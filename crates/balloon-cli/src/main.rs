@@ -13,8 +13,10 @@ mod cmd_static;
 mod cmd_two_layer;
 mod cmd_view;
 mod cmd_volumetric;
+mod interrupt;
 mod material_args;
 mod output;
+mod params;
 mod run;
 
 /// Simulate inflatable thin shells and volume-conserving soft bodies.
@@ -43,6 +45,15 @@ enum Command {
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    if matches!(
+        cli.command,
+        Command::Inflate(_) | Command::Volumetric(_) | Command::TwoLayer(_)
+    ) && let Err(e) = interrupt::install()
+    {
+        eprintln!(
+            "warning: cannot handle SIGINT / SIGTERM ({e}); an interrupted run writes no summary"
+        );
+    }
     let result = match cli.command {
         Command::Mesh(c) => cmd_mesh::run(c),
         Command::Inflate(a) => cmd_inflate::run(a),
@@ -52,11 +63,29 @@ fn main() -> std::process::ExitCode {
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        // A reader that stopped reading (`balloon mesh info FILE | head -1`) is not an error.
+        Err(e) if is_broken_pipe(&e) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {}", error_chain(&e));
-            std::process::ExitCode::FAILURE
+            match e.downcast_ref::<interrupt::Interrupted>() {
+                Some(i) => std::process::ExitCode::from(i.exit_code()),
+                None => std::process::ExitCode::FAILURE,
+            }
         }
     }
+}
+
+/// Whether `e` comes from writing to a closed pipe (stdout's reader went away).
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .map(std::io::Error::kind)
+            .or_else(|| {
+                c.downcast_ref::<serde_json::Error>()
+                    .and_then(serde_json::Error::io_error_kind)
+            })
+            == Some(std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// The error and its causes joined by `: `, skipping a cause whose text the message already

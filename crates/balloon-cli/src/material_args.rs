@@ -2,6 +2,7 @@
 //! or an incompressible rubber membrane), its parameters and the membrane presets, checked
 //! together before any work (`docs/membranes.md`).
 
+use crate::params::{End::Closed, real};
 use anyhow::{Result, bail};
 use balloon::material::membrane::{
     MembraneGent, MembraneKind, MembraneMooneyRivlin, MembraneNeoHookean, MembraneOgden,
@@ -59,34 +60,37 @@ pub struct MaterialArgs {
     /// or `membrane-yeoh` (--yeoh), or a --material-preset.
     #[arg(long)]
     pub material: Option<MaterialChoice>,
-    /// Young's modulus E, Pa, of `stvk` / `neo-hookean` (latex: about 1 MPa) [default: 1e6].
-    #[arg(long, allow_hyphen_values = true)]
+    /// Young's modulus E, Pa, of `stvk` / `neo-hookean` (latex: about 1 MPa) [default: 1e6];
+    /// > 0 and at most 1e12 (stiffer than diamond).
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(-1e12), Closed(1e12)))]
     pub young: Option<f64>,
     /// Poisson's ratio nu of `stvk` / `neo-hookean`, -1 < nu < 0.5 [default: 0.45].
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(-1e3), Closed(1e3)))]
     pub poisson: Option<f64>,
     /// Shear modulus mu, Pa, of `membrane-neo-hookean` and `membrane-gent` (> 0; latex about
-    /// 0.4 MPa).
-    #[arg(long, allow_hyphen_values = true)]
+    /// 0.4 MPa), at most 1e12.
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(-1e12), Closed(1e12)))]
     pub mu: Option<f64>,
-    /// Mooney-Rivlin c1, Pa (> 0): W = c1 (I1 - 3) + c2 (I2 - 3).
-    #[arg(long, allow_hyphen_values = true)]
+    /// Mooney-Rivlin c1, Pa (> 0, at most 1e12): W = c1 (I1 - 3) + c2 (I2 - 3).
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(-1e12), Closed(1e12)))]
     pub c1: Option<f64>,
-    /// Mooney-Rivlin c2, Pa (>= 0) [default: 0].
-    #[arg(long, allow_hyphen_values = true)]
+    /// Mooney-Rivlin c2, Pa (>= 0, at most 1e12) [default: 0].
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(-1e12), Closed(1e12)))]
     pub c2: Option<f64>,
-    /// Gent's limit Jm of I1 - 3 (> 0; rubber about 30-100).
-    #[arg(long, allow_hyphen_values = true)]
+    /// Gent's limit Jm of I1 - 3 (> 0, at most 1e6; rubber about 30-100).
+    #[arg(long, allow_hyphen_values = true, value_parser = real(Closed(-1e6), Closed(1e6)))]
     pub jm: Option<f64>,
-    /// Ogden moduli mu_p, Pa, comma-separated (one per --ogden-alpha; sum mu_p alpha_p / 2 > 0).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 1)]
+    /// Ogden moduli mu_p, Pa, comma-separated (one per --ogden-alpha; sum mu_p alpha_p / 2 > 0;
+    /// each in [-1e12, 1e12]).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 1, value_parser = real(Closed(-1e12), Closed(1e12)))]
     pub ogden_mu: Option<Vec<f64>>,
-    /// Ogden exponents alpha_p, comma-separated (non-zero, one per --ogden-mu).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 1)]
+    /// Ogden exponents alpha_p, comma-separated (non-zero, in [-100, 100], one per --ogden-mu).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 1,
+          value_parser = real(Closed(-100.0), Closed(100.0)))]
     pub ogden_alpha: Option<Vec<f64>>,
     /// Yeoh constants `c1[,c2[,c3]]`, Pa (c1 > 0; missing ones are 0):
-    /// W = c1 (I1 - 3) + c2 (I1 - 3)^2 + c3 (I1 - 3)^3.
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 1)]
+    /// W = c1 (I1 - 3) + c2 (I1 - 3)^2 + c3 (I1 - 3)^3; each in [-1e12, 1e12].
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 1, value_parser = real(Closed(-1e12), Closed(1e12)))]
     pub yeoh: Option<Vec<f64>>,
     /// A published membrane fit (sources in docs/membranes.md): `natural-rubber` (Ogden, Treloar's
     /// data, Ogden 1972) or `elastosil-m4601` (Yeoh, Polygerinos et al. 2015). Implies its

@@ -419,17 +419,135 @@ pub fn check_picture_args(
     Ok(spec)
 }
 
+/// Whether `name` is a file this program writes into an output folder (frames, records,
+/// pictures, their temporary files), so `--overwrite` may remove it. Anything else is the
+/// user's and is never touched.
+fn is_run_file(name: &str) -> bool {
+    const EXACT: &[&str] = &[
+        "stats.jsonl",
+        "summary.json",
+        "series.pvd",
+        "run.gif",
+        "final.pov",
+        "lattice.vtk",
+    ];
+    let name = name
+        .strip_prefix('.')
+        .and_then(|n| n.strip_suffix(".tmp"))
+        .unwrap_or(name);
+    let numbered = |prefix: &str, exts: &[&str]| {
+        name.strip_prefix(prefix)
+            .and_then(|rest| rest.split_once('.'))
+            .is_some_and(|(n, ext)| {
+                !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()) && exts.contains(&ext)
+            })
+    };
+    let named = |stem: &str, exts: &[&str]| {
+        name.strip_prefix(stem)
+            .and_then(|rest| rest.strip_prefix('.'))
+            .is_some_and(|ext| exts.contains(&ext))
+    };
+    let frames = ["obj", "ply", "vtp", "tmp"];
+    EXACT.contains(&name)
+        || numbered("frame_", &frames)
+        || numbered("lattice_", &["vtk"])
+        || named("final", &frames)
+        || named("input_soup", &frames)
+}
+
+/// Checks the output folder before any work: a path that exists but is not a folder is refused,
+/// and so is a folder holding an earlier run's files (they would mix with this run's: a shorter
+/// run leaves the old frames beyond its end) unless `overwrite`, which removes exactly those
+/// files (see [`is_run_file`]; `renders/frame_*.png` too) and nothing else.
+pub fn prepare_out_dir(dir: &Path, overwrite: bool) -> Result<()> {
+    let meta = match std::fs::metadata(dir) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(e).with_context(|| format!("cannot read --out {}", dir.display())),
+    };
+    if !meta.is_dir() {
+        bail!("--out {} exists and is not a folder", dir.display());
+    }
+    let mut old: Vec<PathBuf> = Vec::new();
+    let list = |d: &Path, png: bool, old: &mut Vec<PathBuf>| -> Result<()> {
+        let entries =
+            std::fs::read_dir(d).with_context(|| format!("cannot list {}", d.display()))?;
+        for entry in entries {
+            let entry = entry.with_context(|| format!("cannot list {}", d.display()))?;
+            let name = entry.file_name();
+            let name = name.to_string_lossy();
+            let ours = if png {
+                name.strip_prefix("frame_")
+                    .and_then(|n| n.strip_suffix(".png"))
+                    .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+            } else {
+                is_run_file(&name)
+            };
+            if ours && entry.file_type().is_ok_and(|t| t.is_file()) {
+                old.push(entry.path());
+            }
+        }
+        Ok(())
+    };
+    list(dir, false, &mut old)?;
+    let renders = dir.join("renders");
+    if renders.is_dir() {
+        list(&renders, true, &mut old)?;
+    }
+    if old.is_empty() {
+        return Ok(());
+    }
+    if !overwrite {
+        old.sort();
+        bail!(
+            "--out {} already holds the files of an earlier run ({} file(s), e.g. {}); choose \
+             another folder or add --overwrite to remove them first",
+            dir.display(),
+            old.len(),
+            old[0]
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+        );
+    }
+    for f in &old {
+        std::fs::remove_file(f).with_context(|| format!("cannot remove {}", f.display()))?;
+    }
+    // The renders folder goes too when nothing else is in it.
+    if renders.is_dir() {
+        let _ = std::fs::remove_dir(&renders);
+    }
+    Ok(())
+}
+
+/// Writes a file at `path` through `tmp` and a rename; on any failure `tmp` is removed, so a
+/// failed write leaves no temporary file, and the error names `path`.
+fn write_via_tmp(path: &Path, tmp: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let result = write(tmp).and_then(|()| {
+        std::fs::rename(tmp, path).with_context(|| format!("cannot write {}", path.display()))
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(tmp);
+    }
+    result.with_context(|| format!("cannot write {}", path.display()))
+}
+
 impl OutputDir {
-    /// Creates (or reuses) the folder `dir` and an empty `stats.jsonl` in it, so a run that fails
-    /// at its first step still leaves a (valid, empty) stats file. With the VTK format, also an
-    /// empty `series.pvd`.
+    /// Creates (or reuses, after [`prepare_out_dir`]) the folder `dir` and an empty
+    /// `stats.jsonl` in it, so a run that fails at its first step still leaves a (valid,
+    /// empty) stats file. With the VTK format, also an empty `series.pvd`.
     pub fn create(dir: &Path, format: FrameFormat) -> Result<Self> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create output folder {}", dir.display()))?;
         let path = dir.join("stats.jsonl");
         let f = File::create(&path).with_context(|| format!("cannot create {}", path.display()))?;
         let pvd = match format {
-            FrameFormat::Vtk => Some(PvdWriter::create(&dir.join("series.pvd"))?),
+            FrameFormat::Vtk => {
+                let p = dir.join("series.pvd");
+                Some(
+                    PvdWriter::create(&p)
+                        .with_context(|| format!("cannot write {}", p.display()))?,
+                )
+            }
             _ => None,
         };
         Ok(Self {
@@ -500,7 +618,9 @@ impl OutputDir {
             let path = self.dir.join(&name);
             self.write_frame_file(&path, frame)?;
             if let Some(pvd) = &mut self.pvd {
-                pvd.push(frame.time, &name)?;
+                pvd.push(frame.time, &name).with_context(|| {
+                    format!("cannot write {}", self.dir.join("series.pvd").display())
+                })?;
             }
         }
         let Some(p) = &mut self.pictures else {
@@ -628,7 +748,8 @@ impl OutputDir {
                 &pd,
                 &cd,
                 VtkEncoding::Base64,
-            )?;
+            )
+            .with_context(|| format!("cannot write {}", path.display()))?;
             return Ok(());
         }
         let mesh = TriMesh::new(
@@ -641,14 +762,14 @@ impl OutputDir {
         );
         // Write to a temporary name and rename, so a frame is either complete or absent.
         let tmp = path.with_extension("tmp");
-        match self.format {
-            FrameFormat::Obj => balloon_mesh::io::write_obj(&tmp, &mesh)?,
-            FrameFormat::Ply => balloon_mesh::io::write_ply_binary(&tmp, &mesh)?,
-            FrameFormat::Vtk => unreachable!("handled above"),
-        }
-        std::fs::rename(&tmp, path)
-            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
-        Ok(())
+        write_via_tmp(path, &tmp, |tmp| {
+            match self.format {
+                FrameFormat::Obj => balloon_mesh::io::write_obj(tmp, &mesh)?,
+                FrameFormat::Ply => balloon_mesh::io::write_ply_binary(tmp, &mesh)?,
+                FrameFormat::Vtk => unreachable!("handled above"),
+            }
+            Ok(())
+        })
     }
 
     /// Appends one JSON object as a line of `stats.jsonl` and flushes it.
@@ -659,20 +780,21 @@ impl OutputDir {
                 File::create(&path).with_context(|| format!("cannot create {}", path.display()))?;
             self.stats = Some(BufWriter::new(f));
         }
+        let path = self.dir.join("stats.jsonl");
         let w = self.stats.as_mut().expect("stats writer exists");
-        serde_json::to_writer(&mut *w, row)?;
-        w.write_all(b"\n")?;
-        w.flush()?;
-        Ok(())
+        serde_json::to_writer(&mut *w, row)
+            .map_err(std::io::Error::from)
+            .and_then(|()| w.write_all(b"\n"))
+            .and_then(|()| w.flush())
+            .with_context(|| format!("cannot write {}", path.display()))
     }
 
     /// Writes `value` as pretty JSON to `name` (e.g. `summary.json`) atomically.
     pub fn write_json<T: Serialize>(&self, name: &str, value: &T) -> Result<PathBuf> {
         let path = self.dir.join(name);
         let tmp = self.dir.join(format!(".{name}.tmp"));
-        std::fs::write(&tmp, serde_json::to_vec_pretty(value)?)
-            .with_context(|| format!("cannot write {}", tmp.display()))?;
-        std::fs::rename(&tmp, &path)?;
+        let bytes = serde_json::to_vec_pretty(value)?;
+        write_via_tmp(&path, &tmp, |tmp| Ok(std::fs::write(tmp, &bytes)?))?;
         Ok(path)
     }
 }
@@ -832,6 +954,73 @@ pub fn progress_bar(len: u64, enabled: bool) -> ProgressBar {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn only_files_this_program_writes_count_as_an_earlier_run() {
+        for ours in [
+            "stats.jsonl",
+            "summary.json",
+            ".summary.json.tmp",
+            "series.pvd",
+            ".series.pvd.tmp",
+            "frame_00000.obj",
+            "frame_12345.vtp",
+            ".frame_00010.vtp.tmp",
+            "frame_00002.tmp",
+            "final.ply",
+            "final.pov",
+            "run.gif",
+            ".run.gif.tmp",
+            "lattice.vtk",
+            "lattice_00020.vtk",
+            "input_soup.obj",
+        ] {
+            assert!(is_run_file(ours), "{ours}");
+        }
+        for theirs in [
+            "notes.txt",
+            "frame_.obj",
+            "frame_abc.obj",
+            "frame_00001.png",
+            "final.txt",
+            "my_summary.json",
+            "lattice_1.vtp",
+            "teddy.obj",
+        ] {
+            assert!(!is_run_file(theirs), "{theirs}");
+        }
+    }
+
+    #[test]
+    fn prepare_refuses_a_reused_folder_and_overwrite_removes_only_run_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("run");
+        prepare_out_dir(&out, false).unwrap();
+        std::fs::create_dir_all(out.join("renders")).unwrap();
+        for f in [
+            "frame_00000.obj",
+            "summary.json",
+            "mine.txt",
+            "renders/frame_00003.png",
+        ] {
+            std::fs::write(out.join(f), "x").unwrap();
+        }
+        let e = prepare_out_dir(&out, false).unwrap_err().to_string();
+        assert!(
+            e.contains(&out.display().to_string()) && e.contains("--overwrite"),
+            "{e}"
+        );
+        prepare_out_dir(&out, true).unwrap();
+        let left: Vec<_> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(left, ["mine.txt"]);
+        let file = dir.path().join("file");
+        std::fs::write(&file, "x").unwrap();
+        let e = prepare_out_dir(&file, true).unwrap_err().to_string();
+        assert!(e.contains("not a folder"), "{e}");
+    }
 
     #[test]
     fn render_specs_and_sizes_parse_or_explain() {

@@ -1,16 +1,26 @@
 //! The run loop of `inflate`, `volumetric` and `two-layer`, written once over
 //! [`balloon::Simulation`]: the first frame, then per step the stats line, the frames (regular
-//! ones as files, `--render` steps as pictures), the progress bar; then the pictures' finishing
-//! (also after a failure, so everything written so far stays valid), the summary and its
-//! printing, and the error (so the process exits non-zero).
+//! ones as files, `--render` steps as pictures), the progress bar; then the pictures' finishing,
+//! the summary and its printing, and the error (so the process exits non-zero).
+//!
+//! The records are written however the run ends: completed, stopped early (converged), failed
+//! (a step's error, an output error, no progress), or interrupted by SIGINT / SIGTERM (checked
+//! between steps, see [`crate::interrupt`]). `summary.json` and the `--json` line then always
+//! carry `steps` (completed steps), `frames`, `interrupted` and `error` (null on success).
+//!
+//! Steps are counted from 1: step N is the N-th step, `frame_N` and the `stats.jsonl` line
+//! with `"step": N` are the state after it, `frame_00000` is the initial state, and a failure
+//! "at step N" means N - 1 steps completed (`docs/outputs.md`).
 //!
 //! A subcommand supplies a [`RunHooks`]: how a frame of its system looks, what it adds around
 //! each step (a drag, convergence, lattice files) and its summary. Nothing else differs.
 
+use crate::interrupt::{self, Interrupted};
 use crate::output::{Frame, OutputDir, print_json_line, progress_bar};
 use anyhow::Result;
 use balloon::{Simulation, SimulationError, SimulationStats};
 use serde::Serialize;
+use std::io::Write;
 use std::time::Instant;
 
 /// Which steps are written as frame files.
@@ -55,11 +65,14 @@ pub struct RunRecord<D> {
     pub last: Option<SimulationStats<D>>,
     /// The error that stopped the run.
     pub failure: Option<SimulationError>,
+    /// The signal (SIGINT, SIGTERM) that stopped the run between two steps.
+    pub interrupted: Option<i32>,
 }
 
 /// What a subcommand adds to the shared loop.
 pub trait RunHooks<S: Simulation> {
-    /// The summary written to `summary.json` and printed.
+    /// The summary written to `summary.json` and printed (a JSON object; the loop adds
+    /// `interrupted`, and `frames` and `error` when the summary has none).
     type Summary: Serialize;
 
     /// The current state as a frame of step `step`, with the system's fields.
@@ -93,51 +106,73 @@ pub trait RunHooks<S: Simulation> {
         Ok(())
     }
 
-    /// The summary of the run; `None` when the subcommand writes none (e.g. after a failure).
-    fn summary(&self, sim: &S, run: &RunRecord<S::Detail>) -> Option<Self::Summary>;
+    /// Why a run whose steps all succeeded still did nothing it should have (e.g. the shell
+    /// never moved under a load: a linear solver that makes no progress). The run is then an
+    /// error. Checked only for runs that completed their steps.
+    fn no_progress(&self, _sim: &S, _run: &RunRecord<S::Detail>) -> Option<String> {
+        None
+    }
 
-    /// The human line(s) printed on success (and after a failure when
+    /// The summary of the run (also after a failure or an interruption).
+    fn summary(&self, sim: &S, run: &RunRecord<S::Detail>) -> Self::Summary;
+
+    /// Writes the human line(s) to `w` on success (and after a failure when
     /// [`RunHooks::print_after_failure`]).
-    fn print(&self, summary: &Self::Summary, out: Option<&OutputDir>);
+    fn print(
+        &self,
+        summary: &Self::Summary,
+        out: Option<&OutputDir>,
+        w: &mut dyn Write,
+    ) -> std::io::Result<()>;
 
-    /// Whether the summary is still printed (JSON line or human line) after a failure.
+    /// Whether the human line is still printed after a failure (the `--json` line always is).
     fn print_after_failure(&self) -> bool {
         false
     }
 
-    /// The error the subcommand reports for a failed step `step` (1-based).
-    fn failure(&self, error: SimulationError, _step: usize) -> anyhow::Error {
-        error.into()
+    /// The error the subcommand reports for a failed step `step` (1-based: `step - 1` steps
+    /// completed).
+    fn failure(&self, error: SimulationError, step: usize) -> anyhow::Error {
+        anyhow::Error::new(error).context(format!(
+            "step {step} failed ({} step(s) completed)",
+            step - 1
+        ))
     }
 }
 
-/// Runs `sim` for `plan.steps` steps with the shared output, then finishes pictures and the
-/// summary. Errors when the simulation failed (after everything computed so far is written) or
-/// when an output could not be written.
-pub fn run_simulation<S, H>(
+/// A `stats.jsonl` line: the system's statistics with `step` set to the 1-based step number
+/// (the systems count their own `step` fields differently).
+fn stats_row<D: Serialize>(stats: &SimulationStats<D>) -> Result<serde_json::Value> {
+    let mut row = serde_json::to_value(&stats.detail)?;
+    if let Some(obj) = row.as_object_mut() {
+        obj.insert("step".into(), stats.steps.into());
+    }
+    Ok(row)
+}
+
+/// Runs the steps; a step's error ends the loop in `run.failure`, an output or hook error is
+/// returned.
+fn step_loop<S, H>(
     sim: &mut S,
     hooks: &mut H,
     plan: &RunPlan,
-    mut out: Option<OutputDir>,
+    out: &mut Option<OutputDir>,
+    run: &mut RunRecord<S::Detail>,
 ) -> Result<()>
 where
     S: Simulation,
     H: RunHooks<S>,
 {
-    let mut run = RunRecord {
-        steps: 0,
-        stopped_early: false,
-        step_seconds: 0.0,
-        frames: 0,
-        last: None,
-        failure: None,
-    };
-    if let Some(o) = &mut out {
+    if let Some(o) = out {
         o.frame(&hooks.frame(sim, 0)?, true)?;
         run.frames += 1;
     }
     let pb = progress_bar(plan.steps as u64, !plan.json);
     for step in 1..=plan.steps {
+        if let Some(sig) = interrupt::pending() {
+            run.interrupted = Some(sig);
+            break;
+        }
         hooks.before_step(sim)?;
         let t0 = Instant::now();
         let result = sim.step();
@@ -151,8 +186,8 @@ where
         };
         run.steps = step;
         let regular = plan.frames.writes(step, plan.steps);
-        if let Some(o) = &mut out {
-            o.append_stats(&stats.detail)?;
+        if let Some(o) = out {
+            o.append_stats(&stats_row(&stats)?)?;
             if regular || o.wants_step(step) {
                 o.frame(&hooks.frame(sim, step)?, regular)?;
                 run.frames += usize::from(regular);
@@ -170,39 +205,177 @@ where
         }
     }
     pb.finish_and_clear();
-    let failed = run.failure.is_some();
+    Ok(())
+}
+
+/// Adds what every summary carries: `interrupted`, and `frames` and `error` unless the
+/// subcommand's summary has them (an `error` it left null is filled in).
+fn annotate(
+    summary: &mut serde_json::Value,
+    interrupted: bool,
+    frames: usize,
+    error: Option<&str>,
+) {
+    if let Some(obj) = summary.as_object_mut() {
+        obj.insert("interrupted".into(), interrupted.into());
+        obj.entry("frames").or_insert_with(|| frames.into());
+        let e = obj.entry("error").or_insert(serde_json::Value::Null);
+        if e.is_null()
+            && let Some(text) = error
+        {
+            *e = text.into();
+        }
+    }
+}
+
+/// Runs `sim` for `plan.steps` steps with the shared output, then finishes pictures and the
+/// summary. Errors when the simulation failed, made no progress or was interrupted (after
+/// everything computed so far is written), or when an output could not be written (after the
+/// summary is written if it still can be).
+pub fn run_simulation<S, H>(
+    sim: &mut S,
+    hooks: &mut H,
+    plan: &RunPlan,
+    mut out: Option<OutputDir>,
+) -> Result<()>
+where
+    S: Simulation,
+    H: RunHooks<S>,
+{
+    let mut run = RunRecord {
+        steps: 0,
+        stopped_early: false,
+        step_seconds: 0.0,
+        frames: 0,
+        last: None,
+        failure: None,
+        interrupted: None,
+    };
+    let output_error = step_loop(sim, hooks, plan, &mut out, &mut run).err();
+    let stalled = if run.failure.is_none() && output_error.is_none() && run.interrupted.is_none() {
+        hooks.no_progress(sim, &run)
+    } else {
+        None
+    };
+    let failed = run.failure.is_some() || output_error.is_some() || stalled.is_some();
     let summary = hooks.summary(sim, &run);
+    let mut record = serde_json::to_value(&summary)?;
+    let error_text = run
+        .failure
+        .as_ref()
+        .map(ToString::to_string)
+        .or_else(|| stalled.clone())
+        .or_else(|| output_error.as_ref().map(|e| format!("{e:#}")));
+    annotate(
+        &mut record,
+        run.interrupted.is_some(),
+        run.frames,
+        error_text.as_deref(),
+    );
+    // Everything below is attempted even when a part fails; the first error is kept.
+    let mut finish_error: Option<anyhow::Error> = None;
     if let Some(o) = &mut out {
-        let last = hooks.frame(sim, sim.steps())?;
-        hooks.finish_extras(o, &last)?;
-        if let Some(s) = &summary {
-            o.write_json("summary.json", s)?;
-        }
-        match o.finish(&last, failed) {
-            Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
-            // Do not hide the simulation error behind a picture error.
-            Err(e) if failed => eprintln!("warning: {e:#}"),
-            Err(e) => return Err(e),
+        let mut keep = |r: Result<()>| {
+            if let Err(e) = r {
+                if finish_error.is_none() {
+                    finish_error = Some(e);
+                } else {
+                    eprintln!("warning: {e:#}");
+                }
+            }
+        };
+        match hooks.frame(sim, run.steps) {
+            Ok(last) => {
+                keep(hooks.finish_extras(o, &last));
+                keep(o.write_json("summary.json", &record).map(drop));
+                match o.finish(&last, failed) {
+                    Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
+                    // Do not hide the simulation error behind a picture error.
+                    Err(e) if failed => eprintln!("warning: {e:#}"),
+                    Err(e) => keep(Err(e)),
+                }
+            }
+            Err(e) => {
+                keep(o.write_json("summary.json", &record).map(drop));
+                keep(Err(e));
+            }
         }
     }
-    if let Some(s) = &summary
-        && (!failed || hooks.print_after_failure())
-    {
-        if plan.json {
-            print_json_line(s)?;
-        } else {
-            hooks.print(s, out.as_ref());
+    if plan.json {
+        print_json_line(&record)?;
+    } else if !failed || hooks.print_after_failure() {
+        let mut stdout = std::io::stdout().lock();
+        hooks.print(&summary, out.as_ref(), &mut stdout)?;
+        stdout.flush()?;
+    }
+    if let Some(e) = run.failure.take() {
+        if let Some(f) = &finish_error {
+            eprintln!("warning: {f:#}");
         }
+        return Err(hooks.failure(e, run.steps + 1));
     }
-    match run.failure.take() {
-        Some(e) => Err(hooks.failure(e, run.steps + 1)),
-        None => Ok(()),
+    if let Some(e) = output_error {
+        return Err(e);
     }
+    if let Some(msg) = stalled {
+        anyhow::bail!("{msg}");
+    }
+    if let Some(e) = finish_error {
+        return Err(e);
+    }
+    if let Some(signal) = run.interrupted {
+        return Err(Interrupted {
+            signal,
+            steps: run.steps,
+        }
+        .into());
+    }
+    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn summaries_get_interrupted_frames_and_a_missing_or_null_error() {
+        let mut with_error_field = serde_json::json!({"steps": 3, "error": null, "frames": 7});
+        annotate(&mut with_error_field, true, 2, Some("boom"));
+        assert_eq!(
+            with_error_field,
+            serde_json::json!({"steps": 3, "error": "boom", "frames": 7, "interrupted": true})
+        );
+        let mut bare = serde_json::json!({"steps": 0});
+        annotate(&mut bare, false, 1, None);
+        assert_eq!(
+            bare,
+            serde_json::json!({"steps": 0, "error": null, "frames": 1, "interrupted": false})
+        );
+        // The subcommand's own error text is kept.
+        let mut own = serde_json::json!({"error": "step 4: diverged"});
+        annotate(&mut own, false, 0, Some("other"));
+        assert_eq!(own["error"], "step 4: diverged");
+    }
+
+    #[test]
+    fn stats_rows_carry_the_one_based_step() {
+        #[derive(Serialize)]
+        struct Detail {
+            step: usize,
+            x: f64,
+        }
+        let stats = SimulationStats {
+            steps: 5,
+            time: 0.5,
+            dt: 0.1,
+            kinetic_energy: 0.0,
+            detail: Detail { step: 4, x: 1.5 },
+        };
+        assert_eq!(
+            stats_row(&stats).unwrap(),
+            serde_json::json!({"step": 5, "x": 1.5})
+        );
+    }
 
     #[test]
     fn frame_policies_pick_the_steps_of_each_subcommand() {

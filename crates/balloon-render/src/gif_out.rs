@@ -203,17 +203,26 @@ impl GifWriter {
     /// Writes the trailer, renames the file into place and returns the number of frames.
     pub fn finish(mut self) -> Result<usize, RenderError> {
         let enc = self.encoder.take().expect("encoder present until finish");
-        let mut w = enc.into_inner().map_err(|e| encode_err(&self.path, e))?;
-        std::io::Write::flush(&mut w).map_err(|source| RenderError::Io {
-            path: self.tmp.clone(),
-            source,
-        })?;
-        drop(w);
-        std::fs::rename(&self.tmp, &self.path).map_err(|source| RenderError::Io {
-            path: self.path.clone(),
-            source,
-        })?;
-        Ok(self.frames)
+        let result = enc
+            .into_inner()
+            .map_err(|e| encode_err(&self.path, e))
+            .and_then(|mut w| {
+                std::io::Write::flush(&mut w).map_err(|source| RenderError::Io {
+                    path: self.path.clone(),
+                    source,
+                })
+            })
+            .and_then(|()| {
+                std::fs::rename(&self.tmp, &self.path).map_err(|source| RenderError::Io {
+                    path: self.path.clone(),
+                    source,
+                })
+            });
+        // A failed trailer, flush or rename leaves no temporary file.
+        if result.is_err() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+        result.map(|()| self.frames)
     }
 }
 

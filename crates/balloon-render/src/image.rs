@@ -192,11 +192,12 @@ pub(crate) fn write_atomically(
     let mut w = BufWriter::new(file);
     let result = body(&mut w).and_then(|()| w.flush().map_err(io));
     drop(w);
-    if let Err(e) = result {
+    // A failed write or rename (disk full, a folder in the way) leaves no temporary file.
+    let result = result.and_then(|()| std::fs::rename(&tmp, path).map_err(io));
+    if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
-        return Err(e);
     }
-    std::fs::rename(&tmp, path).map_err(io)
+    result
 }
 
 #[cfg(test)]

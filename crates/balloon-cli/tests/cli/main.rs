@@ -3,6 +3,9 @@
 mod inflate;
 mod membrane;
 mod mesh;
+mod params;
+mod readback;
+mod records;
 mod render;
 mod two_layer;
 mod view;
@@ -30,8 +33,18 @@ pub fn last_json_line(out: &Output) -> serde_json::Value {
         .unwrap_or_else(|e| panic!("last stdout line is not JSON ({e}): {line}"))
 }
 
-/// The shared real meshes folder beside the repository, if present.
+/// The shared real meshes folder beside the repository, if present; when it is absent and the
+/// `CI` environment variable is set, the test fails instead (in CI the tests on the real meshes
+/// must run, not skip).
 pub fn shared_meshes_dir() -> Option<std::path::PathBuf> {
     let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
-    dir.is_dir().then_some(dir)
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "CI is set but {} is missing: the tests on the real meshes would be skipped",
+        dir.display()
+    );
+    None
 }

@@ -174,9 +174,9 @@ fn bad_parameters_fail_with_the_parameter_named() {
     for (args, needle) in [
         (vec!["--dt", "0"], "dt"),
         (vec!["--dt", "-1e-3"], "dt"),
-        (vec!["--inner-mass", "0"], "inner_mass"),
-        (vec!["--outer-mass", "-1"], "outer_mass"),
-        (vec!["--inner-radius", "0"], "inner_radius"),
+        (vec!["--inner-mass", "0"], "--inner-mass"),
+        (vec!["--outer-mass", "-1"], "--outer-mass"),
+        (vec!["--inner-radius", "0"], "--inner-radius"),
         (vec!["--inner-radius", "1.5"], "below the outer radius"),
         (vec!["--k-radius", "0"], "radius stiffness"),
         (vec!["--restitution", "2"], "restitution"),

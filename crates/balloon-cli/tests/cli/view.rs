@@ -450,8 +450,10 @@ fn view_volumetric_streams_the_embedded_surface_and_drags_it() {
     wait_for(&srv.addr, "gravity 0", |s| s["controls"]["gravity"] == 0.0);
     let v = farthest_vertex(&f);
     // The lattice body is moved by an explicit spring capped far below its stability limit
-    // (docs/viewer.md): in 2 s the grabbed point closes about 23% of a 3 cm pull.
-    drag_moves_vertex(&srv.addr, &mut ws, &f, v, 0.03, 0.1, 0.0);
+    // (docs/viewer.md): in 2 s the grabbed point closes about 23% of a 3 cm pull. It must also
+    // deform the body, not only carry it: measured 4e-4 m (1e-3 of the diagonal) beyond the
+    // swelling by the time it closed 10%; half of that is required.
+    drag_moves_vertex(&srv.addr, &mut ws, &f, v, 0.03, 0.1, 5e-4);
 }
 
 #[test]
@@ -491,7 +493,9 @@ fn view_two_layer_drags_the_picked_particle() {
     let f = next_of(&mut ws, "frame");
     let v = farthest_vertex(&f);
     assert!(v >= n / 2, "the farthest vertex {v} is an outer particle");
-    drag_moves_vertex(&srv.addr, &mut ws, &f, v, 0.3, 0.1, 0.0);
+    // The pulled particle moves out relative to the body (measured 0.06 m, 1.6e-2 of the
+    // diagonal, when it closed 10% of the pull); a third of that is required.
+    drag_moves_vertex(&srv.addr, &mut ws, &f, v, 0.3, 0.1, 5e-3);
 }
 
 #[test]

@@ -69,7 +69,7 @@ fn bad_parameter_is_named_in_the_error() {
     let o = run_balloon(&["volumetric", "builtin:icosphere", "--p-in", "1.5"]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("p_in"), "{err}");
+    assert!(err.contains("--p-in") && err.contains("1.5"), "{err}");
     let o = run_balloon(&["volumetric", "builtin:icosphere", "--dt", "0"]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("dt"));

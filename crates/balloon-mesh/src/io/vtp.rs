@@ -278,15 +278,23 @@ pub fn write_vtp(
     write_atomic(path, text.as_bytes())
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename; errors
+/// name `path` and leave no temporary file.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), MeshError> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let tmp = path.with_file_name(format!(".{name}.tmp"));
-    std::fs::write(&tmp, bytes).map_err(|e| super::io_err(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| super::io_err(path, e))
+    // On any failure (disk full, a folder where the file should be) the temporary file is
+    // removed, so a failed write leaves nothing behind.
+    let result = std::fs::write(&tmp, bytes)
+        .map_err(|e| super::io_err(path, e))
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| super::io_err(path, e)));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
 }
 
 const B64: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";

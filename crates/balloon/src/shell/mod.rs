@@ -170,7 +170,7 @@ pub enum ShellError {
     /// The Newton solve failed.
     #[error("step {step} (t = {time:.6} s): {source}")]
     Integrate {
-        /// Step index (0-based) that failed.
+        /// Step number (1-based) that failed.
         step: usize,
         /// Simulation time at the start of the step.
         time: f64,
@@ -181,7 +181,7 @@ pub enum ShellError {
     /// The volume projection failed.
     #[error("step {step}: volume projection: {source}")]
     Projection {
-        /// Step index.
+        /// Step number (1-based).
         step: usize,
         /// What failed.
         #[source]
@@ -194,7 +194,7 @@ pub enum ShellError {
         "step {step} (t = {time:.6} s): diverged: gas volume: {volume:e} m^3 vs rest {rest_volume:e} m^3 (runaway above {RUNAWAY_VOLUME_FACTOR}x): the pressure exceeds what the shell can hold (e.g. above the neo-Hookean limit point) or the run is unstable"
     )]
     RunawayVolume {
-        /// Step index.
+        /// Step number (1-based).
         step: usize,
         /// Simulation time at the start of the step.
         time: f64,
@@ -208,7 +208,7 @@ pub enum ShellError {
         "step {step} (t = {time:.6} s): Newton did not converge: relative residual {residual:.3e} after {iterations} iterations (tolerance {tolerance:e}) at a sub-step of {dt:e} s, the smallest allowed ({halvings} halvings in this step, at most {max_halvings} below the step); try a smaller --dt, more --newton-iters, a looser --newton-tol, --tangent projected, or more mass damping"
     )]
     NotConverged {
-        /// Step index (0-based).
+        /// Step number (1-based).
         step: usize,
         /// Simulation time at the start of the failed sub-step, s.
         time: f64,
@@ -254,7 +254,7 @@ pub enum ShellError {
     /// The run diverged (non-finite or inverted state).
     #[error("step {step} (t = {time:.6} s): diverged: {quantity}: {detail}")]
     Diverged {
-        /// Step index.
+        /// Step number (1-based).
         step: usize,
         /// Simulation time at the start of the step.
         time: f64,
@@ -771,7 +771,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
 /// What one step did and where the balloon is.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ShellStepStats {
-    /// Step index (0-based).
+    /// Step number, 1-based: the first step is 1 (the state after `step` steps).
     pub step: usize,
     /// Simulation time at the end of the step, s.
     pub time: f64,
@@ -871,7 +871,8 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// start of the step, so what was written before stays consistent.
     pub fn step(&mut self) -> Result<ShellStepStats, ShellError> {
         let start = std::time::Instant::now();
-        let (step, time, dt) = (self.step, self.time, self.dt);
+        // Steps are numbered from 1 (the first step is step 1), in the stats and the errors.
+        let (step, time, dt) = (self.step + 1, self.time, self.dt);
         let volume_old = self.system.gas.state().volume;
         let mut totals = StepTotals::default();
         self.advance(step, time, dt, &mut totals)?;

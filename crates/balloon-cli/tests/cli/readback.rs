@@ -1,0 +1,384 @@
+//! The written VTK files read back by readers that are not the project's own: `series.pvd` and
+//! the `.vtp` frames with `roxmltree` (XML) and `base64` (the binary payloads), the volumetric
+//! lattice (legacy VTK, ASCII) by a few lines of parsing here. What they hold is checked
+//! against independent measurements: counts from `mesh info`, the volume the decoded surface
+//! encloses against the summary's gas volume, and each lattice cell's volume against its rest
+//! volume (volume conservation measured on the written geometry, not by the projection's own
+//! error).
+
+use super::{last_json_line, run_balloon};
+use base64::Engine as _;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// One decoded `DataArray`: its name (empty for the points), components and values as f64.
+struct Array {
+    name: String,
+    components: usize,
+    values: Vec<f64>,
+}
+
+/// Decodes a `format="binary"` array: base64 of a UInt64 byte count and the little-endian
+/// 8-byte values; checks the count against the payload.
+fn decode(node: roxmltree::Node<'_, '_>) -> Array {
+    assert_eq!(node.attribute("format"), Some("binary"), "{node:?}");
+    let text: String = node
+        .text()
+        .unwrap_or("")
+        .chars()
+        .filter(|c| !c.is_whitespace())
+        .collect();
+    let bytes = base64::engine::general_purpose::STANDARD
+        .decode(text.as_bytes())
+        .expect("valid base64");
+    assert!(bytes.len() >= 8, "no header");
+    let count = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    assert_eq!(bytes.len(), 8 + count, "header byte count != payload");
+    assert_eq!(count % 8, 0, "payload is not 8-byte words");
+    let words = bytes[8..].chunks_exact(8).map(|c| c.try_into().unwrap());
+    let values = match node.attribute("type") {
+        Some("Float64") => words.map(f64::from_le_bytes).collect(),
+        Some("Int64") => words.map(|w| i64::from_le_bytes(w) as f64).collect(),
+        t => panic!("unexpected DataArray type {t:?}"),
+    };
+    Array {
+        name: node.attribute("Name").unwrap_or("").to_string(),
+        components: node
+            .attribute("NumberOfComponents")
+            .map_or(1, |c| c.parse().unwrap()),
+        values,
+    }
+}
+
+/// A `.vtp` file: point and cell counts, points, triangles and the named point / cell arrays.
+struct PolyData {
+    points: Vec<f64>,
+    triangles: Vec<[usize; 3]>,
+    point_data: Vec<Array>,
+    cell_data: Vec<Array>,
+}
+
+fn read_vtp(path: &Path) -> PolyData {
+    let text = std::fs::read_to_string(path).unwrap();
+    let doc = roxmltree::Document::parse(&text)
+        .unwrap_or_else(|e| panic!("{}: not XML: {e}", path.display()));
+    let root = doc.root_element();
+    assert_eq!(root.tag_name().name(), "VTKFile");
+    assert_eq!(root.attribute("type"), Some("PolyData"));
+    assert_eq!(root.attribute("byte_order"), Some("LittleEndian"));
+    assert_eq!(root.attribute("header_type"), Some("UInt64"));
+    let piece = root
+        .descendants()
+        .find(|n| n.has_tag_name("Piece"))
+        .expect("a Piece");
+    let count = |a: &str| -> usize { piece.attribute(a).unwrap().parse().unwrap() };
+    let (np, nc) = (count("NumberOfPoints"), count("NumberOfPolys"));
+    let arrays_of = |section: &str| -> Vec<Array> {
+        piece
+            .children()
+            .find(|n| n.has_tag_name(section))
+            .map(|s| {
+                s.children()
+                    .filter(|n| n.has_tag_name("DataArray"))
+                    .map(decode)
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let points = arrays_of("Points").pop().expect("Points");
+    assert_eq!(points.components, 3);
+    assert_eq!(points.values.len(), 3 * np, "points");
+    let polys = arrays_of("Polys");
+    let by_name = |n: &str| {
+        polys
+            .iter()
+            .find(|a| a.name == n)
+            .unwrap_or_else(|| panic!("no {n}"))
+    };
+    let conn = &by_name("connectivity").values;
+    let offsets = &by_name("offsets").values;
+    assert_eq!(conn.len(), 3 * nc);
+    assert_eq!(offsets.len(), nc);
+    for (k, o) in offsets.iter().enumerate() {
+        assert_eq!(*o as usize, 3 * (k + 1), "triangles only");
+    }
+    let triangles: Vec<[usize; 3]> = conn
+        .chunks_exact(3)
+        .map(|c| [c[0] as usize, c[1] as usize, c[2] as usize])
+        .collect();
+    assert!(
+        triangles.iter().flatten().all(|&i| i < np),
+        "index out of range"
+    );
+    let point_data = arrays_of("PointData");
+    let cell_data = arrays_of("CellData");
+    for a in &point_data {
+        assert_eq!(a.values.len(), a.components * np, "point array {}", a.name);
+    }
+    for a in &cell_data {
+        assert_eq!(a.values.len(), a.components * nc, "cell array {}", a.name);
+    }
+    PolyData {
+        points: points.values,
+        triangles,
+        point_data,
+        cell_data,
+    }
+}
+
+/// The volume a closed surface encloses: the sum of signed tetrahedra to the origin.
+fn enclosed_volume(x: &[f64], triangles: &[[usize; 3]]) -> f64 {
+    let p = |i: usize| [x[3 * i], x[3 * i + 1], x[3 * i + 2]];
+    triangles
+        .iter()
+        .map(|t| {
+            let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
+            (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                / 6.0
+        })
+        .sum()
+}
+
+#[test]
+fn vtp_frames_and_the_pvd_series_read_back_independently() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let info = last_json_line(&run_balloon(&[
+        "mesh",
+        "info",
+        "builtin:icosphere",
+        "--json",
+    ]));
+    let (nv, nt) = (
+        info["vertices"].as_u64().unwrap() as usize,
+        info["triangles"].as_u64().unwrap() as usize,
+    );
+    let out = run_balloon(&[
+        "inflate",
+        "builtin:icosphere",
+        "--steps",
+        "4",
+        "--frame-every",
+        "2",
+        "--format",
+        "vtk",
+        "--out",
+        run.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary = last_json_line(&out);
+    // The series lists every frame with its time, in order.
+    let pvd = std::fs::read_to_string(run.join("series.pvd")).unwrap();
+    let doc = roxmltree::Document::parse(&pvd).expect("series.pvd is XML");
+    assert_eq!(doc.root_element().attribute("type"), Some("Collection"));
+    let sets: Vec<(f64, String)> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("DataSet"))
+        .map(|n| {
+            (
+                n.attribute("timestep").unwrap().parse().unwrap(),
+                n.attribute("file").unwrap().to_string(),
+            )
+        })
+        .collect();
+    let names: Vec<&str> = sets.iter().map(|s| s.1.as_str()).collect();
+    assert_eq!(
+        names,
+        ["frame_00000.vtp", "frame_00002.vtp", "frame_00004.vtp"]
+    );
+    let dt = summary["sim_time_s"].as_f64().unwrap() / 4.0;
+    for (k, (t, _)) in sets.iter().enumerate() {
+        assert!(
+            (t - 2.0 * k as f64 * dt).abs() <= 1e-12,
+            "time {t} of frame {k}"
+        );
+    }
+    let mut fields: HashMap<String, usize> = HashMap::new();
+    for (_, file) in &sets {
+        let f = read_vtp(&run.join(file));
+        assert_eq!((f.points.len() / 3, f.triangles.len()), (nv, nt), "{file}");
+        for a in f.point_data.iter().chain(&f.cell_data) {
+            *fields.entry(a.name.clone()).or_default() += 1;
+            assert!(a.values.iter().all(|v| v.is_finite()), "{file}: {}", a.name);
+        }
+    }
+    for name in [
+        "velocity",
+        "speed",
+        "pressure_force",
+        "thickness",
+        "stretch",
+    ] {
+        assert_eq!(fields.get(name), Some(&3), "field {name}");
+    }
+    // The final surface, decoded here, encloses the gas volume the summary reports.
+    let last = read_vtp(&run.join("final.vtp"));
+    let v = enclosed_volume(&last.points, &last.triangles);
+    let reported = summary["final_gas_volume"].as_f64().unwrap();
+    assert!((v / reported - 1.0).abs() < 1e-12, "{v} vs {reported}");
+    assert!(reported > summary["initial_gas_volume"].as_f64().unwrap());
+}
+
+/// A legacy ASCII VTK unstructured grid: points, tetrahedra and the named cell scalars.
+struct TetGrid {
+    points: Vec<[f64; 3]>,
+    tets: Vec<[usize; 4]>,
+    cell_scalars: HashMap<String, Vec<f64>>,
+}
+
+fn read_legacy_vtk(path: &Path) -> TetGrid {
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(text.starts_with("# vtk DataFile"), "{}", path.display());
+    let mut tokens = text.split_whitespace();
+    let mut grid = TetGrid {
+        points: Vec::new(),
+        tets: Vec::new(),
+        cell_scalars: HashMap::new(),
+    };
+    let mut in_cells = false;
+    while let Some(word) = tokens.next() {
+        let mut next = || -> &str { tokens.next().expect("the file ended early") };
+        match word {
+            "POINTS" => {
+                let n: usize = next().parse().unwrap();
+                assert_eq!(next(), "double");
+                for _ in 0..n {
+                    let mut p = [0.0; 3];
+                    for c in &mut p {
+                        *c = next().parse().unwrap();
+                    }
+                    grid.points.push(p);
+                }
+            }
+            "CELLS" => {
+                let n: usize = next().parse().unwrap();
+                let _size = next();
+                for _ in 0..n {
+                    assert_eq!(next(), "4", "tetrahedra only");
+                    let mut t = [0; 4];
+                    for i in &mut t {
+                        *i = next().parse().unwrap();
+                    }
+                    grid.tets.push(t);
+                }
+            }
+            "CELL_TYPES" => {
+                let n: usize = next().parse().unwrap();
+                for _ in 0..n {
+                    assert_eq!(next(), "10", "VTK_TETRA");
+                }
+            }
+            "CELL_DATA" | "POINT_DATA" => {
+                in_cells = word == "CELL_DATA";
+                let _count = next();
+            }
+            "SCALARS" => {
+                let name = next().to_string();
+                let _type = next();
+                let _components = next();
+                assert_eq!(next(), "LOOKUP_TABLE");
+                let _table = next();
+                let n = if in_cells {
+                    grid.tets.len()
+                } else {
+                    grid.points.len()
+                };
+                let values = (0..n).map(|_| next().parse().unwrap()).collect();
+                if in_cells {
+                    grid.cell_scalars.insert(name, values);
+                }
+            }
+            _ => {}
+        }
+    }
+    grid
+}
+
+fn tet_volume(p: &[[f64; 3]], t: &[usize; 4]) -> f64 {
+    let d = |i: usize| {
+        [
+            p[t[i]][0] - p[t[0]][0],
+            p[t[i]][1] - p[t[0]][1],
+            p[t[i]][2] - p[t[0]][2],
+        ]
+    };
+    let (a, b, c) = (d(1), d(2), d(3));
+    (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+        + a[2] * (b[0] * c[1] - b[1] * c[0]))
+        / 6.0
+}
+
+#[test]
+fn lattice_files_read_back_and_every_cell_keeps_its_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let out = run_balloon(&[
+        "volumetric",
+        "builtin:icosphere",
+        "--resolution",
+        "16",
+        "--voxels-per-cell",
+        "2",
+        "--steps",
+        "40",
+        "--frame-every",
+        "20",
+        "--lattice-frames",
+        "--out",
+        run.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary = last_json_line(&out);
+    let rest = read_legacy_vtk(&run.join("lattice.vtk"));
+    assert_eq!(
+        rest.tets.len() as u64,
+        summary["tetrahedra"].as_u64().unwrap()
+    );
+    assert_eq!(
+        rest.points.len() as u64,
+        summary["particles"].as_u64().unwrap()
+    );
+    let cell_of = &rest.cell_scalars["cell"];
+    let cells = summary["cells"].as_u64().unwrap() as usize;
+    let cell_volumes = |g: &TetGrid| -> Vec<f64> {
+        let mut v = vec![0.0; cells];
+        for (t, tet) in g.tets.iter().enumerate() {
+            v[cell_of[t] as usize] += tet_volume(&g.points, tet);
+        }
+        v
+    };
+    let v0 = cell_volumes(&rest);
+    assert!(v0.iter().all(|&v| v > 0.0));
+    let mut moved = 0.0f64;
+    for step in [20, 40] {
+        let g = read_legacy_vtk(&run.join(format!("lattice_{step:05}.vtk")));
+        assert_eq!(g.tets, rest.tets, "the lattice keeps its connectivity");
+        let v = cell_volumes(&g);
+        let worst = v
+            .iter()
+            .zip(&v0)
+            .map(|(a, b)| (a / b - 1.0).abs())
+            .fold(0.0, f64::max);
+        // The solver's tolerance is 1e-10 per cell; the files print shortest round-trip floats.
+        assert!(worst <= 1e-9, "step {step}: cell volume error {worst:e}");
+        moved = g
+            .points
+            .iter()
+            .zip(&rest.points)
+            .map(|(a, b)| (a[2] - b[2]).abs())
+            .fold(moved, f64::max);
+    }
+    // The body fell and deformed (the sphere hit it), so the volumes were under load.
+    assert!(moved > 1e-3, "the lattice barely moved ({moved})");
+}
