@@ -53,7 +53,7 @@ enum Task {
         /// Do not write docs/validation.md and the figures (only print the table).
         #[arg(long)]
         no_write: bool,
-        /// Run one group only (shell, volumetric, two-layer, meshes); writes nothing.
+        /// Run one group only (shell, membrane, volumetric, two-layer, meshes); writes nothing.
         #[arg(long)]
         only: Option<String>,
     },

@@ -2,6 +2,7 @@
 //! `docs/validation.md` with the table and the figures in `docs/figures/`, and a non-zero exit
 //! when a case fails.
 
+mod membrane;
 pub mod meshes;
 mod shell;
 mod two_layer;
@@ -22,7 +23,8 @@ pub struct Options {
     pub meshes: Option<PathBuf>,
     /// Write docs/validation.md and docs/figures.
     pub write: bool,
-    /// Run only this group ("shell", "volumetric", "two-layer", "meshes"); nothing is written.
+    /// Run only this group ("shell", "membrane", "volumetric", "two-layer", "meshes"); nothing
+    /// is written.
     pub only: Option<String>,
 }
 
@@ -107,6 +109,9 @@ pub fn run(opts: &Options) -> Result<()> {
                 soups.push(("spot.obj (scaled to 1 m)".to_string(), m));
             }
         }
+    }
+    if want("membrane") {
+        cases.extend(membrane::cases(opts, &mut figs));
     }
     if want("volumetric") {
         cases.extend(volumetric::cases(opts, &soups));
