@@ -149,7 +149,7 @@ impl<M: balloon::shell::ShellMaterial> Tracer<M> {
 }
 
 /// Traces `P(l)` from `l = 1` to `max_stretch` in steps `dl` under volume control; where three
-/// coarse points turn, the stretch range of the turn is traced again in steps `dl / 20` and the
+/// coarse points turn, the stretch range of the turn is traced again in steps `dl / 10` and the
 /// extremum is the vertex of the parabola through the finest three points around it.
 fn trace(mesh: &TriMesh, model: &MembraneModel, max_stretch: f64, dl: f64) -> Result<Trace> {
     let started = std::time::Instant::now();
@@ -182,7 +182,7 @@ fn trace(mesh: &TriMesh, model: &MembraneModel, max_stretch: f64, dl: f64) -> Re
             continue;
         };
         // Refine between the outer two points, then come back to the last coarse one.
-        let fine_steps = 40;
+        let fine_steps = 20;
         let h = (c.stretch - a.stretch) / fine_steps as f64;
         let fine: Vec<Point> = (0..=fine_steps)
             .map(|i| t.solve(a.stretch + h * i as f64))
