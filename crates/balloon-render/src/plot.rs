@@ -69,7 +69,7 @@ pub struct LinePlot {
     pub x_label: String,
     /// Label of the y axis.
     pub y_label: String,
-    /// The series, drawn in order; the legend lists them in the upper right corner.
+    /// The series, drawn in order; the legend lists them in the lower right corner.
     pub series: Vec<PlotSeries>,
 }
 
@@ -162,8 +162,10 @@ impl LinePlot {
         let label_w = yticks.iter().map(|t| text_width(t, s)).max().unwrap_or(0) as i64;
         // Plot area.
         let left = 2 * gh + label_w + 12;
-        let right = width as i64 - 16;
-        let top = 2 * gh + 10;
+        let xticks = tick_labels(x0, x1, 6);
+        let last_w = xticks.last().map_or(0, |t| text_width(t, s)) as i64;
+        let right = width as i64 - (last_w / 2 + 6).max(16);
+        let top = 2 * gh + 22;
         let bottom = height as i64 - 2 * gh - 22;
         let (pw, ph) = ((right - left).max(1), (bottom - top).max(1));
         let to_px = |x: f64, y: f64| -> (i64, i64) {
@@ -172,7 +174,6 @@ impl LinePlot {
             (px.round() as i64, py.round() as i64)
         };
         // Grid, ticks and their labels.
-        let xticks = tick_labels(x0, x1, 6);
         for (i, t) in xticks.iter().enumerate() {
             let px = left + pw * i as i64 / (xticks.len() - 1) as i64;
             line(&mut img, (px, top), (px, bottom), GRID, 1);
@@ -206,7 +207,7 @@ impl LinePlot {
             s,
             BLACK,
         );
-        draw_text(&mut img, 4, top - gh - 4, &self.y_label, s, BLACK);
+        draw_text(&mut img, 4, gh + 10, &self.y_label, s, BLACK);
         // Series.
         for series in &self.series {
             let color = PALETTE[series.color % PALETTE.len()];
@@ -229,7 +230,7 @@ impl LinePlot {
                 prev = Some(p);
             }
         }
-        // Legend, upper right inside the plot.
+        // Legend, lower right inside the plot (where a pressure-volume curve rarely goes).
         let entries: Vec<&PlotSeries> =
             self.series.iter().filter(|s| !s.label.is_empty()).collect();
         if !entries.is_empty() {
@@ -240,7 +241,7 @@ impl LinePlot {
                 .unwrap_or(0) as i64
                 + 36;
             let lh = entries.len() as i64 * (gh + 6) + 6;
-            let (lx, ly) = (right - lw - 8, top + 8);
+            let (lx, ly) = (right - lw - 8, bottom - lh - 8);
             img.fill_rect(lx, ly, lw, lh, WHITE);
             for (a, b) in [
                 ((lx, ly), (lx + lw, ly)),
