@@ -478,7 +478,9 @@ fn gas_law_potentials_and_slopes_match_finite_differences() {
     let mut leak = LeakyGas::try_new(1.2e5 * 2e-3, pa, 3e-4).unwrap();
     leak.time = 0.5;
     let supply = SupplyPump::try_new(pa * 2e-3, 400.0, 1.1e5).unwrap();
-    let models: Vec<(&str, Gas, Vec<(f64, f64)>)> = vec![
+    // (name, gas, (volume, time) points)
+    type Case = (&'static str, Gas, Vec<(f64, f64)>);
+    let models: Vec<Case> = vec![
         (
             "adiabatic",
             Polytropic::try_new(1.2e5, 2e-3, 1.4).unwrap().into(),
