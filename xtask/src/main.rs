@@ -3,8 +3,9 @@
 //! * `cargo xtask ci`: format check, clippy with warnings denied, docs with warnings denied, the
 //!   whole test suite, and every criterion bench once in test mode. `.ci/run` calls exactly this.
 //! * `cargo xtask validate [--quick] [--meshes DIR]`: every validation case (analytic sphere,
-//!   thickness scaling, gas law, pressure equilibrium, volume projection, volumetric bodies,
-//!   two-layer integrators, real meshes); prints a table, writes `docs/validation.md` and
+//!   thickness scaling, gas law, pressure equilibrium, volume projection, membrane limit points
+//!   against the analytic thin sphere, volumetric bodies, two-layer integrators, real meshes);
+//!   prints a table, writes `docs/validation.md` and
 //!   `docs/figures/*.png`, exits non-zero when a case fails. Runs itself in release.
 //! * `cargo xtask bench [--quick] [--meshes DIR] [--update-docs]`: the paper's Table 1 for a
 //!   folder of meshes and every linear solver, plus cost-vs-size of the volumetric and two-layer
