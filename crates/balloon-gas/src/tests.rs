@@ -403,8 +403,36 @@ fn gas_kind_parses_and_round_trips() {
         let back: Gas = serde_json::from_str(&serde_json::to_string(&g).unwrap()).unwrap();
         assert_eq!(back, g);
     }
+    let law = GasLawParams {
+        gamma: 1.3,
+        leak_conductance: Some(1e-4),
+        supply_pressure: Some(800.0),
+    };
+    for (s, k) in [
+        ("polytropic", GasKind::Polytropic),
+        ("leak", GasKind::Leak),
+        ("supply-pump", GasKind::SupplyPump),
+    ] {
+        assert_eq!(s.parse::<GasKind>().unwrap(), k);
+        assert_eq!(k.to_string(), s);
+        assert_eq!(serde_json::to_string(&k).unwrap(), format!("\"{s}\""));
+        let g = Gas::try_from_kind_with(k, 0.01, 1000.0, STANDARD_ATMOSPHERE, 5.0, &law).unwrap();
+        assert_eq!(g.kind(), k);
+        let back: Gas = serde_json::from_str(&serde_json::to_string(&g).unwrap()).unwrap();
+        assert_eq!(back, g);
+        // Built at the rest volume: the given gauge pressure (the supply pump: ambient).
+        let gauge = g.absolute_pressure(0.01, 0.0) - STANDARD_ATMOSPHERE;
+        let expected = if k == GasKind::SupplyPump {
+            0.0
+        } else {
+            1000.0
+        };
+        assert!((gauge - expected).abs() < 1e-9, "{s}: {gauge}");
+    }
+    assert_eq!("adiabatic".parse::<GasKind>().unwrap(), GasKind::Polytropic);
     let e = "helium".parse::<GasKind>().unwrap_err();
     assert!(e.to_string().contains("helium"));
+    assert!(e.to_string().contains("supply-pump"));
 }
 
 #[test]
