@@ -5,8 +5,9 @@
 //!   every criterion bench once in test mode; with `CI` set, a missing `../shared/meshes` fails
 //!   it. `.ci/run` calls exactly this.
 //! * `cargo xtask validate [--quick] [--meshes DIR]`: every validation case (analytic sphere,
-//!   thickness scaling, gas law, pressure equilibrium, volume projection, volumetric bodies,
-//!   two-layer integrators, real meshes); prints a table, writes `docs/validation.md` and
+//!   thickness scaling, gas law, pressure equilibrium, volume projection, membrane limit points
+//!   against the analytic thin sphere, volumetric bodies, two-layer integrators, real meshes);
+//!   prints a table, writes `docs/validation.md` and
 //!   `docs/figures/*.png`, exits non-zero when a case fails. Runs itself in release.
 //! * `cargo xtask bench [--quick] [--meshes DIR] [--update-docs]`: the paper's Table 1 for a
 //!   folder of meshes and every linear solver, plus cost-vs-size of the volumetric and two-layer
@@ -56,7 +57,7 @@ enum Task {
         /// Do not write docs/validation.md and the figures (only print the table).
         #[arg(long)]
         no_write: bool,
-        /// Run one group only (shell, volumetric, two-layer, meshes); writes nothing.
+        /// Run one group only (shell, membrane, volumetric, two-layer, meshes); writes nothing.
         #[arg(long)]
         only: Option<String>,
     },

@@ -50,11 +50,15 @@ pub struct InflateArgs {
           value_parser = real(Open(0.0), Closed(1.0)))]
     pub thickness: f64,
     /// Gas model: `pump` (ambient air added at --pump-rate from the rest shape: the process of
-    /// inflating), `ideal` (isothermal, fixed amount, Eq. 12-14) or `constant` (fixed pressure).
+    /// inflating), `ideal` (isothermal, fixed amount, Eq. 12-14), `constant` (fixed pressure),
+    /// `polytropic` (--gamma), `leak` (--leak-conductance) or `supply-pump` (--supply-pressure).
     /// The paper's model is `--gas ideal --ambient 0`. With --static also `volume` (a given
     /// enclosed volume, --volume-ratio / --volume-ratios; the pressure is reported).
     #[arg(long, value_enum, default_value_t = GasArg::Pump)]
     pub gas: GasArg,
+    /// Parameters of `--gas polytropic|leak|supply-pump`.
+    #[command(flatten)]
+    pub gas_law: crate::cmd_static::GasLawArgs,
     /// Gauge pressure, Pa: initial for `ideal`, fixed for `constant`, unused by `pump`; in
     /// [-1e7, 1e7] (100 bar: far beyond what any inflatable shell holds).
     #[arg(long, default_value_t = shell::DEFAULT_GAUGE_PRESSURE, allow_hyphen_values = true,
@@ -510,6 +514,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
         .with_gas(args.gas.kind())
         .with_gauge_pressure(args.pressure)
         .with_ambient_pressure(args.ambient)
+        .with_gas_law(args.gas_law.params(args.gas)?)
         .with_follower_term(args.follower_term)
         .with_integrator(integrator)
         .with_projection(projection)

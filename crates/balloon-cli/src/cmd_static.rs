@@ -1,9 +1,10 @@
 //! `balloon inflate --static`: the rest shape solved directly (`ShellSimulation::solve_static`),
-//! for one load or along a volume continuation (`--gas volume --volume-ratios START:END:STEP`).
+//! for one load or along a volume continuation (`--gas volume --volume-ratios START:END:STEP`),
+//! whose pressure-volume curve is drawn into `pressure_volume.png` of the output folder.
 
 use crate::cmd_inflate::{InflateArgs, shell_frame};
 use crate::output::{OutputDir, print_json_line};
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use balloon::shell::ShellMaterial;
 use balloon::shell::ShellSimulation;
 use balloon::shell::statics::{StaticControl, StaticOptions, StaticReport};
@@ -20,6 +21,13 @@ pub enum GasArg {
     Ideal,
     /// A fixed pressure.
     Constant,
+    /// Polytropic (adiabatic) gas, `p V^gamma` constant (--gamma, default 1.4), starting at
+    /// --pressure.
+    Polytropic,
+    /// Ideal gas at --pressure leaking to ambient through --leak-conductance.
+    Leak,
+    /// A pump at --pump-rate that stops at --supply-pressure.
+    SupplyPump,
     /// A given enclosed volume (--static only; --volume-ratio or --volume-ratios): the pressure
     /// is its Lagrange multiplier.
     Volume,
@@ -34,6 +42,9 @@ impl GasArg {
             Self::Pump => GasKind::Pump,
             Self::Ideal => GasKind::Ideal,
             Self::Constant | Self::Volume => GasKind::Constant,
+            Self::Polytropic => GasKind::Polytropic,
+            Self::Leak => GasKind::Leak,
+            Self::SupplyPump => GasKind::SupplyPump,
         }
     }
 }
@@ -45,7 +56,76 @@ impl std::fmt::Display for GasArg {
             Self::Ideal => "ideal",
             Self::Constant => "constant",
             Self::Volume => "volume",
+            Self::Polytropic => "polytropic",
+            Self::Leak => "leak",
+            Self::SupplyPump => "supply-pump",
         })
+    }
+}
+
+/// The flags of the gas laws beyond the isothermal ones (`balloon_gas::laws`), checked against
+/// `--gas` by [`GasLawArgs::params`].
+#[derive(Clone, Debug, Default, clap::Args)]
+pub struct GasLawArgs {
+    /// Polytropic exponent of `--gas polytropic`, `p V^gamma` constant (> 0; 1.4 adiabatic
+    /// air, 1 isothermal) [default: 1.4].
+    #[arg(long, allow_hyphen_values = true)]
+    pub gamma: Option<f64>,
+    /// Leak conductance of `--gas leak`, m^3/s (>= 0): the gas content nRT flows out at
+    /// C (p - p_ambient) J/s, so a rigid balloon of volume V loses its gauge pressure as
+    /// exp(-C t / V).
+    #[arg(long, allow_hyphen_values = true)]
+    pub leak_conductance: Option<f64>,
+    /// Gauge supply pressure of `--gas supply-pump`, Pa (> 0): the pump adds --pump-rate until
+    /// the balloon reaches it, then stops.
+    #[arg(long, allow_hyphen_values = true)]
+    pub supply_pressure: Option<f64>,
+}
+
+impl GasLawArgs {
+    /// The gas-law parameters for `gas`: each flag only with its gas, the required ones present,
+    /// every value in range; an error names the flag and its value.
+    pub fn params(&self, gas: GasArg) -> Result<balloon::gas::GasLawParams> {
+        let mut law = balloon::gas::GasLawParams::default();
+        let flags = [
+            ("--gamma", self.gamma, GasArg::Polytropic),
+            ("--leak-conductance", self.leak_conductance, GasArg::Leak),
+            (
+                "--supply-pressure",
+                self.supply_pressure,
+                GasArg::SupplyPump,
+            ),
+        ];
+        for (flag, value, owner) in flags {
+            if let Some(v) = value
+                && gas != owner
+            {
+                bail!("{flag} {v} is a parameter of --gas {owner}, but --gas is {gas}");
+            }
+        }
+        if let Some(g) = self.gamma {
+            if !(g.is_finite() && g > 0.0) {
+                bail!("invalid --gamma {g}: the polytropic exponent must be positive and finite");
+            }
+            law.gamma = g;
+        }
+        match (gas, self.leak_conductance) {
+            (GasArg::Leak, None) => bail!("--gas leak needs --leak-conductance C (m^3/s)"),
+            (_, Some(c)) if !(c.is_finite() && c >= 0.0) => {
+                bail!("invalid --leak-conductance {c}: must be a finite conductance >= 0 m^3/s")
+            }
+            (_, c) => law.leak_conductance = c,
+        }
+        match (gas, self.supply_pressure) {
+            (GasArg::SupplyPump, None) => {
+                bail!("--gas supply-pump needs --supply-pressure P (gauge, Pa)")
+            }
+            (_, Some(p)) if !(p.is_finite() && p > 0.0) => {
+                bail!("invalid --supply-pressure {p}: the gauge supply pressure must be positive")
+            }
+            (_, p) => law.supply_pressure = p,
+        }
+        Ok(law)
     }
 }
 
@@ -214,6 +294,8 @@ pub fn run<M: ShellMaterial>(
     }
     let mut failure = None;
     let mut interrupted = None;
+    // (V / V0, gauge pressure) of every converged point, for the pressure-volume plot.
+    let mut curve = Vec::new();
     for (i, ratio) in ratios.iter().enumerate() {
         if let Some(sig) = crate::interrupt::pending() {
             interrupted = Some(sig);
@@ -237,6 +319,10 @@ pub fn run<M: ShellMaterial>(
                 summary.min_area_stretch = report.min_area_stretch;
                 summary.max_area_stretch = report.max_area_stretch;
                 summary.solve_ms += report.solve_ms;
+                curve.push((
+                    report.gas_volume / summary.initial_gas_volume,
+                    report.gauge_pressure,
+                ));
                 if let Some(o) = &mut out {
                     o.append_stats(&StaticPoint::new(i, *ratio, &report))?;
                     if ratios.len() > 1 {
@@ -260,6 +346,12 @@ pub fn run<M: ShellMaterial>(
     summary.final_thickness_max = th.iter().copied().fold(0.0, f64::max);
     summary.error = failure.as_ref().map(|e| e.to_string());
     summary.interrupted = interrupted.is_some();
+    if let Some(o) = &mut out
+        && ratios.len() > 1
+        && curve.len() > 1
+    {
+        write_pressure_volume_plot(o, &args.mesh, &curve)?;
+    }
     if let Some(o) = &mut out {
         let last = shell_frame(sim, summary.points.max(1))?;
         o.write_named_frame("final", &last)?;
@@ -306,6 +398,26 @@ pub fn run<M: ShellMaterial>(
             None => Ok(()),
         },
     }
+}
+
+/// Writes `pressure_volume.png` into the output folder: the gauge pressure over the volume
+/// ratio of a `--volume-ratios` continuation (one marker per converged point).
+fn write_pressure_volume_plot(out: &OutputDir, mesh: &str, curve: &[(f64, f64)]) -> Result<()> {
+    use balloon_render::plot::{LinePlot, PlotSeries};
+    let plot = LinePlot::new(
+        format!("pressure-volume curve of {mesh} (volume control)"),
+        "gas volume V / V0",
+        "gauge pressure (Pa)",
+    )
+    .with_series(PlotSeries::line_points(
+        format!("{} static points", curve.len()),
+        curve.to_vec(),
+        0,
+    ));
+    let path = out.path().join("pressure_volume.png");
+    plot.render(960, 640)
+        .and_then(|img| img.write_png(&path))
+        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 #[cfg(test)]

@@ -61,6 +61,8 @@ pub enum GasError {
         expected: usize,
     },
     /// A gas kind name could not be parsed.
-    #[error("unknown gas kind `{0}`; expected one of \"ideal\", \"constant\", \"pump\"")]
+    #[error(
+        "unknown gas kind `{0}`; expected one of \"ideal\", \"constant\", \"pump\", \"polytropic\", \"leak\", \"supply-pump\""
+    )]
     UnknownKind(String),
 }

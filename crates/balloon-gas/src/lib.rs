@@ -19,6 +19,12 @@
 //! | [`IdealGas`] | `p0 V0 / V` (Eq. 14) | `-p0 V0 / V^2` | `-p0 V0 ln V` |
 //! | [`ConstantPressure`] | `p` | `0` | `-p V` |
 //! | [`Pump`] | `(nRT_0 + rate t) / V` | `-nRT(t) / V^2` | `-nRT(t) ln V` |
+//! | [`Polytropic`] | `p0 (V0 / V)^gamma` | `-gamma p / V` | `p0 V0 (V0/V)^(gamma-1) / (gamma-1)` |
+//! | [`LeakyGas`] | `(N0 + tau C p_a) / (V + tau C)` | `-p / (V + tau C)` | `-(N0 + tau C p_a) ln(V + tau C)` |
+//! | [`SupplyPump`] | `min((N0 + rate tau) / V, p_s)`, never below `N0 / V` | piecewise | piecewise ([`laws`]) |
+//!
+//! The leak and the supply pump carry a history (`N0` at `t0`, `tau = t - t0`), committed by
+//! [`GasModel::end_step`] after every accepted step.
 //!
 //! The ambient pressure defaults to [`STANDARD_ATMOSPHERE`] (101 325 Pa).
 //!
@@ -40,6 +46,7 @@
 //! ```
 
 mod error;
+pub mod laws;
 pub mod layer;
 mod load;
 mod model;
@@ -47,8 +54,11 @@ mod pressure_field;
 mod volume;
 
 pub use error::GasError;
+pub use laws::{LeakyGas, Polytropic, SupplyPump};
 pub use load::{GasState, PressureLoad};
-pub use model::{ConstantPressure, Gas, GasKind, GasModel, IdealGas, Pump, STANDARD_ATMOSPHERE};
+pub use model::{
+    ConstantPressure, Gas, GasKind, GasLawParams, GasModel, IdealGas, Pump, STANDARD_ATMOSPHERE,
+};
 pub use pressure_field::vertex_pressure_forces;
 pub use volume::{
     add_volume_hessian_product, add_volume_hessian_triplets, check_surface, enclosed_volume,

@@ -403,8 +403,36 @@ fn gas_kind_parses_and_round_trips() {
         let back: Gas = serde_json::from_str(&serde_json::to_string(&g).unwrap()).unwrap();
         assert_eq!(back, g);
     }
+    let law = GasLawParams {
+        gamma: 1.3,
+        leak_conductance: Some(1e-4),
+        supply_pressure: Some(800.0),
+    };
+    for (s, k) in [
+        ("polytropic", GasKind::Polytropic),
+        ("leak", GasKind::Leak),
+        ("supply-pump", GasKind::SupplyPump),
+    ] {
+        assert_eq!(s.parse::<GasKind>().unwrap(), k);
+        assert_eq!(k.to_string(), s);
+        assert_eq!(serde_json::to_string(&k).unwrap(), format!("\"{s}\""));
+        let g = Gas::try_from_kind_with(k, 0.01, 1000.0, STANDARD_ATMOSPHERE, 5.0, &law).unwrap();
+        assert_eq!(g.kind(), k);
+        let back: Gas = serde_json::from_str(&serde_json::to_string(&g).unwrap()).unwrap();
+        assert_eq!(back, g);
+        // Built at the rest volume: the given gauge pressure (the supply pump: ambient).
+        let gauge = g.absolute_pressure(0.01, 0.0) - STANDARD_ATMOSPHERE;
+        let expected = if k == GasKind::SupplyPump {
+            0.0
+        } else {
+            1000.0
+        };
+        assert!((gauge - expected).abs() < 1e-9, "{s}: {gauge}");
+    }
+    assert_eq!("adiabatic".parse::<GasKind>().unwrap(), GasKind::Polytropic);
     let e = "helium".parse::<GasKind>().unwrap_err();
     assert!(e.to_string().contains("helium"));
+    assert!(e.to_string().contains("supply-pump"));
 }
 
 #[test]
@@ -468,4 +496,215 @@ fn real_meshes_have_no_net_pressure_force_or_torque() {
             "{name}: {fd} vs {an}"
         );
     }
+}
+
+/// The gas laws of `laws` (polytropic, leak, supply pump) in every regime, by central differences
+/// in `V`: `-dPhi/dV = p` (the potential) and `dp/dV` (the rank-1 tangent's coefficient).
+#[test]
+fn gas_law_potentials_and_slopes_match_finite_differences() {
+    let pa = STANDARD_ATMOSPHERE;
+    let mut leak = LeakyGas::try_new(1.2e5 * 2e-3, pa, 3e-4).unwrap();
+    leak.time = 0.5;
+    let supply = SupplyPump::try_new(pa * 2e-3, 400.0, 1.1e5).unwrap();
+    // (name, gas, (volume, time) points)
+    type Case = (&'static str, Gas, Vec<(f64, f64)>);
+    let models: Vec<Case> = vec![
+        (
+            "adiabatic",
+            Polytropic::try_new(1.2e5, 2e-3, 1.4).unwrap().into(),
+            vec![(5e-4, 0.0), (2e-3, 1.0), (1e-2, 2.0)],
+        ),
+        (
+            "isothermal polytropic",
+            Polytropic::try_new(1.2e5, 2e-3, 1.0).unwrap().into(),
+            vec![(5e-4, 0.0), (3e-3, 1.0)],
+        ),
+        (
+            "polytropic 1.67",
+            Polytropic::try_new(1.2e5, 2e-3, 5.0 / 3.0).unwrap().into(),
+            vec![(1e-3, 0.0), (4e-3, 1.0)],
+        ),
+        (
+            "leak",
+            leak.into(),
+            vec![(1e-3, 0.5), (2e-3, 0.7), (4e-3, 3.0)],
+        ),
+        // V1 = N0 / p_s = 1.842e-3, V2 = (N0 + 400 t) / p_s: stopped below V1, at the supply
+        // pressure between, the full rate above V2.
+        (
+            "supply pump",
+            supply.into(),
+            vec![
+                (1.0e-3, 0.1),
+                (1.9e-3, 0.5),
+                (2.0e-3, 0.5),
+                (3.0e-3, 0.1),
+                (5e-3, 1.0),
+            ],
+        ),
+    ];
+    for (name, gas, points) in models {
+        for (volume, time) in points {
+            let h = 1e-6 * volume;
+            let phi = |v: f64| gas.potential(v, time).expect("a potential");
+            let p = |v: f64| gas.absolute_pressure(v, time);
+            let fd = -(phi(volume + h) - phi(volume - h)) / (2.0 * h);
+            assert!(
+                (fd - p(volume)).abs() <= 1e-7 * p(volume),
+                "{name} V = {volume} t = {time}: -dPhi/dV = {fd} vs p = {}",
+                p(volume)
+            );
+            let slope = (p(volume + h) - p(volume - h)) / (2.0 * h);
+            let an = gas.dpressure_dvolume(volume, time);
+            assert!(
+                (slope - an).abs() <= 1e-6 * (an.abs() + 1e-3 * p(volume) / volume),
+                "{name} V = {volume} t = {time}: dp/dV = {an} vs {slope}"
+            );
+        }
+    }
+    // The supply pump's potential is continuous across its regimes.
+    let (n0, ps) = (supply.amount, supply.supply_pressure);
+    for edge in [n0 / ps, (n0 + 400.0 * 0.5) / ps] {
+        let a = supply.potential(edge * (1.0 - 1e-12), 0.5).unwrap();
+        let b = supply.potential(edge * (1.0 + 1e-12), 0.5).unwrap();
+        assert!(
+            (a - b).abs() <= 1e-6 * a.abs(),
+            "jump at {edge}: {a} vs {b}"
+        );
+    }
+}
+
+/// On a surface: the load's forces are minus the gradient of its potential (gauge pressure
+/// times `dV/dx`), and its differential (rank-1 term from `dp/dV` plus the follower term) is the
+/// forces' derivative, for every new law.
+#[test]
+fn gas_law_forces_and_tangents_on_a_surface_match_finite_differences() {
+    let (x, t) = lumpy(23);
+    let v0 = enclosed_volume(&x, &t).unwrap();
+    let pa = STANDARD_ATMOSPHERE;
+    let law = GasLawParams {
+        gamma: 1.4,
+        leak_conductance: Some(2e-4),
+        supply_pressure: Some(1500.0),
+    };
+    for kind in [GasKind::Polytropic, GasKind::Leak, GasKind::SupplyPump] {
+        // Built at 0.9 V0, so the surface is compressed (polytropic, leak) or above where the
+        // pump would stop.
+        let gas = Gas::try_from_kind_with(kind, 0.9 * v0, 2500.0, pa, 50.0, &law).unwrap();
+        assert_eq!(gas.kind(), kind);
+        let time = 0.3;
+        let load = PressureLoad::new(gas).with_follower_term(true);
+        let energy = |x: &[f64]| load.potential_at(time, x, &t).unwrap().unwrap();
+        let forces = |x: &[f64]| {
+            let mut l = load.clone();
+            let mut f = vec![0.0; x.len()];
+            l.evaluate(time, x, &t, &mut f).unwrap();
+            f
+        };
+        check_gradient(
+            energy,
+            |x| forces(x).iter().map(|v| -v).collect(),
+            &x,
+            1e-6,
+            1e-6,
+        );
+        let mut evaluated = load.clone();
+        let mut scratch = vec![0.0; x.len()];
+        evaluated.evaluate(time, &x, &t, &mut scratch).unwrap();
+        check_jacobian(
+            forces,
+            |x, dx| {
+                let mut df = vec![0.0; x.len()];
+                evaluated.add_differential(x, &t, dx, &mut df).unwrap();
+                df
+            },
+            &x,
+            1e-6,
+            1e-6,
+            5,
+        );
+    }
+    // Missing parameters are named.
+    for (kind, name) in [
+        (GasKind::Leak, "leak_conductance"),
+        (GasKind::SupplyPump, "supply_pressure"),
+    ] {
+        let e = Gas::try_from_kind(kind, v0, 1000.0, pa, 1.0).unwrap_err();
+        assert!(e.to_string().contains(name), "{e}");
+    }
+    let bad = GasLawParams { gamma: -1.0, ..law };
+    let e = Gas::try_from_kind_with(GasKind::Polytropic, v0, 0.0, pa, 0.0, &bad).unwrap_err();
+    assert!(e.to_string().contains("gamma"), "{e}");
+    assert!(LeakyGas::try_new(1.0, pa, -1.0).is_err());
+    assert!(SupplyPump::try_new(1.0, 1.0, 0.0).is_err());
+}
+
+/// The laws behave physically over a run of committed steps at a prescribed volume history:
+/// adiabatic `p V^gamma` is conserved, a leak's gauge pressure decays (exponentially at a fixed
+/// volume, rate `C / V`), a supply pump stops at its supply pressure.
+#[test]
+fn gas_laws_behave_physically_over_committed_steps() {
+    let pa = STANDARD_ATMOSPHERE;
+    // Adiabatic: any volume path.
+    let mut air = Gas::from(Polytropic::try_new(1.3e5, 1e-3, 1.4).unwrap());
+    let k = 1.3e5 * 1e-3f64.powf(1.4);
+    for (i, v) in [1e-3, 1.4e-3, 0.8e-3, 2.5e-3].iter().enumerate() {
+        let time = 0.1 * i as f64;
+        let p = air.absolute_pressure(*v, time);
+        assert!((p * v.powf(1.4) / k - 1.0).abs() < 1e-12);
+        air.end_step(*v, time);
+    }
+    // Leak at a fixed volume: backward Euler of dN/dt = -C (N/V - p_a), converging to the
+    // exponential as dt -> 0.
+    let (v, c, gauge0) = (2e-3, 1e-4, 3000.0);
+    let decay = |dt: f64| {
+        let mut leak = Gas::from(LeakyGas::try_new((pa + gauge0) * v, pa, c).unwrap());
+        let steps = (1.0 / dt).round() as usize;
+        let mut last = gauge0;
+        for s in 1..=steps {
+            let time = s as f64 * dt;
+            let g = leak.absolute_pressure(v, time) - pa;
+            assert!(
+                g < last && g > 0.0,
+                "the gauge pressure decays monotonically"
+            );
+            last = g;
+            leak.end_step(v, time);
+        }
+        last
+    };
+    let exact = gauge0 * (-c / v * 1.0).exp();
+    let coarse = decay(0.1);
+    let fine = decay(0.001);
+    assert!((fine / exact - 1.0).abs() < 1e-3, "{fine} vs {exact}");
+    assert!((fine - exact).abs() < 0.05 * (coarse - exact).abs());
+    // Supply pump into a volume that grows slowly: the pressure rises and stops at the supply
+    // pressure, then stays there (topping up as the volume grows).
+    let supply_gauge = 2000.0;
+    let mut pump = Gas::from(SupplyPump::try_new(pa * 1e-3, 20.0, pa + supply_gauge).unwrap());
+    let mut reached = None;
+    for s in 1..=200 {
+        let time = 0.05 * s as f64;
+        let v = 1e-3 * (1.0 + 1e-3 * time);
+        let p = pump.absolute_pressure(v, time);
+        assert!(p <= pa + supply_gauge + 1e-9);
+        if reached.is_none() && p >= pa + supply_gauge - 1e-9 {
+            reached = Some(time);
+        }
+        if reached.is_some() {
+            assert!((p - pa - supply_gauge).abs() < 1e-9, "stays at the supply");
+        }
+        pump.end_step(v, time);
+    }
+    let t_reach = reached.expect("reaches the supply pressure");
+    // Filling 1e-3 m^3 from ambient to +2000 Pa at 20 J/s takes about 2000e-3 / 20 = 0.1 s.
+    assert!(t_reach > 0.09 && t_reach < 0.2, "{t_reach}");
+    // Squeezed above the supply pressure, it neither pumps nor vents: Boyle's law.
+    let Gas::SupplyPump(sp) = pump else {
+        unreachable!()
+    };
+    let v_end = 1e-3 * (1.0 + 1e-3 * 10.0);
+    let p = sp.absolute_pressure(0.9 * v_end, 10.5);
+    assert!((p * 0.9 * v_end - sp.amount).abs() < 1e-9 * sp.amount);
+    assert!(sp.stopped(0.9 * v_end, 10.5));
 }

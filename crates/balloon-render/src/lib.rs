@@ -6,7 +6,8 @@
 //! optional per-vertex scalar colour map ([`ColorMap`], perceptual, viridis-like) with a legend
 //! bar and numeric labels drawn in a built-in bitmap font ([`font`]), an optional title; PNG
 //! output ([`Image::write_png`]); animated GIF output ([`GifWriter`], median-cut palette per
-//! frame); and POV-Ray scene export ([`pov::scene`], the paper's own rendering pipeline).
+//! frame); POV-Ray scene export ([`pov::scene`], the paper's own rendering pipeline); and small
+//! line charts ([`plot::LinePlot`], e.g. a pressure-volume curve) in the same font.
 //!
 //! **Not for:** interactive display (see `balloon-viewer`) or computing the fields themselves
 //! (see `balloon_mesh::fields`; this crate only uses its vertex normals).
@@ -36,6 +37,7 @@ mod error;
 pub mod font;
 mod gif_out;
 mod image;
+pub mod plot;
 pub mod pov;
 mod raster;
 

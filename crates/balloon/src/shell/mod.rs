@@ -124,7 +124,8 @@ pub use system::ShellSystem;
 use balloon_constraint::projector::{ShellProjectionInput, ShellProjector};
 use balloon_constraint::shell_volume::{ShellVolumeParams, ShellVolumeProjection, shell_volume};
 use balloon_gas::{
-    ConstantPressure, Gas, GasKind, GasModel, IdealGas, PressureLoad, STANDARD_ATMOSPHERE,
+    ConstantPressure, Gas, GasKind, GasLawParams, GasModel, IdealGas, PressureLoad,
+    STANDARD_ATMOSPHERE,
 };
 use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
 use balloon_integrate::linear::{LinearSolverKind, PcgPreconditioner};
@@ -297,6 +298,7 @@ pub struct ShellBalloon<M: ShellMaterial = MaterialModel, G: ShellGas = GasKind>
     gauge_pressure: f64,
     ambient_pressure: f64,
     pump_rate: PumpRate,
+    gas_law: GasLawParams,
     follower_term: bool,
     integrator: BackwardEulerParams,
     projector: Option<Box<dyn ShellProjector>>,
@@ -326,6 +328,8 @@ pub struct GasSetup {
     pub ambient_pressure: f64,
     /// Pump rate as gas content, `p_ambient * rate`, J/s of `nRT`.
     pub pump_rate_joules: f64,
+    /// Parameters of the polytropic, leaking and supply-pump gases.
+    pub gas_law: GasLawParams,
 }
 
 impl ShellGas for GasKind {
@@ -338,13 +342,16 @@ impl ShellGas for GasKind {
         Ok(match self {
             GasKind::Ideal => Gas::Ideal(IdealGas::try_new(p_abs, s.rest_volume)?),
             GasKind::Constant => Gas::Constant(ConstantPressure::try_new(p_abs)?),
-            GasKind::Pump => Gas::try_from_kind(
-                GasKind::Pump,
-                s.rest_volume,
-                s.gauge_pressure,
-                s.ambient_pressure,
-                s.pump_rate_joules,
-            )?,
+            GasKind::Pump | GasKind::Polytropic | GasKind::Leak | GasKind::SupplyPump => {
+                Gas::try_from_kind_with(
+                    self,
+                    s.rest_volume,
+                    s.gauge_pressure,
+                    s.ambient_pressure,
+                    s.pump_rate_joules,
+                    &s.gas_law,
+                )?
+            }
         })
     }
 }
@@ -462,6 +469,7 @@ impl ShellBalloon<MaterialModel> {
             gauge_pressure: DEFAULT_GAUGE_PRESSURE,
             ambient_pressure: STANDARD_ATMOSPHERE,
             pump_rate: PumpRate::RestVolumesPerSecond(DEFAULT_PUMP_VOLUMES_PER_SECOND),
+            gas_law: GasLawParams::default(),
             follower_term: false,
             integrator,
             projector: Some(Box::new(ShellVolumeProjection::new(
@@ -489,6 +497,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             gauge_pressure,
             ambient_pressure,
             pump_rate,
+            gas_law,
             follower_term,
             integrator,
             projector,
@@ -506,6 +515,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             gauge_pressure,
             ambient_pressure,
             pump_rate,
+            gas_law,
             follower_term,
             integrator,
             projector,
@@ -573,6 +583,14 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
     /// is `volumes_per_second` times the enclosed rest volume, m^3/s of ambient air.
     pub fn with_relative_pump_rate(mut self, volumes_per_second: f64) -> Self {
         self.pump_rate = PumpRate::RestVolumesPerSecond(volumes_per_second);
+        self
+    }
+    /// The parameters of the polytropic ([`GasKind::Polytropic`]: `gamma`), leaking
+    /// ([`GasKind::Leak`]: the conductance) and supply-pump ([`GasKind::SupplyPump`]: the gauge
+    /// supply pressure; it pumps at [`ShellBalloon::with_pump_rate`]) gases
+    /// (`balloon_gas::laws`).
+    pub fn with_gas_law(mut self, law: GasLawParams) -> Self {
+        self.gas_law = law;
         self
     }
     /// Includes the area-normal (follower) term of the pressure tangent (the paper neglects it).
@@ -716,6 +734,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             gauge_pressure: self.gauge_pressure,
             ambient_pressure: self.ambient_pressure,
             pump_rate_joules: self.pump_rate.resolve(rest_gas_volume) * self.ambient_pressure,
+            gas_law: self.gas_law,
         })?;
         let load = PressureLoad::new(gas)
             .with_ambient_pressure(self.ambient_pressure)?
@@ -877,6 +896,9 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         let mut totals = StepTotals::default();
         self.advance(step, time, dt, &mut totals)?;
         self.time = time + dt;
+        // A gas with a history (a leak, a supply pump) keeps the amount the step reached.
+        let end_volume = self.gas_volume;
+        self.system.gas.gas_mut().end_step(end_volume, self.time);
         self.step += 1;
         let gas = self.system.gas.state();
         let max_speed = self
@@ -1268,8 +1290,10 @@ impl<M: ShellMaterial> ShellSimulation<M, Gas> {
     /// Changes the gas while the simulation runs (the pressure control of the live viewer):
     /// for a constant-pressure gas the held gauge pressure becomes `gauge` (Pa); for the ideal
     /// gas the amount `nRT = p0 V0` (Eq. 12, 14) is set so that the gas would have gauge pressure
-    /// `gauge` at the rest volume, `nRT = (p_ambient + gauge) V_rest`; for the pump it is an
-    /// error (use [`ShellSimulation::set_pump_rate`]). The absolute pressure must stay positive.
+    /// `gauge` at the rest volume, `nRT = (p_ambient + gauge) V_rest` (likewise the polytropic
+    /// invariant and the leaking gas's amount, which then leaks from now on); for the supply
+    /// pump it is the supply pressure; for the pump it is an error (use
+    /// [`ShellSimulation::set_pump_rate`]). The absolute pressure must stay positive.
     pub fn set_gauge_pressure(&mut self, gauge: f64) -> Result<(), ShellError> {
         let ambient = self.system.gas.ambient_pressure();
         let p_abs = ambient + gauge;
@@ -1284,6 +1308,14 @@ impl<M: ShellMaterial> ShellSimulation<M, Gas> {
         match self.system.gas.gas_mut() {
             Gas::Constant(c) => c.pressure = p_abs,
             Gas::Ideal(g) => g.initial_pressure = p_abs * rest_volume / g.initial_volume,
+            Gas::Polytropic(g) => {
+                g.initial_pressure = p_abs * (rest_volume / g.initial_volume).powf(g.gamma);
+            }
+            Gas::Leak(g) => {
+                g.amount = p_abs * rest_volume;
+                g.time = self.time;
+            }
+            Gas::SupplyPump(g) => g.supply_pressure = p_abs,
             Gas::Pump(_) => {
                 return Err(ShellError::InvalidParameter {
                     name: "pressure",

@@ -15,9 +15,13 @@
 //!   Eq. 16-17, solved by Sherman-Morrison like any gas), followed by the multiplier update
 //!   `lambda <- lambda - rho (V - V_t)`. `rho` starts at 100 times the shell's own volume
 //!   stiffness along `dV/dx` (`g^T K g / |g|^4` at the start shape), so the multiplier gains
-//!   about two digits per update; it grows tenfold when an update gains less than one. The
-//!   reported pressure is `lambda` at the converged volume. Past a pressure maximum (a limit
-//!   point of the membrane) this control stays on the branch, where pressure control snaps.
+//!   about two digits per update; it grows tenfold when an update gains less than one.
+//!   `lambda` starts at the gauge pressure that balances the elastic forces of the start shape
+//!   (`-f_e . g / |g|^2`): along a continuation the previous point's pressure, so the first
+//!   inner solve starts on the branch (the target volume is then reached by load continuation
+//!   from the start volume). The reported pressure is `lambda` at the converged volume. Past a
+//!   pressure maximum (a limit point of the membrane) this control stays on the branch, where
+//!   pressure control snaps (`docs/membranes.md` section 9).
 //!
 //! The pressure tangent includes the follower term `-(p - p_ambient) d^2V/dx^2` by default, so
 //! the Hessian is exact and Newton converges quadratically (the shift absorbs its
@@ -457,9 +461,10 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                         reason: "the target gas volume must be positive".into(),
                     });
                 }
+                let (stiffness, balance) = self.volume_stiffness(time, &x)?;
                 GasTerm::Volume {
-                    lambda: self.system.gas.state().gauge_pressure,
-                    rho: 100.0 * self.volume_stiffness(time, &x)?,
+                    lambda: balance,
+                    rho: 100.0 * stiffness,
                     start: start_volume,
                     target,
                 }
@@ -563,8 +568,11 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     }
 
     /// The shell's volume stiffness along `g = dV/dx` at `x`, `g^T K g / |g|^4` (Pa/m^3), a
-    /// positive floor when the shape has none.
-    fn volume_stiffness(&mut self, time: f64, x: &[f64]) -> Result<f64, ShellError> {
+    /// positive floor when the shape has none; and the gauge pressure that balances the elastic
+    /// forces `f_e` at `x` best in the least-squares sense, `-f_e . g / |g|^2` (Pa): at a
+    /// previous equilibrium (the last point of a continuation) it is that point's pressure, so
+    /// the multiplier starts where the branch is, at rest it is 0.
+    fn volume_stiffness(&mut self, time: f64, x: &[f64]) -> Result<(f64, f64), ShellError> {
         let n = x.len();
         let mut f = vec![0.0; n];
         self.system
@@ -577,18 +585,23 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 },
             })?;
         let g = self.system.gas.low_rank_term().vector.clone();
+        // `f` holds the gas force `gauge * g` too (Eq. 15); remove it.
+        let inner_gauge = self.system.gas.state().gauge_pressure;
+        let fg: f64 = f.iter().zip(&g).map(|(a, b)| a * b).sum();
         let mut df = vec![0.0; n];
         self.system.add_elastic_differential(&g, &mut df);
         let gg: f64 = g.iter().map(|v| v * v).sum();
         let gkg: f64 = -g.iter().zip(&df).map(|(a, b)| a * b).sum::<f64>();
         let v = self.system.gas.state().volume;
         let k = gkg / (gg * gg);
+        let balance = -(fg - inner_gauge * gg) / gg;
         // Floor: 1 Pa per 1% of the volume.
-        Ok(if k.is_finite() && k > 0.0 {
+        let k = if k.is_finite() && k > 0.0 {
             k
         } else {
             100.0 / v
-        })
+        };
+        Ok((k, if balance.is_finite() { balance } else { 0.0 }))
     }
 
     fn finish_static(&mut self, x: Vec<f64>, report: &mut StaticReport, started: Instant) {
