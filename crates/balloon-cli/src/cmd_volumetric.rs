@@ -14,13 +14,17 @@ use crate::output::{
 use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result};
 use balloon::volumetric::{
-    MassModel, StepStats, VolumetricBody, VolumetricParams, VolumetricScene, VolumetricSimulation,
+    MassModel, StepStats, VolumetricBody, VolumetricError, VolumetricParams, VolumetricScene,
+    VolumetricSimulation,
 };
 use balloon::{SimulationError, SimulationStats};
 use balloon_constraint::cell_volume::{
     CellCentre, CellCorrection, CellSolver, CellVolumeParams, SpringParams,
 };
-use balloon_mesh::lattice::{Lattice, LatticeParams};
+use balloon_mesh::TriMesh;
+use balloon_mesh::lattice::{
+    DEFAULT_TARGET_CELLS, Lattice, LatticeError, LatticeParams, SizingParams, size_lattice,
+};
 use balloon_render::UpAxis;
 use nalgebra::{Point3, Vector3};
 use serde::Serialize;
@@ -146,9 +150,14 @@ pub struct VolumetricArgs {
 /// Flags of the soup -> lattice generator (seed 003, Sec. 3).
 #[derive(Debug, clap::Args)]
 pub struct LatticeArgs {
-    /// Voxels along the longest side of the bounding box.
-    #[arg(long, default_value_t = 24)]
-    pub resolution: usize,
+    /// Voxels along the longest side of the bounding box. Default: chosen for `--cells`.
+    #[arg(long, conflicts_with = "cells")]
+    pub resolution: Option<usize>,
+    /// Size the lattice for about this many cells (the resolution is searched so that the body
+    /// has 0.8 to 1.25 times as many, raised further while a thin part of the model lies outside
+    /// the lattice). Default 1000 when `--resolution` is not given.
+    #[arg(long)]
+    pub cells: Option<usize>,
     /// Voxels along one side of a lattice cell.
     #[arg(long, default_value_t = 3)]
     pub voxels_per_cell: usize,
@@ -187,6 +196,11 @@ pub struct Summary {
     pub scene: String,
     /// Lattice cells.
     pub cells: usize,
+    /// Lattice resolution used (voxels along the longest side).
+    pub resolution: usize,
+    /// Largest distance of a model vertex outside the rest lattice, in cell sizes (how well the
+    /// thinnest part is resolved; the drawn surface is extrapolated that far).
+    pub surface_gap_cells: f64,
     /// Tetrahedra.
     pub tetrahedra: usize,
     /// Particles (lattice vertices).
@@ -244,6 +258,7 @@ fn surface_frame(sim: &VolumetricSimulation, rest: &[f64], step: usize) -> Resul
 /// (`--lattice-frames`), the summary's running maxima and the summary (none after a failure).
 struct VolumetricHooks<'a> {
     args: &'a VolumetricArgs,
+    soup: TriMesh,
     rest_soup: Vec<f64>,
     lattice: Lattice,
     p0: Vector3<f64>,
@@ -297,6 +312,9 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
             mesh: args.mesh.clone(),
             scene: format!("{:?}", args.scene),
             cells: self.lattice.cells.len(),
+            resolution: sim.body().params.lattice.resolution,
+            surface_gap_cells: balloon_mesh::lattice::surface_gap(&self.soup, &self.lattice)
+                / self.lattice.info.cell_size,
             tetrahedra: self.lattice.tet_mesh.tets.len(),
             particles: self.lattice.tet_mesh.vertices.len(),
             steps: sim.steps(),
@@ -351,6 +369,36 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
     }
 }
 
+/// The body at `--resolution`, or sized for `--cells` (default [`DEFAULT_TARGET_CELLS`]). A
+/// resolution that leaves no interior is reported with the resolution the sizing would choose.
+fn build_body(
+    soup: &TriMesh,
+    params: VolumetricParams,
+    lattice: &LatticeArgs,
+) -> Result<VolumetricBody> {
+    const CONTEXT: &str = "cannot build the volumetric body";
+    let Some(resolution) = lattice.resolution else {
+        let sizing = SizingParams::for_cells(lattice.cells.unwrap_or(DEFAULT_TARGET_CELLS));
+        let (body, _) = VolumetricBody::build_sized(soup, params, &sizing).context(CONTEXT)?;
+        return Ok(body);
+    };
+    match VolumetricBody::build(soup, params.clone()) {
+        Ok(body) => Ok(body),
+        Err(VolumetricError::Lattice(e @ LatticeError::NoInterior { .. })) => {
+            let hint = match size_lattice(soup, &params.lattice, &SizingParams::default()) {
+                Ok((_, s)) => format!(
+                    "resolution {resolution} leaves no cell; --resolution {} gives {} cells \
+                     (or leave --resolution out to size the lattice for --cells)",
+                    s.resolution, s.cells
+                ),
+                Err(e) => format!("no resolution gives a body either: {e}"),
+            };
+            Err(anyhow::Error::new(e).context(hint).context(CONTEXT))
+        }
+        Err(e) => Err(anyhow::Error::new(e).context(CONTEXT)),
+    }
+}
+
 /// Runs the subcommand.
 pub fn run(args: VolumetricArgs) -> Result<()> {
     let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
@@ -365,7 +413,10 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
     soup.scale(args.scale);
     let params = VolumetricParams {
         lattice: LatticeParams {
-            resolution: args.lattice.resolution,
+            resolution: args
+                .lattice
+                .resolution
+                .unwrap_or(LatticeParams::default().resolution),
             voxels_per_cell: args.lattice.voxels_per_cell,
             rays: args.lattice.rays,
             band_voxels: args.lattice.band_voxels,
@@ -410,7 +461,7 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
         ..VolumetricParams::default()
     };
     let t0 = Instant::now();
-    let body = VolumetricBody::build(&soup, params).context("cannot build the volumetric body")?;
+    let body = build_body(&soup, params, &args.lattice)?;
     let lattice_ms = t0.elapsed().as_secs_f64() * 1e3;
     let m_particle = body.mass() / body.masses.len() as f64;
     let edge = args
@@ -490,6 +541,7 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
     };
     let mut hooks = VolumetricHooks {
         args: &args,
+        soup: soup.clone(),
         rest_soup,
         lattice,
         p0: sim.momentum(),

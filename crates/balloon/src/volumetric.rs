@@ -39,7 +39,9 @@ use balloon_constraint::cell_volume::{
 };
 use balloon_constraint::impulse::{ImpulseModel, ImpulseParams, ImpulseState, ImpulseStepper};
 use balloon_constraint::rigid::{Plane, RigidSphere};
-use balloon_mesh::lattice::{Lattice, LatticeError, LatticeParams, build_lattice};
+use balloon_mesh::lattice::{
+    Lattice, LatticeError, LatticeParams, Sizing, SizingParams, build_lattice, size_lattice,
+};
 use balloon_mesh::{TetMesh, TriMesh};
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -244,6 +246,32 @@ impl VolumetricBody {
         params.validate()?;
         let lattice = build_lattice(soup, &params.lattice)?;
         Self::from_lattice(lattice, params)
+    }
+
+    /// Generates the lattice of `soup` at the resolution that gives about `sizing.target_cells`
+    /// cells with every part of the soup resolved ([`balloon_mesh::lattice::size_lattice`];
+    /// `params.lattice.resolution` is replaced by the one chosen), and sets up the body. Returns
+    /// how the resolution was chosen too.
+    ///
+    /// ```
+    /// use balloon::volumetric::{VolumetricBody, VolumetricParams};
+    /// use balloon_mesh::{generate::torus, lattice::SizingParams};
+    /// let soup = torus(1.0, 0.25, 48, 16).unwrap();
+    /// let (body, sizing) =
+    ///     VolumetricBody::build_sized(&soup, VolumetricParams::default(), &SizingParams::for_cells(300))
+    ///         .unwrap();
+    /// assert_eq!(body.lattice.cells.len(), sizing.cells);
+    /// assert_eq!(body.params.lattice.resolution, sizing.resolution);
+    /// ```
+    pub fn build_sized(
+        soup: &TriMesh,
+        mut params: VolumetricParams,
+        sizing: &SizingParams,
+    ) -> Result<(Self, Sizing), VolumetricError> {
+        params.validate()?;
+        let (lattice, chosen) = size_lattice(soup, &params.lattice, sizing)?;
+        params.lattice.resolution = chosen.resolution;
+        Ok((Self::from_lattice(lattice, params)?, chosen))
     }
 
     /// Sets up a body on an existing lattice.

@@ -176,3 +176,55 @@ fn global_volume_solver_conserves_cells_in_few_iterations_on_a_real_soup() {
         "{err}"
     );
 }
+
+/// The default lattice is sized for about 1000 cells (0.8 to 1.25 times), on the built-in teddy
+/// and on real models at their natural size (the bunny is 0.15 m, the torus 2.5 m across); a
+/// resolution that leaves nothing names one that works.
+#[test]
+fn default_lattice_is_sized_for_a_thousand_cells_on_any_model() {
+    let mut models = vec!["builtin".to_string(), "builtin:torus".to_string()];
+    if let Some(dir) = crate::shared_meshes_dir() {
+        for f in ["torus.obj", "bunny_closed_libigl.off"] {
+            models.push(dir.join(f).to_string_lossy().into_owned());
+        }
+    }
+    for m in &models {
+        let o = run_balloon(&["volumetric", m, "--steps", "0", "--json"]);
+        assert!(
+            o.status.success(),
+            "{m}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let j = last_json_line(&o);
+        let cells = j["cells"].as_u64().unwrap();
+        assert!((800..=1250).contains(&cells), "{m}: {cells} cells");
+        assert!(j["resolution"].as_u64().unwrap() > 24, "{m}: {j}");
+    }
+    // `--cells` overrides the target.
+    let o = run_balloon(&[
+        "volumetric",
+        "builtin",
+        "--cells",
+        "300",
+        "--steps",
+        "0",
+        "--json",
+    ]);
+    let cells = last_json_line(&o)["cells"].as_u64().unwrap();
+    assert!((240..=375).contains(&cells), "{cells}");
+    // A resolution too coarse for the model says which one would work.
+    let o = run_balloon(&[
+        "volumetric",
+        "builtin:torus",
+        "--resolution",
+        "6",
+        "--steps",
+        "0",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("resolution 6 leaves no cell; --resolution ") && err.contains("cells"),
+        "{err}"
+    );
+}
