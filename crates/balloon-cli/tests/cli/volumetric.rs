@@ -15,6 +15,8 @@ fn json_summary_has_every_key_and_volume_is_conserved() {
         "2",
         "--steps",
         "20",
+        "--dt",
+        "5e-4",
         "--frame-every",
         "10",
         "--soft-diagonals",
@@ -32,12 +34,23 @@ fn json_summary_has_every_key_and_volume_is_conserved() {
         "max_cell_volume_error",
         "total_volume_ratio",
         "momentum_drift",
+        "angular_momentum_drift",
+        "external_impulse",
+        "momentum_balance",
+        "resolution",
         "step_halvings",
         "mean_step_ms",
     ] {
         assert!(j.get(key).is_some(), "missing key {key} in {j}");
     }
     assert_eq!(j["steps"], 20);
+    // Gravity and the floor act: no drift is claimed, the balance with their impulse is given.
+    assert!(j["momentum_drift"].is_null(), "{j}");
+    let weight_impulse = j["mass"].as_f64().unwrap() * 9.81 * 20.0 * 5e-4;
+    assert!(
+        j["momentum_balance"].as_f64().unwrap() < 1e-9 * weight_impulse,
+        "{j}"
+    );
     assert_eq!(
         j["tetrahedra"].as_u64().unwrap(),
         5 * j["cells"].as_u64().unwrap()
