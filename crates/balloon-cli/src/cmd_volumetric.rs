@@ -15,13 +15,17 @@ use crate::params::{End::Closed, End::Open, MAX_STEPS, count, real};
 use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result};
 use balloon::volumetric::{
-    MassModel, StepStats, VolumetricBody, VolumetricParams, VolumetricScene, VolumetricSimulation,
+    MassModel, StepStats, VolumetricBody, VolumetricError, VolumetricParams, VolumetricScene,
+    VolumetricSimulation,
 };
 use balloon::{SimulationError, SimulationStats};
 use balloon_constraint::cell_volume::{
     CellCentre, CellCorrection, CellSolver, CellVolumeParams, SpringParams,
 };
-use balloon_mesh::lattice::{Lattice, LatticeParams};
+use balloon_mesh::TriMesh;
+use balloon_mesh::lattice::{
+    DEFAULT_TARGET_CELLS, Lattice, LatticeError, LatticeParams, SizingParams, size_lattice,
+};
 use balloon_render::UpAxis;
 use nalgebra::{Point3, Vector3};
 use serde::Serialize;
@@ -116,15 +120,18 @@ pub struct VolumetricArgs {
     /// one it supports).
     #[arg(long, value_enum)]
     pub correction: Option<Correction>,
-    /// Cell-volume solver: `gauss-seidel` (the paper's sweeps; sweeps grow with the lattice) or
-    /// `global` (Newton on all cells at once with a sparse Cholesky solve: a few iterations at
-    /// any size).
-    #[arg(long, value_enum, default_value_t = VolumeSolver::GaussSeidel)]
+    /// Cell-volume solver: `global` (the default: Newton on all cells at once with a sparse
+    /// Cholesky solve, a few iterations at any size) or `gauss-seidel` (the paper's sweeps; the
+    /// sweeps grow with the lattice: at the default ~1000 cells they do not reach the 1e-10
+    /// tolerance within 500 sweeps on the teddy by step 62, where the global solver runs the
+    /// default 600 steps in 6.9 s).
+    #[arg(long, value_enum, default_value_t = VolumeSolver::Global)]
     pub volume_solver: VolumeSolver,
-    /// Time step (s), in (0, 0.1]: the explicit spring update is stable only for steps far
-    /// below a tenth of a second (the default is 5e-4 s).
-    #[arg(long, default_value_t = 5e-4, value_parser = real(Open(0.0), Closed(0.1)))]
-    pub dt: f64,
+    /// Time step (s), in (0, 0.1]. Default: the step at which the body with the default springs
+    /// sags by about 2 % under its weight (`VolumetricBody::sag_limited_dt`), at most 5e-4 s:
+    /// about 1.5e-4 s for the 0.15 m bunny at 1000 cells, 5e-4 s for a 1 m body.
+    #[arg(long, value_parser = real(Open(0.0), Closed(0.1)))]
+    pub dt: Option<f64>,
     /// Number of steps, 0 to 1e8.
     #[arg(long, default_value_t = 600, value_parser = count(0, MAX_STEPS))]
     pub steps: usize,
@@ -162,9 +169,14 @@ const MAX_RESOLUTION: usize = 200;
 pub struct LatticeArgs {
     /// Voxels along the longest side of the bounding box, 4 to 200: the voxel grid holds up to
     /// resolution^3 voxels (at 200 the teddy's lattice took 3.8 s and 140 MB; 400 took 26 s
-    /// and 920 MB).
-    #[arg(long, default_value_t = 24, value_parser = count(4, MAX_RESOLUTION))]
-    pub resolution: usize,
+    /// and 920 MB). Default: chosen for `--cells`.
+    #[arg(long, conflicts_with = "cells", value_parser = count(4, MAX_RESOLUTION))]
+    pub resolution: Option<usize>,
+    /// Size the lattice for about this many cells, 1 to 100000 (the resolution is searched so
+    /// that the body has 0.8 to 1.25 times as many, raised further while a thin part of the
+    /// model lies outside the lattice). Default 1000 when `--resolution` is not given.
+    #[arg(long, value_parser = count(1, 100_000))]
+    pub cells: Option<usize>,
     /// Voxels along one side of a lattice cell, 1 to 200 (at most --resolution).
     #[arg(long, default_value_t = 3, value_parser = count(1, MAX_RESOLUTION))]
     pub voxels_per_cell: usize,
@@ -204,6 +216,11 @@ pub struct Summary {
     pub scene: String,
     /// Lattice cells.
     pub cells: usize,
+    /// Lattice resolution used (voxels along the longest side).
+    pub resolution: usize,
+    /// Largest distance of a model vertex outside the rest lattice, in cell sizes (how well the
+    /// thinnest part is resolved; the drawn surface is extrapolated that far).
+    pub surface_gap_cells: f64,
     /// Tetrahedra.
     pub tetrahedra: usize,
     /// Particles (lattice vertices).
@@ -214,9 +231,19 @@ pub struct Summary {
     pub max_cell_volume_error: f64,
     /// Final total volume over rest volume.
     pub total_volume_ratio: f64,
-    /// |P_end - P_0 - t M g| (kg m/s): momentum change not explained by gravity (zero without
-    /// static planes, up to round-off).
-    pub momentum_drift: f64,
+    /// |P_end - P_0| (kg m/s) of particles and sphere, reported only when no external force
+    /// acts (free scene, zero gravity); `null` otherwise, where momentum is not conserved and
+    /// `momentum_balance` is the figure to read.
+    pub momentum_drift: Option<f64>,
+    /// |L_end - L_0| (kg m^2/s) about the origin, only when no external force acts (as
+    /// `momentum_drift`).
+    pub angular_momentum_drift: Option<f64>,
+    /// Sum of the impulses from outside the body and sphere over the run (N s): gravity,
+    /// external forces and the floor's contacts.
+    pub external_impulse: [f64; 3],
+    /// |P_end - P_0 - external_impulse| (kg m/s): the momentum change not explained by the
+    /// impulses from outside (round-off when the internal impulses conserve momentum).
+    pub momentum_balance: f64,
     /// Step halvings (inversions avoided).
     pub step_halvings: u64,
     /// Cell-volume solver: `gauss-seidel` or `global`.
@@ -261,10 +288,12 @@ fn surface_frame(sim: &VolumetricSimulation, rest: &[f64], step: usize) -> Resul
 /// (`--lattice-frames`), the summary's running maxima and the summary (none after a failure).
 struct VolumetricHooks<'a> {
     args: &'a VolumetricArgs,
+    soup: TriMesh,
     rest_soup: Vec<f64>,
     lattice: Lattice,
     p0: Vector3<f64>,
-    total_mass: f64,
+    l0: Vector3<f64>,
+    impulse: Vector3<f64>,
     lattice_ms: f64,
     stiffness: [f64; 2],
     max_err: f64,
@@ -287,6 +316,7 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
         regular: bool,
     ) -> Result<bool> {
         let d = &stats.detail;
+        self.impulse += Vector3::from(d.external_impulse);
         self.max_err = self.max_err.max(d.max_cell_volume_error);
         self.total_sweeps += d.sweeps;
         self.max_strain = self.max_strain.max(d.max_strain);
@@ -306,11 +336,14 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
 
     fn summary(&self, sim: &VolumetricSimulation, run: &RunRecord<StepStats>) -> Summary {
         let args = self.args;
-        let gravity_impulse = Vector3::new(0.0, 0.0, args.gravity) * (self.total_mass * sim.time());
+        let isolated = args.gravity == 0.0 && args.scene == SceneArg::Free;
         Summary {
             mesh: args.mesh.clone(),
             scene: format!("{:?}", args.scene),
             cells: self.lattice.cells.len(),
+            resolution: sim.body().params.lattice.resolution,
+            surface_gap_cells: balloon_mesh::lattice::surface_gap(&self.soup, &self.lattice)
+                / self.lattice.info.cell_size,
             tetrahedra: self.lattice.tet_mesh.tets.len(),
             particles: self.lattice.tet_mesh.vertices.len(),
             steps: run.steps,
@@ -319,7 +352,10 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
                 .last
                 .as_ref()
                 .map_or(1.0, |s| s.detail.total_volume_ratio),
-            momentum_drift: (sim.momentum() - self.p0 - gravity_impulse).norm(),
+            momentum_drift: isolated.then(|| (sim.momentum() - self.p0).norm()),
+            angular_momentum_drift: isolated.then(|| (sim.angular_momentum() - self.l0).norm()),
+            external_impulse: self.impulse.into(),
+            momentum_balance: (sim.momentum() - self.p0 - self.impulse).norm(),
             step_halvings: sim.total_halvings(),
             volume_solver: match args.volume_solver {
                 VolumeSolver::GaussSeidel => "gauss-seidel".into(),
@@ -371,6 +407,43 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
     }
 }
 
+/// Largest default time step (s).
+const MAX_DT: f64 = 5e-4;
+/// Default edge stiffness relative to `m / dt^2` (explicit springs stay stable well below 1).
+const EDGE_STIFFNESS: f64 = 1.0 / 50.0;
+/// Sag under the body's weight that the default time step allows.
+const SAG_STRAIN: f64 = 0.02;
+
+/// The body at `--resolution`, or sized for `--cells` (default [`DEFAULT_TARGET_CELLS`]). A
+/// resolution that leaves no interior is reported with the resolution the sizing would choose.
+fn build_body(
+    soup: &TriMesh,
+    params: VolumetricParams,
+    lattice: &LatticeArgs,
+) -> Result<VolumetricBody> {
+    const CONTEXT: &str = "cannot build the volumetric body";
+    let Some(resolution) = lattice.resolution else {
+        let sizing = SizingParams::for_cells(lattice.cells.unwrap_or(DEFAULT_TARGET_CELLS));
+        let (body, _) = VolumetricBody::build_sized(soup, params, &sizing).context(CONTEXT)?;
+        return Ok(body);
+    };
+    match VolumetricBody::build(soup, params.clone()) {
+        Ok(body) => Ok(body),
+        Err(VolumetricError::Lattice(e @ LatticeError::NoInterior { .. })) => {
+            let hint = match size_lattice(soup, &params.lattice, &SizingParams::default()) {
+                Ok((_, s)) => format!(
+                    "resolution {resolution} leaves no cell; --resolution {} gives {} cells \
+                     (or leave --resolution out to size the lattice for --cells)",
+                    s.resolution, s.cells
+                ),
+                Err(e) => format!("no resolution gives a body either: {e}"),
+            };
+            Err(anyhow::Error::new(e).context(hint).context(CONTEXT))
+        }
+        Err(e) => Err(anyhow::Error::new(e).context(CONTEXT)),
+    }
+}
+
 /// Runs the subcommand.
 pub fn run(args: VolumetricArgs) -> Result<()> {
     let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
@@ -388,7 +461,10 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
     soup.scale(args.scale);
     let params = VolumetricParams {
         lattice: LatticeParams {
-            resolution: args.lattice.resolution,
+            resolution: args
+                .lattice
+                .resolution
+                .unwrap_or(LatticeParams::default().resolution),
             voxels_per_cell: args.lattice.voxels_per_cell,
             rays: args.lattice.rays,
             band_voxels: args.lattice.band_voxels,
@@ -428,23 +504,27 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
             MassModel::Equal
         },
         gravity: [0.0, 0.0, args.gravity],
-        dt: args.dt,
+        dt: args.dt.unwrap_or(MAX_DT),
         restitution: args.restitution,
         ..VolumetricParams::default()
     };
     let t0 = Instant::now();
-    let body = VolumetricBody::build(&soup, params).context("cannot build the volumetric body")?;
+    let mut body = build_body(&soup, params, &args.lattice)?;
     let lattice_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let dt = args
+        .dt
+        .unwrap_or_else(|| body.sag_limited_dt(EDGE_STIFFNESS, SAG_STRAIN, args.gravity, MAX_DT));
+    body.params.dt = dt;
     let m_particle = body.mass() / body.masses.len() as f64;
     let edge = args
         .edge_stiffness
-        .unwrap_or(m_particle / (50.0 * args.dt * args.dt));
+        .unwrap_or(EDGE_STIFFNESS * m_particle / (dt * dt));
     let diagonal = args.diagonal_stiffness.unwrap_or(if args.soft_diagonals {
         edge / 20.0
     } else {
         edge
     });
-    let damping = args.damping.unwrap_or(m_particle / (1000.0 * args.dt));
+    let damping = args.damping.unwrap_or(m_particle / (1000.0 * dt));
     let diagonal_damping = args.diagonal_damping.unwrap_or(if args.soft_diagonals {
         damping / 2.0
     } else {
@@ -502,7 +582,6 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
         )?;
         out.write_named_mesh("input_soup", &soup)?;
     }
-    let total_mass: f64 = sim.masses().iter().sum::<f64>() + sim.sphere().map_or(0.0, |s| s.mass);
     let plan = RunPlan {
         steps: args.steps,
         frames: FramePolicy {
@@ -513,10 +592,12 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
     };
     let mut hooks = VolumetricHooks {
         args: &args,
+        soup: soup.clone(),
         rest_soup,
         lattice,
         p0: sim.momentum(),
-        total_mass,
+        l0: sim.angular_momentum(),
+        impulse: Vector3::zeros(),
         lattice_ms,
         stiffness: [edge, diagonal],
         max_err: 0.0,

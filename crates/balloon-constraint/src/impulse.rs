@@ -128,6 +128,12 @@ pub struct ImpulseStepInfo {
     pub sweeps: usize,
     /// Active contacts (summed over sub-steps and rounds).
     pub contacts: usize,
+    /// Impulse (N s) that acted from outside the particles and the sphere during the step:
+    /// gravity `h g (sum m + M)`, the external forces `h sum F` and the contact impulses of the
+    /// static planes (measured as the momentum change of their contact passes). Everything
+    /// else (springs, volume impulses with momentum-conserving centres, sphere-particle
+    /// contacts) is internal, so the momentum changes by exactly this much up to round-off.
+    pub external_impulse: [f64; 3],
 }
 
 /// The stepper: scratch buffers and the caches of the global cell-volume solve, kept from step
@@ -216,6 +222,9 @@ impl ImpulseStepper {
         info: &mut ImpulseStepInfo,
     ) -> Result<(), ConstraintError> {
         let g = Vector3::from(params.gravity);
+        let total_mass = model.masses.iter().sum::<f64>() + state.sphere.map_or(0.0, |s| s.mass);
+        let mut external =
+            g * (h * total_mass) + model.external.iter().fold(Vector3::zeros(), |a, f| a + f) * h;
         // 1. External forces: gravity and cell springs (Eq. 1).
         self.forces.clear();
         self.forces.resize(state.positions.len(), Vector3::zeros());
@@ -242,12 +251,16 @@ impl ImpulseStepper {
         let tight = params.tolerance;
         for round in 0..params.contact_iterations {
             let mut contacts = 0;
+            let before = (!model.planes.is_empty()).then(|| momentum(model.masses, state));
             for plane in model.planes {
                 contacts +=
                     plane_particle_contacts(plane, &state.positions, &mut state.velocities, h, e);
                 if let Some(s) = &mut state.sphere {
                     contacts += usize::from(plane_sphere_contact(plane, s, h, e));
                 }
+            }
+            if let Some(before) = before {
+                external += momentum(model.masses, state) - before;
             }
             if let Some(s) = &mut state.sphere {
                 contacts += sphere_particle_contacts(
@@ -289,8 +302,21 @@ impl ImpulseStepper {
         if let Some(s) = &mut state.sphere {
             s.position += s.velocity * h;
         }
+        for (acc, x) in info.external_impulse.iter_mut().zip(external.iter()) {
+            *acc += x;
+        }
         Ok(())
     }
+}
+
+/// Momentum of the particles and the sphere (kg m/s).
+fn momentum(masses: &[f64], state: &ImpulseState) -> Vector3<f64> {
+    let p = state
+        .velocities
+        .iter()
+        .zip(masses)
+        .fold(Vector3::zeros(), |a, (v, m)| a + v * *m);
+    p + state.sphere.map_or(Vector3::zeros(), |s| s.momentum())
 }
 
 #[cfg(test)]

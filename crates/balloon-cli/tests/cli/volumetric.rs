@@ -15,6 +15,8 @@ fn json_summary_has_every_key_and_volume_is_conserved() {
         "2",
         "--steps",
         "20",
+        "--dt",
+        "5e-4",
         "--frame-every",
         "10",
         "--soft-diagonals",
@@ -32,12 +34,23 @@ fn json_summary_has_every_key_and_volume_is_conserved() {
         "max_cell_volume_error",
         "total_volume_ratio",
         "momentum_drift",
+        "angular_momentum_drift",
+        "external_impulse",
+        "momentum_balance",
+        "resolution",
         "step_halvings",
         "mean_step_ms",
     ] {
         assert!(j.get(key).is_some(), "missing key {key} in {j}");
     }
     assert_eq!(j["steps"], 20);
+    // Gravity and the floor act: no drift is claimed, the balance with their impulse is given.
+    assert!(j["momentum_drift"].is_null(), "{j}");
+    let weight_impulse = j["mass"].as_f64().unwrap() * 9.81 * 20.0 * 5e-4;
+    assert!(
+        j["momentum_balance"].as_f64().unwrap() < 1e-9 * weight_impulse,
+        "{j}"
+    );
     assert_eq!(
         j["tetrahedra"].as_u64().unwrap(),
         5 * j["cells"].as_u64().unwrap()
@@ -173,6 +186,58 @@ fn global_volume_solver_conserves_cells_in_few_iterations_on_a_real_soup() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         err.contains("`correction`") && err.contains("gradient"),
+        "{err}"
+    );
+}
+
+/// The default lattice is sized for about 1000 cells (0.8 to 1.25 times), on the built-in teddy
+/// and on real models at their natural size (the bunny is 0.15 m, the torus 2.5 m across); a
+/// resolution that leaves nothing names one that works.
+#[test]
+fn default_lattice_is_sized_for_a_thousand_cells_on_any_model() {
+    let mut models = vec!["builtin".to_string(), "builtin:torus".to_string()];
+    if let Some(dir) = crate::shared_meshes_dir() {
+        for f in ["torus.obj", "bunny_closed_libigl.off"] {
+            models.push(dir.join(f).to_string_lossy().into_owned());
+        }
+    }
+    for m in &models {
+        let o = run_balloon(&["volumetric", m, "--steps", "0", "--json"]);
+        assert!(
+            o.status.success(),
+            "{m}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let j = last_json_line(&o);
+        let cells = j["cells"].as_u64().unwrap();
+        assert!((800..=1250).contains(&cells), "{m}: {cells} cells");
+        assert!(j["resolution"].as_u64().unwrap() > 24, "{m}: {j}");
+    }
+    // `--cells` overrides the target.
+    let o = run_balloon(&[
+        "volumetric",
+        "builtin",
+        "--cells",
+        "300",
+        "--steps",
+        "0",
+        "--json",
+    ]);
+    let cells = last_json_line(&o)["cells"].as_u64().unwrap();
+    assert!((240..=375).contains(&cells), "{cells}");
+    // A resolution too coarse for the model says which one would work.
+    let o = run_balloon(&[
+        "volumetric",
+        "builtin:torus",
+        "--resolution",
+        "6",
+        "--steps",
+        "0",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("resolution 6 leaves no cell; --resolution ") && err.contains("cells"),
         "{err}"
     );
 }

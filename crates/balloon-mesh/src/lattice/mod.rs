@@ -30,7 +30,13 @@
 //!    original surface can be drawn from the deformed lattice ([`Embedding::surface`]).
 
 mod distance;
+mod sizing;
 mod smooth;
+
+pub use sizing::{
+    DEFAULT_TARGET_CELLS, Sizing, SizingParams, SizingTry, part_gap, size_lattice, surface_gap,
+    vertex_gaps,
+};
 
 use crate::parallel::prelude::*;
 use crate::{TetMesh, TriMesh, tet::signed_tet_volume};
@@ -217,7 +223,7 @@ pub enum LatticeError {
     /// No cell passed the pseudo-density threshold: the soup encloses nothing at this resolution
     /// (flat, or too thin). Raise `resolution`, lower `density_threshold` or `p_subs`.
     #[error(
-        "no interior at resolution {resolution}: {inside_voxels} of {voxels} voxels inside, no cell above density {density_threshold}"
+        "no interior at resolution {resolution}: {inside_voxels} of {voxels} voxels inside, no cell above density {density_threshold}; raise `resolution` or size the lattice by cell count (`size_lattice`)"
     )]
     NoInterior {
         /// Voxels along the longest side.
@@ -226,6 +232,17 @@ pub enum LatticeError {
         inside_voxels: usize,
         /// All voxels.
         voxels: usize,
+        /// The threshold used.
+        density_threshold: f64,
+    },
+    /// Even the finest grid allowed ([`MAX_VOXELS`]) keeps no cell: the soup is flat or encloses
+    /// nothing. Lower `density_threshold` or `p_subs`, or check that the soup is a surface.
+    #[error(
+        "no interior at any resolution up to {largest_resolution}: no cell above density {density_threshold}; lower density_threshold or p_subs"
+    )]
+    NoInteriorAtAnyResolution {
+        /// The finest resolution tried (voxels along the longest side).
+        largest_resolution: usize,
         /// The threshold used.
         density_threshold: f64,
     },
