@@ -179,7 +179,7 @@ pub struct InflateArgs {
     /// `stats.jsonl` line (and frame) per point.
     #[arg(long, value_parser = crate::cmd_static::parse_volume_ratios)]
     pub volume_ratios: Option<std::vec::Vec<f64>>,
-    /// The resolved scenario of this run (`crate::cmd_run::record_shell`), written to
+    /// The resolved scenario of this run (`crate::cmd_run::record`), written to
     /// `OUT/scenario.toml`; not a flag.
     #[arg(skip)]
     pub scenario_record: Option<String>,

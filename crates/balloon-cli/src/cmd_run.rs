@@ -1,5 +1,9 @@
 //! `balloon run SCENARIO.toml [FLAGS...]`: a run described by a scenario file.
 //!
+//! `[system] kind` selects the system: `shell` (the default, `balloon inflate`), `volumetric`
+//! (`balloon volumetric`, keys [`VOLUMETRIC_KEYS`]) or `two-layer` (`balloon two-layer`, keys
+//! [`TWO_LAYER_KEYS`]); each system's keys are its command's flags.
+//!
 //! A scenario file holds the flags of a system's command grouped in tables, with the flag names
 //! written with `_` for `-` (`frame_every = 5` is `--frame-every 5`). For the shell (`[system]
 //! kind = "shell"`, the default) the tables are `[mesh]` (`path`, `scale`), `[shell]` (material
@@ -12,13 +16,15 @@
 //! also checked on its own first, so that an unknown key, a wrong type or an out-of-range value
 //! is reported with the file, the line and the key.
 //!
-//! A run with `--out DIR` records itself in `DIR/scenario.toml` ([`record_shell`]): every value
+//! A run with `--out DIR` records itself in `DIR/scenario.toml` ([`record`]): every value
 //! resolved (defaults explicit, the mesh path absolute, the program version), so that
 //! `balloon run DIR/scenario.toml --out DIR2` repeats the run.
 
 use crate::cmd_inflate::InflateArgs;
+use crate::cmd_two_layer::TwoLayerArgs;
+use crate::cmd_volumetric::VolumetricArgs;
 use anyhow::Result;
-use clap::{ArgMatches, CommandFactory, FromArgMatches, Parser};
+use clap::{ArgMatches, CommandFactory, Parser};
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use toml_edit::{Item, Value};
@@ -26,11 +32,13 @@ use toml_edit::{Item, Value};
 /// Arguments of `balloon run`.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
-    /// Scenario file (TOML): tables `[system]`, `[mesh]`, `[shell]`, `[gas]`, `[run]`,
-    /// `[output]` whose keys are the flags of `balloon inflate` with `_` for `-`
-    /// (docs/scenarios.md). Paths in it are relative to the file.
+    /// Scenario file (TOML): `[system] kind` (`shell`, `volumetric` or `two-layer`) and tables
+    /// (for the shell `[mesh]`, `[shell]`, `[gas]`, `[run]`, `[output]`) whose keys are the
+    /// flags of that system's command with `_` for `-` (docs/scenarios.md). Paths in it are
+    /// relative to the file.
     pub scenario: PathBuf,
-    /// Flags of `balloon inflate` that override the file's values (e.g. `--dt 0.005 --out run2`).
+    /// Flags of the system's command that override the file's values (e.g. `--dt 0.005 --out
+    /// run2`).
     #[arg(
         trailing_var_arg = true,
         allow_hyphen_values = true,
@@ -42,10 +50,26 @@ pub struct RunArgs {
 /// The parser of `balloon inflate`'s flags, on their own (the argument list built from a
 /// scenario file is parsed with it).
 #[derive(Debug, Parser)]
-#[command(name = "balloon run", no_binary_name = false)]
+#[command(name = "balloon run")]
 struct ShellCli {
     #[command(flatten)]
     args: InflateArgs,
+}
+
+/// The parser of `balloon volumetric`'s flags, on their own.
+#[derive(Debug, Parser)]
+#[command(name = "balloon run")]
+struct VolumetricCli {
+    #[command(flatten)]
+    args: VolumetricArgs,
+}
+
+/// The parser of `balloon two-layer`'s flags, on their own.
+#[derive(Debug, Parser)]
+#[command(name = "balloon run")]
+struct TwoLayerCli {
+    #[command(flatten)]
+    args: TwoLayerArgs,
 }
 
 /// The TOML type a key takes.
@@ -161,8 +185,141 @@ pub const SHELL_KEYS: &[ScenarioKey] = &[
     k("output", "color_range", "color_range", Text),
 ];
 
+/// Every key of a volumetric scenario (`balloon volumetric`, seed 003).
+pub const VOLUMETRIC_KEYS: &[ScenarioKey] = &[
+    k("mesh", "path", "mesh", PathKind),
+    k("mesh", "scale", "scale", Number),
+    k("lattice", "resolution", "resolution", Number),
+    k("lattice", "cells", "cells", Number),
+    k("lattice", "voxels_per_cell", "voxels_per_cell", Number),
+    k("lattice", "rays", "rays", Number),
+    k("lattice", "band_voxels", "band_voxels", Number),
+    k("lattice", "p_in", "p_in", Number),
+    k("lattice", "p_subs", "p_subs", Number),
+    k("lattice", "density_threshold", "density_threshold", Number),
+    k("lattice", "fill_iterations", "fill_iterations", Number),
+    k(
+        "lattice",
+        "smoothing_iterations",
+        "smoothing_iterations",
+        Number,
+    ),
+    k("lattice", "smoothing_weight", "smoothing_weight", Number),
+    k("body", "soft_diagonals", "soft_diagonals", Bool),
+    k("body", "edge_stiffness", "edge_stiffness", Number),
+    k("body", "diagonal_stiffness", "diagonal_stiffness", Number),
+    k("body", "damping", "damping", Number),
+    k("body", "diagonal_damping", "diagonal_damping", Number),
+    k("body", "density", "density", Number),
+    k("body", "lumped_masses", "lumped_masses", Bool),
+    k("run", "scene", "scene", Text),
+    k("run", "gravity", "gravity", Number),
+    k("run", "restitution", "restitution", Number),
+    k("run", "dt", "dt", Number),
+    k("run", "steps", "steps", Number),
+    k("run", "tolerance", "tolerance", Number),
+    k("run", "over_relaxation", "over_relaxation", Number),
+    k("run", "correction", "correction", Text),
+    k("run", "volume_solver", "volume_solver", Text),
+    unrecorded("output", "out", "out", PathKind),
+    unrecorded("output", "overwrite", "overwrite", Bool),
+    unrecorded("output", "json", "json", Bool),
+    k("output", "format", "format", Text),
+    k("output", "frame_every", "frame_every", Number),
+    k("output", "lattice_frames", "lattice_frames", Bool),
+    k("output", "render", "render", Text),
+    k("output", "color", "color", Text),
+    k("output", "gif", "gif", Bool),
+    k("output", "pov", "pov", Bool),
+    k("output", "image_size", "image_size", Text),
+    k("output", "color_range", "color_range", Text),
+];
+
+/// Every key of a two-layer scenario (`balloon two-layer`, seed 004).
+pub const TWO_LAYER_KEYS: &[ScenarioKey] = &[
+    k("body", "dim", "dim", Number),
+    k("body", "sphere", "sphere", Text),
+    k("body", "level", "level", Number),
+    k("body", "slices", "slices", Number),
+    k("body", "stacks", "stacks", Number),
+    k("body", "particles", "particles", Number),
+    k("body", "length", "length", Number),
+    k("body", "inner_radius", "inner_radius", Number),
+    k("body", "outer_radius", "outer_radius", Number),
+    k("body", "inner_mass", "inner_mass", Number),
+    k("body", "outer_mass", "outer_mass", Number),
+    k("body", "k_structural", "k_structural", Number),
+    k("body", "k_radius", "k_radius", Number),
+    k("body", "k_shear", "k_shear", Number),
+    k("body", "k_shear_left", "k_shear_left", Number),
+    k("body", "k_shear_right", "k_shear_right", Number),
+    k("body", "damping", "damping", Number),
+    k("body", "damping_structural", "damping_structural", Number),
+    k("body", "damping_radius", "damping_radius", Number),
+    k("body", "damping_shear", "damping_shear", Number),
+    k(
+        "body",
+        "valence_normalization",
+        "valence_normalization",
+        Bool,
+    ),
+    k("gas", "pressure", "pressure", Number),
+    k("gas", "inner_pressure", "inner_pressure", Number),
+    k("run", "gravity", "gravity", Number),
+    k("run", "box", "box_size", Number),
+    k("run", "no_box", "no_box", Bool),
+    k("run", "restitution", "restitution", Number),
+    k("run", "integrator", "integrator", Text),
+    k("run", "dt", "dt", Number),
+    k("run", "steps", "steps", Number),
+    k("run", "drag", "drag", Text),
+    k("run", "drag_stiffness", "drag_stiffness", Number),
+    k("run", "drag_damping", "drag_damping", Number),
+    unrecorded("output", "out", "out", PathKind),
+    unrecorded("output", "overwrite", "overwrite", Bool),
+    unrecorded("output", "json", "json", Bool),
+    k("output", "format", "format", Text),
+    k("output", "frame_every", "frame_every", Number),
+    k("output", "render", "render", Text),
+    k("output", "color", "color", Text),
+    k("output", "gif", "gif", Bool),
+    k("output", "pov", "pov", Bool),
+    k("output", "image_size", "image_size", Text),
+    k("output", "color_range", "color_range", Text),
+];
+
+/// A system a scenario can select with `[system] kind`: its keys and its flags' parser.
+#[derive(Clone, Copy)]
+pub struct System {
+    /// The `kind` value (`shell`, `volumetric`, `two-layer`).
+    pub kind: &'static str,
+    /// Its keys.
+    pub keys: &'static [ScenarioKey],
+    /// Its flags' parser.
+    command: fn() -> clap::Command,
+}
+
+/// The shell balloon (`balloon inflate`).
+pub const SHELL: System = System {
+    kind: "shell",
+    keys: SHELL_KEYS,
+    command: ShellCli::command,
+};
+/// The volumetric body (`balloon volumetric`).
+pub const VOLUMETRIC: System = System {
+    kind: "volumetric",
+    keys: VOLUMETRIC_KEYS,
+    command: VolumetricCli::command,
+};
+/// The two-layer body (`balloon two-layer`).
+pub const TWO_LAYER: System = System {
+    kind: "two-layer",
+    keys: TWO_LAYER_KEYS,
+    command: TwoLayerCli::command,
+};
+
 /// The systems a scenario can select with `[system] kind`.
-const SYSTEMS: &[&str] = &["shell"];
+const SYSTEMS: &[System] = &[SHELL, VOLUMETRIC, TWO_LAYER];
 
 /// What is wrong with a scenario file.
 #[derive(Debug, thiserror::Error)]
@@ -338,15 +495,17 @@ fn value_args(
 
 /// The arguments of every key of a shell scenario, each checked on its own against the flags'
 /// parser (so an error names its line and key).
-fn shell_file_args(
+fn file_args(
+    system: &System,
     src: &Source<'_>,
     root: &toml_edit::Table,
     base: &Path,
     given: &[String],
 ) -> Result<Vec<FileArg>, ScenarioError> {
-    let cmd = ShellCli::command();
+    let keys = system.keys;
+    let cmd = (system.command)();
     let tables: Vec<&str> = {
-        let mut t: Vec<&str> = SHELL_KEYS.iter().map(|s| s.table).collect();
+        let mut t: Vec<&str> = keys.iter().map(|s| s.table).collect();
         t.dedup();
         t
     };
@@ -363,20 +522,23 @@ fn shell_file_args(
                 || item.is_inline_table()
             {
                 format!(
-                    "unknown table (a shell scenario has [system], [{}])",
+                    "unknown table (a {} scenario has [system], [{}])",
+                    system.kind,
                     tables.join("], [")
                 )
             } else {
-                "a key outside any table (keys belong in [mesh], [shell], [gas], [run] or [output])"
-                    .to_owned()
+                format!(
+                    "a key outside any table (keys belong in [{}])",
+                    tables.join("], [")
+                )
             };
             return Err(src.key_error(key_span.or_else(|| item.span()), name, message));
         };
         for (key, value) in table.iter() {
             let span = table.key(key).and_then(|k| k.span());
             let full = format!("{name}.{key}");
-            let Some(spec) = SHELL_KEYS.iter().find(|s| s.table == name && s.key == key) else {
-                let known: Vec<&str> = SHELL_KEYS
+            let Some(spec) = keys.iter().find(|s| s.table == name && s.key == key) else {
+                let known: Vec<&str> = keys
                     .iter()
                     .filter(|s| s.table == name)
                     .map(|s| s.key)
@@ -405,7 +567,7 @@ fn shell_file_args(
             let replaced = long.as_ref().is_some_and(|l| given.contains(l));
             let mut alone = vec!["balloon run".to_owned()];
             alone.extend(args.iter().cloned());
-            if let Err(e) = ShellCli::try_parse_from(&alone)
+            if let Err(e) = cmd.clone().try_get_matches_from(&alone)
                 && !replaced
             {
                 return Err(src.key_error(span.clone(), &full, clap_message(&e)));
@@ -427,17 +589,21 @@ fn overridden(overrides: &[String]) -> Vec<String> {
 
 /// The parsed `balloon inflate` arguments of a scenario file and its overrides, with the
 /// argument matches (for the recorded scenario).
-fn parse_shell(
+fn parse<C: Parser>(
+    system: &System,
     path: &Path,
     files: Vec<FileArg>,
     overrides: &[String],
-) -> Result<(InflateArgs, ArgMatches), ScenarioError> {
+) -> Result<(C, ArgMatches), ScenarioError> {
     let given = overridden(overrides);
-    let has_positional = overrides.iter().any(|a| !a.starts_with('-'))
-        && ShellCli::try_parse_from(
-            std::iter::once("balloon run".to_owned()).chain(overrides.iter().cloned()),
-        )
-        .is_ok_and(|c| c.args.mesh != "builtin");
+    // A mesh given on the command line replaces the file's.
+    let has_positional = system.keys.iter().any(|k| k.id == "mesh")
+        && overrides.iter().any(|a| !a.starts_with('-'))
+        && (system.command)()
+            .try_get_matches_from(
+                std::iter::once("balloon run".to_owned()).chain(overrides.iter().cloned()),
+            )
+            .is_ok_and(|m| m.value_source("mesh") == Some(clap::parser::ValueSource::CommandLine));
     let mut argv: Vec<OsString> = vec!["balloon run".into()];
     for f in files {
         let skip = match &f.long {
@@ -453,15 +619,15 @@ fn parse_shell(
         path: path.to_path_buf(),
         message: clap_message(&e),
     };
-    let matches = ShellCli::command()
+    let matches = (system.command)()
         .try_get_matches_from(argv)
         .map_err(fail)?;
-    let cli = ShellCli::from_arg_matches(&matches).map_err(fail)?;
-    Ok((cli.args, matches))
+    let cli = C::from_arg_matches(&matches).map_err(fail)?;
+    Ok((cli, matches))
 }
 
 /// Reads and checks a scenario file: its text, its TOML and its `[system] kind`.
-fn read(path: &Path) -> Result<(String, toml_edit::Document<String>, String), ScenarioError> {
+fn read(path: &Path) -> Result<(String, toml_edit::Document<String>, System), ScenarioError> {
     let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Read {
         path: path.to_path_buf(),
         source,
@@ -475,7 +641,7 @@ fn read(path: &Path) -> Result<(String, toml_edit::Document<String>, String), Sc
         }
     })?;
     let src = Source { path, text: &text };
-    let mut kind = "shell".to_owned();
+    let mut system = SHELL;
     if let Some(item) = doc.as_table().get("system") {
         let span = doc.as_table().key("system").and_then(|k| k.span());
         let table = item.as_table_like().ok_or_else(|| {
@@ -499,14 +665,24 @@ fn read(path: &Path) -> Result<(String, toml_edit::Document<String>, String), Sc
                 ));
             }
             match value.as_str() {
-                Some(s) if SYSTEMS.contains(&s) => kind = s.to_owned(),
+                Some(s) if SYSTEMS.iter().any(|y| y.kind == s) => {
+                    system = SYSTEMS
+                        .iter()
+                        .copied()
+                        .find(|y| y.kind == s)
+                        .unwrap_or(SHELL);
+                }
                 Some(s) => {
                     return Err(src.key_error(
                         span,
                         &full,
                         format!(
-                            "`{s}` is not a system `balloon run` runs (yet): {}; run the other systems with `balloon volumetric` / `balloon two-layer`",
-                            SYSTEMS.join(", ")
+                            "`{s}` is not a system (the systems are {})",
+                            SYSTEMS
+                                .iter()
+                                .map(|y| y.kind)
+                                .collect::<Vec<_>>()
+                                .join(", ")
                         ),
                     ));
                 }
@@ -514,19 +690,60 @@ fn read(path: &Path) -> Result<(String, toml_edit::Document<String>, String), Sc
             }
         }
     }
-    Ok((text, doc, kind))
+    Ok((text, doc, system))
 }
 
 /// The `balloon inflate` arguments of a shell scenario file with command-line overrides; the
-/// arguments carry their recorded scenario ([`record_shell`]).
+/// arguments carry their recorded scenario ([`record`]).
+#[cfg(test)]
 pub fn shell_args(path: &Path, overrides: &[String]) -> Result<InflateArgs, ScenarioError> {
-    let (text, doc, _kind) = read(path)?;
+    match scenario_args(path, overrides)? {
+        SystemArgs::Shell(a) => Ok(*a),
+        _ => Err(ScenarioError::Arguments {
+            path: path.to_path_buf(),
+            message: "not a shell scenario ([system] kind)".to_owned(),
+        }),
+    }
+}
+
+/// The arguments of the command a scenario file runs, with their recorded scenario.
+#[derive(Debug)]
+pub enum SystemArgs {
+    /// `balloon inflate`.
+    Shell(Box<InflateArgs>),
+    /// `balloon volumetric`.
+    Volumetric(Box<VolumetricArgs>),
+    /// `balloon two-layer`.
+    TwoLayer(Box<TwoLayerArgs>),
+}
+
+/// The arguments of a scenario file with command-line overrides, for the system its
+/// `[system] kind` selects; the arguments carry their recorded scenario ([`record`]).
+pub fn scenario_args(path: &Path, overrides: &[String]) -> Result<SystemArgs, ScenarioError> {
+    let (text, doc, system) = read(path)?;
     let src = Source { path, text: &text };
     let base = path.parent().map_or_else(PathBuf::new, Path::to_path_buf);
-    let files = shell_file_args(&src, doc.as_table(), &base, &overridden(overrides))?;
-    let (mut args, matches) = parse_shell(path, files, overrides)?;
-    args.scenario_record = Some(record_shell(&matches));
-    Ok(args)
+    let files = file_args(&system, &src, doc.as_table(), &base, &overridden(overrides))?;
+    Ok(match system.kind {
+        "volumetric" => {
+            let (c, m) = parse::<VolumetricCli>(&system, path, files, overrides)?;
+            let mut a = c.args;
+            a.scenario_record = Some(record(&system, &m));
+            SystemArgs::Volumetric(Box::new(a))
+        }
+        "two-layer" => {
+            let (c, m) = parse::<TwoLayerCli>(&system, path, files, overrides)?;
+            let mut a = c.args;
+            a.scenario_record = Some(record(&system, &m));
+            SystemArgs::TwoLayer(Box::new(a))
+        }
+        _ => {
+            let (c, m) = parse::<ShellCli>(&system, path, files, overrides)?;
+            let mut a = c.args;
+            a.scenario_record = Some(record(&system, &m));
+            SystemArgs::Shell(Box::new(a))
+        }
+    })
 }
 
 /// A string as a TOML basic string.
@@ -547,21 +764,22 @@ fn toml_number(raw: &str) -> String {
     }
 }
 
-/// The recorded scenario of a shell run (`DIR/scenario.toml`): every key of [`SHELL_KEYS`] with
-/// its effective value (given or default), the mesh path absolute, the program version. A flag
+/// The recorded scenario of a run of `system` (`DIR/scenario.toml`): every key with its
+/// effective value (given or default), the mesh path absolute, the program version. A flag
 /// without a value and without a default (e.g. `--pump-rate`, whose default follows the body)
-/// is written as a comment. `matches` are those of `balloon inflate`'s arguments.
-pub fn record_shell(matches: &ArgMatches) -> String {
+/// is written as a comment. `matches` are those of the system command's arguments.
+pub fn record(system: &System, matches: &ArgMatches) -> String {
     let mut s = format!(
         "# The scenario of a `balloon` {} run, every value resolved (defaults explicit).\n\
          # Repeat it with: balloon run scenario.toml --out OTHER_DIR\n\
          # (the output folder, --overwrite and --json are not part of the scenario).\n\n\
-         [system]\nkind = \"shell\"\nversion = {}\n",
+         [system]\nkind = {}\nversion = {}\n",
         env!("CARGO_PKG_VERSION"),
+        toml_string(system.kind),
         toml_string(env!("CARGO_PKG_VERSION")),
     );
     let mut table = "system";
-    for spec in SHELL_KEYS.iter().filter(|s| s.recorded) {
+    for spec in system.keys.iter().filter(|s| s.recorded) {
         if spec.table != table {
             table = spec.table;
             s.push_str(&format!("\n[{table}]\n"));
@@ -604,8 +822,11 @@ pub fn record_shell(matches: &ArgMatches) -> String {
 
 /// Runs `balloon run`.
 pub fn run(args: RunArgs) -> Result<()> {
-    let inflate = shell_args(&args.scenario, &args.overrides)?;
-    crate::cmd_inflate::run(inflate)
+    match scenario_args(&args.scenario, &args.overrides)? {
+        SystemArgs::Shell(a) => crate::cmd_inflate::run(*a),
+        SystemArgs::Volumetric(a) => crate::cmd_volumetric::run(*a),
+        SystemArgs::TwoLayer(a) => crate::cmd_two_layer::run(*a),
+    }
 }
 
 #[cfg(test)]
@@ -613,14 +834,20 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_flag_of_inflate_has_exactly_one_key_of_the_right_kind() {
-        let cmd = ShellCli::command();
+    fn every_flag_of_each_system_has_exactly_one_key_of_the_right_kind() {
+        for system in SYSTEMS {
+            every_flag_has_one_key(system);
+        }
+    }
+
+    fn every_flag_has_one_key(system: &System) {
+        let cmd = (system.command)();
         for arg in cmd.get_arguments() {
             let id = arg.get_id().as_str();
             if id == "help" || id == "version" {
                 continue;
             }
-            let specs: Vec<_> = SHELL_KEYS.iter().filter(|s| s.id == id).collect();
+            let specs: Vec<_> = system.keys.iter().filter(|s| s.id == id).collect();
             assert_eq!(
                 specs.len(),
                 1,
@@ -635,7 +862,7 @@ mod tests {
                 specs[0].kind
             );
         }
-        for spec in SHELL_KEYS {
+        for spec in system.keys {
             assert!(
                 cmd.get_arguments().any(|a| a.get_id() == spec.id),
                 "key {}.{} names no argument `{}`",
@@ -651,7 +878,7 @@ mod tests {
         let m = ShellCli::command()
             .try_get_matches_from(["balloon run", "--dt", ".005", "--ogden-mu", "1,2"])
             .unwrap();
-        let text = record_shell(&m);
+        let text = record(&SHELL, &m);
         assert!(text.contains("dt = 0.005\n"), "{text}");
         assert!(text.contains("steps = 300\n"), "{text}");
         assert!(text.contains("ogden_mu = [1, 2]\n"), "{text}");
@@ -687,7 +914,7 @@ mod tests {
                 "boolean",
             ),
             (
-                "[system]\nkind = \"volumetric\"\n",
+                "[system]\nkind = \"bogus\"\n",
                 2,
                 "system.kind",
                 "not a system",

@@ -40,8 +40,9 @@ enum Command {
     Volumetric(cmd_volumetric::VolumetricArgs),
     /// Simulate a two-layer elastic object (seed 004).
     TwoLayer(cmd_two_layer::TwoLayerArgs),
-    /// Run a scenario file (TOML; keys are the flags of `inflate` grouped in tables); flags
-    /// after the file override it (docs/scenarios.md).
+    /// Run a scenario file (TOML; `[system] kind` selects `inflate`, `volumetric` or
+    /// `two-layer`, whose flags are the keys, grouped in tables); flags after the file override
+    /// it (docs/scenarios.md).
     Run(cmd_run::RunArgs),
     /// Watch and steer a simulation live in the browser (local server, loopback only).
     View(cmd_view::ViewArgs),
@@ -50,11 +51,17 @@ enum Command {
 fn main() -> std::process::ExitCode {
     let matches = Cli::command().get_matches();
     let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
-    // `inflate --out DIR` records its resolved scenario in DIR/scenario.toml.
-    if let Command::Inflate(a) = &mut cli.command
-        && let Some(m) = matches.subcommand_matches("inflate")
-    {
-        a.scenario_record = Some(cmd_run::record_shell(m));
+    // `inflate|volumetric|two-layer --out DIR` record its resolved scenario in DIR/scenario.toml.
+    let record = |name: &str, system: &cmd_run::System| {
+        matches
+            .subcommand_matches(name)
+            .map(|m| cmd_run::record(system, m))
+    };
+    match &mut cli.command {
+        Command::Inflate(a) => a.scenario_record = record("inflate", &cmd_run::SHELL),
+        Command::Volumetric(a) => a.scenario_record = record("volumetric", &cmd_run::VOLUMETRIC),
+        Command::TwoLayer(a) => a.scenario_record = record("two-layer", &cmd_run::TWO_LAYER),
+        _ => {}
     }
     if matches!(
         cli.command,

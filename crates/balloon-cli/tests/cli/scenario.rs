@@ -170,3 +170,89 @@ fn a_run_repeats_itself_from_its_recorded_scenario() {
     let s: serde_json::Value = serde_json::from_slice(&bytes(&d4, "summary.json")).unwrap();
     assert_eq!(s["steps"], 3);
 }
+
+/// Runs `args` with `--out d1`, then `balloon run d1/scenario.toml --out d2`, and checks that the
+/// last frames (`last`) and the records are byte-identical.
+fn repeats_itself(args: &[&str], kind: &str, last: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let (d1, d2) = (dir.path().join("d1"), dir.path().join("d2"));
+    let mut first: Vec<&str> = args.to_vec();
+    first.extend(["--out", d1.to_str().unwrap()]);
+    ok(&run_balloon(&first));
+    let recorded = String::from_utf8(bytes(&d1, "scenario.toml")).unwrap();
+    assert!(
+        recorded.contains(&format!("kind = \"{kind}\"")),
+        "{recorded}"
+    );
+    ok(&run_balloon(&[
+        "run",
+        d1.join("scenario.toml").to_str().unwrap(),
+        "--out",
+        d2.to_str().unwrap(),
+    ]));
+    assert_eq!(
+        bytes(&d1, last),
+        bytes(&d2, last),
+        "{kind}: last frames differ"
+    );
+    assert_eq!(
+        recorded.as_bytes(),
+        bytes(&d2, "scenario.toml"),
+        "{kind}: records differ"
+    );
+}
+
+#[test]
+fn volumetric_and_two_layer_runs_repeat_themselves_from_their_recorded_scenario() {
+    repeats_itself(
+        &[
+            "volumetric",
+            "builtin:icosphere",
+            "--resolution",
+            "10",
+            "--voxels-per-cell",
+            "2",
+            "--steps",
+            "6",
+            "--frame-every",
+            "3",
+        ],
+        "volumetric",
+        "frame_00006.obj",
+    );
+    repeats_itself(
+        &[
+            "two-layer",
+            "--level",
+            "1",
+            "--steps",
+            "20",
+            "--pressure",
+            "3",
+        ],
+        "two-layer",
+        "frame_00020.obj",
+    );
+}
+
+#[test]
+fn a_two_layer_scenario_file_selects_its_system() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("t.toml");
+    std::fs::write(
+        &scenario,
+        "[system]\nkind = \"two-layer\"\n[body]\nlevel = 1\n[run]\nsteps = 7\nintegrator = \"midpoint\"\n",
+    )
+    .unwrap();
+    let out = run_balloon(&["run", scenario.to_str().unwrap(), "--json"]);
+    ok(&out);
+    assert_eq!(last_json_line(&out)["steps"], 7);
+    std::fs::write(
+        &scenario,
+        "[system]\nkind = \"two-layer\"\n[shell]\nthickness = 1e-3\n",
+    )
+    .unwrap();
+    let out = run_balloon(&["run", scenario.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("t.toml:3: `shell`: unknown table"), "{err}");
+}
