@@ -179,6 +179,10 @@ pub struct InflateArgs {
     /// `stats.jsonl` line (and frame) per point.
     #[arg(long, value_parser = crate::cmd_static::parse_volume_ratios)]
     pub volume_ratios: Option<std::vec::Vec<f64>>,
+    /// The resolved scenario of this run (`crate::cmd_run::record`), written to
+    /// `OUT/scenario.toml`; not a flag.
+    #[arg(skip)]
+    pub scenario_record: Option<String>,
 }
 
 /// The run summary (`summary.json`, and the `--json` line).
@@ -530,6 +534,9 @@ pub fn run(args: InflateArgs) -> Result<()> {
         )?),
         None => None,
     };
+    if let (Some(o), Some(text)) = (&out, &args.scenario_record) {
+        o.write_text("scenario.toml", text)?;
+    }
     if args.static_solve {
         return crate::cmd_static::run(&args, &mut sim, out);
     }

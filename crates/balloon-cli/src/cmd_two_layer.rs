@@ -177,6 +177,10 @@ pub struct TwoLayerArgs {
     /// Print the summary as one JSON line (the last stdout line).
     #[arg(long)]
     pub json: bool,
+    /// The resolved scenario of this run (`crate::cmd_run::record`), written to
+    /// `OUT/scenario.toml`; not a flag.
+    #[arg(skip)]
+    pub scenario_record: Option<String>,
 }
 
 fn parse_method(s: &str) -> Result<ExplicitMethod, String> {
@@ -453,6 +457,9 @@ pub fn run(args: TwoLayerArgs) -> Result<()> {
         )?),
         None => None,
     };
+    if let (Some(o), Some(text)) = (&out, &args.scenario_record) {
+        o.write_text("scenario.toml", text)?;
+    }
     let plan = RunPlan {
         steps: args.steps,
         frames: FramePolicy {

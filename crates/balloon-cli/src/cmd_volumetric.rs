@@ -158,6 +158,10 @@ pub struct VolumetricArgs {
     /// Print the summary as one JSON line (the last stdout line).
     #[arg(long)]
     pub json: bool,
+    /// The resolved scenario of this run (`crate::cmd_run::record`), written to
+    /// `OUT/scenario.toml`; not a flag.
+    #[arg(skip)]
+    pub scenario_record: Option<String>,
 }
 
 /// Largest `--resolution` (and `--voxels-per-cell`): bounds the voxel grid (resolution^3
@@ -560,6 +564,9 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
         )?),
         None => None,
     };
+    if let (Some(o), Some(text)) = (&out, &args.scenario_record) {
+        o.write_text("scenario.toml", text)?;
+    }
     if let Some(out) = &out {
         let masses = sim.masses().to_vec();
         let cell_volume: Vec<f64> = (0..lattice.tet_mesh.tets.len())

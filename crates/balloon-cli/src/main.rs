@@ -1,14 +1,15 @@
 //! The `balloon` command-line tool.
 //!
 //! Subcommands: `mesh info` (inspect a mesh), `inflate` (shell balloons, seed 000),
-//! `volumetric` (volume-conserving bodies, seed 003) and `two-layer` (two-layer objects, seed 004) and `view`
-//! (a live viewer in the browser).
+//! `volumetric` (volume-conserving bodies, seed 003) and `two-layer` (two-layer objects, seed 004),
+//! `run` (a shell run described by a scenario file) and `view` (a live viewer in the browser).
 //! Run `balloon <subcommand> --help` for the flags and their defaults.
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 mod cmd_inflate;
 mod cmd_mesh;
+mod cmd_run;
 mod cmd_static;
 mod cmd_two_layer;
 mod cmd_view;
@@ -39,15 +40,32 @@ enum Command {
     Volumetric(cmd_volumetric::VolumetricArgs),
     /// Simulate a two-layer elastic object (seed 004).
     TwoLayer(cmd_two_layer::TwoLayerArgs),
+    /// Run a scenario file (TOML; `[system] kind` selects `inflate`, `volumetric` or
+    /// `two-layer`, whose flags are the keys, grouped in tables); flags after the file override
+    /// it (docs/scenarios.md).
+    Run(cmd_run::RunArgs),
     /// Watch and steer a simulation live in the browser (local server, loopback only).
     View(cmd_view::ViewArgs),
 }
 
 fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    // `inflate|volumetric|two-layer --out DIR` record its resolved scenario in DIR/scenario.toml.
+    let record = |name: &str, system: &cmd_run::System| {
+        matches
+            .subcommand_matches(name)
+            .map(|m| cmd_run::record(system, m))
+    };
+    match &mut cli.command {
+        Command::Inflate(a) => a.scenario_record = record("inflate", &cmd_run::SHELL),
+        Command::Volumetric(a) => a.scenario_record = record("volumetric", &cmd_run::VOLUMETRIC),
+        Command::TwoLayer(a) => a.scenario_record = record("two-layer", &cmd_run::TWO_LAYER),
+        _ => {}
+    }
     if matches!(
         cli.command,
-        Command::Inflate(_) | Command::Volumetric(_) | Command::TwoLayer(_)
+        Command::Inflate(_) | Command::Volumetric(_) | Command::TwoLayer(_) | Command::Run(_)
     ) && let Err(e) = interrupt::install()
     {
         eprintln!(
@@ -59,6 +77,7 @@ fn main() -> std::process::ExitCode {
         Command::Inflate(a) => cmd_inflate::run(a),
         Command::Volumetric(a) => cmd_volumetric::run(a),
         Command::TwoLayer(a) => cmd_two_layer::run(a),
+        Command::Run(a) => cmd_run::run(a),
         Command::View(a) => cmd_view::run(a),
     };
     match result {

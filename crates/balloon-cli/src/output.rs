@@ -426,6 +426,7 @@ fn is_run_file(name: &str) -> bool {
     const EXACT: &[&str] = &[
         "stats.jsonl",
         "summary.json",
+        "scenario.toml",
         "series.pvd",
         "run.gif",
         "final.pov",
@@ -787,6 +788,14 @@ impl OutputDir {
             .and_then(|()| w.write_all(b"\n"))
             .and_then(|()| w.flush())
             .with_context(|| format!("cannot write {}", path.display()))
+    }
+
+    /// Writes `text` to `name` (e.g. `scenario.toml`) atomically.
+    pub fn write_text(&self, name: &str, text: &str) -> Result<PathBuf> {
+        let path = self.dir.join(name);
+        let tmp = self.dir.join(format!(".{name}.tmp"));
+        write_via_tmp(&path, &tmp, |tmp| Ok(std::fs::write(tmp, text)?))?;
+        Ok(path)
     }
 
     /// Writes `value` as pretty JSON to `name` (e.g. `summary.json`) atomically.

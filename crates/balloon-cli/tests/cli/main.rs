@@ -8,6 +8,7 @@ mod params;
 mod readback;
 mod records;
 mod render;
+mod scenario;
 mod two_layer;
 mod view;
 mod volumetric;

@@ -1,0 +1,258 @@
+//! `balloon run SCENARIO.toml`: the example runs as written, flags override the file, errors
+//! name the file, line and key, and a run repeats itself from its recorded `scenario.toml`.
+
+use super::{last_json_line, run_balloon};
+use std::path::{Path, PathBuf};
+
+/// A small closed sphere (162 vertices) written as OBJ into `dir`.
+fn small_sphere(dir: &Path) -> PathBuf {
+    let mesh = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
+    let path = dir.join("sphere.obj");
+    balloon_mesh::io::write_obj(&path, &mesh).unwrap();
+    path
+}
+
+fn ok(out: &std::process::Output) {
+    assert!(
+        out.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn the_example_shell_scenario_runs_as_written() {
+    let example = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/shell.toml");
+    let out = run_balloon(&["run", example.to_str().unwrap(), "--json"]);
+    ok(&out);
+    let s = last_json_line(&out);
+    assert_eq!(s["steps"], 20);
+    assert_eq!(s["material"], "st-venant-kirchhoff");
+    assert_eq!(s["final_gauge_pressure"], 1500.0);
+    assert!(
+        s["final_gas_volume"].as_f64().unwrap() > s["initial_gas_volume"].as_f64().unwrap(),
+        "1500 Pa inflates the sphere: {s}"
+    );
+}
+
+#[test]
+fn a_mesh_path_is_relative_to_the_file_and_flags_override_it() {
+    let dir = tempfile::tempdir().unwrap();
+    small_sphere(dir.path());
+    let scenario = dir.path().join("s.toml");
+    std::fs::write(
+        &scenario,
+        "[mesh]\npath = \"sphere.obj\"\n[gas]\nmodel = \"ideal\"\npressure = 800\n[run]\nsteps = 4\n",
+    )
+    .unwrap();
+    // Run from another folder: the mesh is found beside the file.
+    let out = run_balloon(&["run", scenario.to_str().unwrap(), "--steps", "2", "--json"]);
+    ok(&out);
+    let s = last_json_line(&out);
+    assert_eq!(s["vertices"], 162);
+    assert_eq!(s["steps"], 2, "--steps 2 overrides the file's 4");
+}
+
+#[test]
+fn errors_name_the_file_the_line_and_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("bad.toml");
+    for (text, expected) in [
+        (
+            "[run]\nsteps = 3\ndtt = 0.1\n",
+            "bad.toml:3: `run.dtt`: unknown key",
+        ),
+        (
+            "[gas]\npressure = \"high\"\n",
+            "bad.toml:2: `gas.pressure`: expected a number",
+        ),
+        (
+            "[run]\n\nsteps = 3\ncg_tol = 1.5\n",
+            "bad.toml:4: `run.cg_tol`: invalid value '1.5'",
+        ),
+        (
+            "[output]\nformat = \"jpeg\"\n",
+            "bad.toml:2: `output.format`",
+        ),
+        ("[mesh]\npath = \"missing.obj\"\n", "missing.obj"),
+    ] {
+        std::fs::write(&scenario, text).unwrap();
+        let out = run_balloon(&["run", scenario.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{text:?} ran");
+        assert!(err.contains(expected), "{text:?}: {err}");
+    }
+    let out = run_balloon(&["run", dir.path().join("none.toml").to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot read the scenario"));
+}
+
+/// The bytes of `dir/name`.
+fn bytes(dir: &Path, name: &str) -> Vec<u8> {
+    std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{}: {e}", dir.join(name).display()))
+}
+
+#[test]
+fn a_run_repeats_itself_from_its_recorded_scenario() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = small_sphere(dir.path());
+    let scenario = dir.path().join("s.toml");
+    std::fs::write(
+        &scenario,
+        "[mesh]\npath = \"sphere.obj\"\n[shell]\nthickness = 4e-4\n[run]\nsteps = 4\ndt = 0.005\n[output]\nframe_every = 2\n",
+    )
+    .unwrap();
+    let (d1, d2) = (dir.path().join("d1"), dir.path().join("d2"));
+    ok(&run_balloon(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--out",
+        d1.to_str().unwrap(),
+        "--pressure",
+        "900",
+    ]));
+    let recorded = String::from_utf8(bytes(&d1, "scenario.toml")).unwrap();
+    for line in [
+        "thickness = 0.0004",
+        "dt = 0.005",
+        "pressure = 900",
+        "steps = 4",
+    ] {
+        assert!(recorded.contains(line), "`{line}` missing:\n{recorded}");
+    }
+    let abs = std::path::absolute(&mesh).unwrap();
+    assert!(
+        recorded.contains(&format!("path = \"{}\"", abs.display())),
+        "{recorded}"
+    );
+    ok(&run_balloon(&[
+        "run",
+        d1.join("scenario.toml").to_str().unwrap(),
+        "--out",
+        d2.to_str().unwrap(),
+    ]));
+    assert_eq!(
+        bytes(&d1, "final.obj"),
+        bytes(&d2, "final.obj"),
+        "final frames differ"
+    );
+    assert_eq!(
+        recorded.as_bytes(),
+        bytes(&d2, "scenario.toml"),
+        "the record of the repeat differs"
+    );
+
+    // `balloon inflate --out` records itself too, and its record repeats it.
+    let (d3, d4) = (dir.path().join("d3"), dir.path().join("d4"));
+    ok(&run_balloon(&[
+        "inflate",
+        mesh.to_str().unwrap(),
+        "--steps",
+        "3",
+        "--gas",
+        "ideal",
+        "--young",
+        "2e6",
+        "--out",
+        d3.to_str().unwrap(),
+    ]));
+    ok(&run_balloon(&[
+        "run",
+        d3.join("scenario.toml").to_str().unwrap(),
+        "--out",
+        d4.to_str().unwrap(),
+    ]));
+    assert_eq!(
+        bytes(&d3, "final.obj"),
+        bytes(&d4, "final.obj"),
+        "final frames differ"
+    );
+    let s: serde_json::Value = serde_json::from_slice(&bytes(&d4, "summary.json")).unwrap();
+    assert_eq!(s["steps"], 3);
+}
+
+/// Runs `args` with `--out d1`, then `balloon run d1/scenario.toml --out d2`, and checks that the
+/// last frames (`last`) and the records are byte-identical.
+fn repeats_itself(args: &[&str], kind: &str, last: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let (d1, d2) = (dir.path().join("d1"), dir.path().join("d2"));
+    let mut first: Vec<&str> = args.to_vec();
+    first.extend(["--out", d1.to_str().unwrap()]);
+    ok(&run_balloon(&first));
+    let recorded = String::from_utf8(bytes(&d1, "scenario.toml")).unwrap();
+    assert!(
+        recorded.contains(&format!("kind = \"{kind}\"")),
+        "{recorded}"
+    );
+    ok(&run_balloon(&[
+        "run",
+        d1.join("scenario.toml").to_str().unwrap(),
+        "--out",
+        d2.to_str().unwrap(),
+    ]));
+    assert_eq!(
+        bytes(&d1, last),
+        bytes(&d2, last),
+        "{kind}: last frames differ"
+    );
+    assert_eq!(
+        recorded.as_bytes(),
+        bytes(&d2, "scenario.toml"),
+        "{kind}: records differ"
+    );
+}
+
+#[test]
+fn volumetric_and_two_layer_runs_repeat_themselves_from_their_recorded_scenario() {
+    repeats_itself(
+        &[
+            "volumetric",
+            "builtin:icosphere",
+            "--resolution",
+            "10",
+            "--voxels-per-cell",
+            "2",
+            "--steps",
+            "6",
+            "--frame-every",
+            "3",
+        ],
+        "volumetric",
+        "frame_00006.obj",
+    );
+    repeats_itself(
+        &[
+            "two-layer",
+            "--level",
+            "1",
+            "--steps",
+            "20",
+            "--pressure",
+            "3",
+        ],
+        "two-layer",
+        "frame_00020.obj",
+    );
+}
+
+#[test]
+fn a_two_layer_scenario_file_selects_its_system() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("t.toml");
+    std::fs::write(
+        &scenario,
+        "[system]\nkind = \"two-layer\"\n[body]\nlevel = 1\n[run]\nsteps = 7\nintegrator = \"midpoint\"\n",
+    )
+    .unwrap();
+    let out = run_balloon(&["run", scenario.to_str().unwrap(), "--json"]);
+    ok(&out);
+    assert_eq!(last_json_line(&out)["steps"], 7);
+    std::fs::write(
+        &scenario,
+        "[system]\nkind = \"two-layer\"\n[shell]\nthickness = 1e-3\n",
+    )
+    .unwrap();
+    let out = run_balloon(&["run", scenario.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("t.toml:3: `shell`: unknown table"), "{err}");
+}
