@@ -1101,20 +1101,11 @@ impl BackwardEuler {
         info: &mut StepInfo,
     ) -> Result<SolveInfo, IntegrateError> {
         if self.solver.needs_assembled_matrix() {
-            self.triplets.clear();
-            self.use_blocks = system.stiffness_blocks().is_some()
-                && system
-                    .add_remaining_stiffness_triplets(&mut self.triplets)
-                    .is_ok();
-            if !self.use_blocks {
-                self.triplets.clear();
-                system
-                    .add_stiffness_triplets(&mut self.triplets)
-                    .map_err(|source| IntegrateError::System {
-                        iteration: k,
-                        source,
-                    })?;
-            }
+            self.use_blocks = crate::system::collect_stiffness(&*system, &mut self.triplets)
+                .map_err(|source| IntegrateError::System {
+                    iteration: k,
+                    source,
+                })?;
         }
         let mut shift = 0.0;
         let mut retries = 0;

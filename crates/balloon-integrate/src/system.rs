@@ -262,3 +262,22 @@ pub trait ForceSystem {
         None
     }
 }
+
+/// Fills `triplets` with what the assembler needs from `system`'s stiffness: only the part
+/// beyond its element blocks when it offers blocks ([`ForceSystem::stiffness_blocks`], returns
+/// `true`), otherwise every triplet (returns `false`). Shared by the dynamic and the static
+/// Newton.
+pub(crate) fn collect_stiffness<S: ForceSystem + ?Sized>(
+    system: &S,
+    triplets: &mut Vec<(usize, usize, f64)>,
+) -> Result<bool, SystemError> {
+    triplets.clear();
+    if system.stiffness_blocks().is_some()
+        && system.add_remaining_stiffness_triplets(triplets).is_ok()
+    {
+        return Ok(true);
+    }
+    triplets.clear();
+    system.add_stiffness_triplets(triplets)?;
+    Ok(false)
+}
