@@ -340,31 +340,36 @@ fn thickness_scaling(cases: &mut Vec<Case>) -> Result<()> {
     Ok(())
 }
 
-/// Isothermal ideal gas (Eq. 12-14): `pV` stays `p0 V0` while the balloon inflates.
+/// Isothermal ideal gas (Eq. 12-14): `pV` stays `p0 V0` while the balloon inflates. Neither
+/// factor is the gas model's own: `V` is the volume the deformed mesh encloses and `p` the
+/// pressure its pressure forces imply (`balloon_tests::implied_gauge_pressure`, ambient 0), and
+/// `p0 V0` comes from the input (2 kPa times the rest mesh's enclosed volume).
 fn gas_law(cases: &mut Vec<Case>) -> Result<()> {
-    let mut sim = ShellBalloon::new(icosphere(0.1, 3)?)
+    let mesh = icosphere(0.1, 3)?;
+    let p0v0 = 2000.0 * geometry::enclosed_volume(&mesh);
+    let mut sim = ShellBalloon::new(mesh)
         .with_pump_rate(2e-3) // the fixed 2 L/s these figures were measured with
         .with_gas(GasKind::Ideal)
         .with_ambient_pressure(0.0)
         .with_gauge_pressure(2000.0)
         .build()?;
-    let p0v0 = 2000.0 * sim.rest_gas_volume();
     let mut worst: f64 = 0.0;
     for _ in 0..30 {
         sim.step()?;
-        let g = sim.gas_state();
-        worst = worst.max((g.absolute_pressure * g.volume / p0v0 - 1.0).abs());
+        let v = balloon_tests::mesh_volume(sim.positions(), sim.triangles());
+        let p = balloon_tests::implied_gauge_pressure(&sim);
+        worst = worst.max((p * v / p0v0 - 1.0).abs());
     }
     cases.push(Case::at_most(
         G,
-        "ideal gas: max |pV / p0V0 - 1| over 30 steps",
+        "ideal gas: max |pV / p0V0 - 1| over 30 steps (V from the mesh, p from the forces)",
         worst,
-        1e-12,
+        1e-6,
     ));
     cases.push(Case::at_least(
         G,
-        "ideal gas: the balloon inflated (V / V0 after 30 steps)",
-        sim.gas_volume() / sim.rest_gas_volume(),
+        "ideal gas: the balloon inflated (mesh volume / rest after 30 steps)",
+        balloon_tests::mesh_volume(sim.positions(), sim.triangles()) * 2000.0 / p0v0,
         1.01,
         "> 1",
     ));
@@ -421,8 +426,9 @@ fn pressure_equilibrium(mesh: &TriMesh, cases: &mut Vec<Case>) -> Result<()> {
 }
 
 /// Long teddy inflation with the paper's settings (pump, 3 Newton iterations, projection on;
-/// sparse Cholesky for speed): the shell (material) volume ratio must stay within the projection tolerance
-/// (1e-9) at every step (Eq. 24-28, Alg. 2).
+/// sparse Cholesky for speed): the shell (material) volume `sum h_e A_e`, measured here from the
+/// positions and thicknesses against the input mesh's areas times the input thickness, must stay
+/// within the projection tolerance (1e-9) at every step (Eq. 24-28, Alg. 2).
 fn long_run(opts: &Options, figs: &mut Figures, cases: &mut Vec<Case>) -> Result<()> {
     let mesh = teddy(&TeddyParams::default())?;
     pressure_equilibrium(&mesh, cases)?;
@@ -436,10 +442,18 @@ fn long_run(opts: &Options, figs: &mut Figures, cases: &mut Vec<Case>) -> Result
     let mut gas = Vec::new();
     let mut shell = Vec::new();
     let mut worst: f64 = 0.0;
+    let rest_thickness = sim.thickness().to_vec();
+    let rest = balloon_tests::shell_material_volume(
+        &mesh.positions_flat(),
+        &mesh.triangles,
+        &rest_thickness,
+    );
     let t0 = std::time::Instant::now();
     for _ in 0..steps {
         let s = sim.step()?;
-        worst = worst.max((s.shell_volume_ratio - 1.0).abs());
+        let measured =
+            balloon_tests::shell_material_volume(sim.positions(), sim.triangles(), sim.thickness());
+        worst = worst.max((measured / rest - 1.0).abs());
         gas.push((s.time, s.gas_volume / sim.rest_gas_volume()));
         shell.push((s.time, (s.shell_volume_ratio - 1.0).abs().max(1e-17)));
     }
