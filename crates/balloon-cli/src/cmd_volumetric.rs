@@ -581,12 +581,14 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
             }
             c
         };
-        balloon_mesh::io::vtk::write_tet_vtk(
-            &out.path().join("lattice.vtk"),
-            &lattice.tet_mesh,
-            &[("tet_volume", &cell_volume), ("cell", &cell_of_tet)],
-            &[("mass", &masses)],
-        )?;
+        out.write_file("lattice.vtk", |tmp| {
+            Ok(balloon_mesh::io::vtk::write_tet_vtk(
+                tmp,
+                &lattice.tet_mesh,
+                &[("tet_volume", &cell_volume), ("cell", &cell_of_tet)],
+                &[("mass", &masses)],
+            )?)
+        })?;
         out.write_named_mesh("input_soup", &soup)?;
     }
     let plan = RunPlan {

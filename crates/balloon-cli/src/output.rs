@@ -798,6 +798,19 @@ impl OutputDir {
         Ok(path)
     }
 
+    /// Writes the file `name` in the folder atomically: `write` writes a temporary file beside it
+    /// (its path is the argument), which is renamed to `name` on success and removed on failure.
+    pub fn write_file(
+        &self,
+        name: &str,
+        write: impl FnOnce(&Path) -> Result<()>,
+    ) -> Result<PathBuf> {
+        let path = self.dir.join(name);
+        let tmp = self.dir.join(format!(".{name}.tmp"));
+        write_via_tmp(&path, &tmp, write)?;
+        Ok(path)
+    }
+
     /// Writes `value` as pretty JSON to `name` (e.g. `summary.json`) atomically.
     pub fn write_json<T: Serialize>(&self, name: &str, value: &T) -> Result<PathBuf> {
         let path = self.dir.join(name);

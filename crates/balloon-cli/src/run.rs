@@ -209,7 +209,9 @@ where
 }
 
 /// Adds what every summary carries: `interrupted`, and `frames` and `error` unless the
-/// subcommand's summary has them (an `error` it left null is filled in).
+/// subcommand's summary has them (an `error` it left null is filled in). A `status` of `"ok"`
+/// becomes `"failed"` when there is an error the subcommand did not see (an output that could
+/// not be written, a run that made no progress).
 fn annotate(
     summary: &mut serde_json::Value,
     interrupted: bool,
@@ -224,6 +226,11 @@ fn annotate(
             && let Some(text) = error
         {
             *e = text.into();
+            if let Some(status) = obj.get_mut("status")
+                && status == "ok"
+            {
+                *status = "failed".into();
+            }
         }
     }
 }

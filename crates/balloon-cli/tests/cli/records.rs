@@ -376,3 +376,35 @@ fn a_closed_stdout_is_a_quiet_exit() {
         assert!(err.is_empty(), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn a_two_layer_run_whose_frame_cannot_be_written_fails_with_status_failed() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let mut child = spawn(&[
+        "two-layer",
+        "--level",
+        "2",
+        "--steps",
+        "1000000",
+        "--frame-every",
+        "1000",
+        "--out",
+        run.to_str().unwrap(),
+        "--json",
+    ]);
+    wait_for(&mut child, &run.join("frame_01000.obj"));
+    // Folders where the later frames go: the next of them cannot be written (those the run
+    // wrote meanwhile are skipped).
+    for k in (2..1000).map(|k| k * 1000) {
+        let _ = std::fs::create_dir(run.join(format!("frame_{k:05}.obj")));
+    }
+    let out = child.wait_with_output().unwrap();
+    assert!(!out.status.success(), "a run that lost a frame exited 0");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("cannot write"), "{stderr}");
+    let summary = read_json(&run.join("summary.json"));
+    assert_eq!(summary["status"], "failed", "{summary}");
+    assert!(summary["error"].as_str().unwrap().contains("cannot write"));
+    assert_eq!(last_json_line(&out), summary);
+}
