@@ -1,0 +1,14 @@
+//! Fuzz target: the STL reader (ASCII and binary, vertex welding) on arbitrary bytes, then what
+//! `balloon mesh info` does with a mesh it read (validation and topology). Must never panic,
+//! hang or allocate without bound.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use std::path::Path;
+
+fuzz_target!(|data: &[u8]| {
+    if let Ok(mesh) = balloon_mesh::io::stl::parse_stl(data, Path::new("fuzz.stl"), 0.0) {
+        let _ = balloon_mesh::validate::validate_closed_manifold(&mesh);
+        let _ = balloon_mesh::topology::Topology::new(&mesh);
+    }
+});
