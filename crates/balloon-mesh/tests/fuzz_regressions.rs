@@ -59,7 +59,12 @@ fn obj_regressions() {
     let r = run("obj", |b, p| obj::parse_obj(b, p).ok());
     // A UTF-8 byte order mark is skipped, not taken as part of the first line.
     assert!(outcome(&r, "bom.obj"));
-    let bytes = std::fs::read(inputs("obj").iter().find(|p| p.ends_with("bom.obj")).unwrap());
+    let bytes = std::fs::read(
+        inputs("obj")
+            .iter()
+            .find(|p| p.ends_with("bom.obj"))
+            .unwrap(),
+    );
     let mesh = obj::parse_obj(&bytes.unwrap(), Path::new("bom.obj")).unwrap();
     assert_eq!((mesh.num_vertices(), mesh.num_triangles()), (4, 4));
 }

@@ -112,6 +112,7 @@
 //! ```
 
 pub mod analytic;
+pub mod connected;
 mod membrane;
 mod shell_material;
 pub mod statics;
@@ -1325,6 +1326,44 @@ impl<M: ShellMaterial> ShellSimulation<M, Gas> {
             }
         }
         Ok(())
+    }
+
+    /// The amount of an isothermal ideal gas, `nRT = p V` (J; seed 000 Eq. 12), or `None` for
+    /// the other gases.
+    pub fn gas_amount(&self) -> Option<f64> {
+        match self.system.gas.gas() {
+            Gas::Ideal(g) => Some(g.amount()),
+            _ => None,
+        }
+    }
+
+    /// The ambient (outside) pressure, Pa.
+    pub fn ambient_pressure(&self) -> f64 {
+        self.system.gas.ambient_pressure()
+    }
+
+    /// Sets the amount `nRT` (J, positive and finite) of an isothermal ideal gas from now on
+    /// (gas let in or out between steps, as [`connected::ConnectedBalloons`] does); the pressure
+    /// at volume `V` becomes `amount / V`. Errors for the other gases.
+    pub fn set_gas_amount(&mut self, amount: f64) -> Result<(), ShellError> {
+        if !(amount.is_finite() && amount > 0.0) {
+            return Err(ShellError::InvalidParameter {
+                name: "gas-amount",
+                value: amount.to_string(),
+                reason: "must be a positive, finite amount nRT in J".into(),
+            });
+        }
+        match self.system.gas.gas_mut() {
+            Gas::Ideal(g) => {
+                g.initial_pressure = amount / g.initial_volume;
+                Ok(())
+            }
+            _ => Err(ShellError::InvalidParameter {
+                name: "gas-amount",
+                value: amount.to_string(),
+                reason: "only the isothermal ideal gas (--gas ideal) has a settable amount".into(),
+            }),
+        }
     }
 
     /// Changes the pump rate (m^3/s of ambient air, >= 0) of a [`GasKind::Pump`] gas from now
