@@ -2,6 +2,7 @@
 //! `docs/validation.md` with the table and the figures in `docs/figures/`, and a non-zero exit
 //! when a case fails.
 
+mod connected;
 mod membrane;
 pub mod meshes;
 mod shell;
@@ -23,7 +24,7 @@ pub struct Options {
     pub meshes: Option<PathBuf>,
     /// Write docs/validation.md and docs/figures.
     pub write: bool,
-    /// Run only this group ("shell", "membrane", "volumetric", "two-layer", "meshes"); nothing
+    /// Run only this group ("shell", "membrane", "connected", "volumetric", "two-layer", "meshes"); nothing
     /// is written.
     pub only: Option<String>,
 }
@@ -69,8 +70,23 @@ pub fn run(opts: &Options) -> Result<()> {
             .with_context(|| format!("cannot create {}", fig_dir.display()))?;
     }
     let write = opts.write && opts.only.is_none();
+    // One group alone leaves docs/ as it is but still draws its figures, into target/, to be
+    // looked at.
+    let only_dir = root.join("target").join("validate-figures");
+    if opts.write && opts.only.is_some() {
+        std::fs::create_dir_all(&only_dir)
+            .with_context(|| format!("cannot create {}", only_dir.display()))?;
+        eprintln!(
+            "xtask validate: figures of this group go to {}",
+            only_dir.display()
+        );
+    }
     let mut figs = Figures {
-        dir: write.then(|| fig_dir.clone()),
+        dir: if write {
+            Some(fig_dir.clone())
+        } else {
+            (opts.write && opts.only.is_some()).then(|| only_dir.clone())
+        },
         list: Vec::new(),
     };
     let start = Instant::now();
@@ -112,6 +128,9 @@ pub fn run(opts: &Options) -> Result<()> {
     }
     if want("membrane") {
         cases.extend(membrane::cases(opts, &mut figs));
+    }
+    if want("connected") {
+        cases.extend(connected::cases(opts, &mut figs));
     }
     if want("volumetric") {
         cases.extend(volumetric::cases(opts, &soups));

@@ -176,4 +176,74 @@ impl ThinSphere {
         }
         Ok(out)
     }
+
+    /// The end state of two such spheres joined by a tube (the two-balloon experiment): each
+    /// holds the same isothermal ideal gas at one gauge pressure `P`, one on the rising branch
+    /// below the first pressure maximum and one on the falling branch beyond it, with the total
+    /// amount `sum (p_ambient + P) V0 l^3 = amount` (J). `rest_volume` is `V0`, the enclosed
+    /// volume at `l = 1` (m^3; pass the mesh's own to compare with a simulation), and the
+    /// falling branch is searched up to `max_stretch` (or the next minimum of `P`). Returns
+    /// `(l_small, l_large, P)`, or `None` when no such state exists (no maximum, or `amount`
+    /// out of reach). Both stretches by bisection to machine precision.
+    ///
+    /// # Errors
+    /// As [`ThinSphere::extrema`].
+    pub fn joined_pair<M: MembraneMaterial>(
+        &self,
+        material: &M,
+        ambient: f64,
+        rest_volume: f64,
+        amount: f64,
+        max_stretch: f64,
+    ) -> Result<Option<(f64, f64, f64)>, MaterialError> {
+        let extrema = self.extrema(material, max_stretch)?;
+        let Some(k) = extrema.iter().position(|e| e.kind == ExtremumKind::Maximum) else {
+            return Ok(None);
+        };
+        let l_max = extrema[k].stretch;
+        let l_end = extrema.get(k + 1).map_or(max_stretch, |e| e.stretch);
+        let p = |l: f64| self.pressure(material, l);
+        // The point of [lo, hi] where `below` turns from true to false (`below(lo)` is taken
+        // as true and `below(hi)` as false), to machine precision.
+        let bisect = |mut lo: f64, mut hi: f64, below: &dyn Fn(f64) -> bool| {
+            for _ in 0..200 {
+                let mid = 0.5 * (lo + hi);
+                if mid <= lo || mid >= hi {
+                    break;
+                }
+                if below(mid) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            0.5 * (lo + hi)
+        };
+        // The falling-branch stretch at gauge pressure `target` (`P` decreases there).
+        let falling =
+            |target: f64| (p(l_end) <= target).then(|| bisect(l_max, l_end, &|l| p(l) > target));
+        let residual = |ls: f64| {
+            let pressure = p(ls);
+            falling(pressure)
+                .map(|ll| (ambient + pressure) * rest_volume * (ls.powi(3) + ll.powi(3)) - amount)
+        };
+        // The rising branch reaches the pressures the falling one has from `l_lo` on.
+        let p_end = p(l_end);
+        let l_lo = if p_end > 0.0 {
+            bisect(1.0, l_max, &|l| p(l) < p_end)
+        } else {
+            1.0
+        };
+        let (lo, hi) = (l_lo * (1.0 + 1e-12), l_max * (1.0 - 1e-12));
+        match (residual(lo), residual(hi)) {
+            (Some(a), Some(b)) if (a > 0.0) != (b > 0.0) => {
+                let ls = bisect(lo, hi, &|l| {
+                    residual(l).is_some_and(|r| (r > 0.0) == (a > 0.0))
+                });
+                let pressure = p(ls);
+                Ok(falling(pressure).map(|ll| (ls, ll, pressure)))
+            }
+            _ => Ok(None),
+        }
+    }
 }

@@ -507,3 +507,40 @@ fn stiffening_models_show_a_maximum_then_a_minimum() {
     assert!(ThinSphere::try_new(0.0, 1.0).is_err());
     assert!(ThinSphere::try_new(1.0, f64::NAN).is_err());
 }
+
+#[test]
+fn joined_pair_is_one_pressure_on_both_branches_with_the_amount_kept() {
+    let s = sphere();
+    let m = MembraneNeoHookean::try_new(4.0e5).unwrap();
+    let v0 = 4.0 / 3.0 * std::f64::consts::PI * 0.1f64.powi(3);
+    let ambient = 101_325.0;
+    // Start: 1.25 and 1.7, on opposite sides of 7^(1/6) = 1.383.
+    let start = |l: f64| (ambient + s.pressure(&m, l)) * v0 * l.powi(3);
+    let amount = start(1.25) + start(1.7);
+    let (ls, ll, p) = s
+        .joined_pair(&m, ambient, v0, amount, 10.0)
+        .unwrap()
+        .unwrap();
+    let l_max = 7f64.powf(1.0 / 6.0);
+    assert!(1.0 < ls && ls < 1.25 && ll > 1.7 && ll < 10.0 && ls < l_max && ll > l_max);
+    // Neo-Hookean in closed form: P = 2 mu H / R (1/l - 1/l^7).
+    let closed = |l: f64| 2.0 * 4.0e5 * 1.0e-3 / 0.1 * (1.0 / l - l.powi(-7));
+    assert!((closed(ls) / p - 1.0).abs() < 1e-10);
+    assert!((closed(ll) / p - 1.0).abs() < 1e-10);
+    let kept = (ambient + p) * v0 * (ls.powi(3) + ll.powi(3));
+    assert!((kept / amount - 1.0).abs() < 1e-12);
+    // No state for a model without a maximum, or an amount out of reach.
+    let stiff = MembraneGent::try_new(4.0e5, 2.0).unwrap();
+    if s.extrema(&stiff, 10.0).unwrap().is_empty() {
+        assert!(
+            s.joined_pair(&stiff, ambient, v0, amount, 10.0)
+                .unwrap()
+                .is_none()
+        );
+    }
+    assert!(
+        s.joined_pair(&m, ambient, v0, 1e-9, 10.0)
+            .unwrap()
+            .is_none()
+    );
+}
