@@ -412,6 +412,13 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// ```
     pub fn solve_static(&mut self, options: &StaticOptions) -> Result<StaticReport, ShellError> {
         let started = Instant::now();
+        if self.pins.active() {
+            return Err(ShellError::InvalidParameter {
+                name: "pinned vertices",
+                value: format!("{} vertices", self.pins.vertices.len()),
+                reason: "the static solve does not support pins; free them first".into(),
+            });
+        }
         if !self.anchor_springs.is_empty() {
             return Err(ShellError::InvalidParameter {
                 name: "anchor springs",
