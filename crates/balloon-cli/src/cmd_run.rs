@@ -297,6 +297,7 @@ pub const TWO_LAYER_KEYS: &[ScenarioKey] = &[
     k("output", "pov", "pov", Bool),
     k("output", "image_size", "image_size", Text),
     k("output", "color_range", "color_range", Text),
+    k("anchors", "", "pin", Tables),
 ];
 
 /// A system a scenario can select with `[system] kind`: its keys and its flags' parser.
@@ -958,6 +959,7 @@ pub fn record(system: &System, matches: &ArgMatches) -> String {
                     spec.table,
                     toml_string(&value)
                 ));
+                table = spec.table;
             }
             continue;
         }

@@ -121,6 +121,9 @@ pub enum SelectionError {
         #[source]
         source: balloon::mesh::MeshError,
     },
+    /// What this system does not support.
+    #[error("{0}")]
+    Unsupported(String),
     /// The simulation refuses the anchors or loads.
     #[error(transparent)]
     Shell(#[from] balloon::shell::ShellError),
@@ -674,6 +677,26 @@ impl SetupArgs {
         out.before_step(sim)?;
         Ok(out)
     }
+}
+
+/// Pins the `--pin` selections of a two-layer body hard
+/// (`balloon::two_layer::TwoLayerSimulation::fix_particles`); springs (`@K`) are refused.
+pub fn fix_two_layer(
+    sim: &mut balloon::two_layer::TwoLayerSimulation,
+    pins: &[Pin],
+) -> Result<(), SelectionError> {
+    let rest = sim.positions().to_vec();
+    for pin in pins {
+        if pin.stiffness.is_some() {
+            return Err(SelectionError::Unsupported(format!(
+                "`--pin {pin}`: the two-layer body takes hard pins only (no @K)"
+            )));
+        }
+        let particles = pin.selector.select(&rest)?;
+        sim.fix_particles(&particles)
+            .map_err(|e| SelectionError::Unsupported(e.to_string()))?;
+    }
+    Ok(())
 }
 
 /// The anchor springs and scheduled loads of a shell run.

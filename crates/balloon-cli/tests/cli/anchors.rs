@@ -366,3 +366,27 @@ fn the_pinned_neck_example_runs_as_written() {
         s["final_gas_volume"].as_f64().unwrap() > 1.05 * s["initial_gas_volume"].as_f64().unwrap()
     );
 }
+
+#[test]
+fn the_two_layer_body_takes_hard_pins_from_flags_and_scenario_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("s.toml");
+    std::fs::write(
+        &scenario,
+        "[system]\nkind = \"two-layer\"\n[body]\ndim = 3\n[run]\nsteps = 20\n\
+         [[anchors]]\nabove = { axis = \"z\", value = 0.0 }\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    run_ok(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let rec = std::fs::read_to_string(out.join("scenario.toml")).unwrap();
+    assert!(rec.contains("[[anchors]]\nspec = \"above:z:0.0\""), "{rec}");
+    let bad = run_balloon(&["two-layer", "--dim", "3", "--pin", "above:z:0@10"]);
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success() && err.contains("hard pins only"), "{err}");
+}
