@@ -61,7 +61,9 @@ fn a_two_layer_body_hangs_from_its_fixed_top_particles() {
     let mut sim = body.simulate(ExplicitMethod::Rk4, 2e-4).unwrap();
     let rest = sim.positions().to_vec();
     let n = rest.len() / 3;
-    let top_z = (0..n).map(|i| rest[3 * i + 2]).fold(f64::NEG_INFINITY, f64::max);
+    let top_z = (0..n)
+        .map(|i| rest[3 * i + 2])
+        .fold(f64::NEG_INFINITY, f64::max);
     let top: Vec<usize> = (0..n).filter(|&i| rest[3 * i + 2] > top_z - 1e-9).collect();
     sim.fix_particles(&top).unwrap();
     sim.run(500).unwrap();

@@ -52,7 +52,7 @@ pub struct InflateArgs {
     /// Thickness maps, anchors and loads: --thickness-file, --thickness-rule, --pin,
     /// --pin-stiffness, --load.
     #[command(flatten)]
-    pub setup: crate::selection::SetupArgs,
+    pub setup: Box<crate::selection::SetupArgs>,
     /// Gas model: `pump` (ambient air added at --pump-rate from the rest shape: the process of
     /// inflating), `ideal` (isothermal, fixed amount, Eq. 12-14), `constant` (fixed pressure),
     /// `polytropic` (--gamma), `leak` (--leak-conductance) or `supply-pump` (--supply-pressure).

@@ -504,7 +504,9 @@ fn value_args(
                         .to_owned()),
                 }
             }
-            _ => Err(expected("a table { axis, from, to } or a string AXIS:FROM:TO")),
+            _ => Err(expected(
+                "a table { axis, from, to } or a string AXIS:FROM:TO",
+            )),
         },
         Tables => Err(expected("an array of tables")),
         PathKind => match v {
@@ -681,13 +683,17 @@ fn table_value(
         let span = table.key(key).and_then(|k| k.span());
         let fail = |m: String| (span.clone(), key.to_owned(), m);
         if key == "spec" {
-            let s = item.as_str().ok_or_else(|| fail("expected a string".into()))?;
+            let s = item
+                .as_str()
+                .ok_or_else(|| fail("expected a string".into()))?;
             raw = Some(crate::selection::rewrite_paths(id, s, Some(base)));
             continue;
         }
         if let Some(sel) = selector_value(key, item, base) {
             if selector.is_some() {
-                return Err(fail("a second selector (one of indices, vertices_file, below, above, box)".into()));
+                return Err(fail(
+                    "a second selector (one of indices, vertices_file, below, above, box)".into(),
+                ));
             }
             selector = Some(sel.map_err(fail)?);
             continue;
@@ -709,7 +715,9 @@ fn table_value(
                 parts.insert(0, format!("{key}={}", v.join(",")));
             }
             "per" if loads => {
-                let s = item.as_str().ok_or_else(|| fail("expected a string".into()))?;
+                let s = item
+                    .as_str()
+                    .ok_or_else(|| fail("expected a string".into()))?;
                 parts.push(format!("per={s}"));
             }
             _ => {
@@ -738,9 +746,8 @@ fn table_value(
         }
         Ok(parts.join(";"))
     } else {
-        let sel = selector.ok_or_else(|| {
-            whole("no selector (indices, vertices_file, below, above or box)")
-        })?;
+        let sel = selector
+            .ok_or_else(|| whole("no selector (indices, vertices_file, below, above or box)"))?;
         Ok(match stiffness {
             Some(k) => format!("{sel}@{k}"),
             None => sel,
@@ -1172,7 +1179,13 @@ mod tests {
         assert_eq!(a.setup.load.len(), 3);
         assert_eq!(a.setup.load[0].kind, LoadKind::Gravity([0.0, 0.0, -9.81]));
         assert_eq!((a.setup.load[1].start, a.setup.load[1].end), (0.1, 0.2));
-        assert!(matches!(a.setup.load[2].kind, LoadKind::Grab { stiffness: 10.0, .. }));
+        assert!(matches!(
+            a.setup.load[2].kind,
+            LoadKind::Grab {
+                stiffness: 10.0,
+                ..
+            }
+        ));
         // The recorded scenario repeats them and reads back to the same arguments.
         let text = a.scenario_record.clone().unwrap();
         assert_eq!(text.matches("[[anchors]]").count(), 3, "{text}");

@@ -592,13 +592,11 @@ impl SetupArgs {
             return Ok(Some(values));
         } else if mesh_spec.to_ascii_lowercase().ends_with(".ply") {
             let path = PathBuf::from(mesh_spec);
-            let (_, property) =
-                balloon::mesh::io::read_ply_with_property(&path, "thickness").map_err(
-                    |source| SelectionError::Mesh {
-                        path: path.clone(),
-                        source,
-                    },
-                )?;
+            let (_, property) = balloon::mesh::io::read_ply_with_property(&path, "thickness")
+                .map_err(|source| SelectionError::Mesh {
+                    path: path.clone(),
+                    source,
+                })?;
             let what = format!("the `thickness` property of {mesh_spec}");
             match property {
                 PlyProperty::Absent => return Ok(None),
@@ -829,8 +827,18 @@ mod tests {
         assert_eq!(sel("above:y:0.5").unwrap(), vec![2]);
         assert_eq!(sel("box:0,0,0,1,0,1").unwrap(), vec![0, 1]);
         assert_eq!(sel("indices:2,0,2").unwrap(), vec![0, 2]);
-        assert!(sel("indices:3").unwrap_err().to_string().contains("vertex 3"));
-        assert!(sel("below:z:-1").unwrap_err().to_string().contains("no vertex"));
+        assert!(
+            sel("indices:3")
+                .unwrap_err()
+                .to_string()
+                .contains("vertex 3")
+        );
+        assert!(
+            sel("below:z:-1")
+                .unwrap_err()
+                .to_string()
+                .contains("no vertex")
+        );
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("g.txt");
         std::fs::write(&f, "# neck\n1\n\n2 # top\n").unwrap();
@@ -875,6 +883,9 @@ mod tests {
             .iter()
             .fold((1.0f64, 0.0f64), |(a, b), &h| (a.min(h), b.max(h)));
         assert!((lo - 1e-4).abs() < 1e-15 && (hi - 3e-4).abs() < 1e-15);
-        assert_eq!(SetupArgs::default().thickness("m.obj", &mesh).unwrap(), None);
+        assert_eq!(
+            SetupArgs::default().thickness("m.obj", &mesh).unwrap(),
+            None
+        );
     }
 }

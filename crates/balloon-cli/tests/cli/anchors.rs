@@ -70,7 +70,10 @@ fn a_hard_pinned_neck_stays_exactly_where_it_is_while_the_rest_inflates() {
     let neck = neck_vertices(&input);
     assert!(neck.len() >= 3, "{neck:?}");
     for &v in &neck {
-        assert_eq!(end.vertices[v], input.vertices[v], "pinned vertex {v} moved");
+        assert_eq!(
+            end.vertices[v], input.vertices[v],
+            "pinned vertex {v} moved"
+        );
     }
     let top = (0..input.num_vertices())
         .max_by(|&a, &b| input.vertices[a].z.total_cmp(&input.vertices[b].z))
@@ -300,11 +303,16 @@ fn gravity_and_a_scheduled_grab_move_the_shell() {
     };
     let (fall, _) = shift("gravity=0,0,-9.81", "gravity");
     assert!(fall < -1e-5, "gravity moved the bottom by {fall} m");
-    let (pull, out) = shift("grab=0,0,-0.3;on=below:z:-0.085;stiffness=0.1;end=0.1", "grab");
+    let (pull, out) = shift(
+        "grab=0,0,-0.3;on=below:z:-0.085;stiffness=0.1;end=0.1",
+        "grab",
+    );
     assert!(pull < -1e-5, "the grab moved the bottom by {pull} m");
     let rec = std::fs::read_to_string(out.join("scenario.toml")).unwrap();
     assert!(
-        rec.contains("[[loads]]\nspec = \"grab=0.0,0.0,-0.3;stiffness=0.1;on=below:z:-0.085;end=0.1\""),
+        rec.contains(
+            "[[loads]]\nspec = \"grab=0.0,0.0,-0.3;stiffness=0.1;on=below:z:-0.085;end=0.1\""
+        ),
         "{rec}"
     );
 }
@@ -345,7 +353,11 @@ fn the_pinned_neck_example_runs_as_written() {
             std::fs::write(&path, &text).unwrap();
         }
         let on_disk = std::fs::read_to_string(&path).unwrap();
-        assert!(on_disk == text, "{} differs from its generator", path.display());
+        assert!(
+            on_disk == text,
+            "{} differs from its generator",
+            path.display()
+        );
     }
     let scenario = dir.join("pinned-neck.toml");
     let out = tempfile::tempdir().unwrap();
@@ -360,7 +372,10 @@ fn the_pinned_neck_example_runs_as_written() {
     let end = final_mesh(out.path());
     for &v in &neck_vertices(&input) {
         let (a, b) = (end.vertices[v], input.vertices[v]);
-        assert!((a - b).norm() < 1e-12, "neck vertex {v} moved from {b} to {a}");
+        assert!(
+            (a - b).norm() < 1e-12,
+            "neck vertex {v} moved from {b} to {a}"
+        );
     }
     assert!(
         s["final_gas_volume"].as_f64().unwrap() > 1.05 * s["initial_gas_volume"].as_f64().unwrap()
@@ -388,5 +403,8 @@ fn the_two_layer_body_takes_hard_pins_from_flags_and_scenario_files() {
     assert!(rec.contains("[[anchors]]\nspec = \"above:z:0.0\""), "{rec}");
     let bad = run_balloon(&["two-layer", "--dim", "3", "--pin", "above:z:0@10"]);
     let err = String::from_utf8_lossy(&bad.stderr);
-    assert!(!bad.status.success() && err.contains("hard pins only"), "{err}");
+    assert!(
+        !bad.status.success() && err.contains("hard pins only"),
+        "{err}"
+    );
 }

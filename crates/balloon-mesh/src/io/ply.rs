@@ -303,9 +303,9 @@ fn read_body(
         };
         let (ix, iy, iz) = (find("x"), find("y"), find("z"));
         // The wanted property of this element (vertex properties win over face ones).
-        let iw = want.and_then(find).filter(|_| {
-            (is_vertex || is_face) && !matches!(property, PlyProperty::PerVertex(_))
-        });
+        let iw = want
+            .and_then(find)
+            .filter(|_| (is_vertex || is_face) && !matches!(property, PlyProperty::PerVertex(_)));
         let mut wanted = Vec::new();
         let mut value = 0.0;
         if is_vertex && (ix.is_none() || iy.is_none() || iz.is_none()) {
@@ -393,13 +393,15 @@ fn read_body(
                             for j in 1..n - 1 {
                                 triangles.push([corners[0], corners[j], corners[j + 1]]);
                             }
-
                         }
                     }
                 }
             }
             if is_face && iw.is_some() {
-                wanted.extend(std::iter::repeat_n(value, triangles.len() - triangles_before));
+                wanted.extend(std::iter::repeat_n(
+                    value,
+                    triangles.len() - triangles_before,
+                ));
             }
             if is_vertex {
                 if !xyz.iter().all(|c| c.is_finite()) {

@@ -192,8 +192,14 @@ fn ply_thickness_property_of_vertices_or_faces_with_polygons_fanned() {
     assert_eq!(parse_ply(face.as_bytes(), &p()).unwrap(), mesh);
     // Per vertex (a vertex property wins over a face property of the same name).
     let vert = face
-        .replace("property float z\n", "property float z\nproperty float thickness\n")
-        .replace("0 0 0\n1 0 0\n1 1 0\n0 1 0\n", "0 0 0 1\n1 0 0 2\n1 1 0 3\n0 1 0 4\n");
+        .replace(
+            "property float z\n",
+            "property float z\nproperty float thickness\n",
+        )
+        .replace(
+            "0 0 0\n1 0 0\n1 1 0\n0 1 0\n",
+            "0 0 0 1\n1 0 0 2\n1 1 0 3\n0 1 0 4\n",
+        );
     let (_, prop) = parse_ply_with_property(vert.as_bytes(), &p(), "thickness").unwrap();
     assert_eq!(prop, PlyProperty::PerVertex(vec![1.0, 2.0, 3.0, 4.0]));
 }

@@ -1098,8 +1098,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             self.pins.external = masked;
             info
         } else {
-            let external =
-                (!self.external_forces.is_empty()).then_some(&self.external_forces[..]);
+            let external = (!self.external_forces.is_empty()).then_some(&self.external_forces[..]);
             if self.anchor_springs.is_empty() {
                 integrator.step(&mut self.system, time, dt, x, v, external)
             } else {

@@ -170,11 +170,7 @@ impl<S: ForceSystem> ForceSystem for WithPins<'_, S> {
             .unwrap_or_else(std::sync::PoisonError::into_inner);
         let (masked, out) = &mut *guard;
         masked.clear();
-        masked.extend(
-            dx.iter()
-                .zip(fixed)
-                .map(|(&d, &f)| if f { 0.0 } else { d }),
-        );
+        masked.extend(dx.iter().zip(fixed).map(|(&d, &f)| if f { 0.0 } else { d }));
         out.clear();
         out.resize(df.len(), 0.0);
         self.inner.add_force_differential(masked, out);
@@ -247,9 +243,9 @@ impl<S: ForceSystem> ForceSystem for WithPins<'_, S> {
 #[cfg(test)]
 mod tests {
     use crate::shell::{AnchorSpring, ShellBalloon, ShellMaterialModel};
-    use balloon_material::membrane::{MembraneModel, MembraneNeoHookean};
     use balloon_gas::GasKind;
     use balloon_integrate::linear::LinearSolverKind;
+    use balloon_material::membrane::{MembraneModel, MembraneNeoHookean};
 
     /// The vertices of a 0.1 m sphere below z = -0.08 (its "neck").
     fn neck(x: &[f64]) -> Vec<usize> {
@@ -301,8 +297,14 @@ mod tests {
             let top = (0..rest.len() / 3)
                 .max_by(|&a, &b| rest[3 * a + 2].total_cmp(&rest[3 * b + 2]))
                 .unwrap();
-            assert!(x[3 * top + 2] > rest[3 * top + 2] + 1e-3, "{solver:?}: did not inflate");
-            assert!(sim.gas_volume() > 1.05 * sim.rest_gas_volume(), "{solver:?}");
+            assert!(
+                x[3 * top + 2] > rest[3 * top + 2] + 1e-3,
+                "{solver:?}: did not inflate"
+            );
+            assert!(
+                sim.gas_volume() > 1.05 * sim.rest_gas_volume(),
+                "{solver:?}"
+            );
         }
     }
 
@@ -331,7 +333,11 @@ mod tests {
         for _ in 0..5 {
             sim.step().unwrap();
         }
-        assert!(pinned.iter().any(|&v| sim.positions()[3 * v + 2] != rest[3 * v + 2]));
+        assert!(
+            pinned
+                .iter()
+                .any(|&v| sim.positions()[3 * v + 2] != rest[3 * v + 2])
+        );
         let e = sim.set_pinned_vertices(vec![0, 100_000]).unwrap_err();
         assert!(e.to_string().contains("100000"), "{e}");
         sim.set_pinned_vertices(vec![0]).unwrap();
