@@ -408,3 +408,37 @@ fn the_two_layer_body_takes_hard_pins_from_flags_and_scenario_files() {
         "{err}"
     );
 }
+
+#[test]
+fn a_run_with_anchors_loads_and_a_thickness_map_repeats_byte_identically_from_its_record() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    let scenario = example_dir().join("pinned-neck.toml");
+    // A `file:` path on the command line is relative to the working directory.
+    let pin = format!("file:{}@300", example_dir().join("neck.txt").display());
+    run_ok(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--steps",
+        "8",
+        "--pin",
+        &pin,
+        "--load",
+        "force=0,0.01,0;on=above:z:0.09;start=0.02;end=0.06",
+        "--out",
+        a.to_str().unwrap(),
+    ]);
+    let rec = std::fs::read_to_string(a.join("scenario.toml")).unwrap();
+    assert!(rec.contains("thickness_file = \""), "{rec}");
+    run_ok(&[
+        "run",
+        a.join("scenario.toml").to_str().unwrap(),
+        "--out",
+        b.to_str().unwrap(),
+    ]);
+    let (fa, fb) = (
+        std::fs::read(a.join("final.obj")).unwrap(),
+        std::fs::read(b.join("final.obj")).unwrap(),
+    );
+    assert!(fa == fb, "the repeated run differs");
+}
