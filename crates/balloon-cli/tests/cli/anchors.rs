@@ -442,3 +442,31 @@ fn a_run_with_anchors_loads_and_a_thickness_map_repeats_byte_identically_from_it
     );
     assert!(fa == fb, "the repeated run differs");
 }
+
+#[test]
+fn a_static_solve_keeps_a_hard_pinned_neck_in_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh_path = write_sphere(dir.path());
+    let input = balloon_mesh::io::read_obj(&mesh_path).unwrap();
+    let out = dir.path().join("out");
+    run_ok(&[
+        "inflate",
+        mesh_path.to_str().unwrap(),
+        "--static",
+        "--gas",
+        "constant",
+        "--pressure",
+        "2000",
+        "--pin",
+        "below:z:-0.085",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let end = final_mesh(&out);
+    for &v in &neck_vertices(&input) {
+        assert_eq!(
+            end.vertices[v], input.vertices[v],
+            "pinned vertex {v} moved"
+        );
+    }
+}

@@ -1436,7 +1436,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// (Eq. 18-23: zero residual, identity rows and columns of the Newton matrix, zero
     /// velocity) and from the shell-volume projection (Algorithm 2: zero inverse mass), so its
     /// position stays bit for bit what it was. Duplicates are ignored; every vertex must exist.
-    /// The static solve ([`ShellSimulation::solve_static`]) does not support pins.
+    /// The static solve ([`ShellSimulation::solve_static`]) keeps them in place too.
     ///
     /// ```
     /// use balloon::shell::ShellBalloon;

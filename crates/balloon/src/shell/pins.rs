@@ -9,8 +9,11 @@
 //! identity row `(1 + dt alpha) m_i e_i`, so every linear solver returns `dv_i = 0` exactly and
 //! the position `x_i = x_i^n + dt v_i` never changes. The shell-volume projection (Algorithm 2)
 //! gives pinned vertices a zero inverse mass, so it does not move them either, and the velocity
-//! of Algorithm 1 (line 12) stays zero.
+//! of Algorithm 1 (line 12) stays zero. The static solve (Newton with the shift `K + mu M`)
+//! sees the same decoupled rows, with no gravity to cancel, and leaves pinned vertices where
+//! they are too.
 
+use balloon_integrate::statics::LoadScaling;
 use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
 use std::sync::Mutex;
 
@@ -92,6 +95,13 @@ impl Pins {
                 t.2 = 0.0;
             }
         }
+    }
+}
+
+/// The static solve (`ShellSimulation::solve_static`) scales the inner system's load.
+impl<S: LoadScaling> LoadScaling for WithPins<'_, S> {
+    fn set_load_factor(&mut self, factor: f64) {
+        self.inner.set_load_factor(factor);
     }
 }
 
@@ -340,12 +350,28 @@ mod tests {
         );
         let e = sim.set_pinned_vertices(vec![0, 100_000]).unwrap_err();
         assert!(e.to_string().contains("100000"), "{e}");
-        sim.set_pinned_vertices(vec![0]).unwrap();
-        assert!(
-            sim.solve_static(&Default::default())
-                .unwrap_err()
-                .to_string()
-                .contains("pin")
-        );
+    }
+
+    #[test]
+    fn the_static_solve_keeps_pinned_vertices_in_place() {
+        let mesh = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
+        let mut sim = ShellBalloon::new(mesh)
+            .with_gas(GasKind::Constant)
+            .with_gauge_pressure(3000.0)
+            .build()
+            .unwrap();
+        let rest = sim.positions().to_vec();
+        let pinned = neck(&rest);
+        sim.set_pinned_vertices(pinned.clone()).unwrap();
+        let f: Vec<f64> = (0..rest.len())
+            .map(|i| if i % 3 == 0 { 0.01 } else { 0.0 })
+            .collect();
+        sim.set_external_forces(Some(&f)).unwrap();
+        let report = sim.solve_static(&Default::default()).unwrap();
+        assert!(report.converged, "{report:?}");
+        for &v in &pinned {
+            assert_eq!(sim.positions()[3 * v..3 * v + 3], rest[3 * v..3 * v + 3]);
+        }
+        assert!(sim.gas_volume() > 1.05 * sim.rest_gas_volume());
     }
 }
