@@ -1,5 +1,6 @@
 //! Cross-crate integration tests: one binary for the whole workspace (linking is slow on 2 cores).
 
+mod anchors;
 mod connected;
 mod limit_point;
 mod newton;

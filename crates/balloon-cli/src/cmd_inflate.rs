@@ -49,6 +49,10 @@ pub struct InflateArgs {
     #[arg(long, default_value_t = shell::DEFAULT_THICKNESS, allow_hyphen_values = true,
           value_parser = real(Open(0.0), Closed(1.0)))]
     pub thickness: f64,
+    /// Thickness maps, anchors and loads: --thickness-file, --thickness-rule, --pin,
+    /// --pin-stiffness, --load.
+    #[command(flatten)]
+    pub setup: Box<crate::selection::SetupArgs>,
     /// Gas model: `pump` (ambient air added at --pump-rate from the rest shape: the process of
     /// inflating), `ideal` (isothermal, fixed amount, Eq. 12-14), `constant` (fixed pressure),
     /// `polytropic` (--gamma), `leak` (--leak-conductance) or `supply-pump` (--supply-pressure).
@@ -288,6 +292,8 @@ struct InflateHooks<'a> {
     /// Wall-clock ms of the steps as the simulation measured them.
     total_ms: f64,
     args: &'a InflateArgs,
+    /// Anchor springs and scheduled loads (`--pin ...@K`, `--load`).
+    loads: crate::selection::ShellLoads,
 }
 
 impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
@@ -295,6 +301,10 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
 
     fn frame(&self, sim: &ShellSimulation<M>, step: usize) -> Result<Frame> {
         shell_frame(sim, step)
+    }
+
+    fn before_step(&mut self, sim: &mut ShellSimulation<M>) -> Result<()> {
+        Ok(self.loads.before_step(sim)?)
     }
 
     fn after_step(
@@ -506,14 +516,16 @@ pub fn run(args: InflateArgs) -> Result<()> {
         }),
         ProjectionMode::Off => None,
     };
-    let builder = ShellBalloon::new(mesh.clone());
+    let builder = match args.setup.thickness(&args.mesh, &mesh)? {
+        Some(map) => ShellBalloon::new(mesh.clone()).with_thickness_per_face(map),
+        None => ShellBalloon::new(mesh.clone()).with_thickness(args.thickness),
+    };
     let builder = match args.pump_rate {
         Some(rate) => builder.with_pump_rate(rate),
         None => builder.with_relative_pump_rate(shell::DEFAULT_PUMP_VOLUMES_PER_SECOND),
     };
     let mut sim = builder
         .with_material(material.clone())
-        .with_thickness(args.thickness)
         .with_density(args.density)
         .with_gas(args.gas.kind())
         .with_gauge_pressure(args.pressure)
@@ -525,6 +537,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
         .with_dt(args.dt)
         .build()
         .with_context(|| format!("cannot set up the balloon for `{}`", args.mesh))?;
+    let loads = args.setup.apply(&mut sim)?;
 
     let out = match &args.out {
         Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
@@ -564,6 +577,7 @@ pub fn run(args: InflateArgs) -> Result<()> {
         },
         total_ms: 0.0,
         args: &args,
+        loads,
     };
     run_simulation(&mut sim, &mut hooks, &plan, out)
 }

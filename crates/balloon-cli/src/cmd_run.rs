@@ -85,6 +85,12 @@ pub enum Kind {
     Text,
     /// A string naming a file or folder, relative to the scenario file.
     Path,
+    /// `--thickness-rule`: a string `AXIS:FROM:TO` or a table `{ axis, from, to }`.
+    Rule,
+    /// A repeatable flag written as an array of tables (`[[anchors]]` is `--pin`, `[[loads]]`
+    /// is `--load`), one table per value: a selector and options as keys
+    /// (`crate::cmd_run::table_value`), or the flag's value itself as `spec`.
+    Tables,
 }
 
 /// One key of a scenario file: `[table] key`, the clap argument it sets, its type, and whether
@@ -126,7 +132,7 @@ const fn unrecorded(
     }
 }
 
-use Kind::{Bool, Number, Numbers, Path as PathKind, Text};
+use Kind::{Bool, Number, Numbers, Path as PathKind, Rule, Tables, Text};
 
 /// Every key of a shell scenario, in the order the recorded scenario writes them. Each flag of
 /// `balloon inflate` has exactly one key (a unit test checks it).
@@ -145,6 +151,9 @@ pub const SHELL_KEYS: &[ScenarioKey] = &[
     k("shell", "ogden_alpha", "ogden_alpha", Numbers),
     k("shell", "yeoh", "yeoh", Numbers),
     k("shell", "thickness", "thickness", Number),
+    k("shell", "thickness_file", "thickness_file", PathKind),
+    k("shell", "thickness_rule", "thickness_rule", Rule),
+    k("shell", "pin_stiffness", "pin_stiffness", Number),
     k("shell", "density", "density", Number),
     k("shell", "volume_projection", "volume_projection", Text),
     k("gas", "model", "gas", Text),
@@ -183,6 +192,8 @@ pub const SHELL_KEYS: &[ScenarioKey] = &[
     k("output", "pov", "pov", Bool),
     k("output", "image_size", "image_size", Text),
     k("output", "color_range", "color_range", Text),
+    k("anchors", "", "pin", Tables),
+    k("loads", "", "load", Tables),
 ];
 
 /// Every key of a volumetric scenario (`balloon volumetric`, seed 003).
@@ -286,6 +297,7 @@ pub const TWO_LAYER_KEYS: &[ScenarioKey] = &[
     k("output", "pov", "pov", Bool),
     k("output", "image_size", "image_size", Text),
     k("output", "color_range", "color_range", Text),
+    k("anchors", "", "pin", Tables),
 ];
 
 /// A system a scenario can select with `[system] kind`: its keys and its flags' parser.
@@ -479,6 +491,24 @@ fn value_args(
             Value::String(s) => Ok(flag(s.value().clone())),
             _ => Err(expected("a string")),
         },
+        Rule => match v {
+            Value::String(s) => Ok(flag(s.value().clone())),
+            Value::InlineTable(t) => {
+                let axis = t.get("axis").and_then(Value::as_str);
+                let from = t.get("from").and_then(number_text);
+                let to = t.get("to").and_then(number_text);
+                match (axis, from, to, t.len()) {
+                    (Some(a), Some(f), Some(t), 3) => Ok(flag(format!("{a}:{f}:{t}"))),
+                    _ => Err("expected { axis = \"x\"|\"y\"|\"z\", from = M, to = M } \
+                              (m) or \"AXIS:FROM:TO\""
+                        .to_owned()),
+                }
+            }
+            _ => Err(expected(
+                "a table { axis, from, to } or a string AXIS:FROM:TO",
+            )),
+        },
+        Tables => Err(expected("an array of tables")),
         PathKind => match v {
             Value::String(s) => {
                 let s = s.value();
@@ -513,6 +543,34 @@ fn file_args(
     for (name, item) in root.iter() {
         let key_span = root.key(name).and_then(|k| k.span());
         if name == "system" {
+            continue;
+        }
+        if let Some(spec) = keys.iter().find(|s| s.table == name && s.kind == Tables) {
+            let Some(array) = item.as_array_of_tables() else {
+                return Err(src.key_error(
+                    key_span.or_else(|| item.span()),
+                    name,
+                    format!("expected an array of tables `[[{name}]]`"),
+                ));
+            };
+            let long = long_of(&cmd, spec.id);
+            for table in array.iter() {
+                let value = table_value(spec.id, table, base)
+                    .map_err(|(span, key, m)| src.key_error(span, &format!("{name}.{key}"), m))?;
+                let args = vec![format!("--{}", long.as_deref().unwrap_or(spec.id)), value];
+                let mut alone = vec!["balloon run".to_owned()];
+                alone.extend(args.iter().cloned());
+                if let Err(e) = cmd.clone().try_get_matches_from(&alone)
+                    && !long.as_ref().is_some_and(|l| given.contains(l))
+                {
+                    let span = table.span().or(key_span.clone());
+                    return Err(src.key_error(span, name, clap_message(&e)));
+                }
+                out.push(FileArg {
+                    long: long.clone(),
+                    args,
+                });
+            }
             continue;
         }
         let Some(table) = item.as_table_like().filter(|_| tables.contains(&name)) else {
@@ -576,6 +634,125 @@ fn file_args(
         }
     }
     Ok(out)
+}
+
+/// A selector key of an `[[anchors]]` or `[[loads]]` table as a selector spec
+/// (`crate::selection::parse_selector`), `None` when `key` is not a selector key.
+fn selector_value(key: &str, v: &Item, base: &Path) -> Option<Result<String, String>> {
+    let list = |v: &Item| -> Result<Vec<String>, String> {
+        v.as_array()
+            .ok_or_else(|| "expected an array".to_owned())?
+            .iter()
+            .map(|x| number_text(x).ok_or_else(|| "expected numbers".to_owned()))
+            .collect()
+    };
+    Some(match key {
+        "indices" => list(v).map(|l| format!("indices:{}", l.join(","))),
+        "box" => list(v).map(|l| format!("box:{}", l.join(","))),
+        "vertices_file" => v
+            .as_str()
+            .map(|p| format!("file:{}", base.join(p).display()))
+            .ok_or_else(|| "expected a path (relative to the scenario file)".to_owned()),
+        "below" | "above" => {
+            let t = v.as_inline_table();
+            let axis = t.and_then(|t| t.get("axis")).and_then(Value::as_str);
+            let value = t.and_then(|t| t.get("value")).and_then(number_text);
+            match (axis, value, t.map_or(0, |t| t.len())) {
+                (Some(a), Some(x), 2) => Ok(format!("{key}:{a}:{x}")),
+                _ => Err("expected { axis = \"x\"|\"y\"|\"z\", value = M }".to_owned()),
+            }
+        }
+        _ => return None,
+    })
+}
+
+/// The value of the flag `id` (`pin` or `load`) of one `[[anchors]]` / `[[loads]]` table, or
+/// the span and key of what is wrong. A `spec` key is the flag's value as written on the
+/// command line (its `file:` path relative to the scenario file).
+fn table_value(
+    id: &str,
+    table: &toml_edit::Table,
+    base: &Path,
+) -> Result<String, (Option<std::ops::Range<usize>>, String, String)> {
+    let mut selector: Option<String> = None;
+    let mut parts: Vec<String> = Vec::new();
+    let mut stiffness = None;
+    let mut raw = None;
+    let loads = id == "load";
+    for (key, item) in table.iter() {
+        let span = table.key(key).and_then(|k| k.span());
+        let fail = |m: String| (span.clone(), key.to_owned(), m);
+        if key == "spec" {
+            let s = item
+                .as_str()
+                .ok_or_else(|| fail("expected a string".into()))?;
+            raw = Some(crate::selection::rewrite_paths(id, s, Some(base)));
+            continue;
+        }
+        if let Some(sel) = selector_value(key, item, base) {
+            if selector.is_some() {
+                return Err(fail(
+                    "a second selector (one of indices, vertices_file, below, above, box)".into(),
+                ));
+            }
+            selector = Some(sel.map_err(fail)?);
+            continue;
+        }
+        let number = || {
+            item.as_value()
+                .and_then(number_text)
+                .ok_or_else(|| fail("expected a number".into()))
+        };
+        match key {
+            "stiffness" => stiffness = Some(number()?),
+            "start" | "end" if loads => parts.push(format!("{key}={}", number()?)),
+            "gravity" | "force" | "grab" if loads => {
+                let v: Vec<String> = item
+                    .as_array()
+                    .map(|a| a.iter().filter_map(number_text).collect())
+                    .filter(|v: &Vec<String>| v.len() == 3)
+                    .ok_or_else(|| fail("expected an array of 3 numbers".into()))?;
+                parts.insert(0, format!("{key}={}", v.join(",")));
+            }
+            "per" if loads => {
+                let s = item
+                    .as_str()
+                    .ok_or_else(|| fail("expected a string".into()))?;
+                parts.push(format!("per={s}"));
+            }
+            _ => {
+                let known = if loads {
+                    "gravity, force, grab, per, stiffness, start, end, indices, vertices_file, below, above, box, spec"
+                } else {
+                    "indices, vertices_file, below, above, box, stiffness, spec"
+                };
+                return Err(fail(format!("unknown key (the keys here are {known})")));
+            }
+        }
+    }
+    let whole = |m: &str| (table.span(), String::new(), m.to_owned());
+    if let Some(r) = raw {
+        if selector.is_some() || stiffness.is_some() || !parts.is_empty() {
+            return Err(whole("`spec` stands alone"));
+        }
+        return Ok(r);
+    }
+    if loads {
+        if let Some(k) = stiffness {
+            parts.push(format!("stiffness={k}"));
+        }
+        if let Some(sel) = selector {
+            parts.push(format!("on={sel}"));
+        }
+        Ok(parts.join(";"))
+    } else {
+        let sel = selector
+            .ok_or_else(|| whole("no selector (indices, vertices_file, below, above or box)"))?;
+        Ok(match stiffness {
+            Some(k) => format!("{sel}@{k}"),
+            None => sel,
+        })
+    }
 }
 
 /// The `--long` names given in `overrides` (`--dt 0.1` and `--dt=0.1` both give `dt`).
@@ -780,6 +957,19 @@ pub fn record(system: &System, matches: &ArgMatches) -> String {
     );
     let mut table = "system";
     for spec in system.keys.iter().filter(|s| s.recorded) {
+        if spec.kind == Tables {
+            let values = matches.try_get_raw(spec.id).ok().flatten();
+            for raw in values.into_iter().flatten() {
+                let value = crate::selection::rewrite_paths(spec.id, &raw.to_string_lossy(), None);
+                s.push_str(&format!(
+                    "\n[[{}]]\nspec = {}\n",
+                    spec.table,
+                    toml_string(&value)
+                ));
+                table = spec.table;
+            }
+            continue;
+        }
         if spec.table != table {
             table = spec.table;
             s.push_str(&format!("\n[{table}]\n"));
@@ -902,10 +1092,40 @@ mod tests {
             ("[run]\n\ndt = \"fast\"\n", 3, "run.dt", "expected a number"),
             ("[run]\ndt = 2.0\n", 2, "run.dt", "--dt"),
             (
+                "[mesh]\nscale = 1\n[anchor]\nx = 1\n",
+                3,
+                "anchor",
+                "unknown table",
+            ),
+            (
                 "[mesh]\nscale = 1\n[anchors]\nx = 1\n",
                 3,
                 "anchors",
-                "unknown table",
+                "array of tables",
+            ),
+            (
+                "[[anchors]]\nbelow = { axis = \"w\", value = 0 }\n",
+                1,
+                "anchors",
+                "axis",
+            ),
+            (
+                "[[anchors]]\nindices = [1]\nbox = [0, 0, 0, 1, 1, 1]\n",
+                3,
+                "anchors.box",
+                "second selector",
+            ),
+            (
+                "[[loads]]\ngravity = [0, 0]\n",
+                2,
+                "loads.gravity",
+                "3 numbers",
+            ),
+            (
+                "[shell]\nthickness_rule = { axis = \"z\", from = 1e-4 }\n",
+                2,
+                "shell.thickness_rule",
+                "axis",
             ),
             (
                 "[run]\nuntil_converged = 1\n",
@@ -929,6 +1149,64 @@ mod tests {
         std::fs::write(&path, "[run\n").unwrap();
         let e = shell_args(&path, &[]).unwrap_err().to_string();
         assert!(e.contains("s.toml:1: not valid TOML"), "{e}");
+    }
+
+    #[test]
+    fn anchors_loads_and_thickness_keys_become_flags_and_are_recorded() {
+        use crate::selection::{LoadKind, Selector};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.toml");
+        std::fs::write(
+            &path,
+            "[shell]\nthickness_file = \"wall.txt\"\npin_stiffness = 50\n\
+             [[anchors]]\nvertices_file = \"neck.txt\"\n\
+             [[anchors]]\nbelow = { axis = \"z\", value = 0.01 }\nstiffness = 200\n\
+             [[anchors]]\nspec = \"box:0,0,0,1,1,1\"\n\
+             [[loads]]\ngravity = [0, 0, -9.81]\n\
+             [[loads]]\nforce = [0, 0.5, 0]\nper = \"total\"\nindices = [3, 4]\nstart = 0.1\nend = 0.2\n\
+             [[loads]]\ngrab = [0, 0, 1]\nstiffness = 10\nabove = { axis = \"y\", value = 0.3 }\n",
+        )
+        .unwrap();
+        let a = shell_args(&path, &[]).unwrap();
+        assert_eq!(a.setup.thickness_file, Some(dir.path().join("wall.txt")));
+        assert_eq!(a.setup.pin_stiffness, Some(50.0));
+        assert_eq!(a.setup.pin.len(), 3);
+        assert_eq!(
+            a.setup.pin[0].selector,
+            Selector::File(dir.path().join("neck.txt"))
+        );
+        assert_eq!(a.setup.pin[1].stiffness, Some(200.0));
+        assert_eq!(a.setup.load.len(), 3);
+        assert_eq!(a.setup.load[0].kind, LoadKind::Gravity([0.0, 0.0, -9.81]));
+        assert_eq!((a.setup.load[1].start, a.setup.load[1].end), (0.1, 0.2));
+        assert!(matches!(
+            a.setup.load[2].kind,
+            LoadKind::Grab {
+                stiffness: 10.0,
+                ..
+            }
+        ));
+        // The recorded scenario repeats them and reads back to the same arguments.
+        let text = a.scenario_record.clone().unwrap();
+        assert_eq!(text.matches("[[anchors]]").count(), 3, "{text}");
+        assert_eq!(text.matches("[[loads]]").count(), 3, "{text}");
+        let rec = dir.path().join("r.toml");
+        std::fs::write(&rec, &text).unwrap();
+        let b = shell_args(&rec, &[]).unwrap();
+        assert_eq!(b.setup.pin, a.setup.pin);
+        assert_eq!(b.setup.load, a.setup.load);
+        assert_eq!(b.setup.thickness_file, a.setup.thickness_file);
+        // A --pin on the command line replaces the file's anchors; a rule as a table.
+        std::fs::write(
+            &path,
+            "[shell]\nthickness_rule = { axis = \"z\", from = 3e-4, to = 6e-4 }\n[[anchors]]\nindices = [1]\n",
+        )
+        .unwrap();
+        let c = shell_args(&path, &["--pin".into(), "indices:7".into()]).unwrap();
+        assert_eq!(c.setup.pin.len(), 1);
+        assert_eq!(c.setup.pin[0].selector, Selector::Indices(vec![7]));
+        let rule = c.setup.thickness_rule.unwrap();
+        assert_eq!((rule.axis, rule.from, rule.to), (2, 3e-4, 6e-4));
     }
 
     #[test]

@@ -146,6 +146,11 @@ pub struct TwoLayerArgs {
     /// Number of steps, 0 to 1e8.
     #[arg(long, default_value_t = 2000, value_parser = count(0, MAX_STEPS))]
     pub steps: usize,
+    /// Pin particles hard (repeatable; they do not move at all): `indices:1,2,3`, `file:PATH`,
+    /// `below:AXIS:VALUE`, `above:AXIS:VALUE` or `box:XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX` (m, the
+    /// rest positions), as `balloon inflate --pin` without springs.
+    #[arg(long, value_parser = crate::selection::parse_pin)]
+    pub pin: Vec<crate::selection::Pin>,
     /// Drag ("mouse") target `X,Y,Z` (m), optionally active only in a time window `@T0:T1` (s).
     #[arg(long, allow_hyphen_values = true)]
     pub drag: Option<String>,
@@ -448,6 +453,7 @@ pub fn run(args: TwoLayerArgs) -> Result<()> {
     let drag = args.drag.as_deref().map(parse_drag).transpose()?;
     let body = body_from(&args)?;
     let mut sim = body.simulate(args.integrator, args.dt)?;
+    crate::selection::fix_two_layer(&mut sim, &args.pin)?;
     let rest = sim.positions().to_vec();
     let out = match &args.out {
         Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(

@@ -19,6 +19,7 @@ mod material_args;
 mod output;
 mod params;
 mod run;
+mod selection;
 
 /// Simulate inflatable thin shells and volume-conserving soft bodies.
 #[derive(Debug, Parser)]

@@ -1,5 +1,6 @@
 //! End-to-end tests of the `balloon` binary: one test binary for all subcommands.
 
+mod anchors;
 mod gas_laws;
 mod inflate;
 mod membrane;

@@ -22,7 +22,7 @@ pub mod vtp;
 
 pub use obj::parse_obj;
 pub use off::parse_off;
-pub use ply::parse_ply;
+pub use ply::{PlyProperty, parse_ply, parse_ply_with_property};
 pub use pvd::{PvdEntry, PvdWriter, read_pvd};
 pub use stl::parse_stl;
 pub use vtp::{VtkEncoding, VtpArray, VtpData, read_vtp, write_vtp};
@@ -119,6 +119,15 @@ pub fn read_off(path: &Path) -> Result<TriMesh, MeshError> {
 /// Reads a PLY file (see [`ply`] for what is handled).
 pub fn read_ply(path: &Path) -> Result<TriMesh, MeshError> {
     parse_ply(&read_bytes(path)?, path)
+}
+
+/// Reads a PLY file and its scalar vertex or face property `name` (see
+/// [`parse_ply_with_property`]).
+pub fn read_ply_with_property(
+    path: &Path,
+    name: &str,
+) -> Result<(TriMesh, PlyProperty), MeshError> {
+    parse_ply_with_property(&read_bytes(path)?, path, name)
 }
 
 /// Reads an STL file, welding exactly coincident vertices (see [`stl`]).

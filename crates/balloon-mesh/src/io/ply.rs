@@ -269,12 +269,26 @@ fn header(bytes: &[u8], path: &Path) -> Result<(Format, Vec<Element>, usize, usi
     Ok((format, elements, pos, line_no))
 }
 
+/// A scalar property of a PLY file's vertices or faces, read with the mesh by
+/// [`parse_ply_with_property`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum PlyProperty {
+    /// Neither the vertices nor the faces have the property.
+    Absent,
+    /// One value per vertex.
+    PerVertex(Vec<f64>),
+    /// One value per triangle (a polygon's value repeated for each triangle of its fan).
+    PerFace(Vec<f64>),
+}
+
 fn read_body(
     src: &mut dyn Source,
     elements: &[Element],
     path: &Path,
     cap: usize,
-) -> Result<TriMesh, MeshError> {
+    want: Option<&str>,
+) -> Result<(TriMesh, PlyProperty), MeshError> {
+    let mut property = PlyProperty::Absent;
     let mut vertices = Vec::new();
     let mut triangles = Vec::new();
     let mut nv = None;
@@ -288,6 +302,12 @@ fn read_body(
                 .position(|p| matches!(p, Prop::Scalar { name, .. } if name == n))
         };
         let (ix, iy, iz) = (find("x"), find("y"), find("z"));
+        // The wanted property of this element (vertex properties win over face ones).
+        let iw = want
+            .and_then(find)
+            .filter(|_| (is_vertex || is_face) && !matches!(property, PlyProperty::PerVertex(_)));
+        let mut wanted = Vec::new();
+        let mut value = 0.0;
         if is_vertex && (ix.is_none() || iy.is_none() || iz.is_none()) {
             return Err(MeshError::Parse {
                 path: path.to_path_buf(),
@@ -305,10 +325,17 @@ fn read_body(
         // An element without properties occupies no bytes, whatever its (untrusted) count.
         let count = if el.props.is_empty() { 0 } else { el.count };
         for k in 0..count {
+            let triangles_before = triangles.len();
             for (pi, prop) in el.props.iter().enumerate() {
                 match prop {
                     Prop::Scalar { ty, name } => {
                         let v = src.value(*ty, &|| format!("{} {k} property {name}", el.name))?;
+                        if Some(pi) == iw {
+                            value = v;
+                            if is_vertex {
+                                wanted.push(v);
+                            }
+                        }
                         if is_vertex {
                             if Some(pi) == ix {
                                 xyz[0] = v;
@@ -370,6 +397,12 @@ fn read_body(
                     }
                 }
             }
+            if is_face && iw.is_some() {
+                wanted.extend(std::iter::repeat_n(
+                    value,
+                    triangles.len() - triangles_before,
+                ));
+            }
             if is_vertex {
                 if !xyz.iter().all(|c| c.is_finite()) {
                     return Err(MeshError::Parse {
@@ -384,6 +417,13 @@ fn read_body(
         if is_vertex {
             nv = Some(el.count);
         }
+        if iw.is_some() {
+            property = if is_vertex {
+                PlyProperty::PerVertex(wanted)
+            } else {
+                PlyProperty::PerFace(wanted)
+            };
+        }
     }
     if triangles.is_empty() {
         return Err(MeshError::Parse {
@@ -392,7 +432,7 @@ fn read_body(
             message: "no faces found (no `face` element with a `vertex_indices` list)".into(),
         });
     }
-    Ok(TriMesh::new(vertices, triangles))
+    Ok((TriMesh::new(vertices, triangles), property))
 }
 
 /// Parses PLY `bytes`; `path` is only used in error messages.
@@ -402,11 +442,33 @@ fn read_body(
 /// header, a truncated body, a bad number, a face index out of range, a face before the
 /// vertices, or no faces.
 pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
-    let mesh = parse_ply_body(super::strip_bom(bytes), path)?;
-    super::refuse_all_degenerate(path, mesh, || "header".to_string())
+    Ok(parse_ply_with_property(bytes, path, "")?.0)
 }
 
-fn parse_ply_body(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
+/// Parses PLY `bytes` like [`parse_ply`] and also reads the scalar property `name` of the
+/// `vertex` element or, if the vertices lack it, of the `face` element (e.g. a `thickness`
+/// map); [`PlyProperty::Absent`] when neither has it.
+///
+/// # Errors
+/// Those of [`parse_ply`].
+pub fn parse_ply_with_property(
+    bytes: &[u8],
+    path: &Path,
+    name: &str,
+) -> Result<(TriMesh, PlyProperty), MeshError> {
+    let want = (!name.is_empty()).then_some(name);
+    let (mesh, property) = parse_ply_body(super::strip_bom(bytes), path, want)?;
+    Ok((
+        super::refuse_all_degenerate(path, mesh, || "header".to_string())?,
+        property,
+    ))
+}
+
+fn parse_ply_body(
+    bytes: &[u8],
+    path: &Path,
+    want: Option<&str>,
+) -> Result<(TriMesh, PlyProperty), MeshError> {
     let (format, elements, body, header_lines) = header(bytes, path)?;
     let cap = bytes.len() / 4 + 1;
     match format {
@@ -423,7 +485,7 @@ fn parse_ply_body(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
                 tokens: it.peekable(),
                 line: header_lines,
             };
-            read_body(&mut src, &elements, path, cap)
+            read_body(&mut src, &elements, path, cap, want)
         }
         Format::Little | Format::Big => {
             let mut src = Binary {
@@ -432,7 +494,7 @@ fn parse_ply_body(bytes: &[u8], path: &Path) -> Result<TriMesh, MeshError> {
                 pos: body,
                 big: format == Format::Big,
             };
-            read_body(&mut src, &elements, path, cap)
+            read_body(&mut src, &elements, path, cap, want)
         }
     }
 }

@@ -177,6 +177,34 @@ fn ply_ascii_and_binary_with_unknown_elements() {
 }
 
 #[test]
+fn ply_thickness_property_of_vertices_or_faces_with_polygons_fanned() {
+    // A square (one quad, two triangles) with a per-face thickness after the index list.
+    let face = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+                property float z\nelement face 2\nproperty list uchar int vertex_indices\n\
+                property double thickness\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n\
+                4 0 1 2 3 0.002\n3 0 2 3 0.001\n";
+    let (mesh, prop) = parse_ply_with_property(face.as_bytes(), &p(), "thickness").unwrap();
+    assert_eq!(mesh.triangles.len(), 3);
+    assert_eq!(prop, PlyProperty::PerFace(vec![0.002, 0.002, 0.001]));
+    // Absent, and the plain reader is unchanged.
+    let (_, none) = parse_ply_with_property(face.as_bytes(), &p(), "density").unwrap();
+    assert_eq!(none, PlyProperty::Absent);
+    assert_eq!(parse_ply(face.as_bytes(), &p()).unwrap(), mesh);
+    // Per vertex (a vertex property wins over a face property of the same name).
+    let vert = face
+        .replace(
+            "property float z\n",
+            "property float z\nproperty float thickness\n",
+        )
+        .replace(
+            "0 0 0\n1 0 0\n1 1 0\n0 1 0\n",
+            "0 0 0 1\n1 0 0 2\n1 1 0 3\n0 1 0 4\n",
+        );
+    let (_, prop) = parse_ply_with_property(vert.as_bytes(), &p(), "thickness").unwrap();
+    assert_eq!(prop, PlyProperty::PerVertex(vec![1.0, 2.0, 3.0, 4.0]));
+}
+
+#[test]
 fn stl_ascii_binary_solid_header_and_welding() {
     let t = tetra();
     let mut ascii = String::from("solid tetra\n");

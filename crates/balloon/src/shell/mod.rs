@@ -114,6 +114,7 @@
 pub mod analytic;
 pub mod connected;
 mod membrane;
+mod pins;
 mod shell_material;
 pub mod statics;
 mod system;
@@ -784,6 +785,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             substep_dt: self.dt,
             external_forces: Vec::new(),
             anchor_springs: Vec::new(),
+            pins: pins::Pins::default(),
         })
     }
 }
@@ -881,6 +883,8 @@ pub struct ShellSimulation<M: ShellMaterial = MaterialModel, G: GasModel = Gas> 
     external_forces: Vec<f64>,
     /// Zero-length springs to fixed anchors, part of the implicit solve; empty = none.
     anchor_springs: Vec<AnchorSpring>,
+    /// Hard pins: vertices removed from the solve (`pins.rs`); none by default.
+    pins: pins::Pins,
 }
 
 /// Gas volume growth beyond this factor of the rest volume is reported as a runaway.
@@ -1067,23 +1071,44 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         time: f64,
         dt: f64,
     ) -> Result<(balloon_integrate::implicit::StepInfo, usize), ShellError> {
-        let external = (!self.external_forces.is_empty()).then_some(&self.external_forces[..]);
-        let info = if self.anchor_springs.is_empty() {
-            self.integrator.step(
-                &mut self.system,
-                time,
-                dt,
-                &mut self.x,
-                &mut self.v,
-                external,
-            )
-        } else {
-            let mut system = WithAnchors {
-                inner: &mut self.system,
-                springs: &self.anchor_springs,
+        let gravity = self.integrator.params.gravity;
+        let integrator = &mut self.integrator;
+        let (x, v) = (&mut self.x, &mut self.v);
+        let info = if self.pins.active() {
+            let pins = &mut self.pins;
+            pins.prepare(v, &self.external_forces, gravity);
+            let masked = std::mem::take(&mut pins.external);
+            let external = (!masked.is_empty()).then_some(&masked[..]);
+            let info = if self.anchor_springs.is_empty() {
+                let mut system = pins::WithPins {
+                    inner: &mut self.system,
+                    pins,
+                };
+                integrator.step(&mut system, time, dt, x, v, external)
+            } else {
+                let mut anchored = WithAnchors {
+                    inner: &mut self.system,
+                    springs: &self.anchor_springs,
+                };
+                let mut system = pins::WithPins {
+                    inner: &mut anchored,
+                    pins,
+                };
+                integrator.step(&mut system, time, dt, x, v, external)
             };
-            self.integrator
-                .step(&mut system, time, dt, &mut self.x, &mut self.v, external)
+            self.pins.external = masked;
+            info
+        } else {
+            let external = (!self.external_forces.is_empty()).then_some(&self.external_forces[..]);
+            if self.anchor_springs.is_empty() {
+                integrator.step(&mut self.system, time, dt, x, v, external)
+            } else {
+                let mut system = WithAnchors {
+                    inner: &mut self.system,
+                    springs: &self.anchor_springs,
+                };
+                integrator.step(&mut system, time, dt, x, v, external)
+            }
         }
         .map_err(|source| ShellError::Integrate { step, time, source })?;
         // A membrane's thickness is `H / (l1 l2)` of the new positions (a no-op for the
@@ -1093,7 +1118,11 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         if let Some(proj) = &mut self.projection {
             let input = ShellProjectionInput {
                 triangles: &self.system.triangles,
-                vertex_inverse_mass: &self.vertex_inv_mass,
+                vertex_inverse_mass: if self.pins.active() {
+                    &self.pins.vertex_inverse_mass
+                } else {
+                    &self.vertex_inv_mass
+                },
                 element_inverse_mass: &self.element_inv_mass,
                 rest_shell_volume: self.rest_shell_volume,
                 rest_element_volumes: &self.rest_element_volumes,
@@ -1439,6 +1468,51 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// The anchor springs set by [`ShellSimulation::set_anchor_springs`].
     pub fn anchor_springs(&self) -> &[AnchorSpring] {
         &self.anchor_springs
+    }
+
+    /// Pins `vertices` hard from the next step on (an empty list frees them): a pinned vertex
+    /// does not move at all. Its degrees of freedom are removed from the backward Euler solve
+    /// (Eq. 18-23: zero residual, identity rows and columns of the Newton matrix, zero
+    /// velocity) and from the shell-volume projection (Algorithm 2: zero inverse mass), so its
+    /// position stays bit for bit what it was. Duplicates are ignored; every vertex must exist.
+    /// The static solve ([`ShellSimulation::solve_static`]) keeps them in place too.
+    ///
+    /// ```
+    /// use balloon::shell::ShellBalloon;
+    /// let mesh = balloon::mesh::generate::icosphere(0.1, 2)?;
+    /// let mut sim = ShellBalloon::new(mesh).build()?;
+    /// let bottom: Vec<usize> = (0..sim.positions().len() / 3)
+    ///     .filter(|&v| sim.positions()[3 * v + 2] < -0.09)
+    ///     .collect();
+    /// sim.set_pinned_vertices(bottom.clone())?;
+    /// let before = sim.positions().to_vec();
+    /// for _ in 0..5 {
+    ///     sim.step()?;
+    /// }
+    /// for &v in &bottom {
+    ///     assert_eq!(sim.positions()[3 * v..3 * v + 3], before[3 * v..3 * v + 3]);
+    /// }
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn set_pinned_vertices(&mut self, vertices: Vec<usize>) -> Result<(), ShellError> {
+        let nv = self.x.len() / 3;
+        if let Some(&bad) = vertices.iter().find(|&&v| v >= nv) {
+            return Err(ShellError::InvalidParameter {
+                name: "pinned vertex",
+                value: bad.to_string(),
+                reason: format!("the shell has {nv} vertices"),
+            });
+        }
+        self.pins = pins::Pins::new(vertices, &self.vertex_inv_mass);
+        for &p in &self.pins.vertices {
+            self.v[3 * p..3 * p + 3].fill(0.0);
+        }
+        Ok(())
+    }
+
+    /// The hard-pinned vertices ([`ShellSimulation::set_pinned_vertices`]), sorted.
+    pub fn pinned_vertices(&self) -> &[usize] {
+        &self.pins.vertices
     }
 }
 

@@ -446,7 +446,18 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         started: Instant,
     ) -> Result<StaticReport, ShellError> {
         let time = self.time;
-        let external = (!self.external_forces.is_empty()).then(|| self.external_forces.clone());
+        // Pinned vertices: their external forces are dropped and their forces cancelled (no
+        // gravity in the static solve), so they stay where they are (`pins.rs`).
+        let pinned = self.pins.active();
+        if pinned {
+            let mut v = vec![0.0; self.x.len()];
+            self.pins.prepare(&mut v, &self.external_forces, [0.0; 3]);
+        }
+        let external = if pinned {
+            (!self.pins.external.is_empty()).then(|| self.pins.external.clone())
+        } else {
+            (!self.external_forces.is_empty()).then(|| self.external_forces.clone())
+        };
         let mut solver = StaticSolver::new(options.solver);
         let mut x = self.x.clone();
         let mut report = StaticReport::default();
@@ -475,9 +486,16 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         for outer in 0..max_outer {
             let (info, gauge, volume) = {
                 let mut shell = StaticShell::new(&mut self.system, gas, options.follower_term);
-                let info = solver
-                    .solve_with_continuation(&mut shell, time, &mut x, external.as_deref())
-                    .map_err(|source| ShellError::Static { outer, source })?;
+                let info = if pinned {
+                    let mut held = super::pins::WithPins {
+                        inner: &mut shell,
+                        pins: &mut self.pins,
+                    };
+                    solver.solve_with_continuation(&mut held, time, &mut x, external.as_deref())
+                } else {
+                    solver.solve_with_continuation(&mut shell, time, &mut x, external.as_deref())
+                }
+                .map_err(|source| ShellError::Static { outer, source })?;
                 (info, shell.gauge_pressure(), shell.volume)
             };
             report.outer_iterations = outer + 1;
@@ -525,7 +543,11 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             if let Some(proj) = &mut self.projection {
                 let input = ShellProjectionInput {
                     triangles: &self.system.triangles,
-                    vertex_inverse_mass: &self.vertex_inv_mass,
+                    vertex_inverse_mass: if pinned {
+                        &self.pins.vertex_inverse_mass
+                    } else {
+                        &self.vertex_inv_mass
+                    },
                     element_inverse_mass: &self.element_inv_mass,
                     rest_shell_volume: self.rest_shell_volume,
                     rest_element_volumes: &self.rest_element_volumes,

@@ -229,6 +229,15 @@ impl TwoLayerForces {
         }
     }
 
+    /// Fixes `particles` (each must exist): `model.fixed` set, zero inverse mass, so their
+    /// acceleration is zero whatever the forces.
+    pub(crate) fn fix(&mut self, particles: &[usize]) {
+        for &i in particles {
+            self.model.fixed[i] = true;
+            self.inverse_mass[3 * i..3 * i + 3].fill(0.0);
+        }
+    }
+
     /// Writes the total force (N) on every particle for positions `x` and velocities `v`
     /// (flat, length `3 * particles`) into `f`.
     pub fn forces_into(&mut self, x: &[f64], v: &[f64], f: &mut [f64]) {

@@ -313,6 +313,37 @@ impl TwoLayerSimulation {
         Ok(stats)
     }
 
+    /// Pins `particles` hard from now on: they become fixed particles of the model (as the top
+    /// of the 1D spring, seed Sec. 3.3), with zero inverse mass and zero velocity, so every
+    /// explicit method leaves their positions exactly as they are. Their springs still pull on
+    /// their neighbours. Every particle must exist.
+    ///
+    /// ```
+    /// use balloon::two_layer::{ExplicitMethod, TwoLayerBody};
+    /// let mut sim = TwoLayerBody::uv_sphere(8, 6).simulate(ExplicitMethod::Rk4, 1e-3)?;
+    /// let before = sim.positions()[..3].to_vec();
+    /// sim.fix_particles(&[0])?;
+    /// sim.run(50)?;
+    /// assert_eq!(&sim.positions()[..3], &before[..]);
+    /// # Ok::<(), balloon::two_layer::TwoLayerError>(())
+    /// ```
+    pub fn fix_particles(&mut self, particles: &[usize]) -> Result<(), TwoLayerError> {
+        let n = self.forces.model().num_particles();
+        if let Some(&bad) = particles.iter().find(|&&i| i >= n) {
+            return Err(TwoLayerError::InvalidParameter {
+                name: "fixed particle",
+                value: bad.to_string(),
+                reason: format!("the body has {n} particles"),
+            });
+        }
+        self.forces.fix(particles);
+        let n3 = 3 * n;
+        for &i in particles {
+            self.state[n3 + 3 * i..n3 + 3 * i + 3].fill(0.0);
+        }
+        Ok(())
+    }
+
     /// Takes `steps` steps and returns the last statistics.
     pub fn run(&mut self, steps: usize) -> Result<TwoLayerStats, TwoLayerError> {
         let mut last = self.stats();
