@@ -130,7 +130,10 @@ fn value_text(v: &Bound<'_, PyAny>) -> PyResult<String> {
     if let Ok(p) = os.call_method1("fspath", (v,)) {
         return p.extract::<String>();
     }
-    // numpy scalars and anything else with a float value.
+    // numpy integers (and anything else with `__index__`), then numpy floats and other reals.
+    if let Ok(i) = v.extract::<i64>() {
+        return Ok(i.to_string());
+    }
     match v.extract::<f64>() {
         Ok(f) => Ok(format!("{f:?}")),
         Err(_) => Err(InvalidOption::new_err(format!(

@@ -48,6 +48,13 @@ def test_options_map_to_flags_lists_booleans_and_none():
     assert s["material_parameters"]["mu"] == [4e5, 1e3]
 
 
+def test_numpy_scalars_and_paths_are_options(tmp_path):
+    r = balloon.inflate(
+        SPHERE, steps=np.int64(2), dt=np.float64(0.005), gas="constant", out=tmp_path / "o"
+    )
+    assert r["summary"]["steps"] == 2 and r["summary"]["sim_time_s"] == pytest.approx(0.01)
+
+
 def test_mesh_arrays_give_the_same_run_as_the_named_mesh():
     sim = balloon.Shell(SPHERE)
     vertices, triangles = sim.positions, sim.triangles
