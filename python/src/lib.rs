@@ -559,7 +559,10 @@ fn inflate<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let builtin = PyString::new(py, "builtin").into_any();
     let (mut args, arrays, m) = shell_args(mesh.unwrap_or(&builtin), options)?;
-    args.scenario_record = Some(cmd_run::record(&cmd_run::SHELL, &m));
+    // A recorded scenario names its mesh file: in-memory arrays have none, so none is written.
+    if arrays.is_none() {
+        args.scenario_record = Some(cmd_run::record(&cmd_run::SHELL, &m));
+    }
     run_shell(py, args, arrays)
 }
 
@@ -578,7 +581,10 @@ fn volumetric<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let builtin = PyString::new(py, "builtin").into_any();
     let (mut args, arrays, m) = volumetric_args(mesh.unwrap_or(&builtin), options)?;
-    args.scenario_record = Some(cmd_run::record(&cmd_run::VOLUMETRIC, &m));
+    // A recorded scenario names its mesh file: in-memory arrays have none, so none is written.
+    if arrays.is_none() {
+        args.scenario_record = Some(cmd_run::record(&cmd_run::VOLUMETRIC, &m));
+    }
     run_volumetric(py, args, arrays)
 }
 

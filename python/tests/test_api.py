@@ -55,13 +55,17 @@ def test_numpy_scalars_and_paths_are_options(tmp_path):
     assert r["summary"]["steps"] == 2 and r["summary"]["sim_time_s"] == pytest.approx(0.01)
 
 
-def test_mesh_arrays_give_the_same_run_as_the_named_mesh():
+def test_mesh_arrays_give_the_same_run_as_the_named_mesh(tmp_path):
     sim = balloon.Shell(SPHERE)
     vertices, triangles = sim.positions, sim.triangles
     a = balloon.inflate(SPHERE, steps=2, gas="constant")
     b = balloon.inflate((vertices, triangles.astype(np.int32)), steps=2, gas="constant")
     assert np.array_equal(a["positions"], b["positions"])
     assert b["summary"]["mesh"] == "<arrays>"
+    # No scenario.toml for arrays: it could not name the mesh.
+    balloon.inflate((vertices, triangles), steps=1, out=tmp_path / "arrays")
+    assert not (tmp_path / "arrays" / "scenario.toml").exists()
+    assert (tmp_path / "arrays" / "summary.json").is_file()
     assert without_timing(a["summary"]) | {"mesh": "<arrays>"} == without_timing(b["summary"])
 
 
