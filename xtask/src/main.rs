@@ -1,8 +1,8 @@
 //! Project automation for the `balloon` workspace.
 //!
 //! * `cargo xtask ci`: format check, clippy with warnings denied, docs with warnings denied, the
-//!   whole test suite, the viewer's end-to-end test, `validate --quick` (no files written), and
-//!   every criterion bench once in test mode; with `CI` set, a missing `../shared/meshes` fails
+//!   whole test suite, the viewer's end-to-end test, `validate --quick` (no files written), the
+//!   Python package's tests (`cargo xtask python`) and every criterion bench once in test mode; with `CI` set, a missing `../shared/meshes` fails
 //!   it. `.ci/run` calls exactly this.
 //! * `cargo xtask validate [--quick] [--meshes DIR]`: every validation case (analytic sphere,
 //!   thickness scaling, gas law, pressure equilibrium, volume projection, membrane limit points
@@ -13,6 +13,10 @@
 //!   folder of meshes and every linear solver, plus cost-vs-size of the volumetric and two-layer
 //!   systems; writes `target/bench/bench.{md,json}` (and `docs/benchmarks.md` on request). Runs
 //!   itself in release.
+//! * `cargo xtask python`: builds the Python package's wheel (maturin, release, in `target/`)
+//!   into a virtual environment `target/py-venv` (created once, with the pinned
+//!   `python/requirements-test.txt`), then runs pytest on `python/tests` and
+//!   `examples/python_sweep.py`. Needs only `python3` with `venv` and pip's index.
 //! * `cargo xtask e2e [--systems LIST]`: the live viewer's end-to-end test in headless Chromium
 //!   (installs its prerequisites: `npm ci`, Debian's chromium when root); see `docs/viewer.md`.
 
@@ -38,8 +42,8 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Task {
     /// fmt --check, clippy -D warnings, doc -D warnings, tests, the viewer's end-to-end test,
-    /// `validate --quick` (nothing written), benches in test mode. With `CI` set, a missing
-    /// `../shared/meshes` fails the run.
+    /// `validate --quick` (nothing written), the Python package (`python`), benches in test
+    /// mode. With `CI` set, a missing `../shared/meshes` fails the run.
     Ci {
         /// Skip clippy and docs (faster local runs).
         #[arg(long)]
@@ -77,6 +81,8 @@ enum Task {
         #[arg(long)]
         update_docs: bool,
     },
+    /// The Python package: wheel into target/py-venv, pytest, examples/python_sweep.py.
+    Python,
     /// The live viewer's end-to-end test: `balloon view` driven in headless Chromium.
     E2e {
         /// Comma-separated systems to test (default: shell,volumetric,two-layer).
@@ -150,6 +156,9 @@ fn ci(quick: bool) -> Result<()> {
         ],
         &[],
     )?;
+    // The Python package after the validation: its release wheel reuses the release build of
+    // the `balloon` crates and their dependencies that `validate` made.
+    python()?;
     // Every criterion bench once in test mode so none rots; the dev profile reuses the test
     // build instead of compiling the workspace again in release.
     cargo(
@@ -164,6 +173,132 @@ fn ci(quick: bool) -> Result<()> {
         ],
         &[],
     )?;
+    Ok(())
+}
+
+/// Runs `program args` in the workspace root with `envs`, failing on a non-zero status.
+fn run_program(program: &Path, args: &[&str], envs: &[(&str, &Path)]) -> Result<()> {
+    eprintln!("xtask: {} {}", program.display(), args.join(" "));
+    let mut cmd = Command::new(program);
+    cmd.args(args).current_dir(workspace_root());
+    for (k, v) in envs {
+        cmd.env(k, v);
+    }
+    let status = cmd
+        .status()
+        .with_context(|| format!("failed to start {}", program.display()))?;
+    if !status.success() {
+        bail!(
+            "`{} {}` failed ({status})",
+            program.display(),
+            args.join(" ")
+        );
+    }
+    Ok(())
+}
+
+/// The Python package's CI step: a virtual environment `target/py-venv` (created when missing;
+/// `$BALLOON_PYTHON` or `python3` makes it) with the pinned test dependencies, the wheel built
+/// by maturin in release into `target/py-wheels` (incremental: it shares `target/`) and
+/// installed, then pytest on `python/tests` (against the CLI binary of the test build) and
+/// `examples/python_sweep.py`.
+fn python() -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let root = workspace_root();
+    let target = root.join("target");
+    let venv = target.join("py-venv");
+    let bin = venv.join("bin");
+    let py = bin.join("python");
+    if !py.exists() {
+        let base = std::env::var_os("BALLOON_PYTHON").unwrap_or_else(|| "python3".into());
+        run_program(
+            Path::new(&base),
+            &["-m", "venv", &venv.to_string_lossy()],
+            &[],
+        )?;
+    }
+    // Already satisfied pins cost a second; a changed pin is installed.
+    run_program(
+        &py,
+        &[
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+            "-r",
+            "python/requirements-test.txt",
+        ],
+        &[],
+    )?;
+    let wheels = target.join("py-wheels");
+    if wheels.exists() {
+        std::fs::remove_dir_all(&wheels)
+            .with_context(|| format!("cannot clear {}", wheels.display()))?;
+    }
+    run_program(
+        &bin.join("maturin"),
+        &[
+            "build",
+            "--release",
+            "--quiet",
+            "-m",
+            "python/Cargo.toml",
+            "--out",
+            &wheels.to_string_lossy(),
+        ],
+        &[],
+    )?;
+    let wheel = std::fs::read_dir(&wheels)
+        .with_context(|| format!("cannot read {}", wheels.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| p.extension().is_some_and(|x| x == "whl"))
+        .with_context(|| format!("maturin wrote no wheel into {}", wheels.display()))?;
+    run_program(
+        &py,
+        &[
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+            "--force-reinstall",
+            "--no-deps",
+            &wheel.to_string_lossy(),
+        ],
+        &[],
+    )?;
+    // The CLI the Python results are compared with bit for bit (already built by the tests).
+    cargo(
+        &["build", "--quiet", "-p", "balloon-cli", "--bin", "balloon"],
+        &[],
+    )?;
+    let cli = target.join("debug").join("balloon");
+    run_program(
+        &py,
+        &[
+            "-m",
+            "pytest",
+            "-q",
+            "-p",
+            "no:cacheprovider",
+            "python/tests",
+        ],
+        &[("BALLOON_CLI", &cli)],
+    )?;
+    run_program(
+        &py,
+        &[
+            "examples/python_sweep.py",
+            "--out",
+            &target.join("python-example").to_string_lossy(),
+        ],
+        &[],
+    )?;
+    eprintln!(
+        "xtask: python package step took {:.0} s",
+        t0.elapsed().as_secs_f64()
+    );
     Ok(())
 }
 
@@ -203,6 +338,7 @@ fn rerun_in_release() -> Result<()> {
 fn main() -> Result<()> {
     match Cli::parse().command {
         Task::Ci { quick } => ci(quick),
+        Task::Python => python(),
         Task::E2e { systems } => e2e::run(&e2e::Options { systems }),
         Task::Validate { .. } | Task::Bench { .. } if cfg!(debug_assertions) => rerun_in_release(),
         Task::Validate {

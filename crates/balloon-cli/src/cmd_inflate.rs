@@ -6,7 +6,7 @@ use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
 };
 use crate::params::{End::Closed, End::Open, MAX_STEPS, count, real};
-use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
+use crate::run::{Finished, FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result};
 use balloon::constraint::shell_volume::{ProjectionScope, ShellVolumeParams};
 use balloon::integrate::TangentKind;
@@ -16,6 +16,7 @@ use balloon::shell::{
     self, ShellBalloon, ShellMaterial, ShellMaterialModel, ShellSimulation, ShellStepStats,
 };
 use balloon::{SimulationError, SimulationStats};
+use balloon_mesh::TriMesh;
 use balloon_render::UpAxis;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -472,21 +473,33 @@ fn parse_newton_tol(s: &str) -> Result<f64, String> {
 
 /// Runs `balloon inflate`.
 pub fn run(args: InflateArgs) -> Result<()> {
-    // The material flags are checked together before anything is loaded.
+    execute(&args, None, false).map(drop)
+}
+
+/// The shell simulation `balloon inflate` runs: the built-in or file mesh, or an in-memory one.
+pub type ShellSim = ShellSimulation<ShellMaterialModel>;
+
+/// Builds the simulation of `balloon inflate` for `args`: loads `args.mesh` (or takes `mesh`
+/// when given, an in-memory mesh such as the Python package's arrays), scales it and sets up the
+/// balloon exactly as the command does (thickness map, anchors, the loads of time 0). Writes
+/// nothing. The scheduled loads are dropped: use [`build_with_loads`] to keep them.
+pub fn build(args: &InflateArgs, mesh: Option<TriMesh>) -> Result<ShellSim> {
+    build_with_loads(args, mesh).map(|(sim, _)| sim)
+}
+
+/// [`build`], returning the anchor springs and scheduled loads (`--pin ...@K`, `--load`) too:
+/// call [`crate::selection::ShellLoads::before_step`] before every step to apply them.
+pub fn build_with_loads(
+    args: &InflateArgs,
+    mesh: Option<TriMesh>,
+) -> Result<(ShellSim, crate::selection::ShellLoads)> {
     let material = args.material.resolve()?;
     let membrane = material.thickness_follows_stretch();
-    let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
-    if let Some(dir) = &args.out {
-        crate::output::prepare_out_dir(dir, args.overwrite)?;
-    }
-    if args.frame_every == 0 && args.steps == 0 {
-        anyhow::bail!("nothing to do: --steps is 0");
-    }
-    if !args.static_solve && args.gas == GasArg::Volume {
-        anyhow::bail!("--gas volume is a static control: add --static");
-    }
-    let mut mesh = balloon::mesh::load(&args.mesh)
-        .with_context(|| format!("cannot load mesh `{}`", args.mesh))?;
+    let mut mesh = match mesh {
+        Some(m) => m,
+        None => balloon::mesh::load(&args.mesh)
+            .with_context(|| format!("cannot load mesh `{}`", args.mesh))?,
+    };
     if args.scale != 1.0 {
         mesh.scale(args.scale);
     }
@@ -517,15 +530,15 @@ pub fn run(args: InflateArgs) -> Result<()> {
         ProjectionMode::Off => None,
     };
     let builder = match args.setup.thickness(&args.mesh, &mesh)? {
-        Some(map) => ShellBalloon::new(mesh.clone()).with_thickness_per_face(map),
-        None => ShellBalloon::new(mesh.clone()).with_thickness(args.thickness),
+        Some(map) => ShellBalloon::new(mesh).with_thickness_per_face(map),
+        None => ShellBalloon::new(mesh).with_thickness(args.thickness),
     };
     let builder = match args.pump_rate {
         Some(rate) => builder.with_pump_rate(rate),
         None => builder.with_relative_pump_rate(shell::DEFAULT_PUMP_VOLUMES_PER_SECOND),
     };
     let mut sim = builder
-        .with_material(material.clone())
+        .with_material(material)
         .with_density(args.density)
         .with_gas(args.gas.kind())
         .with_gauge_pressure(args.pressure)
@@ -538,6 +551,31 @@ pub fn run(args: InflateArgs) -> Result<()> {
         .build()
         .with_context(|| format!("cannot set up the balloon for `{}`", args.mesh))?;
     let loads = args.setup.apply(&mut sim)?;
+    Ok((sim, loads))
+}
+
+/// Runs the job of `balloon inflate` for `args` (checks, [`build`], the output folder, the
+/// steps or the static solve, the summary) and returns the summary with the final simulation.
+/// `mesh` replaces loading `args.mesh`; `quiet` prints nothing (no progress bar, no summary
+/// line), for callers that take the returned summary instead.
+pub fn execute(
+    args: &InflateArgs,
+    mesh: Option<TriMesh>,
+    quiet: bool,
+) -> Result<Finished<ShellSim>> {
+    // The material flags are checked together before anything is loaded.
+    let material = args.material.resolve()?;
+    let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
+    if let Some(dir) = &args.out {
+        crate::output::prepare_out_dir(dir, args.overwrite)?;
+    }
+    if args.frame_every == 0 && args.steps == 0 {
+        anyhow::bail!("nothing to do: --steps is 0");
+    }
+    if !args.static_solve && args.gas == GasArg::Volume {
+        anyhow::bail!("--gas volume is a static control: add --static");
+    }
+    let (mut sim, loads) = build_with_loads(args, mesh)?;
 
     let out = match &args.out {
         Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
@@ -551,7 +589,8 @@ pub fn run(args: InflateArgs) -> Result<()> {
         o.write_text("scenario.toml", text)?;
     }
     if args.static_solve {
-        return crate::cmd_static::run(&args, &mut sim, out);
+        crate::cmd_static::run(args, &mut sim, out)?;
+        return Ok(Finished { summary: None, sim });
     }
     let plan = RunPlan {
         steps: args.steps,
@@ -560,12 +599,13 @@ pub fn run(args: InflateArgs) -> Result<()> {
             last: false,
         },
         json: args.json,
+        quiet,
     };
     let mut hooks = InflateHooks {
         summary: InflateSummary {
             mesh: args.mesh.clone(),
-            vertices: mesh.num_vertices(),
-            triangles: mesh.num_triangles(),
+            vertices: sim.positions().len() / 3,
+            triangles: sim.triangles().len(),
             initial_gas_volume: sim.rest_gas_volume(),
             shell_volume_ratio_final: 1.0,
             material: material.name(),
@@ -576,8 +616,12 @@ pub fn run(args: InflateArgs) -> Result<()> {
             ..Default::default()
         },
         total_ms: 0.0,
-        args: &args,
+        args,
         loads,
     };
-    run_simulation(&mut sim, &mut hooks, &plan, out)
+    let summary = run_simulation(&mut sim, &mut hooks, &plan, out)?;
+    Ok(Finished {
+        summary: Some(summary),
+        sim,
+    })
 }

@@ -16,7 +16,7 @@ use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
 };
 use crate::params::{End::Closed, End::Open, MAX_STEPS, count, real};
-use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
+use crate::run::{Finished, FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result, bail};
 use balloon::two_layer::{
     AxisBox, DragTarget, ExplicitMethod, SpringKind, TwoLayerBody, TwoLayerSimulation,
@@ -443,6 +443,22 @@ impl RunHooks<TwoLayerSimulation> for TwoLayerHooks<'_> {
 
 /// Runs the subcommand.
 pub fn run(args: TwoLayerArgs) -> Result<()> {
+    execute(&args, false).map(drop)
+}
+
+/// Builds the simulation of `balloon two-layer` for `args` (the body, its springs, gases,
+/// gravity and box, and the integrator) exactly as the command does. Writes nothing.
+pub fn build(args: &TwoLayerArgs) -> Result<TwoLayerSimulation> {
+    let body = body_from(args)?;
+    let mut sim = body.simulate(args.integrator, args.dt)?;
+    crate::selection::fix_two_layer(&mut sim, &args.pin)?;
+    Ok(sim)
+}
+
+/// Runs the job of `balloon two-layer` for `args` (checks, [`build`], the output folder, the
+/// steps with the drag, the summary) and returns the summary with the final simulation; `quiet`
+/// prints nothing.
+pub fn execute(args: &TwoLayerArgs, quiet: bool) -> Result<Finished<TwoLayerSimulation>> {
     let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style(args.dim))?;
     if let Some(dir) = &args.out {
         crate::output::prepare_out_dir(dir, args.overwrite)?;
@@ -451,9 +467,7 @@ pub fn run(args: TwoLayerArgs) -> Result<()> {
         bail!("--render, --gif and --pov need a surface: use --dim 2 or 3 (1D has two particles)");
     }
     let drag = args.drag.as_deref().map(parse_drag).transpose()?;
-    let body = body_from(&args)?;
-    let mut sim = body.simulate(args.integrator, args.dt)?;
-    crate::selection::fix_two_layer(&mut sim, &args.pin)?;
+    let mut sim = build(args)?;
     let rest = sim.positions().to_vec();
     let out = match &args.out {
         Some(dir) => Some(OutputDir::create(dir, args.format)?.with_pictures(
@@ -473,13 +487,14 @@ pub fn run(args: TwoLayerArgs) -> Result<()> {
             last: true,
         },
         json: args.json,
+        quiet,
     };
-    let mut hooks = TwoLayerHooks {
-        args: &args,
-        drag,
-        rest,
-    };
-    run_simulation(&mut sim, &mut hooks, &plan, out)
+    let mut hooks = TwoLayerHooks { args, drag, rest };
+    let summary = run_simulation(&mut sim, &mut hooks, &plan, out)?;
+    Ok(Finished {
+        summary: Some(summary),
+        sim,
+    })
 }
 
 #[cfg(test)]

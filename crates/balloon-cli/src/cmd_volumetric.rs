@@ -12,7 +12,7 @@ use crate::output::{
     ColorField, Frame, FrameFormat, OutputDir, PictureArgs, PictureStyle, check_picture_args,
 };
 use crate::params::{End::Closed, End::Open, MAX_STEPS, count, real};
-use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
+use crate::run::{Finished, FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result};
 use balloon::volumetric::{
     MassModel, StepStats, VolumetricBody, VolumetricError, VolumetricParams, VolumetricScene,
@@ -450,18 +450,31 @@ fn build_body(
 
 /// Runs the subcommand.
 pub fn run(args: VolumetricArgs) -> Result<()> {
-    let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
-    if let Some(dir) = &args.out {
-        crate::output::prepare_out_dir(dir, args.overwrite)?;
-    }
-    if !(args.scale.is_finite() && args.scale > 0.0) {
-        anyhow::bail!("invalid --scale {}: must be > 0", args.scale);
-    }
-    if args.frame_every == 0 {
-        anyhow::bail!("invalid --frame-every 0: must be >= 1");
-    }
-    let mut soup =
-        balloon_mesh::load(&args.mesh).with_context(|| format!("cannot load {}", args.mesh))?;
+    execute(&args, None, false).map(drop)
+}
+
+/// What [`build`] makes: the simulation and what the summary reports about its making.
+pub struct VolumetricBuild {
+    /// The simulation in its scene, at rest.
+    pub sim: VolumetricSimulation,
+    /// The triangle soup as read and scaled.
+    pub soup: TriMesh,
+    /// Lattice generation time (ms).
+    pub lattice_ms: f64,
+    /// Edge and diagonal spring stiffness used (N/m).
+    pub stiffness: [f64; 2],
+}
+
+/// Builds the simulation of `balloon volumetric` for `args`: loads `args.mesh` (or takes
+/// `mesh`, an in-memory soup), scales it, generates the lattice, sets the springs and the
+/// scene exactly as the command does. Writes nothing.
+pub fn build(args: &VolumetricArgs, mesh: Option<TriMesh>) -> Result<VolumetricBuild> {
+    let mut soup = match mesh {
+        Some(m) => m,
+        None => {
+            balloon_mesh::load(&args.mesh).with_context(|| format!("cannot load {}", args.mesh))?
+        }
+    };
     soup.scale(args.scale);
     let params = VolumetricParams {
         lattice: LatticeParams {
@@ -548,7 +561,39 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
             soft_diagonals: args.soft_diagonals,
         },
     };
-    let mut sim = scene.setup(body)?;
+    let sim = scene.setup(body)?;
+    Ok(VolumetricBuild {
+        sim,
+        soup,
+        lattice_ms,
+        stiffness: [edge, diagonal],
+    })
+}
+
+/// Runs the job of `balloon volumetric` for `args` (checks, [`build`], the output folder, the
+/// steps, the summary) and returns the summary with the final simulation. `mesh` replaces
+/// loading `args.mesh`; `quiet` prints nothing.
+pub fn execute(
+    args: &VolumetricArgs,
+    mesh: Option<TriMesh>,
+    quiet: bool,
+) -> Result<Finished<VolumetricSimulation>> {
+    let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
+    if let Some(dir) = &args.out {
+        crate::output::prepare_out_dir(dir, args.overwrite)?;
+    }
+    if !(args.scale.is_finite() && args.scale > 0.0) {
+        anyhow::bail!("invalid --scale {}: must be > 0", args.scale);
+    }
+    if args.frame_every == 0 {
+        anyhow::bail!("invalid --frame-every 0: must be >= 1");
+    }
+    let VolumetricBuild {
+        mut sim,
+        soup,
+        lattice_ms,
+        stiffness: [edge, diagonal],
+    } = build(args, mesh)?;
     let lattice = sim.lattice().clone();
     let rest_soup: Vec<f64> = lattice
         .embedding
@@ -598,9 +643,10 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
             last: false,
         },
         json: args.json,
+        quiet,
     };
     let mut hooks = VolumetricHooks {
-        args: &args,
+        args,
         soup: soup.clone(),
         rest_soup,
         lattice,
@@ -613,5 +659,9 @@ pub fn run(args: VolumetricArgs) -> Result<()> {
         total_sweeps: 0,
         max_strain: 0.0,
     };
-    run_simulation(&mut sim, &mut hooks, &plan, out)
+    let summary = run_simulation(&mut sim, &mut hooks, &plan, out)?;
+    Ok(Finished {
+        summary: Some(summary),
+        sim,
+    })
 }

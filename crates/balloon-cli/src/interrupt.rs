@@ -6,6 +6,7 @@
 
 use signal_hook::consts::{SIGINT, SIGTERM};
 use signal_hook::flag;
+use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// The signal received (0: none).
@@ -24,10 +25,21 @@ pub fn install() -> std::io::Result<()> {
     Ok(())
 }
 
-/// The signal received so far, if any.
+/// A second source of interruptions, asked between steps when no signal was received: a host
+/// that owns the signals itself (the Python package, whose interpreter handles Ctrl-C) reports
+/// them through it.
+static CHECKER: OnceLock<fn() -> Option<i32>> = OnceLock::new();
+
+/// Sets the function [`pending`] asks between steps for an interruption (once per process;
+/// returns `false` when one was already set). It returns the signal number that stops the run.
+pub fn set_checker(check: fn() -> Option<i32>) -> bool {
+    CHECKER.set(check).is_ok()
+}
+
+/// The signal received so far, if any (or the interruption the checker reports now).
 pub fn pending() -> Option<i32> {
     match SIGNAL.load(Ordering::SeqCst) {
-        0 => None,
+        0 => CHECKER.get().and_then(|check| check()),
         s => i32::try_from(s).ok(),
     }
 }

@@ -5,21 +5,10 @@
 //! `run` (a shell run described by a scenario file) and `view` (a live viewer in the browser).
 //! Run `balloon <subcommand> --help` for the flags and their defaults.
 
+use balloon_cli::{
+    cmd_inflate, cmd_mesh, cmd_run, cmd_two_layer, cmd_view, cmd_volumetric, interrupt,
+};
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
-
-mod cmd_inflate;
-mod cmd_mesh;
-mod cmd_run;
-mod cmd_static;
-mod cmd_two_layer;
-mod cmd_view;
-mod cmd_volumetric;
-mod interrupt;
-mod material_args;
-mod output;
-mod params;
-mod run;
-mod selection;
 
 /// Simulate inflatable thin shells and volume-conserving soft bodies.
 #[derive(Debug, Parser)]

@@ -459,7 +459,7 @@ fn is_run_file(name: &str) -> bool {
 /// Checks the output folder before any work: a path that exists but is not a folder is refused,
 /// and so is a folder holding an earlier run's files (they would mix with this run's: a shorter
 /// run leaves the old frames beyond its end) unless `overwrite`, which removes exactly those
-/// files (see [`is_run_file`]; `renders/frame_*.png` too) and nothing else.
+/// files (see `is_run_file`; `renders/frame_*.png` too) and nothing else.
 pub fn prepare_out_dir(dir: &Path, overwrite: bool) -> Result<()> {
     let meta = match std::fs::metadata(dir) {
         Ok(m) => m,

@@ -48,6 +48,18 @@ pub struct RunPlan {
     pub frames: FramePolicy,
     /// Print the summary as one JSON line instead of the human line; no progress bar.
     pub json: bool,
+    /// Print nothing (no progress bar, no summary line): the caller takes the returned summary
+    /// (the Python package).
+    pub quiet: bool,
+}
+
+/// A job that ran to its end: its summary and the simulation in its final state.
+pub struct Finished<S> {
+    /// The summary as `summary.json` holds it (with `interrupted`, `frames` and `error`);
+    /// `None` for a static solve (`--static`), whose summary is only written to `--out`.
+    pub summary: Option<serde_json::Value>,
+    /// The simulation after the last step.
+    pub sim: S,
 }
 
 /// What the loop saw, for the summary.
@@ -167,7 +179,7 @@ where
         o.frame(&hooks.frame(sim, 0)?, true)?;
         run.frames += 1;
     }
-    let pb = progress_bar(plan.steps as u64, !plan.json);
+    let pb = progress_bar(plan.steps as u64, !plan.json && !plan.quiet);
     for step in 1..=plan.steps {
         if let Some(sig) = interrupt::pending() {
             run.interrupted = Some(sig);
@@ -238,13 +250,13 @@ fn annotate(
 /// Runs `sim` for `plan.steps` steps with the shared output, then finishes pictures and the
 /// summary. Errors when the simulation failed, made no progress or was interrupted (after
 /// everything computed so far is written), or when an output could not be written (after the
-/// summary is written if it still can be).
+/// summary is written if it still can be). Returns the summary as `summary.json` holds it.
 pub fn run_simulation<S, H>(
     sim: &mut S,
     hooks: &mut H,
     plan: &RunPlan,
     mut out: Option<OutputDir>,
-) -> Result<()>
+) -> Result<serde_json::Value>
 where
     S: Simulation,
     H: RunHooks<S>,
@@ -308,7 +320,9 @@ where
             }
         }
     }
-    if plan.json {
+    if plan.quiet {
+        // The caller reports.
+    } else if plan.json {
         print_json_line(&record)?;
     } else if !failed || hooks.print_after_failure() {
         let mut stdout = std::io::stdout().lock();
@@ -337,7 +351,7 @@ where
         }
         .into());
     }
-    Ok(())
+    Ok(record)
 }
 
 #[cfg(test)]

@@ -1,0 +1,154 @@
+"""Type stubs of the extension module ``balloon._balloon`` (built from ``python/src/lib.rs``).
+
+Keyword options are the CLI flags of the matching command in snake_case (``balloon inflate
+--help``, ``balloon volumetric --help``, ``balloon two-layer --help``): same names, defaults
+and units; ``True`` gives an on/off flag, ``False`` or ``None`` leaves an option out.
+"""
+
+import os
+from typing import Any, Dict, List, Optional, Sequence, Tuple, TypedDict, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+MeshLike = Union[str, os.PathLike, Tuple[npt.ArrayLike, npt.ArrayLike]]
+"""A mesh file path, ``"builtin"``, ``"builtin:NAME"`` or a ``(vertices, triangles)`` pair."""
+
+Option = Union[bool, int, float, str, os.PathLike, Sequence[float], None]
+
+class BalloonError(Exception):
+    """Base class of every error balloon raises; the message is the CLI's."""
+
+class InvalidOption(BalloonError):
+    """An unknown keyword option, a bad value, or a scenario file that does not parse."""
+
+class MeshError(BalloonError):
+    """A mesh that cannot be read or used."""
+
+class SolverError(BalloonError):
+    """A simulation step that failed."""
+
+class ShellResult(TypedDict):
+    summary: Dict[str, Any]
+    positions: npt.NDArray[np.float64]
+    thickness: npt.NDArray[np.float64]
+    triangles: npt.NDArray[np.int64]
+
+class VolumetricResult(TypedDict):
+    summary: Dict[str, Any]
+    positions: npt.NDArray[np.float64]
+    surface_positions: npt.NDArray[np.float64]
+    surface_triangles: npt.NDArray[np.int64]
+
+class TwoLayerResult(TypedDict):
+    summary: Dict[str, Any]
+    positions: npt.NDArray[np.float64]
+
+def inflate(mesh: Optional[MeshLike] = None, **options: Option) -> ShellResult:
+    """Runs ``balloon inflate`` (a shell balloon, seed 000) and returns its summary and final
+    state; the GIL is released and Ctrl-C stops the run after the current step."""
+
+def volumetric(mesh: Optional[MeshLike] = None, **options: Option) -> VolumetricResult:
+    """Runs ``balloon volumetric`` (a volume-conserving body, seed 003)."""
+
+def two_layer(**options: Option) -> TwoLayerResult:
+    """Runs ``balloon two-layer`` (a two-layer mass-spring body, seed 004)."""
+
+def run_scenario(path: Union[str, os.PathLike], **overrides: Option) -> Dict[str, Any]:
+    """Runs a scenario file (``balloon run``); ``overrides`` replace the file's values."""
+
+class Shell:
+    """A shell balloon built as ``balloon inflate`` builds it, stepped from Python."""
+
+    def __init__(self, mesh: Optional[MeshLike] = None, **options: Option) -> None: ...
+    def step(self) -> Dict[str, Any]:
+        """Advances one step; returns its statistics (a ``stats.jsonl`` line's keys)."""
+    @property
+    def positions(self) -> npt.NDArray[np.float64]:
+        """Vertex positions, m, (n, 3)."""
+    @property
+    def velocities(self) -> npt.NDArray[np.float64]:
+        """Vertex velocities, m/s, (n, 3)."""
+    @property
+    def triangles(self) -> npt.NDArray[np.int64]:
+        """Triangles, (m, 3)."""
+    @property
+    def thickness(self) -> npt.NDArray[np.float64]:
+        """Shell thickness per triangle, m, (m,)."""
+    @property
+    def time(self) -> float:
+        """Simulated time, s."""
+    @property
+    def steps(self) -> int:
+        """Steps taken."""
+    @property
+    def dt(self) -> float:
+        """Time step, s."""
+    @property
+    def gauge_pressure(self) -> float:
+        """Gauge pressure of the gas, Pa."""
+    @property
+    def gas_volume(self) -> float:
+        """Enclosed gas volume, m^3."""
+    def set_dt(self, dt: float) -> None: ...
+    def set_pressure(self, pressure: float) -> None:
+        """Gauge pressure, Pa (not for the pump gas)."""
+    def set_pump_rate(self, rate: float) -> None:
+        """Pump rate, m^3/s of ambient air (the pump gas only)."""
+    def set_external_forces(self, forces: Optional[npt.ArrayLike] = None) -> None:
+        """(n, 3) forces, N, per vertex; None removes them."""
+    def set_anchor_springs(
+        self, springs: List[Tuple[int, Tuple[float, float, float], float]]
+    ) -> None:
+        """(vertex, anchor point m, stiffness N/m) zero-length springs; [] removes them."""
+
+class Volumetric:
+    """A volume-conserving body built as ``balloon volumetric`` builds it, stepped from Python."""
+
+    def __init__(self, mesh: Optional[MeshLike] = None, **options: Option) -> None: ...
+    def step(self) -> Dict[str, Any]: ...
+    @property
+    def positions(self) -> npt.NDArray[np.float64]:
+        """Lattice particle positions, m, (n, 3)."""
+    @property
+    def velocities(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def surface_positions(self) -> npt.NDArray[np.float64]:
+        """The embedded surface, m, (k, 3)."""
+    @property
+    def surface_triangles(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def time(self) -> float: ...
+    @property
+    def steps(self) -> int: ...
+    @property
+    def dt(self) -> float: ...
+    def set_dt(self, dt: float) -> None: ...
+    def set_external_forces(self, forces: Optional[npt.ArrayLike] = None) -> None:
+        """(n, 3) forces, N, per lattice particle; None removes them."""
+
+class TwoLayer:
+    """A two-layer body built as ``balloon two-layer`` builds it, stepped from Python."""
+
+    def __init__(self, **options: Option) -> None: ...
+    def step(self) -> Dict[str, Any]: ...
+    @property
+    def positions(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def velocities(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def time(self) -> float: ...
+    @property
+    def steps(self) -> int: ...
+    @property
+    def dt(self) -> float: ...
+    def set_dt(self, dt: float) -> None: ...
+    def set_drag(
+        self,
+        point: Optional[Tuple[float, float, float]] = None,
+        stiffness: float = 10.0,
+        damping: float = 0.1,
+    ) -> Optional[int]:
+        """Drags the nearest particle towards ``point``; None releases it."""
