@@ -688,6 +688,10 @@ fn sphere_to_rest() -> Result<SphereToRest> {
     eprintln!("xtask bench: peer sphere ({vertices} v), static");
     let t = Instant::now();
     let report = sim.solve_static(&StaticOptions::default())?;
+    eprintln!(
+        "    outer iterations {}, load steps {}, cuts {}",
+        report.outer_iterations, report.load_steps, report.line_search_cuts
+    );
     let static_s = t.elapsed().as_secs_f64();
     let static_x = sim.positions().to_vec();
     let volume_ratio = sim.gas_volume() / sim.rest_gas_volume();
@@ -741,51 +745,63 @@ fn paper_teddy(reference: bool) -> Result<balloon::shell::ShellSimulation> {
     Ok(b.build()?)
 }
 
-fn teddy_inflation(steps: usize) -> Result<TeddyInflation> {
-    let run = |reference: bool| -> Result<(f64, usize, usize, Vec<f64>, Vec<f64>, usize)> {
-        let mut sim = paper_teddy(reference)?;
-        let vertices = sim.positions().len() / 3;
-        let (mut newton, mut factorizations, mut volumes) = (0, 0, Vec::new());
-        let t = Instant::now();
-        for k in 0..steps {
-            let s = sim.step()?;
-            newton += s.newton_iterations;
-            factorizations += s.factorizations;
-            if (k + 1) % 30 == 0 || k + 1 == steps {
-                volumes.push(s.gas_volume);
-            }
+/// One 300-step teddy run: wall time (s), Newton iterations, factorisations, gas volumes at
+/// the checkpoints, final positions, vertices.
+struct TeddyRun {
+    secs: f64,
+    newton: usize,
+    factorizations: usize,
+    volumes: Vec<f64>,
+    positions: Vec<f64>,
+    vertices: usize,
+}
+
+fn teddy_run(reference: bool, steps: usize) -> Result<TeddyRun> {
+    let mut sim = paper_teddy(reference)?;
+    let vertices = sim.positions().len() / 3;
+    let (mut newton, mut factorizations, mut volumes) = (0, 0, Vec::new());
+    let t = Instant::now();
+    for k in 0..steps {
+        let s = sim.step()?;
+        newton += s.newton_iterations;
+        factorizations += s.factorizations;
+        if (k + 1) % 30 == 0 || k + 1 == steps {
+            volumes.push(s.gas_volume);
         }
-        let secs = t.elapsed().as_secs_f64();
-        Ok((
-            secs,
-            newton,
-            factorizations,
-            volumes,
-            sim.positions().to_vec(),
-            vertices,
-        ))
-    };
+    }
+    Ok(TeddyRun {
+        secs: t.elapsed().as_secs_f64(),
+        newton,
+        factorizations,
+        volumes,
+        positions: sim.positions().to_vec(),
+        vertices,
+    })
+}
+
+fn teddy_inflation(steps: usize) -> Result<TeddyInflation> {
     eprintln!("xtask bench: teddy (res 40), {steps} steps, default solver");
-    let (default_s, default_newton, default_factorizations, v_def, x_def, vertices) = run(false)?;
-    eprintln!("    {default_s:.2} s, {default_newton} Newton iterations");
+    let d = teddy_run(false, steps)?;
+    eprintln!("    {:.2} s, {} Newton iterations", d.secs, d.newton);
     eprintln!("xtask bench: teddy (res 40), {steps} steps, reference (tol 1e-10, 100 iterations)");
-    let (reference_s, reference_newton, _, v_ref, x_ref, _) = run(true)?;
-    eprintln!("    {reference_s:.2} s, {reference_newton} Newton iterations");
+    let r = teddy_run(true, steps)?;
+    eprintln!("    {:.2} s, {} Newton iterations", r.secs, r.newton);
+    let (v_def, v_ref) = (&d.volumes, &r.volumes);
     let max_volume_difference = v_def
         .iter()
-        .zip(&v_ref)
+        .zip(v_ref)
         .map(|(a, b)| ((a - b) / b).abs())
         .fold(0.0, f64::max);
     Ok(TeddyInflation {
-        vertices,
+        vertices: d.vertices,
         steps,
-        default_s,
-        default_newton,
-        default_factorizations,
-        reference_s,
-        reference_newton,
+        default_s: d.secs,
+        default_newton: d.newton,
+        default_factorizations: d.factorizations,
+        reference_s: r.secs,
+        reference_newton: r.newton,
         max_volume_difference,
-        shape_difference: shape_difference(&x_ref, &x_def),
+        shape_difference: shape_difference(&r.positions, &d.positions),
     })
 }
 
