@@ -496,6 +496,11 @@ fn markdown(r: &BenchReport) -> String {
          each linear solver, projection, whole step, volumetric, two-layer): \
          `cargo bench -p balloon-benches` (`-- --test` runs each once, as CI does).\n",
     );
+    s.push_str(
+        "* The converged default solver's studies alone: `cargo xtask bench --converged \
+         sphere,teddy,scaling` (or `all`); profiles of one configuration: `cargo run --release \
+         -p balloon-benches --example converged_profile` and `--example factor_profile`.\n",
+    );
     s
 }
 
