@@ -496,6 +496,11 @@ fn markdown(r: &BenchReport) -> String {
          each linear solver, projection, whole step, volumetric, two-layer): \
          `cargo bench -p balloon-benches` (`-- --test` runs each once, as CI does).\n",
     );
+    s.push_str(
+        "* The converged default solver's studies alone: `cargo xtask bench --converged \
+         sphere,teddy,scaling` (or `all`); profiles of one configuration: `cargo run --release \
+         -p balloon-benches --example converged_profile` and `--example factor_profile`.\n",
+    );
     s
 }
 
@@ -564,7 +569,16 @@ pub fn run(opts: &Options) -> Result<()> {
         table1,
         scaling,
     };
-    let md = markdown(&report);
+    let mut md = markdown(&report);
+    md.push('\n');
+    md.push_str(&run_converged(
+        opts,
+        ConvergedParts {
+            sphere: true,
+            teddy: true,
+            scaling: true,
+        },
+    )?);
     let dir = root.join("target").join("bench");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     std::fs::write(dir.join("bench.md"), &md)?;
@@ -580,4 +594,344 @@ pub fn run(opts: &Options) -> Result<()> {
         println!("wrote {}", p.display());
     }
     Ok(())
+}
+
+/// The converged default shell solver measured side by side (issue 12, item 4): the peer
+/// sphere to rest (static and dynamic), the 300-step teddy inflation against a tight
+/// reference, and the cost per step with size.
+#[derive(Clone, Debug, Serialize)]
+pub struct ConvergedReport {
+    sphere: Option<SphereToRest>,
+    teddy: Option<TeddyInflation>,
+    scaling: Option<Scaling>,
+}
+
+/// The peer comparison's sphere brought to rest.
+#[derive(Clone, Debug, Serialize)]
+struct SphereToRest {
+    vertices: usize,
+    /// `solve_static`: wall time (s), Newton iterations, converged.
+    static_s: f64,
+    static_newton: usize,
+    static_converged: bool,
+    /// Dynamic run until the largest speed is below 1e-3 m/s and the per-step relative volume
+    /// change below 1e-6: wall time (s), steps, Newton iterations.
+    dynamic_s: f64,
+    dynamic_steps: usize,
+    dynamic_newton: usize,
+    /// Largest vertex distance between the two rest shapes over the bounding-box diagonal.
+    shape_difference: f64,
+    /// Gas volume ratio of the static rest shape.
+    volume_ratio: f64,
+}
+
+/// 300 steps of the resolution-40 teddy, default solver against the reference.
+#[derive(Clone, Debug, Serialize)]
+struct TeddyInflation {
+    vertices: usize,
+    steps: usize,
+    /// Wall time of the whole default run, s.
+    default_s: f64,
+    default_newton: usize,
+    default_factorizations: usize,
+    /// Wall time of the reference run (`--newton-tol 1e-10 --newton-iters 100`), s.
+    reference_s: f64,
+    reference_newton: usize,
+    /// Largest relative gas-volume difference over the checkpoints (every 30 steps).
+    max_volume_difference: f64,
+    /// Final shape difference over the bounding-box diagonal.
+    shape_difference: f64,
+}
+
+/// The peer comparison's sphere: 10242 vertices (icosphere level 5, radius 1 m), E t =
+/// 1155 N/m (t = 1 mm), nu = 1/3, 1 kg in all, the ideal gas at 377 Pa gauge with no ambient,
+/// mass damping 20 1/s.
+pub fn peer_sphere() -> Result<balloon::shell::ShellSimulation> {
+    use balloon::gas::GasKind;
+    use balloon::material::{Lame, MaterialKind, MaterialModel};
+    let mesh = icosphere(1.0, 5)?;
+    let thickness = 1e-3;
+    let area = balloon::mesh::geometry::surface_area(&mesh);
+    let lame = Lame::try_from_young_poisson(1155.0 / thickness, 1.0 / 3.0)?;
+    Ok(ShellBalloon::new(mesh)
+        .with_material(MaterialModel::from_lame(
+            MaterialKind::StVenantKirchhoff,
+            lame,
+        ))
+        .with_thickness(thickness)
+        .with_density(1.0 / (area * thickness))
+        .with_gas(GasKind::Ideal)
+        .with_ambient_pressure(0.0)
+        .with_gauge_pressure(377.0)
+        .configure_integrator(|p| p.mass_damping = 20.0)
+        .build()?)
+}
+
+/// Largest vertex distance between `a` and `b` over the bounding-box diagonal of `a`.
+fn shape_difference(a: &[f64], b: &[f64]) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in a.chunks_exact(3) {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    let diag = (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt();
+    let worst = a
+        .chunks_exact(3)
+        .zip(b.chunks_exact(3))
+        .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0, f64::max);
+    worst / diag
+}
+
+fn sphere_to_rest() -> Result<SphereToRest> {
+    use balloon::shell::statics::StaticOptions;
+    let mut sim = peer_sphere()?;
+    let vertices = sim.positions().len() / 3;
+    eprintln!("xtask bench: peer sphere ({vertices} v), static");
+    let t = Instant::now();
+    let report = sim.solve_static(&StaticOptions::default())?;
+    eprintln!(
+        "    outer iterations {}, load steps {}, cuts {}",
+        report.outer_iterations, report.load_steps, report.line_search_cuts
+    );
+    let static_s = t.elapsed().as_secs_f64();
+    let static_x = sim.positions().to_vec();
+    let volume_ratio = sim.gas_volume() / sim.rest_gas_volume();
+    eprintln!(
+        "    {static_s:.2} s, {} Newton iterations",
+        report.newton_iterations
+    );
+    eprintln!("xtask bench: peer sphere, dynamic until at rest");
+    let mut sim = peer_sphere()?;
+    let t = Instant::now();
+    let (mut steps, mut newton) = (0, 0);
+    while steps < 10_000 {
+        let s = sim.step()?;
+        steps += 1;
+        newton += s.newton_iterations;
+        if s.max_speed < 1e-3 && s.volume_change < 1e-6 {
+            break;
+        }
+    }
+    let dynamic_s = t.elapsed().as_secs_f64();
+    eprintln!("    {dynamic_s:.2} s, {steps} steps, {newton} Newton iterations");
+    Ok(SphereToRest {
+        vertices,
+        static_s,
+        static_newton: report.newton_iterations,
+        static_converged: report.converged,
+        dynamic_s,
+        dynamic_steps: steps,
+        dynamic_newton: newton,
+        shape_difference: shape_difference(&static_x, sim.positions()),
+        volume_ratio,
+    })
+}
+
+/// The resolution-40 teddy with the paper's gas and wall (`--gas ideal --ambient 0`, 0.3 mm).
+fn paper_teddy(reference: bool) -> Result<balloon::shell::ShellSimulation> {
+    let mesh = teddy(&TeddyParams {
+        resolution: 40,
+        ..Default::default()
+    })?;
+    let mut b = ShellBalloon::new(mesh)
+        .with_gas(balloon::gas::GasKind::Ideal)
+        .with_ambient_pressure(0.0)
+        .with_thickness(3e-4);
+    if reference {
+        b = b.configure_integrator(|p| {
+            p.newton_tolerance = 1e-10;
+            p.newton_iterations = 100;
+        });
+    }
+    Ok(b.build()?)
+}
+
+/// One 300-step teddy run: wall time (s), Newton iterations, factorisations, gas volumes at
+/// the checkpoints, final positions, vertices.
+struct TeddyRun {
+    secs: f64,
+    newton: usize,
+    factorizations: usize,
+    volumes: Vec<f64>,
+    positions: Vec<f64>,
+    vertices: usize,
+}
+
+fn teddy_run(reference: bool, steps: usize) -> Result<TeddyRun> {
+    let mut sim = paper_teddy(reference)?;
+    let vertices = sim.positions().len() / 3;
+    let (mut newton, mut factorizations, mut volumes) = (0, 0, Vec::new());
+    let t = Instant::now();
+    for k in 0..steps {
+        let s = sim.step()?;
+        newton += s.newton_iterations;
+        factorizations += s.factorizations;
+        if (k + 1) % 30 == 0 || k + 1 == steps {
+            volumes.push(s.gas_volume);
+        }
+    }
+    Ok(TeddyRun {
+        secs: t.elapsed().as_secs_f64(),
+        newton,
+        factorizations,
+        volumes,
+        positions: sim.positions().to_vec(),
+        vertices,
+    })
+}
+
+fn teddy_inflation(steps: usize) -> Result<TeddyInflation> {
+    eprintln!("xtask bench: teddy (res 40), {steps} steps, default solver");
+    let d = teddy_run(false, steps)?;
+    eprintln!("    {:.2} s, {} Newton iterations", d.secs, d.newton);
+    eprintln!("xtask bench: teddy (res 40), {steps} steps, reference (tol 1e-10, 100 iterations)");
+    let r = teddy_run(true, steps)?;
+    eprintln!("    {:.2} s, {} Newton iterations", r.secs, r.newton);
+    let (v_def, v_ref) = (&d.volumes, &r.volumes);
+    let max_volume_difference = v_def
+        .iter()
+        .zip(v_ref)
+        .map(|(a, b)| ((a - b) / b).abs())
+        .fold(0.0, f64::max);
+    Ok(TeddyInflation {
+        vertices: d.vertices,
+        steps,
+        default_s: d.secs,
+        default_newton: d.newton,
+        default_factorizations: d.factorizations,
+        reference_s: r.secs,
+        reference_newton: r.newton,
+        max_volume_difference,
+        shape_difference: shape_difference(&r.positions, &d.positions),
+    })
+}
+
+/// Cost per step of the converged default solver (pump inflation from rest, 3 warm-up steps)
+/// on icospheres from 2562 to 163842 vertices (`--quick`: 642 to 10242).
+fn converged_scaling(opts: &Options) -> Result<Scaling> {
+    let levels: &[u32] = if opts.quick {
+        &[3, 4, 5]
+    } else {
+        &[4, 5, 6, 7]
+    };
+    let mut points = Vec::new();
+    for &l in levels {
+        let mesh = icosphere(0.15, l)?;
+        eprintln!("xtask bench: converged scaling, icosphere L{l}");
+        let mut sim = ShellBalloon::new(mesh.clone())
+            .with_pump_rate(2e-3)
+            .build()?;
+        for _ in 0..3 {
+            sim.step()?;
+        }
+        let ms = median_ms_per_step(&mut sim, if opts.quick { 3 } else { 5 }, opts.runs)?;
+        eprintln!("    {ms:.1} ms/step");
+        points.push(SizePoint {
+            label: format!("icosphere L{l}"),
+            vertices: mesh.num_vertices(),
+            ms_per_step: ms,
+            steps_per_second: 1e3 / ms,
+        });
+    }
+    Ok(finish(
+        "shell (converged default)",
+        "pump, Newton to 1e-6 with line search, exact tangent, CG with a kept Cholesky factor",
+        points,
+    ))
+}
+
+/// Which of the converged-solver studies to run.
+#[derive(Clone, Copy, Debug)]
+pub struct ConvergedParts {
+    /// The peer sphere, static and dynamic.
+    pub sphere: bool,
+    /// The 300-step teddy against the reference.
+    pub teddy: bool,
+    /// Cost per step with size.
+    pub scaling: bool,
+}
+
+/// Runs the converged-solver studies named in `parts`, prints them as Markdown and writes
+/// `target/bench/converged.{md,json}`; returns the Markdown.
+pub fn run_converged(opts: &Options, parts: ConvergedParts) -> Result<String> {
+    let mut load = crate::report::LoadSamples::default();
+    load.sample();
+    let report = ConvergedReport {
+        sphere: parts.sphere.then(sphere_to_rest).transpose()?,
+        teddy: parts
+            .teddy
+            .then(|| teddy_inflation(if opts.quick { 60 } else { 300 }))
+            .transpose()?,
+        scaling: parts.scaling.then(|| converged_scaling(opts)).transpose()?,
+    };
+    load.sample();
+    let mut md = format!(
+        "## The converged default solver\n\nMachine: {}. Load: {}.\n\n",
+        crate::report::machine(),
+        load.summary()
+    );
+    if let Some(s) = &report.sphere {
+        let _ = writeln!(
+            md,
+            "Peer sphere ({} v, E t = 1155 N/m, nu = 1/3, 1 kg, ideal gas 377 Pa gauge, ambient 0, \
+             mass damping 20 1/s) to rest: static {:.2} s ({} Newton iterations, converged {}), \
+             dynamic {:.2} s ({} steps, {} Newton iterations); rest shapes differ by {:.1e} of \
+             the bounding-box diagonal; V/V0 = {:.4}.\n",
+            s.vertices,
+            s.static_s,
+            s.static_newton,
+            s.static_converged,
+            s.dynamic_s,
+            s.dynamic_steps,
+            s.dynamic_newton,
+            s.shape_difference,
+            s.volume_ratio
+        );
+    }
+    if let Some(t) = &report.teddy {
+        let _ = writeln!(
+            md,
+            "Teddy (res 40, {} v), {} steps, `--gas ideal --ambient 0`, 0.3 mm: default {:.2} s \
+             ({} Newton iterations, {} factorisations), reference (tol 1e-10, 100 iterations) \
+             {:.2} s ({} Newton iterations); gas volume within {:.1e} (relative) at every 30th \
+             step, final shape within {:.1e} of the bounding-box diagonal.\n",
+            t.vertices,
+            t.steps,
+            t.default_s,
+            t.default_newton,
+            t.default_factorizations,
+            t.reference_s,
+            t.reference_newton,
+            t.max_volume_difference,
+            t.shape_difference
+        );
+    }
+    if let Some(s) = &report.scaling {
+        let _ = writeln!(
+            md,
+            "Cost per step, {} ({}): exponent {:.2}\n\n| size | vertices | ms / step |\n|---|---|---|",
+            s.system, s.setting, s.exponent
+        );
+        for p in &s.points {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {:.1} |",
+                p.label, p.vertices, p.ms_per_step
+            );
+        }
+    }
+    let dir = crate::workspace_root().join("target").join("bench");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    std::fs::write(dir.join("converged.md"), &md)?;
+    std::fs::write(
+        dir.join("converged.json"),
+        serde_json::to_string_pretty(&report)?,
+    )?;
+    println!("{md}");
+    println!("wrote {}/converged.{{md,json}}", dir.display());
+    Ok(md)
 }

@@ -80,6 +80,10 @@ enum Task {
         /// Also write docs/benchmarks.md.
         #[arg(long)]
         update_docs: bool,
+        /// Run only the converged default solver's studies named here (comma-separated:
+        /// sphere, teddy, scaling; `all` for the three) and write target/bench/converged.md.
+        #[arg(long)]
+        converged: Option<String>,
     },
     /// The Python package: wheel into target/py-venv, pytest, examples/python_sweep.py.
     Python,
@@ -357,11 +361,30 @@ fn main() -> Result<()> {
             meshes,
             runs,
             update_docs,
-        } => bench::run(&bench::Options {
-            quick,
-            meshes,
-            runs: runs.max(1),
-            update_docs,
-        }),
+            converged,
+        } => {
+            let opts = bench::Options {
+                quick,
+                meshes,
+                runs: runs.max(1),
+                update_docs,
+            };
+            match converged {
+                Some(parts) => {
+                    let has =
+                        |p: &str| parts.split(',').any(|s| s.trim() == p || s.trim() == "all");
+                    bench::run_converged(
+                        &opts,
+                        bench::ConvergedParts {
+                            sphere: has("sphere"),
+                            teddy: has("teddy"),
+                            scaling: has("scaling"),
+                        },
+                    )
+                    .map(|_| ())
+                }
+                None => bench::run(&opts),
+            }
+        }
     }
 }

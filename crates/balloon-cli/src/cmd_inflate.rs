@@ -119,11 +119,12 @@ pub struct InflateArgs {
     #[arg(long, default_value_t = balloon::integrate::implicit::DEFAULT_NEWTON_TOLERANCE,
           value_parser = parse_newton_tol)]
     pub newton_tol: f64,
-    /// Linear solver: `cholesky` (sparse direct, with Sherman-Morrison for the gas term),
-    /// `pcg` (assembled matrix, see --pcg-preconditioner), `factorized-pcg` (CG preconditioned
-    /// by a Cholesky factor reused across Newton iterations and steps; needs --tangent
-    /// projected to pay off) or `matrix-free-cg` (the paper's).
-    #[arg(long, default_value = "cholesky")]
+    /// Linear solver: `factorized-pcg` (default: CG preconditioned by a Cholesky factor, with
+    /// Sherman-Morrison for the gas term, kept across Newton iterations and steps and refreshed
+    /// when it stops paying), `cholesky` (sparse direct refactorised at every Newton
+    /// iteration, with Sherman-Morrison for the gas term), `pcg` (assembled matrix, see
+    /// --pcg-preconditioner) or `matrix-free-cg` (the paper's).
+    #[arg(long, default_value = "factorized-pcg")]
     pub linear_solver: LinearSolverKind,
     /// Newton tangent: `projected` (element stiffnesses projected to positive semi-definite:
     /// projected Newton, no regularisation retries; same forces and equilibria) or `exact` (the
@@ -515,6 +516,8 @@ pub fn build_with_loads(
         stiffness_damping: args.stiffness_damping,
         pcg_preconditioner: args.pcg_preconditioner,
         tangent: args.tangent,
+        refactor_cost: shell::DEFAULT_REFACTOR_COST,
+        parallel_factorization: true,
         ..Default::default()
     };
     let projection = match args.volume_projection.unwrap_or(if membrane {

@@ -127,6 +127,11 @@ pub struct BackwardEulerParams {
     /// Run the numeric sparse Cholesky factorisation (Cholesky and factorized PCG) on the rayon
     /// thread pool (default `false`: sequential).
     pub parallel_factorization: bool,
+    /// [`crate::linear::LinearSolverKind::FactorizedPcg`] only: the cost of a factorisation in
+    /// CG iterations; the kept factor is refreshed once the solves with it have taken that many
+    /// iterations more than the first solve after the factorisation (default 0: off; see
+    /// `balloon_linalg::FactorizedPcgParams::refactor_cost`).
+    pub refactor_cost: usize,
 }
 
 impl BackwardEulerParams {
@@ -137,6 +142,7 @@ impl BackwardEulerParams {
             pcg_preconditioner: self.pcg_preconditioner,
             refactor_iterations: self.refactor_iterations,
             parallel_factorization: self.parallel_factorization,
+            refactor_cost: self.refactor_cost,
         }
     }
 }
@@ -155,6 +161,7 @@ impl Default for BackwardEulerParams {
             tangent: TangentKind::Exact,
             refactor_iterations: 8,
             parallel_factorization: false,
+            refactor_cost: 0,
         }
     }
 }

@@ -30,9 +30,20 @@ pub struct SparseAssembler {
     keys: Vec<(usize, usize)>,
     slots: Vec<usize>,
     diag_slots: Vec<usize>,
+    /// The block part of the pattern inverted for [`SparseAssembler::assemble_blocks`]: the
+    /// block values summed into matrix entry `s` are
+    /// `gather_src[gather_ptr[s]..gather_ptr[s + 1]]`, in increasing order (empty when the
+    /// pattern was built from triplets).
+    gather_ptr: Vec<u32>,
+    gather_src: Vec<u32>,
     matrix: CsrMatrix,
     pattern_version: u64,
 }
+
+/// Matrices with at least this many stored entries are assembled from blocks on the rayon
+/// pool (with the `parallel` feature); smaller ones on the calling thread.
+#[cfg(feature = "parallel")]
+const PARALLEL_ASSEMBLY_ENTRIES: usize = 1 << 16;
 
 impl SparseAssembler {
     /// An empty assembler.
@@ -72,6 +83,8 @@ impl SparseAssembler {
             self.rebuild_pattern(n, triplets)?;
             self.block_k = 0;
             self.block_nodes.clear();
+            self.gather_ptr.clear();
+            self.gather_src.clear();
         }
         let m = &mut self.matrix;
         m.values.fill(0.0);
@@ -131,22 +144,61 @@ impl SparseAssembler {
             }
             keys.extend_from_slice(extra);
             self.rebuild_pattern(n, &keys)?;
+            self.build_gather(nb)?;
             self.block_k = k;
             self.block_nodes.clear();
             self.block_nodes.extend_from_slice(blocks.nodes);
         }
-        let m = &mut self.matrix;
-        m.values.fill(0.0);
-        for (v, &s) in blocks.values.iter().zip(&self.slots[..nb]) {
-            m.values[s] += scale * v;
-        }
+        // Each entry is the sum of its block sources in increasing order, starting from 0,
+        // then the extra triplets, then the diagonal: the same additions in the same order as
+        // scattering the sources one by one, so the result is bit-identical to that (and to
+        // itself on any number of threads).
+        let (ptr, src) = (&self.gather_ptr, &self.gather_src);
+        let values = blocks.values;
+        let entry = |s: usize| {
+            let mut acc = 0.0;
+            for &j in &src[ptr[s] as usize..ptr[s + 1] as usize] {
+                acc += scale * values[j as usize];
+            }
+            acc
+        };
+        let out = &mut self.matrix.values;
+        fill_entries(out, entry);
         for (t, &s) in extra.iter().zip(&self.slots[nb..]) {
-            m.values[s] += scale * t.2;
+            out[s] += scale * t.2;
         }
         for (i, &s) in self.diag_slots.iter().enumerate() {
-            m.values[s] += diag_scale * diagonal[i];
+            out[s] += diag_scale * diagonal[i];
         }
         Ok(!same)
+    }
+
+    /// Inverts the block part of `slots` (the first `nb`) into the per-entry source lists of
+    /// [`SparseAssembler::assemble_blocks`] (counting sort: sources stay in increasing order).
+    fn build_gather(&mut self, nb: usize) -> Result<(), SolveError> {
+        let entries = self.matrix.values.len();
+        let too_many = |len: usize| SolveError::Dimension {
+            what: "stiffness block values (at most u32::MAX)",
+            len,
+            expected: u32::MAX as usize,
+        };
+        u32::try_from(nb).map_err(|_| too_many(nb))?;
+        let mut ptr = vec![0u32; entries + 1];
+        for &s in &self.slots[..nb] {
+            ptr[s + 1] += 1;
+        }
+        for s in 0..entries {
+            ptr[s + 1] += ptr[s];
+        }
+        let mut next = ptr.clone();
+        let mut src = vec![0u32; nb];
+        for (j, &s) in self.slots[..nb].iter().enumerate() {
+            src[next[s] as usize] = j as u32;
+            next[s] += 1;
+        }
+        self.gather_ptr = ptr;
+        self.gather_src = src;
+        Ok(())
     }
 
     fn rebuild_pattern(
@@ -201,6 +253,27 @@ impl SparseAssembler {
         };
         self.pattern_version += 1;
         Ok(())
+    }
+}
+
+/// `out[s] = entry(s)` for every entry, on the rayon pool for large matrices (each entry is
+/// computed by one closure call, so the result does not depend on the thread count).
+fn fill_entries(out: &mut [f64], entry: impl Fn(usize) -> f64 + Sync) {
+    #[cfg(feature = "parallel")]
+    if out.len() >= PARALLEL_ASSEMBLY_ENTRIES {
+        use rayon::prelude::*;
+        const CHUNK: usize = 4096;
+        out.par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(c, chunk)| {
+                for (i, v) in chunk.iter_mut().enumerate() {
+                    *v = entry(c * CHUNK + i);
+                }
+            });
+        return;
+    }
+    for (s, v) in out.iter_mut().enumerate() {
+        *v = entry(s);
     }
 }
 

@@ -1,11 +1,12 @@
 //! [`FactorizedPcg`]: CG preconditioned by a kept (lagged) sparse Cholesky factorisation.
 
+use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use super::{CgParams, LinearProblem, LinearSolver, Preconditioner, SolveError, SolveInfo};
 use crate::cholesky::SparseCholesky;
 use crate::csr::CsrMatrix;
-use crate::krylov::{CgWorkspace, cg};
+use crate::krylov::{CgWorkspace, cg, dot};
 
 /// Parameters of [`FactorizedPcg`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -25,6 +26,14 @@ pub struct FactorizedPcgParams {
     /// Run the numeric factorisation on the rayon pool (default `false`; needs the `parallel`
     /// feature).
     pub parallel: bool,
+    /// The cost of one numeric factorisation in CG iterations (default 0: off). When set, the
+    /// CG iterations that solves with the kept factor take beyond what the solve right after
+    /// the last factorisation took are summed, and once that excess reaches this cost the next
+    /// solve refactorises first: the factor is refreshed when keeping it has cost as much as
+    /// refreshing it would (an amortisation rule; it counts iterations, not seconds, so runs
+    /// repeat exactly).
+    #[serde(default)]
+    pub refactor_cost: usize,
 }
 
 impl Default for FactorizedPcgParams {
@@ -34,6 +43,7 @@ impl Default for FactorizedPcgParams {
             refactor_iterations: 8,
             fresh_solves_after_slow: 6,
             parallel: false,
+            refactor_cost: 0,
         }
     }
 }
@@ -50,8 +60,16 @@ impl Default for FactorizedPcgParams {
 ///    refactorisation) means the matrix changes fast: the next `fresh_solves_after_slow` solves
 ///    refactorise first.
 ///
-/// The sparse part must be positive definite for the factorisation; use it with a projected
-/// (SPD) tangent.
+/// The preconditioner is `P = L L^T + k_coef sum_i c_i u_i u_i^T`: the kept factor of the
+/// sparse part plus the problem's current low-rank terms (the gas coupling, Eq. 16-17), applied
+/// by Sherman-Morrison / Woodbury (`P^-1 r = y - Z S^-1 C U^T y`, `y = (L L^T)^-1 r`,
+/// `Z = (L L^T)^-1 U`, `S = I + C U^T Z`: one extra pair of triangular solves per term and
+/// solve, none per CG iteration), so that a dominant gas term costs no CG iterations. Terms
+/// with a negative coefficient (which could make `P` indefinite) are left to CG.
+///
+/// The sparse part must be positive definite for the factorisation. With the exact tangent an
+/// indefinite matrix is met as non-positive curvature in CG or a non-positive pivot, returned
+/// as an error for the caller's mass-shift retry (`SolveError::is_indefinite`).
 #[derive(Debug, Default)]
 pub struct FactorizedPcg {
     params: FactorizedPcgParams,
@@ -62,6 +80,17 @@ pub struct FactorizedPcg {
     fresh_solves_left: usize,
     workspace: CgWorkspace,
     factorizations: u64,
+    /// `(L L^T)^-1 u_i` for the low-rank terms in the preconditioner (reused buffers).
+    low_rank_z: Vec<Vec<f64>>,
+    /// `k_coef c_i` of those terms.
+    low_rank_c: Vec<f64>,
+    /// Indices (into the problem's terms) of those terms.
+    low_rank_terms: Vec<usize>,
+    /// CG iterations of the first solve with the current factor.
+    fresh_iterations: usize,
+    /// CG iterations beyond `fresh_iterations` summed over the solves with a kept factor since
+    /// the last factorisation ([`FactorizedPcgParams::refactor_cost`]).
+    excess_iterations: usize,
 }
 
 impl FactorizedPcg {
@@ -85,6 +114,46 @@ impl FactorizedPcg {
         self.factor_version = Some(version);
         self.factorizations += 1;
         Ok(())
+    }
+
+    /// Prepares the Sherman-Morrison / Woodbury part of the preconditioner for the problem's
+    /// low-rank terms with the current factor; returns the LU of the capacitance matrix
+    /// `S = I + C U^T Z`, or `None` when no term is used.
+    fn prepare_low_rank(
+        &mut self,
+        problem: &LinearProblem<'_>,
+    ) -> Result<Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>, SolveError> {
+        self.low_rank_terms.clear();
+        self.low_rank_c.clear();
+        for (i, t) in problem.low_rank.iter().enumerate() {
+            let c = problem.k_coef * t.coefficient;
+            if c > 0.0 && c.is_finite() {
+                self.low_rank_terms.push(i);
+                self.low_rank_c.push(c);
+            }
+        }
+        let r = self.low_rank_terms.len();
+        if r == 0 {
+            return Ok(None);
+        }
+        self.low_rank_z.resize_with(r, Vec::new);
+        for (z, &i) in self.low_rank_z.iter_mut().zip(&self.low_rank_terms) {
+            z.clear();
+            z.extend_from_slice(&problem.low_rank[i].vector);
+            self.cholesky.solve_in_place(z)?;
+        }
+        let mut s = DMatrix::<f64>::identity(r, r);
+        for (a, &i) in self.low_rank_terms.iter().enumerate() {
+            let u = &problem.low_rank[i].vector;
+            for (b, z) in self.low_rank_z.iter().enumerate() {
+                s[(a, b)] += self.low_rank_c[a] * dot(u, z);
+            }
+        }
+        if !s.iter().all(|v| v.is_finite()) {
+            return Ok(None);
+        }
+        let lu = s.lu();
+        Ok(lu.is_invertible().then_some(lu))
     }
 }
 
@@ -131,7 +200,10 @@ impl LinearSolver for FactorizedPcg {
             } else {
                 max_iterations.min(2 * threshold)
             };
+            let capacitance = self.prepare_low_rank(problem)?;
             let chol = &mut self.cholesky;
+            let (terms, cs, zs) = (&self.low_rank_terms, &self.low_rank_c, &self.low_rank_z);
+            let mut w = DVector::<f64>::zeros(terms.len());
             let res = cg(
                 |p, out| problem.apply(p, out),
                 |r, z| {
@@ -139,6 +211,18 @@ impl LinearSolver for FactorizedPcg {
                     // Cannot fail: factorised above for this size.
                     let solved = chol.solve_in_place(z);
                     debug_assert!(solved.is_ok(), "{solved:?}");
+                    if let Some(lu) = &capacitance {
+                        for (a, &i) in terms.iter().enumerate() {
+                            w[a] = cs[a] * dot(&problem.low_rank[i].vector, z);
+                        }
+                        if lu.solve_mut(&mut w) {
+                            for (coef, zj) in w.iter().zip(zs) {
+                                for (zi, v) in z.iter_mut().zip(zj) {
+                                    *zi -= coef * v;
+                                }
+                            }
+                        }
+                    }
                 },
                 b,
                 x,
@@ -153,6 +237,15 @@ impl LinearSolver for FactorizedPcg {
                         // The lagged factor was a poor preconditioner: the matrix is changing
                         // fast, refactorise for the next few solves.
                         self.fresh_solves_left = self.params.fresh_solves_after_slow;
+                    }
+                    if fresh {
+                        self.fresh_iterations = info.iterations;
+                        self.excess_iterations = 0;
+                    } else if self.params.refactor_cost > 0 {
+                        self.excess_iterations += total.saturating_sub(self.fresh_iterations);
+                        if self.excess_iterations >= self.params.refactor_cost {
+                            self.fresh_solves_left = self.fresh_solves_left.max(1);
+                        }
                     }
                     info.iterations = total;
                     info.preconditioner = Preconditioner::Cholesky;

@@ -193,6 +193,9 @@ pub struct SolverSettings {
     /// Run the numeric sparse Cholesky factorisation on the rayon pool (needs the `parallel`
     /// feature; otherwise ignored).
     pub parallel_factorization: bool,
+    /// [`LinearSolverKind::FactorizedPcg`]: the cost of a factorisation in CG iterations for
+    /// the amortised refresh (see [`FactorizedPcgParams::refactor_cost`]; default 0: off).
+    pub refactor_cost: usize,
 }
 
 impl Default for SolverSettings {
@@ -202,6 +205,7 @@ impl Default for SolverSettings {
             pcg_preconditioner: PcgPreconditioner::default(),
             refactor_iterations: FactorizedPcgParams::default().refactor_iterations,
             parallel_factorization: false,
+            refactor_cost: 0,
         }
     }
 }
@@ -222,6 +226,7 @@ impl SolverSettings {
                 cg,
                 refactor_iterations: self.refactor_iterations,
                 parallel: self.parallel_factorization,
+                refactor_cost: self.refactor_cost,
                 ..FactorizedPcgParams::default()
             })),
         }

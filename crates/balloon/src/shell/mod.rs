@@ -371,10 +371,20 @@ impl<G: GasModel> ShellGas for CustomGas<G> {
     }
 }
 
+/// The cost of one numeric factorisation in CG iterations for the default solver's amortised
+/// refresh of its kept factor (`BackwardEulerParams::refactor_cost`): one factorisation of the
+/// 11k-vertex teddy's Newton matrix took as long as 7-12 triangular solve pairs with its
+/// factor (`benches/examples/factor_profile.rs`, docs/benchmarks.md).
+pub const DEFAULT_REFACTOR_COST: usize = 8;
+
 /// The integrator parameters a [`ShellBalloon`] starts from: backward Euler with
 /// [`DEFAULT_MASS_DAMPING`], Newton to a relative residual of 1e-6 on the exact tangent
-/// ([`TangentKind::Exact`]), sparse Cholesky with the gas term as a Sherman-Morrison update,
-/// IC(0) for PCG and [`DEFAULT_LINEAR_TOLERANCE`] for the CG solvers. Start from these (not
+/// ([`TangentKind::Exact`]), each Newton system solved by CG to [`DEFAULT_LINEAR_TOLERANCE`]
+/// preconditioned by a sparse Cholesky factor kept across Newton iterations and steps with the
+/// gas term as a Sherman-Morrison update ([`LinearSolverKind::FactorizedPcg`]; refreshed when
+/// a solve needs more than 8 CG iterations, fails, or the extra iterations since the last
+/// factorisation add up to [`DEFAULT_REFACTOR_COST`]; factorised on the rayon pool for large
+/// meshes), IC(0) for PCG. Start from these (not
 /// from `BackwardEulerParams::default()`) when building parameters for
 /// [`ShellBalloon::with_integrator`].
 pub fn default_integrator_params() -> BackwardEulerParams {
@@ -383,9 +393,11 @@ pub fn default_integrator_params() -> BackwardEulerParams {
         pcg_preconditioner: PcgPreconditioner::IncompleteCholesky,
         ..Default::default()
     };
-    integrator.linear.kind = LinearSolverKind::Cholesky;
+    integrator.linear.kind = LinearSolverKind::FactorizedPcg;
     integrator.tangent = TangentKind::Exact;
     integrator.linear.relative_tolerance = DEFAULT_LINEAR_TOLERANCE;
+    integrator.refactor_cost = DEFAULT_REFACTOR_COST;
+    integrator.parallel_factorization = true;
     integrator
 }
 
@@ -808,6 +820,11 @@ pub struct ShellStepStats {
     pub newton_iterations: usize,
     /// Linear (CG) iterations summed over the Newton iterations (0 for Cholesky).
     pub linear_iterations: usize,
+    /// Numeric sparse Cholesky factorisations done by the linear solver in the accepted
+    /// sub-steps of this step (`StepInfo::factorizations`; attempts rolled back are not
+    /// counted).
+    #[serde(default)]
+    pub factorizations: usize,
     /// Relative Newton residual of the result (`StepInfo::relative_residual`: the residual
     /// force over the force scale), the largest over the sub-steps.
     pub newton_residual: f64,
@@ -842,6 +859,7 @@ pub struct ShellStepStats {
 struct StepTotals {
     newton_iterations: usize,
     linear_iterations: usize,
+    factorizations: usize,
     newton_residual: f64,
     line_search_cuts: usize,
     projection_iterations: usize,
@@ -924,6 +942,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             shell_volume_ratio: self.shell_volume() / self.rest_shell_volume,
             newton_iterations: totals.newton_iterations,
             linear_iterations: totals.linear_iterations,
+            factorizations: totals.factorizations,
             newton_residual: totals.newton_residual,
             line_search_cuts: totals.line_search_cuts,
             dt_used: totals.min_dt,
@@ -988,6 +1007,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 Ok((info, proj_iters)) => {
                     totals.newton_iterations += info.newton_iterations;
                     totals.linear_iterations += info.total_linear_iterations();
+                    totals.factorizations += info.factorizations;
                     totals.newton_residual = totals.newton_residual.max(info.relative_residual);
                     totals.line_search_cuts += info.line_search_cuts;
                     totals.projection_iterations += proj_iters;
