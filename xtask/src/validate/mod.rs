@@ -6,6 +6,7 @@ mod connected;
 mod membrane;
 pub mod meshes;
 mod shell;
+mod tube;
 mod two_layer;
 mod volumetric;
 
@@ -24,8 +25,8 @@ pub struct Options {
     pub meshes: Option<PathBuf>,
     /// Write docs/validation.md and docs/figures.
     pub write: bool,
-    /// Run only this group ("shell", "membrane", "connected", "volumetric", "two-layer", "meshes"); nothing
-    /// is written.
+    /// Run only this group ("shell", "membrane", "connected", "tube", "volumetric", "two-layer",
+    /// "meshes"); nothing is written.
     pub only: Option<String>,
 }
 
@@ -132,6 +133,9 @@ pub fn run(opts: &Options) -> Result<()> {
     if want("connected") {
         cases.extend(connected::cases(opts, &mut figs));
     }
+    if want("tube") {
+        cases.extend(tube::cases(opts, &mut figs));
+    }
     if want("volumetric") {
         cases.extend(volumetric::cases(opts, &soups));
     }
@@ -214,6 +218,13 @@ fn render_markdown(
          compared with the analytic thin sphere `P(l) = H / (R l^2) w'(l)` (M18-M21) in location \
          and height (0.5 %); past the maximum, the spread of the element area stretches shows \
          whether the sphere stays uniform (a bifurcation would grow it).\n",
+    );
+    s.push_str(
+        "* **tube**: the bulging tube (docs/membranes.md section 11): a closed Gent tube \
+         (L/R = 20, hemispherical caps, a band 1 % thinner in the middle) traced under volume \
+         control; the initiation pressure against the uniform closed-end tube's maximum, the \
+         propagation pressure and bulge radius against Maxwell's equal-area rule on it, and the \
+         localisation of the bulge.\n",
     );
     s.push_str(
         "* **volumetric**: per-cell volume after every step (seed 003, Eq. 1-2, tolerance 1e-10), \
