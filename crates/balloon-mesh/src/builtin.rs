@@ -27,7 +27,7 @@ pub const BUILTIN_NAMES: &[&str] = &[
 /// | `uvsphere` | UV sphere, radius 0.1 m, 64 slices x 32 stacks |
 /// | `torus` | torus R = 0.1 m, r = 0.03 m, 64 x 24 segments |
 /// | `box` | 0.1 m cube, 10 x 10 quads per face |
-/// | `tube` | [`generate::tube()`]: radius 0.05 m, 0.6 m tip to tip (hemispherical caps), 32 segments around |
+/// | `tube` | [`generate::tube()`]: radius 0.05 m, 0.6 m tip to tip (hemispherical caps), 32 segments around (2260 vertices) |
 ///
 /// Names are case-insensitive.
 ///
@@ -80,6 +80,7 @@ mod tests {
         }
         assert_eq!(builtin("sphere").unwrap(), builtin("ICOSPHERE").unwrap());
         assert_eq!(builtin("icosphere").unwrap().num_vertices(), 2562);
+        assert_eq!(builtin("tube").unwrap().num_vertices(), 2260);
         let err = load("builtin:teapot").unwrap_err().to_string();
         assert!(err.contains("teapot") && err.contains("teddy"), "{err}");
         let err = load("/nonexistent/dir/mesh.obj").unwrap_err().to_string();

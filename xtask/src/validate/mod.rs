@@ -220,8 +220,8 @@ fn render_markdown(
          whether the sphere stays uniform (a bifurcation would grow it).\n",
     );
     s.push_str(
-        "* **tube**: the bulging tube (docs/membranes.md section 11): a closed Gent tube \
-         (L/R = 20, hemispherical caps, a band 1 % thinner in the middle) traced under volume \
+        "* **tube**: the bulging tube (docs/membranes.md section 10): a closed Gent tube \
+         (L/R = 40, hemispherical caps, a band 1 % thinner in the middle) traced under volume \
          control; the initiation pressure against the uniform closed-end tube's maximum, the \
          propagation pressure and bulge radius against Maxwell's equal-area rule on it, and the \
          localisation of the bulge.\n",

@@ -1,5 +1,5 @@
-//! The bulging tube (issue 14, item 6; `docs/membranes.md` section 11): a closed rubber tube
-//! (`balloon_mesh::generate::tube`, hemispherical caps, L/R = 20) traced quasi-statically under
+//! The bulging tube (issue 14, item 6; `docs/membranes.md` section 10): a closed rubber tube
+//! (`balloon_mesh::generate::tube`, hemispherical caps, L/R = 40; quick: 20) traced quasi-statically under
 //! volume control (`ShellSimulation::solve_static` with `StaticControl::Volume`). The pressure
 //! rises to an initiation maximum `P_i`, a bulge forms in the middle (seeded by a band 1 %
 //! thinner), the pressure drops, and the bulge lengthens at a nearly constant propagation
