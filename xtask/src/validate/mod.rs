@@ -255,8 +255,8 @@ fn render_markdown(
     }
     s.push_str("## Reproduce\n\n");
     s.push_str(
-        "* Everything above (table and every figure): `cargo xtask validate` (about 12 minutes on \
-         2 cores, 6.5 of them the membrane traces; `--quick` for a 1-2 minute subset, `--meshes DIR` for another mesh folder, \
+        "* Everything above (table and every figure): `cargo xtask validate` (about 14.5 minutes on \
+         2 cores, 6.5 of them the membrane traces, 2.5 the bulging tube; `--quick` for a 1-2 minute subset, `--meshes DIR` for another mesh folder, \
          `--no-write` to only print the table).\n",
     );
     s.push_str(
