@@ -1,6 +1,7 @@
 //! Cross-crate integration tests: one binary for the whole workspace (linking is slow on 2 cores).
 
 mod anchors;
+mod bulge;
 mod connected;
 mod limit_point;
 mod newton;

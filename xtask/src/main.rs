@@ -61,7 +61,7 @@ enum Task {
         /// Do not write docs/validation.md and the figures (only print the table).
         #[arg(long)]
         no_write: bool,
-        /// Run one group only (shell, membrane, connected, volumetric, two-layer, meshes); leaves
+        /// Run one group only (shell, membrane, connected, tube, volumetric, two-layer, meshes); leaves
         /// docs/ unchanged, draws the group's figures into target/validate-figures/.
         #[arg(long)]
         only: Option<String>,

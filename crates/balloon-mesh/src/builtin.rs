@@ -14,6 +14,7 @@ pub const BUILTIN_NAMES: &[&str] = &[
     "uvsphere",
     "torus",
     "box",
+    "tube",
 ];
 
 /// A built-in mesh by name (all closed, outward, centred at the origin, metres):
@@ -26,6 +27,7 @@ pub const BUILTIN_NAMES: &[&str] = &[
 /// | `uvsphere` | UV sphere, radius 0.1 m, 64 slices x 32 stacks |
 /// | `torus` | torus R = 0.1 m, r = 0.03 m, 64 x 24 segments |
 /// | `box` | 0.1 m cube, 10 x 10 quads per face |
+/// | `tube` | [`generate::tube()`]: radius 0.05 m, 0.6 m tip to tip (hemispherical caps), 32 segments around (2260 vertices) |
 ///
 /// Names are case-insensitive.
 ///
@@ -39,6 +41,7 @@ pub fn builtin(name: &str) -> Result<TriMesh, MeshError> {
         "uvsphere" => generate::uv_sphere(0.1, 64, 32),
         "torus" => generate::torus(0.1, 0.03, 64, 24),
         "box" => generate::box_mesh(Vector3::repeat(0.1), 10),
+        "tube" => generate::tube(0.05, 0.6, 32),
         _ => Err(MeshError::UnknownBuiltin {
             name: name.to_string(),
             known: BUILTIN_NAMES.join(", "),
@@ -77,6 +80,7 @@ mod tests {
         }
         assert_eq!(builtin("sphere").unwrap(), builtin("ICOSPHERE").unwrap());
         assert_eq!(builtin("icosphere").unwrap().num_vertices(), 2562);
+        assert_eq!(builtin("tube").unwrap().num_vertices(), 2260);
         let err = load("builtin:teapot").unwrap_err().to_string();
         assert!(err.contains("teapot") && err.contains("teddy"), "{err}");
         let err = load("/nonexistent/dir/mesh.obj").unwrap_err().to_string();

@@ -5,13 +5,16 @@
 //!   default body);
 //! * [`implicit::implicit_surface`]: any signed distance / implicit function, meshed by marching
 //!   tetrahedra and relaxed onto the surface;
-//! * [`teddy::teddy`]: the procedural teddy bear (seed 000, Fig. 4), built on the implicit mesher.
+//! * [`teddy::teddy`]: the procedural teddy bear (seed 000, Fig. 4), built on the implicit mesher;
+//! * [`tube::tube`]: a closed cylinder with hemispherical end caps (the bulging tube).
 
 pub mod implicit;
 pub mod teddy;
+pub mod tube;
 
 pub use implicit::{ImplicitParams, implicit_surface};
 pub use teddy::{TeddyParams, TeddyPart, teddy, teddy_vertex_parts};
+pub use tube::tube;
 
 use crate::{MeshError, TriMesh};
 use nalgebra::{Point3, Vector3};
