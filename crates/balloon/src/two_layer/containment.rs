@@ -373,6 +373,22 @@ impl LayerContainment {
         best
     }
 
+    /// The closest point of the outer layer to `p` over all its faces (`O(faces)`).
+    fn closest_brute_force(&self, x: &[f64], p: &Vector3<f64>) -> Closest {
+        let faces = match &self.topology {
+            Topology::Polygon => self.count,
+            Topology::Surface { triangles, .. } => triangles.len(),
+        };
+        let mut best = self.closest_on(x, p, 0);
+        for f in 1..faces {
+            let c = self.closest_on(x, p, f);
+            if c.dist2 < best.dist2 {
+                best = c;
+            }
+        }
+        best
+    }
+
     /// Outward pseudo-normal (not normalised) at the feature of `c`.
     fn pseudo_normal(&self, x: &[f64], c: &Closest) -> Vector3<f64> {
         let face_normal = |f: usize| {
@@ -497,7 +513,12 @@ impl LayerContainment {
             // (where the outer layer folds over itself the closest feature's side can differ
             // from the enclosed region; the winding number decides).
             if self.winding_number(positions, &p) >= 0.5 {
-                self.clearance[j] = 0.0;
+                // Inside after all: the walk stopped at a local minimum of a crumpled layer.
+                // Its clearance is the exact distance over all faces, so it is not tested
+                // again (at this cost) until it or the layer has moved that far.
+                let exact = self.closest_brute_force(positions, &p);
+                self.hint[j] = exact.face;
+                self.clearance[j] = exact.dist2.sqrt();
                 continue;
             }
             // Unit outward direction at the closest point.
