@@ -88,7 +88,10 @@ fn main() {
                 collisions += st.collisions;
             }
             let s = t.elapsed().as_secs_f64();
-            println!("{collisions} wall contacts, {contained} inner particles put back inside");
+            println!(
+                "{collisions} wall contacts, {contained} inner particles put back inside, total energy {:e} J",
+                sim.energies().total()
+            );
             let ms = s * 1e3 / steps as f64;
             println!(
                 "level {level}: {} particles, {:.4} ms per RK4 step, {:.0} steps/s, real-time factor {:.2} (dt = {dt:e} s; state hash {:016x})",

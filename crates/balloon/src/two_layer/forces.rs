@@ -437,8 +437,15 @@ impl TwoLayerForces {
             e.kinetic += 0.5 * mass * vec3(v, i).norm_squared();
             e.gravity += mass * self.gravity * x[3 * i + m.dimension.up_axis()];
         }
-        for s in &self.terms {
-            e.spring += s.spring.energy(&vec3(x, s.a / 3), &vec3(x, s.b / 3));
+        // Spring energy 1/2 k (l - L)^2 from the structure of arrays (the arithmetic of
+        // `Spring::energy`, so the same bits).
+        let (x3, _) = x.as_chunks::<3>();
+        let sa = &self.soa;
+        for k in 0..sa.a.len() {
+            let (xa, xb) = (x3[sa.a[k] as usize], x3[sa.b[k] as usize]);
+            let d = [xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]];
+            let s = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() - sa.rest[k];
+            e.spring += 0.5 * sa.stiffness[k] * (s * s);
         }
         if let [outer, inner] = &self.layers[..] {
             e.gas += outer.gas.energy(volume_outer);
