@@ -2,7 +2,10 @@
 //! whole step (integrate, box collisions, inner-layer containment, blow-up check) per explicit
 //! method, on octahedron spheres of level 3 (516 particles) and 4 (2052 particles), both of
 //! about 5 kg in total. The real-time claim of `docs/two-layer.md`: a level-4 RK4 step at
-//! dt = 1 ms (stable up to at least 4 ms) must take < 1 ms.
+//! dt = 1 ms (stable up to at least 4 ms) must take < 1 ms. The group `two_layer/rk4_dt1e-4`
+//! times the configuration of issue 16 item 5 (RK4 at dt = 0.1 ms, levels 2 to 5, throughput in
+//! springs per force evaluation, four per step); compare its per-spring time with
+//! `benches/benches/triad.rs` (the memory bandwidth).
 
 use std::hint::black_box;
 
@@ -56,5 +59,21 @@ fn bench_two_layer(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench_two_layer);
+/// RK4 at dt = 0.1 ms on the levels 2 to 5 (132 to 8196 particles): whole steps, with the
+/// throughput in springs x 4 evaluations, so the reported rate is spring evaluations per second.
+fn bench_two_layer_rk4_small_step(c: &mut Criterion) {
+    let mut g = c.benchmark_group("two_layer/rk4_dt1e-4");
+    for level in [2u32, 3, 4, 5] {
+        let b = body(level);
+        let mut sim = b.simulate(ExplicitMethod::Rk4, 1e-4).expect("simulation");
+        let springs = sim.model().springs.len();
+        g.throughput(Throughput::Elements(4 * springs as u64));
+        g.bench_function(format!("level{level}_{springs}springs"), |bn| {
+            bn.iter(|| black_box(sim.step().expect("stable step")))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_two_layer, bench_two_layer_rk4_small_step);
 criterion_main!(benches);

@@ -36,6 +36,7 @@
 //! volume: `(nRT)_k = P_k0 V_k0`.
 
 pub mod analytic;
+mod containment;
 mod forces;
 mod model;
 mod sim;

@@ -61,6 +61,8 @@ pub struct TwoLayerForces {
     params: [SpringParams; 4],
     /// Per spring: its first coordinate `3 a`, `3 b`, and the element.
     terms: Vec<SpringTerm>,
+    /// The springs again as a structure of arrays for the force loop.
+    soa: SpringArrays,
     /// Per closed layer (outer first, then inner): its first coordinate, geometry and gas.
     layers: Vec<GasLayer>,
     gravity: f64,
@@ -69,6 +71,87 @@ pub struct TwoLayerForces {
     /// Per coordinate: `1 / m`, or 0 for fixed particles and axes outside the dimension.
     inverse_mass: Vec<f64>,
     spring_force: Vec<f64>,
+}
+
+/// The springs as a structure of arrays (particle indices, rest length, stiffness, damping):
+/// 32 bytes per spring read in one sequential stream by [`TwoLayerForces::forces_into`].
+#[derive(Clone, Debug, Default)]
+struct SpringArrays {
+    a: Vec<u32>,
+    b: Vec<u32>,
+    rest: Vec<f64>,
+    stiffness: Vec<f64>,
+    damping: Vec<f64>,
+}
+
+/// The force on end `a` of a spring (seed Eq. 4.2-4.6), `None` at zero length: the arithmetic
+/// of [`Spring::force`] (so the same bits). `e = x_b - x_a`, `l = |e|`,
+/// `F_a = e (k (l - L) + d (v_b - v_a) . e / l) / l`.
+#[inline(always)]
+fn spring_force(
+    xa: [f64; 3],
+    xb: [f64; 3],
+    va: [f64; 3],
+    vb: [f64; 3],
+    rest: f64,
+    stiffness: f64,
+    damping: f64,
+) -> Option<[f64; 3]> {
+    let e = [xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]];
+    let len2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+    if len2 <= 0.0 {
+        return None;
+    }
+    let len = len2.sqrt();
+    let inv = 1.0 / len;
+    let dv = [vb[0] - va[0], vb[1] - va[1], vb[2] - va[2]];
+    let rel = dv[0] * e[0] + dv[1] * e[1] + dv[2] * e[2];
+    let mag = (stiffness * (len - rest) + damping * rel * inv) * inv;
+    Some([e[0] * mag, e[1] * mag, e[2] * mag])
+}
+
+impl SpringArrays {
+    fn new(terms: &[SpringTerm]) -> Self {
+        let mut s = Self::default();
+        for t in terms {
+            // Particle indices fit in u32: the builders allow at most 2 * 65538 particles.
+            s.a.push((t.a / 3) as u32);
+            s.b.push((t.b / 3) as u32);
+            s.rest.push(t.spring.rest_length());
+            s.stiffness.push(t.spring.stiffness_constant());
+            s.damping.push(t.spring.damping());
+        }
+        s
+    }
+
+    /// Adds the Hooke and damping forces of every spring (seed Eq. 4.2-4.6) to `f`, in spring
+    /// order. The same arithmetic as [`Spring::force`] (so the same bits): `e = x_b - x_a`,
+    /// `l = |e|`, `F_a = e (k (l - L) + d (v_b - v_a) . e / l) / l`, `F_b = -F_a`.
+    ///
+    /// One sequential pass: a deterministic parallel version (every spring's force into a
+    /// buffer, then every particle sums its springs' forces in spring order) costs 1.8 times
+    /// the instructions, so on the two cores of the reference machine it cannot pay
+    /// (`docs/two-layer.md`).
+    fn add_forces(&self, x: &[[f64; 3]], v: &[[f64; 3]], f: &mut [[f64; 3]]) {
+        let n = self.a.len();
+        let (a, b) = (&self.a[..n], &self.b[..n]);
+        let (rest, stiff, damp) = (&self.rest[..n], &self.stiffness[..n], &self.damping[..n]);
+        for s in 0..n {
+            let (ia, ib) = (a[s] as usize, b[s] as usize);
+            let Some(fa) = spring_force(x[ia], x[ib], v[ia], v[ib], rest[s], stiff[s], damp[s])
+            else {
+                continue;
+            };
+            let ta = &mut f[ia];
+            ta[0] += fa[0];
+            ta[1] += fa[1];
+            ta[2] += fa[2];
+            let tb = &mut f[ib];
+            tb[0] += -fa[0];
+            tb[1] += -fa[1];
+            tb[2] += -fa[2];
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -84,11 +167,66 @@ struct GasLayer {
     range: std::ops::Range<usize>,
     layer: ClosedLayer,
     gas: LayerGas,
+    /// The triangles of a 3D layer (local indices, `u32`) for the force loop; empty in 2D.
+    triangles: Vec<[u32; 3]>,
 }
 
 impl GasLayer {
     fn volume(&self, x: &[f64]) -> f64 {
         self.layer.volume(&x[self.range.clone()])
+    }
+
+    /// [`GasLayer::volume`] for a 3D layer from the compact triangles, then `P = nRT / V`
+    /// (seed Eq. 4.10), then each face's `P/6 (b - a) x (c - a)` added to its three corners
+    /// (seed Eq. 4.11-4.16; the arithmetic of [`ClosedLayer::volume`] and
+    /// [`ClosedLayer::add_pressure_forces`], so the same bits). Falls back to those for 2D.
+    fn add_pressure_forces(&self, x: &[f64], f: &mut [f64]) {
+        let r = self.range.clone();
+        if self.triangles.is_empty() {
+            let pressure = self.gas.pressure(self.volume(x));
+            if pressure != 0.0 {
+                self.layer
+                    .add_pressure_forces(&x[r.clone()], pressure, &mut f[r]);
+            }
+            return;
+        }
+        let (x3, _) = x[r.clone()].as_chunks::<3>();
+        let (f3, _) = f[r].as_chunks_mut::<3>();
+        let cross = |u: [f64; 3], w: [f64; 3]| {
+            [
+                u[1] * w[2] - u[2] * w[1],
+                u[2] * w[0] - u[0] * w[2],
+                u[0] * w[1] - u[1] * w[0],
+            ]
+        };
+        let six_v: f64 = self
+            .triangles
+            .iter()
+            .map(|t| {
+                let (a, b, c) = (x3[t[0] as usize], x3[t[1] as usize], x3[t[2] as usize]);
+                let bc = cross(b, c);
+                a[0] * bc[0] + a[1] * bc[1] + a[2] * bc[2]
+            })
+            .sum();
+        let pressure = self.gas.pressure(six_v / 6.0);
+        if pressure == 0.0 {
+            return;
+        }
+        let s = pressure / 6.0;
+        for t in &self.triangles {
+            let (a, b, c) = (x3[t[0] as usize], x3[t[1] as usize], x3[t[2] as usize]);
+            let n = cross(
+                [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+            );
+            let ff = [n[0] * s, n[1] * s, n[2] * s];
+            for &k in t {
+                let fk = &mut f3[k as usize];
+                fk[0] += ff[0];
+                fk[1] += ff[1];
+                fk[2] += ff[2];
+            }
+        }
     }
 }
 
@@ -140,7 +278,7 @@ impl TwoLayerForces {
                 }
             })
             .collect();
-        let terms = model
+        let terms: Vec<SpringTerm> = model
             .springs
             .iter()
             .map(|s| {
@@ -167,10 +305,12 @@ impl TwoLayerForces {
                     _ => ClosedLayer::polygon(n),
                 },
                 gas: LayerGas::new(nrt, rest_volume),
+                triangles: model.surface.iter().map(|t| t.map(|k| k as u32)).collect(),
             })
             .collect(),
         };
         Self {
+            soa: SpringArrays::new(&terms),
             model,
             params: body.springs,
             terms,
@@ -255,16 +395,10 @@ impl TwoLayerForces {
         } else {
             f
         };
-        let at = |y: &[f64], k: usize| Vector3::new(y[k], y[k + 1], y[k + 2]);
-        for s in &self.terms {
-            let [fa, fb] = s
-                .spring
-                .force(&at(x, s.a), &at(x, s.b), &at(v, s.a), &at(v, s.b));
-            for k in 0..3 {
-                sf[s.a + k] += fa[k];
-                sf[s.b + k] += fb[k];
-            }
-        }
+        let (x3, _) = x.as_chunks::<3>();
+        let (v3, _) = v.as_chunks::<3>();
+        let (f3, _) = sf.as_chunks_mut::<3>();
+        self.soa.add_forces(x3, v3, f3);
         if let Some(w) = &self.valence_factor {
             for (i, wi) in w.iter().enumerate() {
                 for d in 0..3 {
@@ -274,12 +408,7 @@ impl TwoLayerForces {
         }
         // Steps 5-9: gas pressure on each closed layer (none in 1D).
         for l in &self.layers {
-            let pressure = l.gas.pressure(l.volume(x));
-            if pressure != 0.0 {
-                let r = l.range.clone();
-                l.layer
-                    .add_pressure_forces(&x[r.clone()], pressure, &mut f[r]);
-            }
+            l.add_pressure_forces(x, f);
         }
         // Step 10: drag spring (seed Eq. 4.7), the target at rest.
         if let Some((t, i)) = self.drag {
@@ -308,8 +437,15 @@ impl TwoLayerForces {
             e.kinetic += 0.5 * mass * vec3(v, i).norm_squared();
             e.gravity += mass * self.gravity * x[3 * i + m.dimension.up_axis()];
         }
-        for s in &self.terms {
-            e.spring += s.spring.energy(&vec3(x, s.a / 3), &vec3(x, s.b / 3));
+        // Spring energy 1/2 k (l - L)^2 from the structure of arrays (the arithmetic of
+        // `Spring::energy`, so the same bits).
+        let (x3, _) = x.as_chunks::<3>();
+        let sa = &self.soa;
+        for k in 0..sa.a.len() {
+            let (xa, xb) = (x3[sa.a[k] as usize], x3[sa.b[k] as usize]);
+            let d = [xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]];
+            let s = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() - sa.rest[k];
+            e.spring += 0.5 * sa.stiffness[k] * (s * s);
         }
         if let [outer, inner] = &self.layers[..] {
             e.gas += outer.gas.energy(volume_outer);

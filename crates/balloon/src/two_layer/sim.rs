@@ -1,16 +1,14 @@
 //! Time stepping of a two-layer object: integrate (seed Ch. 5), collide (seed Sec. 4.6), check
 //! for blow-up, report.
 
+use super::containment::LayerContainment;
 use super::forces::{DragTarget, EnergyBreakdown, TwoLayerForces};
 use super::model::{Dimension, TwoLayerBody, TwoLayerModel};
 use super::{BlowUpReason, TwoLayerError, non_negative, positive};
-use balloon_constraint::two_layer::{
-    AxisBox, collide_box, contain_inner_layer, layer_vertex_normals_into,
-    polygon_vertex_normals_into, polygon_winding_number, winding_number,
-};
+use balloon_constraint::two_layer::{AxisBox, collide_box, polygon_winding_number, winding_number};
 use balloon_integrate::explicit::{ExplicitIntegrator, ExplicitMethod};
 use balloon_mesh::TriMesh;
-use nalgebra::{Point3, Vector3};
+use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 
 /// Statistics of one step (or of the initial state, step 0).
@@ -58,7 +56,8 @@ pub struct TwoLayerSimulation {
     work: f64,
     scale: f64,
     tolerance: f64,
-    normals: Vec<Vector3<f64>>,
+    /// Keeps the inner layer inside the outer one (2D and 3D).
+    containment: Option<LayerContainment>,
     last_collisions: usize,
     last_contained: usize,
 }
@@ -86,6 +85,12 @@ impl TwoLayerSimulation {
         let n3 = 3 * model.num_particles();
         let mut state = model.rest_positions.clone();
         state.resize(2 * n3, 0.0);
+        let n = model.layer_size;
+        let containment = match model.dimension {
+            Dimension::One => None,
+            Dimension::Two => Some(LayerContainment::polygon(0, n, n)),
+            Dimension::Three => Some(LayerContainment::surface(0, n, n, &model.surface)?),
+        };
         let forces = TwoLayerForces::new(model, body);
         let mut sim = Self {
             integrator: ExplicitIntegrator::new(method),
@@ -99,7 +104,7 @@ impl TwoLayerSimulation {
             work: 0.0,
             scale: forces.energy_scale(),
             tolerance: body.blowup_tolerance,
-            normals: Vec::new(),
+            containment,
             last_collisions: 0,
             last_contained: 0,
             forces,
@@ -275,16 +280,8 @@ impl TwoLayerSimulation {
         if let Some(b) = &self.collision_box {
             self.last_collisions = collide_box(x, v, 0..m.num_particles(), b, self.restitution);
         }
-        if m.has_layers() {
-            let n = m.layer_size;
-            match m.dimension {
-                Dimension::Three => {
-                    layer_vertex_normals_into(x, n, n, &m.surface, &mut self.normals)
-                }
-                _ => polygon_vertex_normals_into(x, n, n, &mut self.normals),
-            }
-            self.last_contained =
-                contain_inner_layer(x, v, &m.masses, 0, n, n, &self.normals, self.restitution);
+        if let Some(c) = &mut self.containment {
+            self.last_contained = c.contain(x, v, &m.masses, &m.fixed, self.restitution);
         }
         let stats = self.stats();
         let m = self.forces.model();
@@ -491,6 +488,7 @@ impl TwoLayerSimulation {
 #[cfg(test)]
 mod viewer_api_tests {
     use super::*;
+    use nalgebra::Vector3;
 
     fn sphere() -> TwoLayerSimulation {
         TwoLayerBody::octahedron_sphere(1)
@@ -577,6 +575,7 @@ mod tests {
     use super::super::model::SpringKind;
     use super::*;
     use balloon_mesh::generate::octahedron_sphere;
+    use nalgebra::Vector3;
 
     fn centroid(x: &[f64], range: std::ops::Range<usize>) -> Vector3<f64> {
         let n = range.len() as f64;
