@@ -1,5 +1,8 @@
 """The whole-job functions and the step-wise objects: shapes, defaults, options, setters."""
 
+import json
+import subprocess
+
 import numpy as np
 import pytest
 
@@ -21,13 +24,19 @@ def test_inflate_returns_summary_positions_and_thickness():
     assert s["final_gas_volume"] > s["initial_gas_volume"]
 
 
-def test_defaults_are_the_cli_defaults():
+def test_defaults_are_the_cli_defaults(cli):
     shell = balloon.Shell(SPHERE)
     assert shell.dt == 0.01  # --dt default
     s = balloon.inflate(SPHERE, steps=1)["summary"]
-    assert s["linear_solver"] == "cholesky" and s["tangent"] == "exact"
-    assert s["newton_tolerance"] == 1e-6
-    assert s["material"] == "st-venant-kirchhoff"
+    # The same job with no options through the CLI binary reports the same settings.
+    run = subprocess.run(
+        [cli, "inflate", SPHERE, "--steps", "1", "--json"],
+        capture_output=True, text=True, check=True,
+    )
+    c = json.loads(run.stdout.strip().splitlines()[-1])
+    for key in ["linear_solver", "tangent", "newton_tolerance", "material", "material_parameters"]:
+        assert s[key] == c[key], key
+    assert s["tangent"] == "exact" and s["newton_tolerance"] == 1e-6
 
 
 def test_options_map_to_flags_lists_booleans_and_none():
