@@ -216,6 +216,60 @@ mod tests {
         }
     }
 
+    /// A static volume continuation of a membrane sphere reports, at every point, the
+    /// incompressible thickness of that point's own shape: every element keeps `A h = A0 H`
+    /// (measured from the returned positions) and the shell volume is the rest one. (The
+    /// thickness was once refreshed from the shape before the solve, so each point reported the
+    /// previous point's thickness and a shell volume 13 % off at V / V0 = 3.)
+    #[test]
+    fn static_points_report_their_own_incompressible_thickness() {
+        use crate::shell::statics::{StaticControl, StaticOptions};
+        let mesh = icosphere(0.1, 2).unwrap();
+        let h0 = 1.0e-3;
+        let mut sim = ShellBalloon::new(mesh)
+            .with_membrane(neo_hookean())
+            .with_thickness(h0)
+            .with_gas(GasKind::Constant)
+            .build()
+            .unwrap();
+        let v0 = sim.rest_gas_volume();
+        for ratio in [1.5, 2.0, 3.0] {
+            let report = sim
+                .solve_static(&StaticOptions {
+                    control: StaticControl::Volume { target: ratio * v0 },
+                    ..Default::default()
+                })
+                .unwrap();
+            assert!((report.gas_volume / (ratio * v0) - 1.0).abs() < 1e-6);
+            let x = sim.positions();
+            let r0 = sim.rest_positions();
+            let area = |p: &[f64], t: &[usize; 3]| {
+                let a = |v: usize| nalgebra::Vector3::new(p[3 * v], p[3 * v + 1], p[3 * v + 2]);
+                0.5 * (a(t[1]) - a(t[0])).cross(&(a(t[2]) - a(t[0]))).norm()
+            };
+            let mut sum = 0.0;
+            for (e, (&h, t)) in sim.thickness().iter().zip(sim.triangles()).enumerate() {
+                let kept = h * area(x, t) / (h0 * area(r0, t));
+                assert!(
+                    (kept - 1.0).abs() < 1e-10,
+                    "V/V0 = {ratio}, element {e}: A h / (A0 H) = {kept}"
+                );
+                sum += h;
+            }
+            let mean = sum / sim.thickness().len() as f64;
+            assert!(
+                (report.thickness_mean / mean - 1.0).abs() < 1e-12,
+                "V/V0 = {ratio}: report {} vs thickness {mean}",
+                report.thickness_mean
+            );
+            let shell = sim.shell_volume() / sim.rest_shell_volume();
+            assert!(
+                (shell - 1.0).abs() < 1e-10,
+                "V/V0 = {ratio}: shell volume ratio {shell}"
+            );
+        }
+    }
+
     /// Above the neo-Hookean maximum a constant pressure has no equilibrium: the analytic helper
     /// says so, and the membrane balloon runs away (the limit point the StVK shell lacks).
     #[test]

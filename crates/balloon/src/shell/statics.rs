@@ -536,8 +536,9 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                     report.gauge_pressure = gauge;
                 }
             }
-            // An incompressible membrane's thickness follows its stretch (h = H / (l1 l2)).
-            self.system.refresh_thickness(&self.x);
+            // An incompressible membrane's thickness follows its stretch (h = H / (l1 l2)) at
+            // the solution just found (not the start shape `self.x`, set after the loop).
+            self.system.refresh_thickness(&x);
             // The thickness rule at rest: project the equilibrium, keep the thickness.
             report.thickness_change = 0.0;
             if let Some(proj) = &mut self.projection {
