@@ -30,11 +30,15 @@ class MeshError(BalloonError):
 class SolverError(BalloonError):
     """A simulation step that failed."""
 
-class ShellResult(TypedDict):
+class _ShellResultBase(TypedDict):
     summary: Dict[str, Any]
     positions: npt.NDArray[np.float64]
     thickness: npt.NDArray[np.float64]
     triangles: npt.NDArray[np.int64]
+
+class ShellResult(_ShellResultBase, total=False):
+    points: List[Dict[str, Any]]
+    """``static=True`` only: one dict per converged point (the ``stats.jsonl`` lines)."""
 
 class VolumetricResult(TypedDict):
     summary: Dict[str, Any]

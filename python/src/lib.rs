@@ -318,31 +318,15 @@ fn check_python_signals() -> Option<i32> {
     })
 }
 
-/// The error and its causes joined by `: ` as the CLI prints them.
-fn error_chain(e: &anyhow::Error) -> String {
-    let mut msg = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if msg.contains(&text) {
-            continue;
-        }
-        if !msg.is_empty() {
-            msg.push_str(": ");
-        }
-        msg.push_str(&text);
-    }
-    msg
-}
-
 /// The Python exception of a CLI error: the signal's exception for an interrupted run, else a
 /// [`BalloonError`] subclass by the error's kind, with the CLI's message.
 fn to_py_err(e: anyhow::Error) -> PyErr {
     if e.chain().any(|c| c.is::<Interrupted>()) {
         return SIGNAL_ERROR
             .with(|s| s.borrow_mut().take())
-            .unwrap_or_else(|| PyKeyboardInterrupt::new_err(error_chain(&e)));
+            .unwrap_or_else(|| PyKeyboardInterrupt::new_err(balloon_cli::error_chain(&e)));
     }
-    let msg = error_chain(&e);
+    let msg = balloon_cli::error_chain(&e);
     if e.chain().any(|c| c.is::<ScenarioError>()) {
         InvalidOption::new_err(msg)
     } else if e.chain().any(|c| c.is::<SimulationError>()) {
@@ -500,15 +484,19 @@ fn run_shell<'py>(
     mut args: InflateArgs,
     mesh: Option<balloon::mesh::TriMesh>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    if args.static_solve {
-        // The static solve prints its own summary and returns none (see docs/python.md).
-        return Err(InvalidOption::new_err(
-            "static=True is not available from Python yet: run `balloon inflate --static`",
-        ));
-    }
     args.json = false;
-    let finished = detached(py, move || cmd_inflate::execute(&args, mesh, true))?;
+    let static_solve = args.static_solve;
+    let (finished, points) = detached(py, move || {
+        cmd_inflate::execute_with_points(&args, mesh, true)
+    })?;
     let d = job_result(py, &finished, finished.sim.positions())?;
+    if static_solve {
+        let list = PyList::empty(py);
+        for p in &points {
+            list.append(json_to_py(py, p)?)?;
+        }
+        d.set_item("points", list)?;
+    }
     d.set_item(
         "thickness",
         PyArray1::from_slice(py, finished.sim.thickness()),
@@ -547,8 +535,10 @@ fn run_two_layer<'py>(py: Python<'py>, args: TwoLayerArgs) -> PyResult<Bound<'py
 /// triangles) pair of arrays) with the CLI's flags as keyword options in snake_case
 /// (`steps=15, gas="constant", pressure=900.0`; True for on/off flags), the same defaults and
 /// units. Returns {"summary": dict (summary.json's keys), "positions": (n, 3) float64,
-/// "thickness": (m,) float64 per triangle, "triangles": (m, 3) int64}. With `out=DIR` the run
-/// writes the CLI's output folder too. The GIL is released while it runs; Ctrl-C stops it
+/// "thickness": (m,) float64 per triangle, "triangles": (m, 3) int64}; with `static=True` (the
+/// static solve, `inflate --static`) also "points": one dict per converged point (the
+/// `stats.jsonl` lines, e.g. of a `gas="volume", volume_ratios="1.5:3:0.5"` continuation).
+/// With `out=DIR` the run writes the CLI's output folder too. The GIL is released while it runs; Ctrl-C stops it
 /// after the current step (records written, KeyboardInterrupt raised).
 #[pyfunction]
 #[pyo3(signature = (mesh = None, **options))]

@@ -77,3 +77,36 @@ def test_volumetric_and_two_layer_are_bit_identical_to_the_cli(cli, tmp_path):
     )
     assert np.array_equal(read_obj_vertices(out / "frame_00040.obj"), r["positions"])
     assert without_timing(summary) == without_timing(r["summary"])
+
+
+def test_static_continuation_is_identical_to_the_cli_and_on_the_analytic_curve(cli, tmp_path):
+    """`static=True` with a volume continuation: the same final shape, summary and points as
+    `balloon inflate --static`, and the pressures on the thin-sphere curve of the neo-Hookean
+    membrane, P(l) = 2 mu H / R (1/l - 1/l^7) (docs/membranes.md M18)."""
+    mu, h0 = 4.0e5, 1.0e-3
+    out = tmp_path / "cli"
+    summary = run_cli(
+        cli,
+        ["inflate", "builtin:sphere", "--static", "--gas", "volume", "--volume-ratios",
+         "1.5:3.0:0.5", "--material", "membrane-neo-hookean", "--mu", str(mu), "--thickness",
+         str(h0), "--out", str(out)],
+    )
+    r = balloon.inflate(
+        "builtin:sphere", static=True, gas="volume", volume_ratios="1.5:3.0:0.5",
+        material="membrane-neo-hookean", mu=mu, thickness=h0, out=tmp_path / "py",
+    )
+    assert np.array_equal(read_obj_vertices(out / "final.obj"), r["positions"])
+    assert without_timing(summary) == without_timing(r["summary"])
+    lines = [json.loads(l) for l in (out / "stats.jsonl").read_text().splitlines()]
+    assert [without_timing(p) for p in r["points"]] == [without_timing(p) for p in lines]
+    assert [p["volume_ratio"] for p in r["points"]] == [1.5, 2.0, 2.5, 3.0]
+    # Independent check: the built-in sphere's radius from its rest volume.
+    radius = (3.0 * r["summary"]["initial_gas_volume"] / (4.0 * np.pi)) ** (1.0 / 3.0)
+    for p in r["points"]:
+        l = p["volume_ratio"] ** (1.0 / 3.0)
+        analytic = 2.0 * mu * h0 / radius * (1.0 / l - l ** -7)
+        assert abs(p["gauge_pressure"] / analytic - 1.0) < 5e-3, (p, analytic)
+        # Incompressible: the thickness is H / l^2 (mean over the elements).
+        assert abs(p["thickness_mean"] * l * l / h0 - 1.0) < 5e-3, p
+    # The last point's thickness is the summary's and the returned array's.
+    assert np.isclose(r["thickness"].mean(), r["summary"]["final_thickness_mean"], rtol=1e-12)

@@ -566,6 +566,16 @@ pub fn execute(
     mesh: Option<TriMesh>,
     quiet: bool,
 ) -> Result<Finished<ShellSim>> {
+    execute_with_points(args, mesh, quiet).map(|(finished, _)| finished)
+}
+
+/// As [`execute`], also returning the converged points of a static run (`--static`: one value
+/// per point, the `stats.jsonl` lines; empty for a step run).
+pub fn execute_with_points(
+    args: &InflateArgs,
+    mesh: Option<TriMesh>,
+    quiet: bool,
+) -> Result<(Finished<ShellSim>, Vec<serde_json::Value>)> {
     // The material flags are checked together before anything is loaded.
     let material = args.material.resolve()?;
     let render_spec = check_picture_args(&args.pictures, args.out.as_deref(), &style())?;
@@ -592,8 +602,14 @@ pub fn execute(
         o.write_text("scenario.toml", text)?;
     }
     if args.static_solve {
-        crate::cmd_static::run(args, &mut sim, out)?;
-        return Ok(Finished { summary: None, sim });
+        let run = crate::cmd_static::run(args, &mut sim, out, quiet)?;
+        return Ok((
+            Finished {
+                summary: Some(run.summary),
+                sim,
+            },
+            run.points,
+        ));
     }
     let plan = RunPlan {
         steps: args.steps,
@@ -623,8 +639,11 @@ pub fn execute(
         loads,
     };
     let summary = run_simulation(&mut sim, &mut hooks, &plan, out)?;
-    Ok(Finished {
-        summary: Some(summary),
-        sim,
-    })
+    Ok((
+        Finished {
+            summary: Some(summary),
+            sim,
+        },
+        Vec::new(),
+    ))
 }

@@ -245,12 +245,25 @@ struct StaticSummary {
     error: Option<String>,
 }
 
-/// Runs the static solve(s) of `balloon inflate --static` on the built simulation.
+/// What a static run found: its summary (the keys of `summary.json`) and one value per
+/// converged point (the lines of `stats.jsonl`).
+#[derive(Clone, Debug, Default)]
+pub struct StaticRun {
+    /// The run's summary, as `summary.json` holds it.
+    pub summary: serde_json::Value,
+    /// One value per converged point, as the `stats.jsonl` lines.
+    pub points: Vec<serde_json::Value>,
+}
+
+/// Runs the static solve(s) of `balloon inflate --static` on the built simulation. `quiet`
+/// prints nothing (no summary line or `--json` line), for callers that take the returned
+/// [`StaticRun`] instead.
 pub fn run<M: ShellMaterial>(
     args: &InflateArgs,
     sim: &mut ShellSimulation<M>,
     mut out: Option<OutputDir>,
-) -> Result<()> {
+    quiet: bool,
+) -> Result<StaticRun> {
     let ratios: Vec<Option<f64>> = match (args.gas, args.volume_ratio, &args.volume_ratios) {
         (GasArg::Volume, Some(r), None) => vec![Some(r)],
         (GasArg::Volume, None, Some(list)) => list.iter().map(|r| Some(*r)).collect(),
@@ -296,6 +309,7 @@ pub fn run<M: ShellMaterial>(
     let mut interrupted = None;
     // (V / V0, gauge pressure) of every converged point, for the pressure-volume plot.
     let mut curve = Vec::new();
+    let mut points = Vec::new();
     for (i, ratio) in ratios.iter().enumerate() {
         if let Some(sig) = crate::interrupt::pending() {
             interrupted = Some(sig);
@@ -323,8 +337,10 @@ pub fn run<M: ShellMaterial>(
                     report.gas_volume / summary.initial_gas_volume,
                     report.gauge_pressure,
                 ));
+                let point = StaticPoint::new(i, *ratio, &report);
+                points.push(serde_json::to_value(&point)?);
                 if let Some(o) = &mut out {
-                    o.append_stats(&StaticPoint::new(i, *ratio, &report))?;
+                    o.append_stats(&point)?;
                     if ratios.len() > 1 {
                         o.frame(&shell_frame(sim, i + 1)?, true)?;
                         summary.frames += 1;
@@ -362,7 +378,8 @@ pub fn run<M: ShellMaterial>(
             Err(e) => return Err(e),
         }
     }
-    if args.json {
+    if quiet {
+    } else if args.json {
         print_json_line(&summary)?;
     } else {
         let mut w = std::io::stdout().lock();
@@ -395,7 +412,10 @@ pub fn run<M: ShellMaterial>(
                 steps: summary.points,
             }
             .into()),
-            None => Ok(()),
+            None => Ok(StaticRun {
+                summary: serde_json::to_value(&summary)?,
+                points,
+            }),
         },
     }
 }

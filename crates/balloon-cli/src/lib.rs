@@ -36,3 +36,21 @@ pub mod output;
 pub mod params;
 pub mod run;
 pub mod selection;
+
+/// The error and its causes joined by `: `, skipping a cause whose text the message already
+/// contains (library errors often include their source in their own message): the message the
+/// CLI prints after `error: ` and the Python package raises.
+pub fn error_chain(e: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if msg.contains(&text) {
+            continue;
+        }
+        if !msg.is_empty() {
+            msg.push_str(": ");
+        }
+        msg.push_str(&text);
+    }
+    msg
+}

@@ -75,7 +75,7 @@ fn main() -> std::process::ExitCode {
         // A reader that stopped reading (`balloon mesh info FILE | head -1`) is not an error.
         Err(e) if is_broken_pipe(&e) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", error_chain(&e));
+            eprintln!("error: {}", balloon_cli::error_chain(&e));
             match e.downcast_ref::<interrupt::Interrupted>() {
                 Some(i) => std::process::ExitCode::from(i.exit_code()),
                 None => std::process::ExitCode::FAILURE,
@@ -95,21 +95,4 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
             })
             == Some(std::io::ErrorKind::BrokenPipe)
     })
-}
-
-/// The error and its causes joined by `: `, skipping a cause whose text the message already
-/// contains (library errors often include their source in their own message).
-fn error_chain(e: &anyhow::Error) -> String {
-    let mut msg = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if msg.contains(&text) {
-            continue;
-        }
-        if !msg.is_empty() {
-            msg.push_str(": ");
-        }
-        msg.push_str(&text);
-    }
-    msg
 }

@@ -55,8 +55,7 @@ pub struct RunPlan {
 
 /// A job that ran to its end: its summary and the simulation in its final state.
 pub struct Finished<S> {
-    /// The summary as `summary.json` holds it (with `interrupted`, `frames` and `error`);
-    /// `None` for a static solve (`--static`), whose summary is only written to `--out`.
+    /// The summary as `summary.json` holds it (with `interrupted`, `frames` and `error`).
     pub summary: Option<serde_json::Value>,
     /// The simulation after the last step.
     pub sim: S,

@@ -172,6 +172,12 @@ pub fn polygon_vertex_normals_into(
 /// (masses from `masses`, global indices): the relative normal velocity becomes `-e v_r`,
 /// momentum is conserved and kinetic energy never grows for `e <= 1` (a wall that moves must
 /// not pump energy into the inner layer). Returns how many inner particles were corrected.
+///
+/// This is the seed's per-pair test, kept for comparison: it only looks at one tangent plane
+/// per inner particle, so on a deforming body some inner particles end up outside the outer
+/// surface (4 to 44 of 258 on the level-3 sphere, by winding number). `TwoLayerSimulation`
+/// uses the closest-point test over the whole outer layer instead
+/// (`balloon::two_layer::containment`), which keeps every inner particle inside.
 pub fn contain_inner_layer(
     positions: &mut [f64],
     velocities: &mut [f64],

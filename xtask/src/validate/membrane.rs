@@ -8,6 +8,7 @@
 //! stretches measures whether the sphere stays uniform (a bifurcation to a non-spherical shape
 //! shows as a growing spread).
 
+use super::parabola_vertex;
 use super::{Figures, Options};
 use crate::plot::{Chart, Series, Style, line_chart};
 use crate::report::Case;
@@ -95,21 +96,6 @@ struct Trace {
     extrema: Vec<Extremum>,
     solves: usize,
     seconds: f64,
-}
-
-/// The vertex of the parabola through three points `(x, y)`.
-fn parabola_vertex(p: [(f64, f64); 3]) -> Option<(f64, f64)> {
-    let [(x0, y0), (x1, y1), (x2, y2)] = p;
-    let d01 = (y1 - y0) / (x1 - x0);
-    let d12 = (y2 - y1) / (x2 - x1);
-    let a = (d12 - d01) / (x2 - x0);
-    if a == 0.0 || !a.is_finite() {
-        return None;
-    }
-    let b = d01 - a * (x0 + x1);
-    let x = -b / (2.0 * a);
-    let y = y1 + (x - x1) * (d01 + a * (x - x0));
-    Some((x, y))
 }
 
 /// Whether the middle of three pressures is a maximum / minimum.

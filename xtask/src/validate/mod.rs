@@ -265,3 +265,36 @@ fn render_markdown(
     );
     s
 }
+
+/// The vertex of the parabola through three points `(x, y)` (a traced curve's extremum located
+/// from its finest three points), or `None` when they are collinear.
+pub(crate) fn parabola_vertex(p: [(f64, f64); 3]) -> Option<(f64, f64)> {
+    let [(x0, y0), (x1, y1), (x2, y2)] = p;
+    let d01 = (y1 - y0) / (x1 - x0);
+    let d12 = (y2 - y1) / (x2 - x1);
+    let a = (d12 - d01) / (x2 - x0);
+    if a == 0.0 || !a.is_finite() {
+        return None;
+    }
+    let b = d01 - a * (x0 + x1);
+    let x = -b / (2.0 * a);
+    Some((x, y1 + (x - x1) * (d01 + a * (x - x0))))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parabola_vertex;
+
+    /// The vertex of `y = 2 (x - 1.3)^2 - 0.7` from three unevenly spaced points; `None` for
+    /// collinear points.
+    #[test]
+    fn parabola_vertex_of_a_known_parabola() {
+        let f = |x: f64| 2.0 * (x - 1.3) * (x - 1.3) - 0.7;
+        let (x, y) = parabola_vertex([(0.2, f(0.2)), (1.0, f(1.0)), (2.5, f(2.5))]).unwrap();
+        assert!(
+            (x - 1.3).abs() < 1e-12 && (y + 0.7).abs() < 1e-12,
+            "({x}, {y})"
+        );
+        assert_eq!(parabola_vertex([(0.0, 1.0), (1.0, 2.0), (3.0, 4.0)]), None);
+    }
+}

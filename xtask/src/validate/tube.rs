@@ -13,6 +13,7 @@
 //! propagating bulge needs the stiffening at large stretch that Gent's limiting chain
 //! extensibility gives.
 
+use super::parabola_vertex;
 use super::{Figures, Options};
 use crate::plot::{Chart, Series, Style, line_chart};
 use crate::render::{View, render_panels};
@@ -290,20 +291,6 @@ fn trace<M: MembraneMaterial>(model: M, spec: Spec, snap: &[f64]) -> Result<Trac
         seconds: started.elapsed().as_secs_f64(),
         spec,
     })
-}
-
-/// The vertex of the parabola through three points.
-fn parabola_vertex(p: [(f64, f64); 3]) -> Option<(f64, f64)> {
-    let [(x0, y0), (x1, y1), (x2, y2)] = p;
-    let d01 = (y1 - y0) / (x1 - x0);
-    let d12 = (y2 - y1) / (x2 - x1);
-    let a = (d12 - d01) / (x2 - x0);
-    if a == 0.0 || !a.is_finite() {
-        return None;
-    }
-    let b = d01 - a * (x0 + x1);
-    let x = -b / (2.0 * a);
-    Some((x, y1 + (x - x1) * (d01 + a * (x - x0))))
 }
 
 /// The tube cases: `P_i`, `P_p`, the bulge radius and the localisation, with the figures.
