@@ -9,7 +9,7 @@ use balloon::mesh::generate::icosphere;
 use balloon::mesh::geometry;
 use balloon::shell::ShellBalloon;
 use balloon::shell::connected::{Conductance, ConnectedBalloons, Tube};
-use balloon::shell::statics::{StaticControl, StaticOptions};
+use balloon::shell::statics::StaticOptions;
 
 const MU: f64 = 4.0e5;
 const H: f64 = 1.0e-3;
@@ -31,18 +31,9 @@ fn balloon_at(
         .build()
         .unwrap();
     sim.integrator_params_mut().mass_damping = 5.0;
-    let v0 = sim.rest_gas_volume();
-    let report = sim
-        .solve_static(&StaticOptions {
-            control: StaticControl::Volume {
-                target: v0 * l * l * l,
-            },
-            ..Default::default()
-        })
+    let target = sim.rest_gas_volume() * l * l * l;
+    sim.inflate_to_volume(target, &StaticOptions::default())
         .unwrap();
-    assert!(report.converged, "{report:?}");
-    let amount = (sim.ambient_pressure() + report.gauge_pressure) * report.gas_volume;
-    sim.set_gas_amount(amount).unwrap();
     sim
 }
 
