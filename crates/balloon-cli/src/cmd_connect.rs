@@ -806,7 +806,9 @@ pub fn execute(mut args: ConnectArgs, quiet: bool) -> Result<serde_json::Value> 
         None => None,
     };
     if let (Some(o), Some(text)) = (&out, &args.shell.scenario_record) {
-        o.write_text("scenario.toml", text)?;
+        // `--gas` left at inflate's default (pump) is the ideal gas here: record what ran.
+        let text = text.replace("\nmodel = \"pump\"\n", "\nmodel = \"ideal\"\n");
+        o.write_text("scenario.toml", &text)?;
     }
     let sphere = sphere_of(&sim, &args.shell, &material);
     let (l, g, a) = (sim.stretches(), sim.gauge_pressures(), sim.amounts());

@@ -1,6 +1,8 @@
 //! `balloon run SCENARIO.toml [FLAGS...]`: a run described by a scenario file.
 //!
-//! `[system] kind` selects the system: `shell` (the default, `balloon inflate`), `volumetric`
+//! `[system] kind` selects the system: `shell` (the default, `balloon inflate`), `connect`
+//! (`balloon connect`, keys [`CONNECT_KEYS`]: the shell's and a `[connect]` table, which also
+//! selects it when there is no `kind`; read with [`connect_scenario_args`]), `volumetric`
 //! (`balloon volumetric`, keys [`VOLUMETRIC_KEYS`]) or `two-layer` (`balloon two-layer`, keys
 //! [`TWO_LAYER_KEYS`]); each system's keys are its command's flags.
 //!
@@ -33,7 +35,7 @@ use toml_edit::{Item, Value};
 /// Arguments of `balloon run`.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
-    /// Scenario file (TOML): `[system] kind` (`shell`, `volumetric` or `two-layer`) and tables
+    /// Scenario file (TOML): `[system] kind` (`shell`, `connect`, `volumetric` or `two-layer`) and tables
     /// (for the shell `[mesh]`, `[shell]`, `[gas]`, `[run]`, `[output]`) whose keys are the
     /// flags of that system's command with `_` for `-` (docs/scenarios.md). Paths in it are
     /// relative to the file.

@@ -35,9 +35,9 @@ enum Command {
     Volumetric(cmd_volumetric::VolumetricArgs),
     /// Simulate a two-layer elastic object (seed 004).
     TwoLayer(cmd_two_layer::TwoLayerArgs),
-    /// Run a scenario file (TOML; `[system] kind` selects `inflate`, `volumetric` or
-    /// `two-layer`, whose flags are the keys, grouped in tables); flags after the file override
-    /// it (docs/scenarios.md).
+    /// Run a scenario file (TOML; `[system] kind` selects `shell` (`inflate`), `connect`,
+    /// `volumetric` or `two-layer`, whose flags are the keys, grouped in tables); flags after
+    /// the file override it (docs/scenarios.md).
     Run(cmd_run::RunArgs),
     /// Watch and steer a simulation live in the browser (local server, loopback only).
     View(cmd_view::ViewArgs),
@@ -46,7 +46,7 @@ enum Command {
 fn main() -> std::process::ExitCode {
     let matches = Cli::command().get_matches();
     let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
-    // `inflate|volumetric|two-layer --out DIR` record its resolved scenario in DIR/scenario.toml.
+    // `inflate|connect|volumetric|two-layer --out DIR` record its resolved scenario in DIR/scenario.toml.
     let record = |name: &str, system: &cmd_run::System| {
         matches
             .subcommand_matches(name)
