@@ -9,7 +9,7 @@ use balloon::mesh::generate::icosphere;
 use balloon::mesh::geometry;
 use balloon::shell::ShellBalloon;
 use balloon::shell::connected::{Conductance, ConnectedBalloons, Tube};
-use balloon::shell::statics::{StaticControl, StaticOptions};
+use balloon::shell::statics::StaticOptions;
 
 const MU: f64 = 4.0e5;
 const H: f64 = 1.0e-3;
@@ -31,18 +31,9 @@ fn balloon_at(
         .build()
         .unwrap();
     sim.integrator_params_mut().mass_damping = 5.0;
-    let v0 = sim.rest_gas_volume();
-    let report = sim
-        .solve_static(&StaticOptions {
-            control: StaticControl::Volume {
-                target: v0 * l * l * l,
-            },
-            ..Default::default()
-        })
+    let target = sim.rest_gas_volume() * l * l * l;
+    sim.inflate_to_volume(target, &StaticOptions::default())
         .unwrap();
-    assert!(report.converged, "{report:?}");
-    let amount = (sim.ambient_pressure() + report.gauge_pressure) * report.gas_volume;
-    sim.set_gas_amount(amount).unwrap();
     sim
 }
 
@@ -138,4 +129,79 @@ fn invalid_connections_are_refused_with_the_tube_or_balloon_named() {
         err.contains("balloon 1") && err.contains("ideal gas"),
         "{err}"
     );
+}
+
+#[test]
+fn inflating_to_a_volume_needs_the_ideal_gas_and_a_positive_target() {
+    let mut constant = ShellBalloon::new(icosphere(0.1, 1).unwrap())
+        .with_membrane(MembraneNeoHookean::try_new(MU).unwrap())
+        .with_thickness(H)
+        .with_gas(GasKind::Constant)
+        .build()
+        .unwrap();
+    let v0 = constant.rest_gas_volume();
+    let err = constant
+        .inflate_to_volume(1.2 * v0, &StaticOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("`gas`") && err.contains("ideal gas"), "{err}");
+    let mut ideal = balloon_at(1.0 + 1e-9, 0.0, 1);
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let err = ideal
+            .inflate_to_volume(bad, &StaticOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("target volume"), "{bad}: {err}");
+    }
+    // At the target, the balloon holds exactly the gas that keeps it there: a dynamic step
+    // from rest barely moves it.
+    let target = 1.25 * ideal.rest_gas_volume();
+    let report = ideal
+        .inflate_to_volume(target, &StaticOptions::default())
+        .unwrap();
+    assert!((ideal.gas_volume() / target - 1.0).abs() < 1e-7);
+    assert_eq!(
+        ideal.gas_amount(),
+        Some((ideal.ambient_pressure() + report.gauge_pressure) * report.gas_volume)
+    );
+    ideal.step().unwrap();
+    assert!((ideal.gas_volume() / target - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn connected_balloons_step_through_the_simulation_trait_as_one_surface() {
+    use balloon::Simulation;
+    let (a, b) = (balloon_at(1.2, 0.0, 1), balloon_at(1.4, 0.5, 1));
+    let (na, nb) = (a.positions().len(), b.positions().len());
+    let (ta, tb) = (a.triangles().len(), b.triangles().len());
+    let tube = Tube {
+        a: 0,
+        b: 1,
+        conductance: Conductance::Finite(1.0),
+    };
+    let mut pair = ConnectedBalloons::new(vec![a, b], vec![tube]).unwrap();
+    assert_eq!(pair.vertex_offsets(), vec![0, na / 3, (na + nb) / 3]);
+    let s = Simulation::step(&mut pair).unwrap();
+    assert_eq!((s.steps, Simulation::steps(&pair)), (1, 1));
+    assert_eq!(s.detail.stretches, pair.stretches());
+    assert!((s.detail.total_amount / pair.total_amount() - 1.0).abs() < 1e-15);
+    // The merged surface is the balloons' own positions, one after the other.
+    let surface = pair.surface();
+    assert_eq!(surface.positions.len(), na + nb);
+    assert_eq!(surface.triangles.len(), ta + tb);
+    assert_eq!(&surface.positions[na..], pair.balloons()[1].positions());
+    assert!(
+        surface.triangles[ta..]
+            .iter()
+            .flatten()
+            .all(|&i| i >= na / 3)
+    );
+    assert_eq!(Simulation::velocities(&pair).len(), na + nb);
+    let ke: f64 = pair.balloons().iter().map(Simulation::kinetic_energy).sum();
+    assert_eq!(Simulation::kinetic_energy(&pair), ke);
+    // One dt for all, refused as the shell refuses it.
+    Simulation::set_dt(&mut pair, 0.005).unwrap();
+    assert!(pair.balloons().iter().all(|b| b.dt() == 0.005));
+    assert!(Simulation::set_dt(&mut pair, -1.0).is_err());
+    assert!(pair.balloons().iter().all(|b| b.dt() == 0.005));
 }

@@ -1,6 +1,8 @@
 //! `balloon run SCENARIO.toml [FLAGS...]`: a run described by a scenario file.
 //!
-//! `[system] kind` selects the system: `shell` (the default, `balloon inflate`), `volumetric`
+//! `[system] kind` selects the system: `shell` (the default, `balloon inflate`), `connect`
+//! (`balloon connect`, keys [`CONNECT_KEYS`]: the shell's and a `[connect]` table, which also
+//! selects it when there is no `kind`; read with [`connect_scenario_args`]), `volumetric`
 //! (`balloon volumetric`, keys [`VOLUMETRIC_KEYS`]) or `two-layer` (`balloon two-layer`, keys
 //! [`TWO_LAYER_KEYS`]); each system's keys are its command's flags.
 //!
@@ -20,6 +22,7 @@
 //! resolved (defaults explicit, the mesh path absolute, the program version), so that
 //! `balloon run DIR/scenario.toml --out DIR2` repeats the run.
 
+use crate::cmd_connect::ConnectArgs;
 use crate::cmd_inflate::InflateArgs;
 use crate::cmd_two_layer::TwoLayerArgs;
 use crate::cmd_volumetric::VolumetricArgs;
@@ -32,7 +35,7 @@ use toml_edit::{Item, Value};
 /// Arguments of `balloon run`.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
-    /// Scenario file (TOML): `[system] kind` (`shell`, `volumetric` or `two-layer`) and tables
+    /// Scenario file (TOML): `[system] kind` (`shell`, `connect`, `volumetric` or `two-layer`) and tables
     /// (for the shell `[mesh]`, `[shell]`, `[gas]`, `[run]`, `[output]`) whose keys are the
     /// flags of that system's command with `_` for `-` (docs/scenarios.md). Paths in it are
     /// relative to the file.
@@ -54,6 +57,14 @@ pub struct RunArgs {
 struct ShellCli {
     #[command(flatten)]
     args: InflateArgs,
+}
+
+/// The parser of `balloon connect`'s flags, on their own.
+#[derive(Debug, Parser)]
+#[command(name = "balloon run")]
+struct ConnectCli {
+    #[command(flatten)]
+    args: ConnectArgs,
 }
 
 /// The parser of `balloon volumetric`'s flags, on their own.
@@ -85,6 +96,8 @@ pub enum Kind {
     Text,
     /// A string naming a file or folder, relative to the scenario file.
     Path,
+    /// A number or a string (`conductance = 5.0` or `conductance = "instant"`).
+    NumberOrText,
     /// `--thickness-rule`: a string `AXIS:FROM:TO` or a table `{ axis, from, to }`.
     Rule,
     /// A repeatable flag written as an array of tables (`[[anchors]]` is `--pin`, `[[loads]]`
@@ -132,7 +145,7 @@ const fn unrecorded(
     }
 }
 
-use Kind::{Bool, Number, Numbers, Path as PathKind, Rule, Tables, Text};
+use Kind::{Bool, Number, NumberOrText, Numbers, Path as PathKind, Rule, Tables, Text};
 
 /// Every key of a shell scenario, in the order the recorded scenario writes them. Each flag of
 /// `balloon inflate` has exactly one key (a unit test checks it).
@@ -195,6 +208,32 @@ pub const SHELL_KEYS: &[ScenarioKey] = &[
     k("anchors", "", "pin", Tables),
     k("loads", "", "load", Tables),
 ];
+
+/// The keys of the `[connect]` table of a connected-balloons scenario (`balloon connect`).
+const CONNECT_TABLE: &[ScenarioKey] = &[
+    k("connect", "copies", "copies", Number),
+    k("connect", "stretches", "stretches", Numbers),
+    k("connect", "pressures", "pressures", Numbers),
+    k("connect", "tubes", "tubes", Text),
+    k("connect", "conductance", "conductance", NumberOrText),
+    k("connect", "until_settled", "until_settled", Bool),
+];
+
+/// `a` followed by `b`, in a constant.
+const fn concat<const N: usize>(a: &[ScenarioKey], b: &[ScenarioKey]) -> [ScenarioKey; N] {
+    let mut out = [a[0]; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = if i < a.len() { a[i] } else { b[i - a.len()] };
+        i += 1;
+    }
+    out
+}
+
+/// Every key of a connected-balloons scenario (`balloon connect`): the shell's keys
+/// ([`SHELL_KEYS`]) and the `[connect]` table.
+pub const CONNECT_KEYS: &[ScenarioKey] =
+    &concat::<{ SHELL_KEYS.len() + CONNECT_TABLE.len() }>(SHELL_KEYS, CONNECT_TABLE);
 
 /// Every key of a volumetric scenario (`balloon volumetric`, seed 003).
 pub const VOLUMETRIC_KEYS: &[ScenarioKey] = &[
@@ -317,6 +356,12 @@ pub const SHELL: System = System {
     keys: SHELL_KEYS,
     command: ShellCli::command,
 };
+/// Connected shell balloons (`balloon connect`).
+pub const CONNECT: System = System {
+    kind: "connect",
+    keys: CONNECT_KEYS,
+    command: ConnectCli::command,
+};
 /// The volumetric body (`balloon volumetric`).
 pub const VOLUMETRIC: System = System {
     kind: "volumetric",
@@ -331,7 +376,7 @@ pub const TWO_LAYER: System = System {
 };
 
 /// The systems a scenario can select with `[system] kind`.
-const SYSTEMS: &[System] = &[SHELL, VOLUMETRIC, TWO_LAYER];
+const SYSTEMS: &[System] = &[SHELL, CONNECT, VOLUMETRIC, TWO_LAYER];
 
 /// What is wrong with a scenario file.
 #[derive(Debug, thiserror::Error)]
@@ -365,6 +410,13 @@ pub enum ScenarioError {
         /// The key as `table.key` (or the table's name).
         key: String,
         /// What is wrong.
+        message: String,
+    },
+    /// A flag given after the scenario file (an override) is invalid on its own: the file is
+    /// not to blame.
+    #[error("command line (a flag after the scenario file): {message}")]
+    Override {
+        /// The parser's message, naming the flag (e.g. `invalid value '-1' for '--dt <DT>'`).
         message: String,
     },
     /// The combined arguments (file and command line) do not parse.
@@ -490,6 +542,12 @@ fn value_args(
         Text => match v {
             Value::String(s) => Ok(flag(s.value().clone())),
             _ => Err(expected("a string")),
+        },
+        NumberOrText => match v {
+            Value::String(s) => Ok(flag(s.value().clone())),
+            _ => number_text(v)
+                .map(flag)
+                .ok_or_else(|| expected("a number or a string")),
         },
         Rule => match v {
             Value::String(s) => Ok(flag(s.value().clone())),
@@ -796,9 +854,22 @@ fn parse<C: Parser>(
         path: path.to_path_buf(),
         message: clap_message(&e),
     };
-    let matches = (system.command)()
-        .try_get_matches_from(argv)
-        .map_err(fail)?;
+    let matches = match (system.command)().try_get_matches_from(argv) {
+        Ok(m) => m,
+        Err(e) => {
+            // The overrides on their own: if they fail, the command line is to blame, not the
+            // file (whose keys were each checked on their own already).
+            let alone = (system.command)().try_get_matches_from(
+                std::iter::once("balloon run".to_owned()).chain(overrides.iter().cloned()),
+            );
+            return Err(match alone {
+                Err(o) => ScenarioError::Override {
+                    message: clap_message(&o),
+                },
+                Ok(_) => fail(e),
+            });
+        }
+    };
     let cli = C::from_arg_matches(&matches).map_err(fail)?;
     Ok((cli, matches))
 }
@@ -818,7 +889,12 @@ fn read(path: &Path) -> Result<(String, toml_edit::Document<String>, System), Sc
         }
     })?;
     let src = Source { path, text: &text };
-    let mut system = SHELL;
+    // A `[connect]` table selects the connected balloons unless `[system] kind` says otherwise.
+    let mut system = if doc.as_table().contains_key("connect") {
+        CONNECT
+    } else {
+        SHELL
+    };
     if let Some(item) = doc.as_table().get("system") {
         let span = doc.as_table().key("system").and_then(|k| k.span());
         let table = item.as_table_like().ok_or_else(|| {
@@ -914,6 +990,14 @@ pub fn scenario_args(path: &Path, overrides: &[String]) -> Result<SystemArgs, Sc
             a.scenario_record = Some(record(&system, &m));
             SystemArgs::TwoLayer(Box::new(a))
         }
+        "connect" => {
+            return Err(ScenarioError::Arguments {
+                path: path.to_path_buf(),
+                message: "a connected-balloons scenario ([connect]): read it with \
+                          `connect_scenario_args` (`balloon run` does)"
+                    .to_owned(),
+            });
+        }
         _ => {
             let (c, m) = parse::<ShellCli>(&system, path, files, overrides)?;
             let mut a = c.args;
@@ -921,6 +1005,27 @@ pub fn scenario_args(path: &Path, overrides: &[String]) -> Result<SystemArgs, Sc
             SystemArgs::Shell(Box::new(a))
         }
     })
+}
+
+/// The `balloon connect` arguments of a connected-balloons scenario file (`[system] kind =
+/// "connect"`, or a `[connect]` table) with command-line overrides, carrying their recorded
+/// scenario ([`record`]). `None` when the file is another system's (read it with
+/// [`scenario_args`]).
+pub fn connect_scenario_args(
+    path: &Path,
+    overrides: &[String],
+) -> Result<Option<ConnectArgs>, ScenarioError> {
+    let (text, doc, system) = read(path)?;
+    if system.kind != CONNECT.kind {
+        return Ok(None);
+    }
+    let src = Source { path, text: &text };
+    let base = path.parent().map_or_else(PathBuf::new, Path::to_path_buf);
+    let files = file_args(&system, &src, doc.as_table(), &base, &overridden(overrides))?;
+    let (c, m) = parse::<ConnectCli>(&system, path, files, overrides)?;
+    let mut a = c.args;
+    a.shell.scenario_record = Some(record(&system, &m));
+    Ok(Some(a))
 }
 
 /// A string as a TOML basic string.
@@ -983,7 +1088,7 @@ pub fn record(system: &System, matches: &ArgMatches) -> String {
             _ => matches.try_get_raw(spec.id).ok().flatten().map(|raw| {
                 let raw: Vec<String> = raw.map(|r| r.to_string_lossy().into_owned()).collect();
                 match spec.kind {
-                    Number => toml_number(&raw.join(",")),
+                    Number | NumberOrText => toml_number(&raw.join(",")),
                     Numbers => format!(
                         "[{}]",
                         raw.iter()
@@ -1012,6 +1117,9 @@ pub fn record(system: &System, matches: &ArgMatches) -> String {
 
 /// Runs `balloon run`.
 pub fn run(args: RunArgs) -> Result<()> {
+    if let Some(a) = connect_scenario_args(&args.scenario, &args.overrides)? {
+        return crate::cmd_connect::run(a);
+    }
     match scenario_args(&args.scenario, &args.overrides)? {
         SystemArgs::Shell(a) => crate::cmd_inflate::run(*a),
         SystemArgs::Volumetric(a) => crate::cmd_volumetric::run(*a),
@@ -1207,6 +1315,89 @@ mod tests {
         assert_eq!(c.setup.pin[0].selector, Selector::Indices(vec![7]));
         let rule = c.setup.thickness_rule.unwrap();
         assert_eq!((rule.axis, rule.from, rule.to), (2, 3e-4, 6e-4));
+    }
+
+    #[test]
+    fn an_invalid_override_names_the_flag_not_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.toml");
+        std::fs::write(&path, "[run]\ndt = 0.02\nsteps = 7\n").unwrap();
+        for (flags, named) in [
+            (vec!["--dt", "-1"], "'--dt <DT>'"),
+            (vec!["--dt=nan"], "'--dt <DT>'"),
+            (vec!["--steps", "x"], "'--steps <STEPS>'"),
+            (vec!["--bogus"], "'--bogus'"),
+        ] {
+            let flags: Vec<String> = flags.into_iter().map(String::from).collect();
+            let e = shell_args(&path, &flags).unwrap_err();
+            assert!(
+                matches!(e, ScenarioError::Override { .. }),
+                "{flags:?}: {e:?}"
+            );
+            let text = e.to_string();
+            assert!(
+                text.contains(named)
+                    && text.starts_with("command line")
+                    && !text.contains("s.toml"),
+                "{flags:?}: {text}"
+            );
+        }
+        // A bad value in the file still names the file, its line and key.
+        std::fs::write(&path, "[run]\ndt = -1\n").unwrap();
+        let e = shell_args(&path, &[]).unwrap_err().to_string();
+        assert!(e.contains("s.toml:2: `run.dt`"), "{e}");
+    }
+
+    #[test]
+    fn connect_scenarios_read_their_table_and_record_it() {
+        use balloon::shell::connected::Conductance;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.toml");
+        std::fs::write(
+            &path,
+            "[mesh]\npath = \"builtin:icosphere\"\n[connect]\ncopies = 2\nstretches = [1.35, 1.6]\n\
+             conductance = 2.5\ntubes = \"0-1\"\n[run]\ndt = 0.02\n",
+        )
+        .unwrap();
+        let a = connect_scenario_args(&path, &[])
+            .unwrap()
+            .expect("a [connect] table selects the connected balloons");
+        assert_eq!(a.copies, Some(2));
+        assert_eq!(a.stretches, Some(vec![1.35, 1.6]));
+        assert_eq!(a.conductance, Conductance::Finite(2.5));
+        assert_eq!(a.shell.dt, 0.02);
+        let text = a.shell.scenario_record.clone().unwrap();
+        assert!(text.contains("kind = \"connect\""), "{text}");
+        assert!(text.contains("conductance = 2.5\n"), "{text}");
+        let rec = dir.path().join("r.toml");
+        std::fs::write(&rec, &text).unwrap();
+        let b = connect_scenario_args(&rec, &["--conductance".into(), "instant".into()])
+            .unwrap()
+            .expect("the record is a connect scenario");
+        assert_eq!(b.stretches, a.stretches);
+        assert_eq!(b.conductance, Conductance::Instant);
+        // Another system's file is not a connect scenario, and a connect file is not theirs.
+        assert!(connect_scenario_args(&rec.with_file_name("none.toml"), &[]).is_err());
+        std::fs::write(dir.path().join("shell.toml"), "[run]\ndt = 0.02\n").unwrap();
+        assert!(
+            connect_scenario_args(&dir.path().join("shell.toml"), &[])
+                .unwrap()
+                .is_none()
+        );
+        assert!(scenario_args(&rec, &[]).is_err());
+        // Keys of the table are checked like the others.
+        std::fs::write(&path, "[connect]\nconductance = true\n").unwrap();
+        let e = scenario_args(&path, &[]).unwrap_err().to_string();
+        assert!(
+            e.contains("s.toml:2: `connect.conductance`") && e.contains("a number or a string"),
+            "{e}"
+        );
+        std::fs::write(&path, "[connect]\ncopies = 0\n").unwrap();
+        let e = scenario_args(&path, &[]).unwrap_err().to_string();
+        assert!(
+            e.contains("`connect.copies`") && e.contains("--copies"),
+            "{e}"
+        );
     }
 
     #[test]

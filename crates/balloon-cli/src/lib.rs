@@ -23,6 +23,7 @@
 //! assert_eq!(cli.args.pressure, balloon::shell::DEFAULT_GAUGE_PRESSURE);
 //! ```
 
+pub mod cmd_connect;
 pub mod cmd_inflate;
 pub mod cmd_mesh;
 pub mod cmd_run;

@@ -1,12 +1,13 @@
 //! The `balloon` command-line tool.
 //!
-//! Subcommands: `mesh info` (inspect a mesh), `inflate` (shell balloons, seed 000),
+//! Subcommands: `mesh info` (inspect a mesh), `inflate` (shell balloons, seed 000), `connect`
+//! (shell balloons joined by tubes),
 //! `volumetric` (volume-conserving bodies, seed 003) and `two-layer` (two-layer objects, seed 004),
 //! `run` (a shell run described by a scenario file) and `view` (a live viewer in the browser).
 //! Run `balloon <subcommand> --help` for the flags and their defaults.
 
 use balloon_cli::{
-    cmd_inflate, cmd_mesh, cmd_run, cmd_two_layer, cmd_view, cmd_volumetric, interrupt,
+    cmd_connect, cmd_inflate, cmd_mesh, cmd_run, cmd_two_layer, cmd_view, cmd_volumetric, interrupt,
 };
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
@@ -26,13 +27,17 @@ enum Command {
     /// Inflate a shell balloon with thickness (three-prism FEM, seed 000). With no MESH, the
     /// built-in teddy.
     Inflate(cmd_inflate::InflateArgs),
+    /// Connect several shell balloons, each with its own ideal gas, by tubes (the two-balloon
+    /// experiment): copies of one mesh or the components of one file, pre-inflated to stretches
+    /// or pressures; every `inflate` flag applies.
+    Connect(cmd_connect::ConnectArgs),
     /// Simulate a volume-conserving impulse-based body generated from a triangle soup (seed 003).
     Volumetric(cmd_volumetric::VolumetricArgs),
     /// Simulate a two-layer elastic object (seed 004).
     TwoLayer(cmd_two_layer::TwoLayerArgs),
-    /// Run a scenario file (TOML; `[system] kind` selects `inflate`, `volumetric` or
-    /// `two-layer`, whose flags are the keys, grouped in tables); flags after the file override
-    /// it (docs/scenarios.md).
+    /// Run a scenario file (TOML; `[system] kind` selects `shell` (`inflate`), `connect`,
+    /// `volumetric` or `two-layer`, whose flags are the keys, grouped in tables); flags after
+    /// the file override it (docs/scenarios.md).
     Run(cmd_run::RunArgs),
     /// Watch and steer a simulation live in the browser (local server, loopback only).
     View(cmd_view::ViewArgs),
@@ -41,7 +46,7 @@ enum Command {
 fn main() -> std::process::ExitCode {
     let matches = Cli::command().get_matches();
     let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
-    // `inflate|volumetric|two-layer --out DIR` record its resolved scenario in DIR/scenario.toml.
+    // `inflate|connect|volumetric|two-layer --out DIR` record its resolved scenario in DIR/scenario.toml.
     let record = |name: &str, system: &cmd_run::System| {
         matches
             .subcommand_matches(name)
@@ -49,13 +54,18 @@ fn main() -> std::process::ExitCode {
     };
     match &mut cli.command {
         Command::Inflate(a) => a.scenario_record = record("inflate", &cmd_run::SHELL),
+        Command::Connect(a) => a.shell.scenario_record = record("connect", &cmd_run::CONNECT),
         Command::Volumetric(a) => a.scenario_record = record("volumetric", &cmd_run::VOLUMETRIC),
         Command::TwoLayer(a) => a.scenario_record = record("two-layer", &cmd_run::TWO_LAYER),
         _ => {}
     }
     if matches!(
         cli.command,
-        Command::Inflate(_) | Command::Volumetric(_) | Command::TwoLayer(_) | Command::Run(_)
+        Command::Inflate(_)
+            | Command::Connect(_)
+            | Command::Volumetric(_)
+            | Command::TwoLayer(_)
+            | Command::Run(_)
     ) && let Err(e) = interrupt::install()
     {
         eprintln!(
@@ -65,6 +75,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Mesh(c) => cmd_mesh::run(c),
         Command::Inflate(a) => cmd_inflate::run(a),
+        Command::Connect(a) => cmd_connect::run(a),
         Command::Volumetric(a) => cmd_volumetric::run(a),
         Command::TwoLayer(a) => cmd_two_layer::run(a),
         Command::Run(a) => cmd_run::run(a),

@@ -65,6 +65,9 @@ pub enum SimulationError {
     /// A two-layer body failed.
     #[error(transparent)]
     TwoLayer(#[from] TwoLayerError),
+    /// A set of connected balloons failed ([`crate::shell::connected::ConnectedBalloons`]).
+    #[error(transparent)]
+    Connected(#[from] crate::shell::connected::ConnectedError),
 }
 
 /// What one step did: the numbers every system has, and the system's own statistics in

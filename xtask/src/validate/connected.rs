@@ -13,7 +13,7 @@ use balloon::material::membrane::{MembraneNeoHookean, ThinSphere};
 use balloon::mesh::generate::icosphere;
 use balloon::mesh::geometry;
 use balloon::shell::connected::{Conductance, ConnectedBalloons, Tube};
-use balloon::shell::statics::{StaticControl, StaticOptions};
+use balloon::shell::statics::StaticOptions;
 use balloon::shell::{Membrane, ShellBalloon, ShellSimulation};
 
 const G: &str = "connected";
@@ -35,15 +35,9 @@ fn balloon_at(l: f64, offset: f64) -> Result<Rubber> {
         .with_gas(GasKind::Ideal)
         .build()?;
     sim.integrator_params_mut().mass_damping = 5.0;
-    let v0 = sim.rest_gas_volume();
-    let report = sim.solve_static(&StaticOptions {
-        control: StaticControl::Volume {
-            target: v0 * l * l * l,
-        },
-        ..Default::default()
-    })?;
-    anyhow::ensure!(report.converged, "static solve at l = {l}: {report:?}");
-    sim.set_gas_amount((sim.ambient_pressure() + report.gauge_pressure) * report.gas_volume)?;
+    let target = sim.rest_gas_volume() * l * l * l;
+    sim.inflate_to_volume(target, &StaticOptions::default())
+        .with_context(|| format!("inflating to the stretch {l}"))?;
     Ok(sim)
 }
 

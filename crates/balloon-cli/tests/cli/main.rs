@@ -1,6 +1,7 @@
 //! End-to-end tests of the `balloon` binary: one test binary for all subcommands.
 
 mod anchors;
+mod connect;
 mod gas_laws;
 mod inflate;
 mod membrane;

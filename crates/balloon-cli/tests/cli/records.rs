@@ -8,14 +8,14 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn read_json(path: &Path) -> serde_json::Value {
+pub(super) fn read_json(path: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(path)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}: {text}", path.display()))
 }
 
 /// Waits until `path` exists (the run is under way), at most 120 s.
-fn wait_for(child: &mut Child, path: &Path) {
+pub(super) fn wait_for(child: &mut Child, path: &Path) {
     let start = Instant::now();
     while !path.exists() {
         if let Some(status) = child.try_wait().unwrap() {
@@ -34,7 +34,7 @@ fn wait_for(child: &mut Child, path: &Path) {
 }
 
 /// Sends `signal` (a `kill` name) to the child and waits for it, at most 60 s.
-fn signal_and_wait(child: &mut Child, signal: &str) -> std::process::Output {
+pub(super) fn signal_and_wait(child: &mut Child, signal: &str) -> std::process::Output {
     let status = Command::new("kill")
         .args([&format!("-{signal}"), &child.id().to_string()])
         .status()
@@ -70,7 +70,7 @@ fn signal_and_wait(child: &mut Child, signal: &str) -> std::process::Output {
     }
 }
 
-fn spawn(args: &[&str]) -> Child {
+pub(super) fn spawn(args: &[&str]) -> Child {
     Command::new(env!("CARGO_BIN_EXE_balloon"))
         .args(args)
         .stdout(Stdio::piped())
@@ -80,7 +80,12 @@ fn spawn(args: &[&str]) -> Child {
 }
 
 /// Checks the records of an interrupted run: exit status, summary, stats and frames agree.
-fn check_interrupted(out: &std::process::Output, dir: &Path, code: i32, frame_ext: &str) {
+pub(super) fn check_interrupted(
+    out: &std::process::Output,
+    dir: &Path,
+    code: i32,
+    frame_ext: &str,
+) {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(code), "stderr: {err}");
     assert!(err.contains("interrupted"), "{err}");

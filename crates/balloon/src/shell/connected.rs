@@ -43,7 +43,80 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use super::statics::{StaticControl, StaticOptions, StaticReport};
 use super::{ShellError, ShellMaterial, ShellSimulation, ShellStepStats};
+use crate::simulation::{DrawnSurface, Simulation, SimulationError, SimulationStats};
+use std::borrow::Cow;
+
+impl<M: ShellMaterial> ShellSimulation<M, Gas> {
+    /// Inflates the balloon statically to the enclosed volume `target` (m^3) and leaves it
+    /// holding that gas: a static solve under volume control (the gauge pressure is the
+    /// volume constraint's multiplier, [`StaticControl::Volume`]), then the isothermal ideal
+    /// gas amount is set to `nRT = (p_ambient + p_gauge) V` (seed 000, Eq. 12) so that the
+    /// balloon is at rest at that volume with its own gas, ready to be connected. `options`
+    /// gives the solver settings; its `control` is replaced by the volume target.
+    ///
+    /// To pre-inflate to a linear stretch `l` of a sphere, pass
+    /// `target = l^3 * rest_gas_volume()`.
+    ///
+    /// ```
+    /// use balloon::gas::GasKind;
+    /// use balloon::shell::ShellBalloon;
+    /// use balloon::shell::statics::StaticOptions;
+    /// let mut sim = ShellBalloon::new(balloon::mesh::generate::icosphere(0.1, 1).unwrap())
+    ///     .with_gas(GasKind::Ideal)
+    ///     .build()
+    ///     .unwrap();
+    /// let target = 1.2 * sim.rest_gas_volume();
+    /// let report = sim.inflate_to_volume(target, &StaticOptions::default())?;
+    /// assert!((sim.gas_volume() / target - 1.0).abs() < 1e-6);
+    /// let amount = (sim.ambient_pressure() + report.gauge_pressure) * report.gas_volume;
+    /// assert_eq!(sim.gas_amount(), Some(amount));
+    /// # Ok::<(), balloon::shell::ShellError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`ShellError::InvalidParameter`] when the gas is not the isothermal ideal gas or
+    /// `target` is not positive and finite; the static solve's error when it fails (the
+    /// simulation is then left as it was), [`ShellError::StaticNotConverged`] when it ends
+    /// without meeting its tolerances.
+    pub fn inflate_to_volume(
+        &mut self,
+        target: f64,
+        options: &StaticOptions,
+    ) -> Result<StaticReport, ShellError> {
+        if self.gas_amount().is_none() {
+            return Err(ShellError::InvalidParameter {
+                name: "gas",
+                value: format!("{:?}", self.gas().kind()).to_lowercase(),
+                reason: "inflating to a volume and holding the gas needs the isothermal ideal \
+                         gas (--gas ideal)"
+                    .into(),
+            });
+        }
+        if !(target.is_finite() && target > 0.0) {
+            return Err(ShellError::InvalidParameter {
+                name: "volume",
+                value: target.to_string(),
+                reason: "the target volume must be positive and finite (m^3)".into(),
+            });
+        }
+        let report = self.solve_static(&StaticOptions {
+            control: StaticControl::Volume { target },
+            ..*options
+        })?;
+        if !report.converged {
+            return Err(ShellError::StaticNotConverged {
+                outer_iterations: report.outer_iterations,
+                residual: report.relative_residual,
+                thickness_change: report.thickness_change,
+                volume_error: report.volume_error,
+            });
+        }
+        self.set_gas_amount((self.ambient_pressure() + report.gauge_pressure) * report.gas_volume)?;
+        Ok(report)
+    }
+}
 
 /// How freely gas flows through a [`Tube`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -132,6 +205,11 @@ pub struct ConnectedStepStats {
     pub gauge_pressures: Vec<f64>,
     /// Each balloon's gas amount `nRT` after the flow, J.
     pub amounts: Vec<f64>,
+    /// Each balloon's linear stretch `(V / V0)^(1/3)` against its rest gas volume `V0` (the
+    /// stretch of a sphere inflated uniformly to that volume).
+    pub stretches: Vec<f64>,
+    /// The total gas amount `sum nRT` after the flow, J (conserved).
+    pub total_amount: f64,
     /// The largest amount moved into or out of one balloon in this step, J.
     pub max_transfer: f64,
     /// Each balloon's own step statistics.
@@ -146,6 +224,43 @@ pub struct ConnectedBalloons<M: ShellMaterial> {
     /// Balloons joined by instant tubes: the group representative of each balloon.
     groups: Vec<usize>,
     step: usize,
+    /// All balloons' positions, velocities and triangles one after the other (the balloons'
+    /// vertex blocks in order), refreshed after every step: what [`Simulation`] reads.
+    merged: Merged,
+}
+
+/// The balloons as one surface (see [`ConnectedBalloons::vertex_offsets`]).
+#[derive(Debug, Default)]
+struct Merged {
+    positions: Vec<f64>,
+    velocities: Vec<f64>,
+    triangles: Vec<[usize; 3]>,
+}
+
+impl Merged {
+    fn of<M: ShellMaterial>(balloons: &[ShellSimulation<M, Gas>]) -> Self {
+        let mut m = Self::default();
+        for b in balloons {
+            let base = m.positions.len() / 3;
+            m.triangles.extend(
+                b.triangles()
+                    .iter()
+                    .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
+            );
+            m.positions.extend_from_slice(b.positions());
+            m.velocities.extend_from_slice(b.velocities());
+        }
+        m
+    }
+
+    fn refresh<M: ShellMaterial>(&mut self, balloons: &[ShellSimulation<M, Gas>]) {
+        self.positions.clear();
+        self.velocities.clear();
+        for b in balloons {
+            self.positions.extend_from_slice(b.positions());
+            self.velocities.extend_from_slice(b.velocities());
+        }
+    }
 }
 
 fn find(parent: &mut [usize], mut i: usize) -> usize {
@@ -213,17 +328,39 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
             }
         }
         let groups = (0..n).map(|i| find(&mut parent, i)).collect();
+        let merged = Merged::of(&balloons);
         Ok(Self {
             balloons,
             tubes,
             groups,
             step: 0,
+            merged,
         })
     }
 
     /// The balloons.
     pub fn balloons(&self) -> &[ShellSimulation<M, Gas>] {
         &self.balloons
+    }
+
+    /// Where each balloon's vertices start in the merged surface ([`Simulation::positions`],
+    /// [`Simulation::surface`]): balloon `i` owns vertices `offsets[i]..offsets[i + 1]`; the
+    /// last entry is the total vertex count.
+    pub fn vertex_offsets(&self) -> Vec<usize> {
+        let mut offsets = vec![0];
+        for b in &self.balloons {
+            offsets.push(offsets[offsets.len() - 1] + b.positions().len() / 3);
+        }
+        offsets
+    }
+
+    /// Each balloon's linear stretch `(V / V0)^(1/3)`: its gas volume against its rest gas
+    /// volume.
+    pub fn stretches(&self) -> Vec<f64> {
+        self.balloons
+            .iter()
+            .map(|b| (b.gas_volume() / b.rest_gas_volume()).cbrt())
+            .collect()
     }
 
     /// The tubes.
@@ -234,6 +371,11 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
     /// Simulation time, s.
     pub fn time(&self) -> f64 {
         self.balloons[0].time()
+    }
+
+    /// The time step all balloons share, s.
+    pub fn dt(&self) -> f64 {
+        self.balloons[0].dt()
     }
 
     /// Steps taken.
@@ -272,11 +414,15 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
         let step = self.step + 1;
         let mut stats = Vec::with_capacity(self.balloons.len());
         for (i, b) in self.balloons.iter_mut().enumerate() {
-            stats.push(
-                b.step()
-                    .map_err(|source| ConnectedError::Shell { balloon: i, source })?,
-            );
+            match b.step() {
+                Ok(s) => stats.push(s),
+                Err(source) => {
+                    self.merged.refresh(&self.balloons);
+                    return Err(ConnectedError::Shell { balloon: i, source });
+                }
+            }
         }
+        self.merged.refresh(&self.balloons);
         let dt = self.balloons[0].dt();
         let volumes: Vec<f64> = self.balloons.iter().map(|b| b.gas_volume()).collect();
         let old = self.amounts();
@@ -304,6 +450,8 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
             time: self.time(),
             volumes,
             gauge_pressures: self.gauge_pressures(),
+            stretches: self.stretches(),
+            total_amount: new.iter().sum(),
             amounts: new,
             max_transfer,
             balloons: stats,
@@ -348,6 +496,58 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
             for &i in &members {
                 amounts[i] = total * volumes[i] / volume;
             }
+        }
+    }
+}
+
+impl<M: ShellMaterial> Simulation for ConnectedBalloons<M> {
+    type Detail = ConnectedStepStats;
+
+    fn name(&self) -> &'static str {
+        "connected"
+    }
+    fn step(&mut self) -> Result<SimulationStats<ConnectedStepStats>, SimulationError> {
+        let dt = ConnectedBalloons::dt(self);
+        let detail = ConnectedBalloons::step(self)?;
+        Ok(SimulationStats {
+            steps: self.step,
+            time: detail.time,
+            dt,
+            kinetic_energy: Simulation::kinetic_energy(self),
+            detail,
+        })
+    }
+    fn time(&self) -> f64 {
+        ConnectedBalloons::time(self)
+    }
+    fn dt(&self) -> f64 {
+        ConnectedBalloons::dt(self)
+    }
+    /// Sets the time step of every balloon. They all check the same range, so a refusal comes
+    /// from balloon 0, before any balloon changed.
+    fn set_dt(&mut self, dt: f64) -> Result<(), SimulationError> {
+        for (i, b) in self.balloons.iter_mut().enumerate() {
+            b.set_dt(dt)
+                .map_err(|source| ConnectedError::Shell { balloon: i, source })?;
+        }
+        Ok(())
+    }
+    fn steps(&self) -> usize {
+        self.step
+    }
+    fn positions(&self) -> &[f64] {
+        &self.merged.positions
+    }
+    fn velocities(&self) -> &[f64] {
+        &self.merged.velocities
+    }
+    fn kinetic_energy(&self) -> f64 {
+        self.balloons.iter().map(Simulation::kinetic_energy).sum()
+    }
+    fn surface(&self) -> DrawnSurface<'_> {
+        DrawnSurface {
+            positions: Cow::Borrowed(&self.merged.positions),
+            triangles: Cow::Borrowed(&self.merged.triangles),
         }
     }
 }
