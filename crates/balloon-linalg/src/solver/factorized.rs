@@ -170,6 +170,10 @@ impl LinearSolver for FactorizedPcg {
         self.factorizations
     }
 
+    fn factorization_seconds(&self) -> f64 {
+        self.cholesky.factorization_seconds()
+    }
+
     fn solve(
         &mut self,
         problem: &LinearProblem<'_>,

@@ -463,4 +463,11 @@ pub trait LinearSolver: std::fmt::Debug + Send {
     fn factorizations(&self) -> u64 {
         0
     }
+
+    /// Wall-clock seconds spent in numeric factorisations (and symbolic analyses) since the
+    /// solver was made, for per-phase profiles (default 0: it never factorises). The rest of
+    /// the time of [`LinearSolver::solve`] is the solve proper (triangular solves, CG).
+    fn factorization_seconds(&self) -> f64 {
+        0.0
+    }
 }

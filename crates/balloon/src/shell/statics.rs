@@ -47,13 +47,14 @@ use std::time::Instant;
 use super::ShellMaterial;
 use balloon_gas::GasModel;
 use balloon_integrate::statics::{
-    LoadScaling, StaticError, StaticInfo, StaticParams, StaticSolver,
+    LoadScaling, PhaseTimes, StaticError, StaticInfo, StaticParams, StaticSolver,
 };
 use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
 use serde::{Deserialize, Serialize};
 
 use super::{ShellError, ShellSimulation, ShellSystem};
 use balloon_constraint::projector::ShellProjectionInput;
+use balloon_mesh::parallel::prelude::*;
 
 /// How the gas is held in a static solve.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -143,8 +144,36 @@ pub struct StaticReport {
     pub shell_volume_ratio: f64,
     /// Wall-clock time, ms.
     pub solve_ms: f64,
+    /// Numeric factorisations over all solves.
+    #[serde(default)]
+    pub factorizations: usize,
+    /// Linear-solver iterations over all solves.
+    #[serde(default)]
+    pub linear_iterations: usize,
+    /// Wall-clock time per phase over all solves and projections.
+    #[serde(default)]
+    pub times: PhaseTimes,
+    /// One record per outer iteration.
+    #[serde(default)]
+    pub outer: Vec<OuterRecord>,
     /// The last solve's details (energies, residuals, shift, factorisations).
     pub last_solve: StaticInfo,
+}
+
+/// One outer iteration of [`ShellSimulation::solve_static`] (module docs, "Thickness at
+/// rest").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct OuterRecord {
+    /// The relative residual the Newton solve was asked for.
+    pub tolerance: f64,
+    /// The relative residual it reached.
+    pub relative_residual: f64,
+    /// Newton iterations of the solve.
+    pub newton_iterations: usize,
+    /// Relative thickness change of the projection of its result.
+    pub thickness_change: f64,
+    /// Whether the next thickness was extrapolated (Anderson) rather than the projection's.
+    pub accelerated: bool,
 }
 
 /// How the gas acts in the static energy.
@@ -174,6 +203,10 @@ pub(crate) struct StaticShell<'a, M: ShellMaterial, G: GasModel> {
     volume: f64,
     rank1: LowRankTerm,
     scale: f64,
+    /// With the follower term: the element stiffness blocks plus each triangle's block of
+    /// `-(p - p_ambient) d^2V/dx^2` (column-major 9x9 per triangle, as the inner blocks), so
+    /// that the Newton matrix is assembled from blocks alone.
+    blocks: Vec<f64>,
 }
 
 impl<'a, M: ShellMaterial, G: GasModel> StaticShell<'a, M, G> {
@@ -188,6 +221,49 @@ impl<'a, M: ShellMaterial, G: GasModel> StaticShell<'a, M, G> {
             volume: 0.0,
             rank1: LowRankTerm::default(),
             scale: 0.0,
+            blocks: Vec::new(),
+        }
+    }
+
+    /// Fills [`StaticShell::blocks`]: the inner element blocks plus the follower term's
+    /// per-triangle blocks at `x` and the gauge pressure `self.gauge`. The volume Hessian
+    /// `d^2V/dx^2 = 1/6 sum_t` of the triangle's skew blocks: for corners `(a, b, c)` in cyclic
+    /// order, block `(a, b)` is `-[x_c]_x / 6` and block `(a, c)` is `[x_b]_x / 6` (Eq. 15
+    /// differentiated; the triplet form is `balloon_gas::add_volume_hessian_triplets`).
+    fn fill_follower_blocks(&mut self, x: &[f64]) {
+        let Some(inner) = self.inner.stiffness_blocks() else {
+            self.blocks.clear();
+            return;
+        };
+        self.blocks.clear();
+        self.blocks.extend_from_slice(inner.values);
+        let s = -self.gauge / 6.0;
+        let triangles = &self.inner.triangles;
+        let add = |(block, t): (&mut [f64], &[usize; 3])| {
+            let p = |v: usize| [x[3 * v], x[3 * v + 1], x[3 * v + 2]];
+            for a in 0..3 {
+                let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+                for (col_corner, v, sign) in [(b, p(t[c]), -s), (c, p(t[b]), s)] {
+                    // sign * [v]_x: rows (3a + r), columns (3 col_corner + q).
+                    let m = [[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]];
+                    for (r, row) in m.iter().enumerate() {
+                        for (q, value) in row.iter().enumerate() {
+                            block[(3 * col_corner + q) * 9 + 3 * a + r] += sign * value;
+                        }
+                    }
+                }
+            }
+        };
+        if triangles.len() >= PARALLEL_BLOCKS {
+            self.blocks
+                .par_chunks_mut(81)
+                .zip(triangles.par_iter())
+                .for_each(add);
+        } else {
+            self.blocks
+                .chunks_mut(81)
+                .zip(triangles.iter())
+                .for_each(add);
         }
     }
 
@@ -249,6 +325,9 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
         self.volume = volume;
         self.x.clear();
         self.x.extend_from_slice(x);
+        if self.follower {
+            self.fill_follower_blocks(x);
+        }
         Ok(())
     }
 
@@ -276,7 +355,6 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
         triplets: &mut Vec<(usize, usize, f64)>,
     ) -> Result<(), SystemError> {
         let blocks = self
-            .inner
             .stiffness_blocks()
             .ok_or(SystemError::AssemblyUnsupported)?;
         let k = blocks.nodes_per_block;
@@ -301,23 +379,25 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
         self.add_remaining_stiffness_triplets(triplets)
     }
 
+    /// The element blocks, with the follower term `-(p - p_ambient) d^2V/dx^2` added per
+    /// triangle when enabled.
     fn stiffness_blocks(&self) -> Option<StiffnessBlocks<'_>> {
-        self.inner.stiffness_blocks()
+        let inner = self.inner.stiffness_blocks()?;
+        if self.follower && self.blocks.len() == inner.values.len() {
+            Some(StiffnessBlocks {
+                values: &self.blocks,
+                ..inner
+            })
+        } else {
+            Some(inner)
+        }
     }
 
-    /// The follower term `-(p - p_ambient) d^2V/dx^2`, when enabled.
+    /// Nothing: the follower term is in the blocks.
     fn add_remaining_stiffness_triplets(
         &self,
-        triplets: &mut Vec<(usize, usize, f64)>,
+        _triplets: &mut Vec<(usize, usize, f64)>,
     ) -> Result<(), SystemError> {
-        if self.follower {
-            balloon_gas::add_volume_hessian_triplets(
-                &self.x,
-                &self.inner.triangles,
-                -self.gauge,
-                triplets,
-            );
-        }
         Ok(())
     }
 
@@ -374,6 +454,133 @@ impl<M: ShellMaterial, G: GasModel> LoadScaling for StaticShell<'_, M, G> {
     fn set_load_factor(&mut self, factor: f64) {
         self.factor = factor;
     }
+}
+
+/// Triangles from which the follower blocks are filled on the thread pool.
+const PARALLEL_BLOCKS: usize = 2048;
+
+/// The loosest relative residual an outer solve is asked for (the first one, and any while the
+/// thickness changes by more than `LOOSE_TOLERANCE / INEXACT_FACTOR`).
+const LOOSE_TOLERANCE: f64 = 1e-3;
+
+/// An outer solve is asked for the relative residual `INEXACT_FACTOR` times the relative
+/// thickness change of the previous projection (no tighter than `INEXACT_FACTOR` times the
+/// thickness tolerance, no looser than [`LOOSE_TOLERANCE`]).
+const INEXACT_FACTOR: f64 = 0.1;
+
+/// Depth (previous iterates kept) of the Anderson acceleration of the thickness fixed point.
+const ANDERSON_DEPTH: usize = 3;
+
+/// Anderson acceleration (type II, depth [`ANDERSON_DEPTH`]) of the thickness fixed point
+/// `h = G(h)`, `G` = solve at `h`, project, keep the projection's thickness (module docs). In the
+/// scaled variables `y_e = h_e / s_e` (`s` the first thickness seen), with `g_k = G(y_k)` and
+/// `f_k = g_k - y_k`, the next iterate is `y_{k+1} = g_k - dG gamma`, `gamma` minimising
+/// `|f_k - dF gamma|` over the differences `dF`, `dG` of the kept iterates. Safeguards: the plain
+/// update `g_k` (and a fresh history) when the residual grew, when the least-squares problem is
+/// singular, or when the extrapolation would move any thickness by more than half the plain
+/// update's value from it.
+#[derive(Debug, Default)]
+struct ThicknessAcceleration {
+    scale: Vec<f64>,
+    /// `(y_j, g_j)`, oldest first, at most `ANDERSON_DEPTH + 1`.
+    history: std::collections::VecDeque<(Vec<f64>, Vec<f64>)>,
+}
+
+impl ThicknessAcceleration {
+    /// Sets `h` (the thickness the last solve was at) to the next thickness to solve at, from
+    /// `projected = G(h)`; returns whether the update was extrapolated.
+    fn next(&mut self, h: &mut [f64], projected: Vec<f64>) -> bool {
+        if self.scale.len() != h.len() {
+            self.scale = h.iter().map(|v| v.abs().max(f64::MIN_POSITIVE)).collect();
+            self.history.clear();
+        }
+        let y: Vec<f64> = h.iter().zip(&self.scale).map(|(h, s)| h / s).collect();
+        let g: Vec<f64> = projected
+            .iter()
+            .zip(&self.scale)
+            .map(|(h, s)| h / s)
+            .collect();
+        let residual = |(y, g): &(Vec<f64>, Vec<f64>)| -> Vec<f64> {
+            g.iter().zip(y).map(|(g, y)| g - y).collect()
+        };
+        let f = residual(&(y.clone(), g.clone()));
+        if let Some(last) = self.history.back()
+            && norm(&f) >= norm(&residual(last))
+        {
+            self.history.clear();
+        }
+        self.history.push_back((y, g));
+        if self.history.len() > ANDERSON_DEPTH + 1 {
+            self.history.pop_front();
+        }
+        if self.history.len() < 2 {
+            h.copy_from_slice(&projected);
+            return false;
+        }
+        match self.extrapolate() {
+            Some(next) => {
+                for ((h, y), s) in h.iter_mut().zip(&next).zip(&self.scale) {
+                    *h = y * s;
+                }
+                true
+            }
+            None => {
+                // Safeguard: the plain update, which starts a new history.
+                self.history.drain(..self.history.len() - 1);
+                h.copy_from_slice(&projected);
+                false
+            }
+        }
+    }
+
+    /// `g_k - dG gamma` from the history (at least two entries; the last is iterate `k`), or
+    /// `None` (safeguards).
+    fn extrapolate(&self) -> Option<Vec<f64>> {
+        let m = self.history.len().checked_sub(1).filter(|m| *m > 0)?;
+        let k = &self.history[m];
+        let fk: Vec<f64> = k.1.iter().zip(&k.0).map(|(g, y)| g - y).collect();
+        // Columns j: f_{j+1} - f_j and g_{j+1} - g_j.
+        let mut df = Vec::with_capacity(m);
+        let mut dg = Vec::with_capacity(m);
+        for j in 0..m {
+            let (a, b) = (&self.history[j], &self.history[j + 1]);
+            df.push(
+                (0..fk.len())
+                    .map(|i| (b.1[i] - b.0[i]) - (a.1[i] - a.0[i]))
+                    .collect::<Vec<f64>>(),
+            );
+            dg.push((0..fk.len()).map(|i| b.1[i] - a.1[i]).collect::<Vec<f64>>());
+        }
+        let ata = nalgebra::DMatrix::from_fn(m, m, |a, b| dot(&df[a], &df[b]));
+        let atb = nalgebra::DVector::from_fn(m, |a, _| dot(&df[a], &fk));
+        let largest = ata.diagonal().max();
+        if !(largest > 0.0 && largest.is_finite()) {
+            return None;
+        }
+        let gamma = ata.svd(true, true).solve(&atb, 1e-12 * largest).ok()?;
+        if !gamma.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let mut next = k.1.clone();
+        for (c, col) in gamma.iter().zip(&dg) {
+            for (n, d) in next.iter_mut().zip(col) {
+                *n -= c * d;
+            }
+        }
+        let safe = next
+            .iter()
+            .zip(&k.1)
+            .all(|(n, g)| n.is_finite() && *n > 0.0 && (n - g).abs() <= 0.5 * g.abs());
+        safe.then_some(next)
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(a, b)| a * b).sum()
+}
+
+fn norm(a: &[f64]) -> f64 {
+    dot(a, a).sqrt()
 }
 
 /// The relative change `max_e |a_e - b_e| / b_e`.
@@ -459,6 +666,8 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             (!self.external_forces.is_empty()).then(|| self.external_forces.clone())
         };
         let mut solver = StaticSolver::new(options.solver);
+        // Each outer solve starts from the last one's equilibrium and shift.
+        solver.set_warm_start(true);
         let mut x = self.x.clone();
         let mut report = StaticReport::default();
         let start_volume = balloon_gas::enclosed_volume(&x, &self.system.triangles)?;
@@ -483,7 +692,20 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         };
         let mut last_error = f64::INFINITY;
         let max_outer = options.max_outer_iterations.max(1);
+        let final_tolerance = options.solver.tolerance;
+        let volume_control = matches!(gas, GasTerm::Volume { .. });
+        // The inexact outer loop (module docs): loose while the thickness still moves.
+        let mut tolerance = if self.projection.is_some() {
+            final_tolerance.max(LOOSE_TOLERANCE)
+        } else {
+            final_tolerance
+        };
+        let mut acceleration = ThicknessAcceleration::default();
         for outer in 0..max_outer {
+            if volume_control {
+                tolerance = tolerance.min(final_tolerance);
+            }
+            solver.params.tolerance = tolerance;
             let (info, gauge, volume) = {
                 let mut shell = StaticShell::new(&mut self.system, gas, options.follower_term);
                 let info = if pinned {
@@ -502,7 +724,16 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             report.newton_iterations += info.iterations;
             report.load_steps += info.load_steps;
             report.line_search_cuts += info.line_search_cuts;
+            report.factorizations += info.factorizations;
+            report.linear_iterations += info.linear_iterations;
+            report.times += info.times;
             report.relative_residual = info.relative_residual;
+            let mut record = OuterRecord {
+                tolerance,
+                relative_residual: info.relative_residual,
+                newton_iterations: info.iterations,
+                ..Default::default()
+            };
             report.last_solve = info;
             report.gauge_pressure = gauge;
             report.gas_volume = volume;
@@ -554,11 +785,13 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 };
                 let mut xp = x.clone();
                 let mut h = self.system.thickness.clone();
-                proj.project(&input, &mut xp, &mut h)
-                    .map_err(|source| ShellError::Projection {
-                        step: self.step,
-                        source,
-                    })?;
+                let projecting = Instant::now();
+                let projected = proj.project(&input, &mut xp, &mut h);
+                report.times.projection_ms += projecting.elapsed().as_secs_f64() * 1e3;
+                projected.map_err(|source| ShellError::Projection {
+                    step: self.step,
+                    source,
+                })?;
                 if let Some((e, bad)) = h
                     .iter()
                     .enumerate()
@@ -574,9 +807,27 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                     });
                 }
                 report.thickness_change = max_relative_change(&h, &self.system.thickness);
-                self.system.thickness = h;
+                record.thickness_change = report.thickness_change;
+                let converged = volume_met
+                    && report.thickness_change <= options.thickness_tolerance
+                    && tolerance <= final_tolerance;
+                if converged {
+                    self.system.thickness = h;
+                } else {
+                    record.accelerated = acceleration.next(&mut self.system.thickness, h);
+                }
+                // The next solve need not be much more accurate than the thickness it is
+                // solved at (module docs).
+                tolerance = (INEXACT_FACTOR * report.thickness_change).clamp(
+                    INEXACT_FACTOR * options.thickness_tolerance,
+                    LOOSE_TOLERANCE,
+                );
             }
-            if volume_met && report.thickness_change <= options.thickness_tolerance {
+            report.outer.push(record);
+            if volume_met
+                && report.thickness_change <= options.thickness_tolerance
+                && record.tolerance <= final_tolerance
+            {
                 self.finish_static(x, &mut report, started);
                 return Ok(report);
             }
