@@ -174,6 +174,11 @@ impl LinearSolver for FactorizedPcg {
         self.cholesky.factorization_seconds()
     }
 
+    /// The next solve refactorises first (then the kept factor is used again as usual).
+    fn invalidate_factorization(&mut self) {
+        self.fresh_solves_left = self.fresh_solves_left.max(1);
+    }
+
     fn solve(
         &mut self,
         problem: &LinearProblem<'_>,

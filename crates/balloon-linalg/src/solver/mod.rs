@@ -470,4 +470,10 @@ pub trait LinearSolver: std::fmt::Debug + Send {
     fn factorization_seconds(&self) -> f64 {
         0.0
     }
+
+    /// Asks the solver to factorise the matrix of its next solve afresh instead of keeping an
+    /// earlier factorisation (a caller that knows the matrix changed a lot, e.g. a
+    /// Levenberg-Marquardt shift that moved, can spare the solver the iterations that would
+    /// tell it). Default: nothing kept, nothing to do.
+    fn invalidate_factorization(&mut self) {}
 }
