@@ -64,11 +64,13 @@ fn main() {
         if std::env::var_os("OUTER_LOG").is_some() {
             for (k, o) in r.outer.iter().enumerate() {
                 println!(
-                    "    outer {k}: tol {:.0e}, residual {:.2e}, Newton {}, thickness change \
-                     {:.2e}, accelerated {}",
+                    "    outer {k}: tol {:.0e}, residual {:.2e}, Newton {}, factorisations {}, \
+                     regularised {}, thickness change {:.2e}, accelerated {}",
                     o.tolerance,
                     o.relative_residual,
                     o.newton_iterations,
+                    o.factorizations,
+                    o.regularized_solves,
                     o.thickness_change,
                     o.accelerated
                 );

@@ -195,6 +195,10 @@ pub struct OuterRecord {
     pub relative_residual: f64,
     /// Newton iterations of the solve.
     pub newton_iterations: usize,
+    /// Linear solves of the solve retried with a larger shift (indefinite matrix).
+    pub regularized_solves: usize,
+    /// Numeric factorisations of the solve.
+    pub factorizations: usize,
     /// Relative thickness change of the projection of its result.
     pub thickness_change: f64,
     /// Whether the next thickness was extrapolated (Anderson) rather than the projection's.
@@ -757,6 +761,8 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 tolerance,
                 relative_residual: info.relative_residual,
                 newton_iterations: info.iterations,
+                regularized_solves: info.regularized_solves,
+                factorizations: info.factorizations,
                 ..Default::default()
             };
             report.last_solve = info;
