@@ -618,6 +618,14 @@ struct SphereToRest {
     static_s: f64,
     static_newton: usize,
     static_converged: bool,
+    /// Outer iterations (thickness fixed point), numeric factorisations, CG iterations, final
+    /// relative residual of the static solve.
+    static_outer: usize,
+    static_factorizations: usize,
+    static_linear: usize,
+    static_residual: f64,
+    /// The static solve's time per phase.
+    static_times: balloon::integrate::statics::PhaseTimes,
     /// Dynamic run until the largest speed is below 1e-3 m/s and the per-step relative volume
     /// change below 1e-6: wall time (s), steps, Newton iterations.
     dynamic_s: f64,
@@ -698,8 +706,12 @@ fn sphere_to_rest() -> Result<SphereToRest> {
     let t = Instant::now();
     let report = sim.solve_static(&StaticOptions::default())?;
     eprintln!(
-        "    outer iterations {}, load steps {}, cuts {}",
-        report.outer_iterations, report.load_steps, report.line_search_cuts
+        "    outer iterations {}, load steps {}, cuts {}, factorisations {}\n    phases (ms): {}",
+        report.outer_iterations,
+        report.load_steps,
+        report.line_search_cuts,
+        report.factorizations,
+        report.times
     );
     let static_s = t.elapsed().as_secs_f64();
     let static_x = sim.positions().to_vec();
@@ -727,6 +739,11 @@ fn sphere_to_rest() -> Result<SphereToRest> {
         static_s,
         static_newton: report.newton_iterations,
         static_converged: report.converged,
+        static_outer: report.outer_iterations,
+        static_factorizations: report.factorizations,
+        static_linear: report.linear_iterations,
+        static_residual: report.relative_residual,
+        static_times: report.times,
         dynamic_s,
         dynamic_steps: steps,
         dynamic_newton: newton,
@@ -894,6 +911,27 @@ pub fn run_converged(opts: &Options, parts: ConvergedParts) -> Result<String> {
             s.dynamic_newton,
             s.shape_difference,
             s.volume_ratio
+        );
+        let t = &s.static_times;
+        let _ = writeln!(
+            md,
+            "Static solve: {} outer iterations, {} factorisations, {} CG iterations, final \
+             relative residual {:.1e}. Time per phase (ms):\n\n\
+             | forces | energy | assembly | factorisation | solves | projection | other | total |\n\
+             |---|---|---|---|---|---|---|---|\n\
+             | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} |\n",
+            s.static_outer,
+            s.static_factorizations,
+            s.static_linear,
+            s.static_residual,
+            t.forces_ms,
+            t.energy_ms,
+            t.assembly_ms,
+            t.factorization_ms,
+            t.solve_ms,
+            t.projection_ms,
+            (s.static_s * 1e3 - t.total_ms()).max(0.0),
+            s.static_s * 1e3
         );
     }
     if let Some(t) = &report.teddy {

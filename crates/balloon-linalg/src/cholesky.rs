@@ -52,6 +52,8 @@ pub struct SparseCholesky {
     factorized: bool,
     n: usize,
     parallel: bool,
+    /// Wall-clock seconds spent in [`SparseCholesky::factorize`] (symbolic and numeric).
+    factor_seconds: f64,
 }
 
 impl std::fmt::Debug for SparseCholesky {
@@ -80,6 +82,19 @@ impl SparseCholesky {
     /// factorisation when `pattern_version` matches the cached one. Errors (never panics) on an
     /// inconsistent [`CsrMatrix`] or a matrix that is not positive definite.
     pub fn factorize(&mut self, a: &CsrMatrix, pattern_version: u64) -> Result<(), SolveError> {
+        let started = std::time::Instant::now();
+        let result = self.factorize_untimed(a, pattern_version);
+        self.factor_seconds += started.elapsed().as_secs_f64();
+        result
+    }
+
+    /// Wall-clock seconds spent factorising (symbolic analyses and numeric factorisations,
+    /// failed attempts included) since this value was made: for per-phase profiles.
+    pub fn factorization_seconds(&self) -> f64 {
+        self.factor_seconds
+    }
+
+    fn factorize_untimed(&mut self, a: &CsrMatrix, pattern_version: u64) -> Result<(), SolveError> {
         a.check()?;
         self.factorized = false;
         // CSR of a symmetric matrix read as CSC: column r holds row indices col_idx.

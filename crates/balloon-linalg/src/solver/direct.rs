@@ -76,6 +76,10 @@ impl LinearSolver for CholeskySolver {
         self.factorizations
     }
 
+    fn factorization_seconds(&self) -> f64 {
+        self.cholesky.factorization_seconds()
+    }
+
     fn solve(
         &mut self,
         problem: &LinearProblem<'_>,

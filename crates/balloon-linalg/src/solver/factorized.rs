@@ -170,6 +170,15 @@ impl LinearSolver for FactorizedPcg {
         self.factorizations
     }
 
+    fn factorization_seconds(&self) -> f64 {
+        self.cholesky.factorization_seconds()
+    }
+
+    /// The next solve refactorises first (then the kept factor is used again as usual).
+    fn invalidate_factorization(&mut self) {
+        self.fresh_solves_left = self.fresh_solves_left.max(1);
+    }
+
     fn solve(
         &mut self,
         problem: &LinearProblem<'_>,

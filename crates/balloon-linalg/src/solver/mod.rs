@@ -463,4 +463,17 @@ pub trait LinearSolver: std::fmt::Debug + Send {
     fn factorizations(&self) -> u64 {
         0
     }
+
+    /// Wall-clock seconds spent in numeric factorisations (and symbolic analyses) since the
+    /// solver was made, for per-phase profiles (default 0: it never factorises). The rest of
+    /// the time of [`LinearSolver::solve`] is the solve proper (triangular solves, CG).
+    fn factorization_seconds(&self) -> f64 {
+        0.0
+    }
+
+    /// Asks the solver to factorise the matrix of its next solve afresh instead of keeping an
+    /// earlier factorisation (a caller that knows the matrix changed a lot, e.g. a
+    /// Levenberg-Marquardt shift that moved, can spare the solver the iterations that would
+    /// tell it). Default: nothing kept, nothing to do.
+    fn invalidate_factorization(&mut self) {}
 }
