@@ -264,6 +264,18 @@ pub fn run<M: ShellMaterial>(
     mut out: Option<OutputDir>,
     quiet: bool,
 ) -> Result<StaticRun> {
+    if matches!(args.gas, GasArg::Pump | GasArg::SupplyPump) && sim.time() == 0.0 {
+        // The amount of a pump at the start is the rest amount: the equilibrium is the mesh
+        // itself, a run that "succeeds" with nothing solved.
+        bail!(
+            "--static with --gas {} solves at the gas amount at the start, which is the rest \
+             amount (no gauge pressure): the rest shape would be the mesh itself. For an inflated \
+             rest shape give --gas constant --pressure P (a gauge pressure, Pa), --gas ideal \
+             --pressure P (that gauge pressure in the rest volume, then expanding), or --gas volume \
+             --volume-ratio R",
+            args.gas
+        );
+    }
     let ratios: Vec<Option<f64>> = match (args.gas, args.volume_ratio, &args.volume_ratios) {
         (GasArg::Volume, Some(r), None) => vec![Some(r)],
         (GasArg::Volume, None, Some(list)) => list.iter().map(|r| Some(*r)).collect(),

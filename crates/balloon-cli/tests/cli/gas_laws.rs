@@ -150,3 +150,45 @@ fn volume_continuation_writes_the_pressure_volume_plot() {
     );
     assert!(!single.join("pressure_volume.png").exists());
 }
+
+/// `--static` with the default gas (the pump, whose amount at the start is the rest amount)
+/// would "solve" to the mesh itself and exit 0: it is refused, naming what to give instead,
+/// and the same static solve with a gauge pressure inflates the shell.
+#[test]
+fn a_static_solve_with_the_pump_is_refused_with_what_to_give() {
+    for gas in [None, Some("supply-pump")] {
+        let mut args = vec!["inflate", "builtin:sphere", "--static"];
+        if let Some(g) = gas {
+            args.extend(["--gas", g, "--supply-pressure", "500"]);
+        }
+        let out = run_balloon(&args);
+        assert!(
+            !out.status.success(),
+            "{gas:?}: a no-op static solve exited 0"
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("rest amount") && err.contains("--gas constant --pressure"),
+            "{gas:?}: {err}"
+        );
+    }
+    let out = run_balloon(&[
+        "inflate",
+        "builtin:sphere",
+        "--static",
+        "--gas",
+        "constant",
+        "--pressure",
+        "500",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s = last_json_line(&out);
+    assert!(
+        s["final_gas_volume"].as_f64().unwrap() > 1.01 * s["initial_gas_volume"].as_f64().unwrap()
+    );
+}
