@@ -9,7 +9,8 @@ exactly what the CLI runs (the options are parsed by the CLI's own parser):
 >>> r["positions"].shape
 (2562, 3)
 
-Whole jobs: :func:`inflate`, :func:`volumetric`, :func:`two_layer`, :func:`run_scenario`.
+Whole jobs: :func:`inflate`, :func:`volumetric`, :func:`two_layer`, :func:`connect`,
+:func:`run_scenario`.
 Step-wise simulations: :class:`Shell`, :class:`Volumetric`, :class:`TwoLayer`.
 Parameter sweeps over a dask.distributed cluster: :func:`sweep`, :func:`sweep_scenario`.
 Errors: :class:`BalloonError` and its subclasses :class:`InvalidOption`, :class:`MeshError`,
@@ -25,6 +26,7 @@ from ._balloon import (
     TwoLayer,
     Volumetric,
     __version__,
+    connect,
     inflate,
     run_scenario,
     two_layer,
@@ -41,6 +43,7 @@ __all__ = [
     "TwoLayer",
     "Volumetric",
     "__version__",
+    "connect",
     "inflate",
     "run_scenario",
     "sweep",

@@ -60,6 +60,16 @@ def volumetric(mesh: Optional[MeshLike] = None, **options: Option) -> Volumetric
 def two_layer(**options: Option) -> TwoLayerResult:
     """Runs ``balloon two-layer`` (a two-layer mass-spring body, seed 004)."""
 
+class ConnectResult(TypedDict):
+    summary: Dict[str, Any]
+    positions: npt.NDArray[np.float64]
+    vertex_offsets: List[int]
+    triangles: npt.NDArray[np.int64]
+
+def connect(mesh: Optional[Union[str, os.PathLike]] = None, **options: Option) -> ConnectResult:
+    """Runs ``balloon connect``: balloons of ideal gas joined by tubes (``copies=2,
+    stretches=[1.35, 1.6]``); balloon ``i`` is rows ``vertex_offsets[i]:vertex_offsets[i+1]``."""
+
 def run_scenario(path: Union[str, os.PathLike], **overrides: Option) -> Dict[str, Any]:
     """Runs a scenario file (``balloon run``); ``overrides`` replace the file's values."""
 

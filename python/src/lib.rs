@@ -23,6 +23,7 @@ use balloon::shell::AnchorSpring;
 use balloon::two_layer::{DragTarget, TwoLayerSimulation};
 use balloon::volumetric::VolumetricSimulation;
 use balloon::{Simulation, SimulationError, SimulationStats};
+use balloon_cli::cmd_connect::{self, ConnectArgs};
 use balloon_cli::cmd_inflate::{self, InflateArgs, ShellSim};
 use balloon_cli::cmd_run::{self, ScenarioError, SystemArgs};
 use balloon_cli::cmd_two_layer::{self, TwoLayerArgs};
@@ -88,6 +89,14 @@ struct VolumetricCli {
 struct TwoLayerCli {
     #[command(flatten)]
     args: TwoLayerArgs,
+}
+
+/// The parser of `balloon connect`'s flags, on their own.
+#[derive(Parser)]
+#[command(name = "balloon.connect", no_binary_name = true)]
+struct ConnectCli {
+    #[command(flatten)]
+    args: ConnectArgs,
 }
 
 /// The CLI flag of a keyword option: `newton_tol` is `newton-tol`.
@@ -523,6 +532,23 @@ fn run_volumetric<'py>(
     Ok(d)
 }
 
+fn run_connect<'py>(py: Python<'py>, mut args: ConnectArgs) -> PyResult<Bound<'py, PyDict>> {
+    args.shell.json = false;
+    let finished = detached(py, move || cmd_connect::execute(args, true))?;
+    let d = job_result(py, &finished, Simulation::positions(&finished.sim))?;
+    let offsets = finished.sim.vertex_offsets();
+    let triangles: Vec<[usize; 3]> = finished
+        .sim
+        .balloons()
+        .iter()
+        .zip(&offsets)
+        .flat_map(|(b, &o)| b.triangles().iter().map(move |t| t.map(|i| i + o)))
+        .collect();
+    d.set_item("vertex_offsets", offsets)?;
+    d.set_item("triangles", triangles_array(py, &triangles)?)?;
+    Ok(d)
+}
+
 fn run_two_layer<'py>(py: Python<'py>, args: TwoLayerArgs) -> PyResult<Bound<'py, PyDict>> {
     let finished = detached(py, move || cmd_two_layer::execute(&args, true))?;
     job_result(py, &finished, Simulation::positions(&finished.sim))
@@ -595,11 +621,44 @@ fn two_layer<'py>(
     run_two_layer(py, args)
 }
 
+/// connect(mesh="builtin", **options)
+/// --
+///
+/// Runs `balloon connect` (balloons of isothermal ideal gas joined by tubes: the two-balloon
+/// experiment) on `mesh` (a path or "builtin:NAME"; its connected components are the balloons,
+/// or `copies=N` copies of it) with the CLI's flags as keyword options (`copies=2,
+/// stretches=[1.35, 1.6], conductance="instant", until_settled=True`, plus every `inflate`
+/// option). Returns {"summary": dict (summary.json's keys: per-balloon end states, the analytic
+/// end state where there is one), "positions": (n, 3) all balloons' vertices,
+/// "vertex_offsets": the first vertex of each balloon then the vertex count (balloon `i` is
+/// rows `offsets[i]..offsets[i + 1]`), "triangles": (m, 3) int64}.
+#[pyfunction]
+#[pyo3(signature = (mesh = None, **options))]
+fn connect<'py>(
+    py: Python<'py>,
+    mesh: Option<&Bound<'py, PyAny>>,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let builtin = PyString::new(py, "builtin").into_any();
+    let (name, arrays) = mesh_spec(mesh.unwrap_or(&builtin))?.split();
+    if arrays.is_some() {
+        return Err(InvalidOption::new_err(
+            "connect takes a mesh path or \"builtin:NAME\", not arrays: write the mesh to a file",
+        ));
+    }
+    let mut argv = vec![name];
+    argv.extend(option_args(&ConnectCli::command(), options)?);
+    let (cli, m) = parse_args::<ConnectCli>(&argv)?;
+    let mut args = cli.args;
+    args.shell.scenario_record = Some(cmd_run::record(&cmd_run::CONNECT, &m));
+    run_connect(py, args)
+}
+
 /// run_scenario(path, **overrides)
 /// --
 ///
-/// Runs a scenario file (`balloon run PATH`): `[system] kind` selects inflate, volumetric or
-/// two_layer; keyword `overrides` are that system's options and replace the file's values.
+/// Runs a scenario file (`balloon run PATH`): `[system] kind` selects inflate, volumetric,
+/// two_layer or connect; keyword `overrides` are that system's options and replace the file's values.
 /// Returns what the matching whole-job function returns.
 #[pyfunction]
 #[pyo3(signature = (path, **overrides))]
@@ -625,6 +684,7 @@ fn run_scenario<'py>(
                 ShellCli::command(),
                 VolumetricCli::command(),
                 TwoLayerCli::command(),
+                ConnectCli::command(),
             ]
             .into_iter()
             .find(|c| {
@@ -635,8 +695,14 @@ fn run_scenario<'py>(
             flags.extend(option_args(&cmd, Some(&one))?);
         }
     }
-    let args = cmd_run::scenario_args(std::path::Path::new(&path), &flags)
-        .map_err(|e| InvalidOption::new_err(e.to_string()))?;
+    let file = std::path::Path::new(&path);
+    if let Some(a) = cmd_run::connect_scenario_args(file, &flags)
+        .map_err(|e| InvalidOption::new_err(e.to_string()))?
+    {
+        return run_connect(py, a);
+    }
+    let args =
+        cmd_run::scenario_args(file, &flags).map_err(|e| InvalidOption::new_err(e.to_string()))?;
     match args {
         SystemArgs::Shell(a) => run_shell(py, *a, None),
         SystemArgs::Volumetric(a) => run_volumetric(py, *a, None),
@@ -1021,6 +1087,7 @@ fn _balloon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(inflate, m)?)?;
     m.add_function(wrap_pyfunction!(volumetric, m)?)?;
     m.add_function(wrap_pyfunction!(two_layer, m)?)?;
+    m.add_function(wrap_pyfunction!(connect, m)?)?;
     m.add_function(wrap_pyfunction!(run_scenario, m)?)?;
     m.add_class::<Shell>()?;
     m.add_class::<Volumetric>()?;

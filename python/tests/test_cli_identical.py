@@ -110,3 +110,65 @@ def test_static_continuation_is_identical_to_the_cli_and_on_the_analytic_curve(c
         assert abs(p["thickness_mean"] * l * l / h0 - 1.0) < 5e-3, p
     # The last point's thickness is the summary's and the returned array's.
     assert np.isclose(r["thickness"].mean(), r["summary"]["final_thickness_mean"], rtol=1e-12)
+
+
+def test_connect_is_identical_to_the_cli_and_reaches_the_analytic_end_state(cli, tmp_path):
+    """Two connected balloons (`balloon connect`, issue 14): the same end state as the CLI bit
+    for bit, and the analytic two-balloon end state (`ThinSphere::joined_pair`) that the summary
+    reports, within 1e-3 of the stretches."""
+    # A level-2 icosphere (162 vertices) of radius 0.1 m, written as the CLI test does.
+    t = (1.0 + 5 ** 0.5) / 2.0
+    verts = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t),
+             (0, -1, -t), (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
+    faces = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4),
+             (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8),
+             (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
+    verts = [np.array(v, dtype=float) / np.linalg.norm(v) for v in verts]
+    for _ in range(2):
+        cache, new_faces = {}, []
+
+        def mid(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in cache:
+                m = verts[a] + verts[b]
+                verts.append(m / np.linalg.norm(m))
+                cache[key] = len(verts) - 1
+            return cache[key]
+
+        for a, b, c in faces:
+            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+            new_faces += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
+        faces = new_faces
+    mesh = tmp_path / "ico2.obj"
+    mesh.write_text("".join(f"v {0.1 * x} {0.1 * y} {0.1 * z}\n" for x, y, z in verts)
+                    + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces))
+    flags = ["--copies", "2", "--stretches", "1.35,1.6", "--conductance", "instant",
+             "--until-settled", "--volume-tol", "1e-8", "--steps", "3000", "--material",
+             "membrane-neo-hookean", "--mu", "4e5", "--thickness", "1e-3", "--mass-damping", "5"]
+    out = tmp_path / "cli"
+    summary = run_cli(cli, ["connect", str(mesh), *flags, "--out", str(out)])
+    r = balloon.connect(
+        str(mesh), copies=2, stretches=[1.35, 1.6], conductance="instant", until_settled=True,
+        volume_tol=1e-8, steps=3000, material="membrane-neo-hookean", mu=4e5, thickness=1e-3,
+        mass_damping=5.0, out=tmp_path / "py",
+    )
+    assert without_timing(summary) == without_timing(r["summary"])
+    assert np.array_equal(read_obj_vertices(out / "final.obj"), r["positions"])
+    assert r["vertex_offsets"] == [0, 162, 324]
+    assert r["triangles"].shape == (640, 3) and r["triangles"].max() == 323
+    s = r["summary"]
+    assert s["settled"] is True
+    # The end state against the analytic one, and the stretch measured from the positions of
+    # each balloon (the cube root of its enclosed volume over the rest volume).
+    want = [s["analytic"]["small_stretch"], s["analytic"]["large_stretch"]]
+    got = sorted(b["stretch"] for b in s["balloon_states"])
+    for g, w in zip(got, want):
+        assert abs(g / w - 1.0) < 1e-3, (got, want)
+    x, tri = r["positions"], r["triangles"]
+    for i in range(2):
+        lo, hi = r["vertex_offsets"][i], r["vertex_offsets"][i + 1]
+        t_i = tri[(tri[:, 0] >= lo) & (tri[:, 0] < hi)]
+        a, b, c = x[t_i[:, 0]], x[t_i[:, 1]], x[t_i[:, 2]]
+        volume = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0
+        rest = s["balloon_states"][i]["rest_gas_volume"]
+        assert abs((volume / rest) ** (1.0 / 3.0) / s["balloon_states"][i]["stretch"] - 1.0) < 1e-9

@@ -21,7 +21,7 @@ use crate::cmd_inflate::{InflateArgs, ShellSim};
 use crate::cmd_static::GasArg;
 use crate::output::{ColorField, Field, Frame, OutputDir, PictureStyle, check_picture_args};
 use crate::params::{End::Closed, End::Open, check_real};
-use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
+use crate::run::{Finished, FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result, bail};
 use balloon::material::MembraneModel;
 use balloon::material::membrane::ThinSphere;
@@ -784,8 +784,9 @@ pub fn run(args: ConnectArgs) -> Result<()> {
 }
 
 /// Runs the job of `balloon connect` (checks, [`build`], the output folder, the steps, the
-/// summary) and returns the summary as `summary.json` holds it.
-pub fn execute(mut args: ConnectArgs, quiet: bool) -> Result<serde_json::Value> {
+/// summary) and returns the summary as `summary.json` holds it, with the final balloons.
+/// `quiet` prints nothing (no progress bar, no summary line).
+pub fn execute(mut args: ConnectArgs, quiet: bool) -> Result<Finished<ConnectSim>> {
     let material = args.shell.material.resolve()?;
     let render_spec =
         check_picture_args(&args.shell.pictures, args.shell.out.as_deref(), &style())?;
@@ -862,7 +863,11 @@ pub fn execute(mut args: ConnectArgs, quiet: bool) -> Result<serde_json::Value> 
         analytic_end,
         calm: 0,
     };
-    run_simulation(&mut sim, &mut hooks, &plan, out)
+    let summary = run_simulation(&mut sim, &mut hooks, &plan, out)?;
+    Ok(Finished {
+        summary: Some(summary),
+        sim,
+    })
 }
 
 #[cfg(test)]
