@@ -553,6 +553,10 @@ fn analytic_end(
 impl RunHooks<ConnectSim> for ConnectHooks<'_> {
     type Summary = ConnectSummary;
 
+    fn scenario(&self) -> Option<String> {
+        self.args.shell.scenario_record.as_deref().map(recorded)
+    }
+
     fn frame(&self, sim: &ConnectSim, step: usize) -> Result<Frame> {
         frame(sim, step)
     }
@@ -778,6 +782,12 @@ fn write_plot(
     Ok(())
 }
 
+/// The resolved scenario as it ran: `--gas` left at inflate's default (pump) is the ideal gas
+/// here, so that is what the record says.
+fn recorded(text: &str) -> String {
+    text.replace("\nmodel = \"pump\"\n", "\nmodel = \"ideal\"\n")
+}
+
 /// Runs `balloon connect`.
 pub fn run(args: ConnectArgs) -> Result<()> {
     execute(args, false).map(drop)
@@ -807,9 +817,7 @@ pub fn execute(mut args: ConnectArgs, quiet: bool) -> Result<Finished<ConnectSim
         None => None,
     };
     if let (Some(o), Some(text)) = (&out, &args.shell.scenario_record) {
-        // `--gas` left at inflate's default (pump) is the ideal gas here: record what ran.
-        let text = text.replace("\nmodel = \"pump\"\n", "\nmodel = \"ideal\"\n");
-        o.write_text("scenario.toml", &text)?;
+        o.write_text("scenario.toml", &recorded(text))?;
     }
     let sphere = sphere_of(&sim, &args.shell, &material);
     let (l, g, a) = (sim.stretches(), sim.gauge_pressures(), sim.amounts());

@@ -301,6 +301,10 @@ struct InflateHooks<'a> {
 impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
     type Summary = InflateSummary;
 
+    fn scenario(&self) -> Option<String> {
+        self.args.scenario_record.clone()
+    }
+
     fn frame(&self, sim: &ShellSimulation<M>, step: usize) -> Result<Frame> {
         shell_frame(sim, step)
     }

@@ -374,6 +374,10 @@ pub fn run<M: ShellMaterial>(
     summary.final_thickness_max = th.iter().copied().fold(0.0, f64::max);
     summary.error = failure.as_ref().map(|e| e.to_string());
     summary.interrupted = interrupted.is_some();
+    let mut record = serde_json::to_value(&summary)?;
+    if let Some(text) = &args.scenario_record {
+        crate::run::insert_scenario(&mut record, text);
+    }
     if let Some(o) = &mut out
         && ratios.len() > 1
         && curve.len() > 1
@@ -383,7 +387,7 @@ pub fn run<M: ShellMaterial>(
     if let Some(o) = &mut out {
         let last = shell_frame(sim, summary.points.max(1))?;
         o.write_named_frame("final", &last)?;
-        o.write_json("summary.json", &summary)?;
+        o.write_json("summary.json", &record)?;
         match o.finish(&last, failure.is_some()) {
             Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
             Err(e) if failure.is_some() => eprintln!("warning: {e:#}"),
@@ -392,7 +396,7 @@ pub fn run<M: ShellMaterial>(
     }
     if quiet {
     } else if args.json {
-        print_json_line(&summary)?;
+        print_json_line(&record)?;
     } else {
         let mut w = std::io::stdout().lock();
         writeln!(
@@ -425,7 +429,7 @@ pub fn run<M: ShellMaterial>(
             }
             .into()),
             None => Ok(StaticRun {
-                summary: serde_json::to_value(&summary)?,
+                summary: record,
                 points,
             }),
         },

@@ -355,6 +355,10 @@ struct TwoLayerHooks<'a> {
 impl RunHooks<TwoLayerSimulation> for TwoLayerHooks<'_> {
     type Summary = Summary;
 
+    fn scenario(&self) -> Option<String> {
+        self.args.scenario_record.clone()
+    }
+
     fn frame(&self, sim: &TwoLayerSimulation, step: usize) -> Result<Frame> {
         layer_frame(sim, &self.rest, step)
     }

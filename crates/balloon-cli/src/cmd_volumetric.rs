@@ -311,6 +311,10 @@ struct VolumetricHooks<'a> {
 impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
     type Summary = Summary;
 
+    fn scenario(&self) -> Option<String> {
+        self.args.scenario_record.clone()
+    }
+
     fn frame(&self, sim: &VolumetricSimulation, step: usize) -> Result<Frame> {
         surface_frame(sim, &self.rest_soup, step)
     }

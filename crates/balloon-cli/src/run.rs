@@ -89,6 +89,13 @@ pub trait RunHooks<S: Simulation> {
     /// The current state as a frame of step `step`, with the system's fields.
     fn frame(&self, sim: &S, step: usize) -> Result<Frame>;
 
+    /// The run's resolved scenario (the TOML text of `scenario.toml`), repeated in the summary
+    /// as `scenario` so that `summary.json` and the `--json` line carry every physical
+    /// parameter of the run (issue 15, item 2). `None` leaves the key out.
+    fn scenario(&self) -> Option<String> {
+        None
+    }
+
     /// Called before each step (e.g. to set a drag).
     fn before_step(&mut self, _sim: &mut S) -> Result<()> {
         Ok(())
@@ -223,6 +230,56 @@ where
 /// subcommand's summary has them (an `error` it left null is filled in). A `status` of `"ok"`
 /// becomes `"failed"` when there is an error the subcommand did not see (an output that could
 /// not be written, a run that made no progress).
+/// Adds `scenario`, the resolved scenario's TOML `text` as a JSON object, to a summary object
+/// (a text that does not parse, which `cmd_run::record` never writes, adds nothing).
+pub fn insert_scenario(summary: &mut serde_json::Value, text: &str) {
+    if let (Some(o), Ok(doc)) = (
+        summary.as_object_mut(),
+        text.parse::<toml_edit::DocumentMut>(),
+    ) {
+        o.insert("scenario".into(), toml_table_json(doc.as_table()));
+    }
+}
+
+/// A TOML table as a JSON object (keys in the file's order).
+fn toml_table_json(t: &toml_edit::Table) -> serde_json::Value {
+    serde_json::Value::Object(
+        t.iter()
+            .filter_map(|(k, item)| toml_item_json(item).map(|v| (k.to_owned(), v)))
+            .collect(),
+    )
+}
+
+fn toml_item_json(item: &toml_edit::Item) -> Option<serde_json::Value> {
+    use toml_edit::Item;
+    match item {
+        Item::None => None,
+        Item::Value(v) => Some(toml_value_json(v)),
+        Item::Table(t) => Some(toml_table_json(t)),
+        Item::ArrayOfTables(a) => Some(serde_json::Value::Array(
+            a.iter().map(toml_table_json).collect(),
+        )),
+    }
+}
+
+fn toml_value_json(v: &toml_edit::Value) -> serde_json::Value {
+    use serde_json::Value as J;
+    use toml_edit::Value as T;
+    match v {
+        T::String(s) => J::from(s.value().as_str()),
+        T::Integer(i) => J::from(*i.value()),
+        T::Float(f) => serde_json::Number::from_f64(*f.value()).map_or(J::Null, J::Number),
+        T::Boolean(b) => J::from(*b.value()),
+        T::Datetime(d) => J::from(d.value().to_string()),
+        T::Array(a) => J::Array(a.iter().map(toml_value_json).collect()),
+        T::InlineTable(t) => J::Object(
+            t.iter()
+                .map(|(k, v)| (k.to_owned(), toml_value_json(v)))
+                .collect(),
+        ),
+    }
+}
+
 fn annotate(
     summary: &mut serde_json::Value,
     interrupted: bool,
@@ -290,6 +347,9 @@ where
         run.frames,
         error_text.as_deref(),
     );
+    if let Some(text) = hooks.scenario() {
+        insert_scenario(&mut record, &text);
+    }
     // Everything below is attempted even when a part fails; the first error is kept.
     let mut finish_error: Option<anyhow::Error> = None;
     if let Some(o) = &mut out {

@@ -413,3 +413,102 @@ fn a_two_layer_run_whose_frame_cannot_be_written_fails_with_status_failed() {
     assert!(summary["error"].as_str().unwrap().contains("cannot write"));
     assert_eq!(last_json_line(&out), summary);
 }
+
+/// Every run's summary repeats the physical parameters (issue 15, item 2): `scenario` holds
+/// the resolved scenario (the values of `scenario.toml`), in `summary.json` and the `--json`
+/// line, for each system, and `scenario.toml` of the same run says the same.
+#[test]
+fn summaries_repeat_the_resolved_scenario() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&str, &[&str], &str); 4] = [
+        (
+            "inflate",
+            &[
+                "inflate",
+                "builtin:sphere",
+                "--steps",
+                "1",
+                "--thickness",
+                "4e-4",
+                "--dt",
+                "0.005",
+            ],
+            "shell",
+        ),
+        (
+            "static",
+            &[
+                "inflate",
+                "builtin:sphere",
+                "--static",
+                "--gas",
+                "constant",
+                "--pressure",
+                "300",
+            ],
+            "shell",
+        ),
+        (
+            "volumetric",
+            &[
+                "volumetric",
+                "builtin:icosphere",
+                "--resolution",
+                "12",
+                "--steps",
+                "2",
+            ],
+            "volumetric",
+        ),
+        (
+            "two-layer",
+            &["two-layer", "--level", "1", "--steps", "3"],
+            "two-layer",
+        ),
+    ];
+    for (name, args, kind) in cases {
+        let run = dir.path().join(name);
+        let mut all = args.to_vec();
+        all.extend(["--out", run.to_str().unwrap(), "--json"]);
+        let out = run_balloon(&all);
+        assert!(
+            out.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let s = read_json(&run.join("summary.json"));
+        assert_eq!(last_json_line(&out), s, "{name}");
+        let sc = &s["scenario"];
+        assert_eq!(sc["system"]["kind"], kind, "{name}: {s}");
+        // Every `key = value` of scenario.toml's tables is in the summary's `scenario` (read
+        // line by line here, not with the code's converter).
+        let text = std::fs::read_to_string(run.join("scenario.toml")).unwrap();
+        let mut table = String::new();
+        let mut keys = 0;
+        for line in text.lines().map(str::trim) {
+            if let Some(t) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+                table = t.to_owned();
+            } else if let Some((k, _)) = line.split_once(" = ")
+                && !line.starts_with('#')
+                && !table.starts_with('[')
+            {
+                assert!(
+                    !sc[&table][k.trim()].is_null(),
+                    "{name}: [{table}] {k} missing: {sc}"
+                );
+                keys += 1;
+            }
+        }
+        assert!(keys > 10, "{name}: {keys} keys in scenario.toml");
+        if name == "inflate" {
+            assert_eq!(sc["shell"]["thickness"], 4e-4);
+            assert_eq!(sc["run"]["dt"], 0.005);
+            assert_eq!(sc["gas"]["model"], "pump");
+            assert_eq!(sc["mesh"]["scale"], 1);
+        }
+        if name == "static" {
+            assert_eq!(sc["gas"]["pressure"], 300.0);
+            assert_eq!(sc["run"]["static"], true);
+        }
+    }
+}
