@@ -296,13 +296,15 @@ struct InflateHooks<'a> {
     args: &'a InflateArgs,
     /// Anchor springs and scheduled loads (`--pin ...@K`, `--load`).
     loads: crate::selection::ShellLoads,
+    /// The resolved scenario ([`resolved_record`]), repeated in the summary.
+    record: Option<String>,
 }
 
 impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
     type Summary = InflateSummary;
 
     fn scenario(&self) -> Option<String> {
-        self.args.scenario_record.clone()
+        self.record.clone()
     }
 
     fn frame(&self, sim: &ShellSimulation<M>, step: usize) -> Result<Frame> {
@@ -561,6 +563,54 @@ pub fn build_with_loads(
     Ok((sim, loads))
 }
 
+/// The recorded scenario `text` with the defaults this run resolved written in, where the record
+/// says "(not set: the flag's default applies)": the material and its modulus and Poisson's ratio
+/// (the StVK default), the shell-volume projection (global, or off for a membrane) and the
+/// pump's rate (0.7 rest volumes per second of this body, in m^3/s), so that `scenario.toml` and
+/// the summary state every physical value of the run (issue 15, item 2). The values are written
+/// in round-trip form, so re-running the record repeats the run bit for bit.
+pub fn resolved_record(
+    text: &str,
+    args: &InflateArgs,
+    material: &balloon::shell::ShellMaterialModel,
+    sim: &ShellSim,
+) -> String {
+    use balloon::shell::ShellMaterialModel;
+    let mut values: Vec<(&str, String)> = Vec::new();
+    if args.material.material.is_none() && args.material.material_preset.is_none() {
+        values.push(("material", "\"stvk\"".into()));
+    }
+    if matches!(material, ShellMaterialModel::Solid(_)) {
+        values.push(("young", format!("{:?}", shell::DEFAULT_YOUNG)));
+        values.push(("poisson", format!("{:?}", shell::DEFAULT_POISSON)));
+    }
+    let projection = if material.thickness_follows_stretch() {
+        "off"
+    } else {
+        "global"
+    };
+    values.push(("volume_projection", format!("\"{projection}\"")));
+    if matches!(args.gas, GasArg::Pump | GasArg::SupplyPump) {
+        let rate = shell::DEFAULT_PUMP_VOLUMES_PER_SECOND * sim.rest_gas_volume();
+        values.push(("pump_rate", format!("{rate:?}")));
+    }
+    let mut out = String::with_capacity(text.len());
+    for line in text.lines() {
+        let unset = values.iter().find(|(key, _)| {
+            line.strip_prefix("# ")
+                .and_then(|l| l.strip_prefix(key))
+                .is_some_and(|l| l == " = (not set: the flag's default applies)")
+        });
+        match unset {
+            // Written as if given, so that the record of a repeat is the same text.
+            Some((key, value)) => out.push_str(&format!("{key} = {value}")),
+            None => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    out
+}
+
 /// Runs the job of `balloon inflate` for `args` (checks, [`build`], the output folder, the
 /// steps or the static solve, the summary) and returns the summary with the final simulation.
 /// `mesh` replaces loading `args.mesh`; `quiet` prints nothing (no progress bar, no summary
@@ -602,11 +652,15 @@ pub fn execute_with_points(
         )?),
         None => None,
     };
-    if let (Some(o), Some(text)) = (&out, &args.scenario_record) {
+    let record = args
+        .scenario_record
+        .as_deref()
+        .map(|text| resolved_record(text, args, &material, &sim));
+    if let (Some(o), Some(text)) = (&out, &record) {
         o.write_text("scenario.toml", text)?;
     }
     if args.static_solve {
-        let run = crate::cmd_static::run(args, &mut sim, out, quiet)?;
+        let run = crate::cmd_static::run(args, &mut sim, out, quiet, record.as_deref())?;
         return Ok((
             Finished {
                 summary: Some(run.summary),
@@ -641,6 +695,7 @@ pub fn execute_with_points(
         total_ms: 0.0,
         args,
         loads,
+        record,
     };
     let summary = run_simulation(&mut sim, &mut hooks, &plan, out)?;
     Ok((

@@ -257,12 +257,13 @@ pub struct StaticRun {
 
 /// Runs the static solve(s) of `balloon inflate --static` on the built simulation. `quiet`
 /// prints nothing (no summary line or `--json` line), for callers that take the returned
-/// [`StaticRun`] instead.
+/// [`StaticRun`] instead; `record_text` is the resolved scenario the summary repeats.
 pub fn run<M: ShellMaterial>(
     args: &InflateArgs,
     sim: &mut ShellSimulation<M>,
     mut out: Option<OutputDir>,
     quiet: bool,
+    record_text: Option<&str>,
 ) -> Result<StaticRun> {
     if matches!(args.gas, GasArg::Pump | GasArg::SupplyPump) && sim.time() == 0.0 {
         // The amount of a pump at the start is the rest amount: the equilibrium is the mesh
@@ -375,7 +376,7 @@ pub fn run<M: ShellMaterial>(
     summary.error = failure.as_ref().map(|e| e.to_string());
     summary.interrupted = interrupted.is_some();
     let mut record = serde_json::to_value(&summary)?;
-    if let Some(text) = &args.scenario_record {
+    if let Some(text) = record_text {
         crate::run::insert_scenario(&mut record, text);
     }
     if let Some(o) = &mut out

@@ -501,6 +501,15 @@ fn summaries_repeat_the_resolved_scenario() {
         }
         assert!(keys > 10, "{name}: {keys} keys in scenario.toml");
         if name == "inflate" {
+            // The defaults the run resolved are written in (not "not set").
+            assert_eq!(sc["shell"]["material"], "stvk");
+            assert_eq!(sc["shell"]["young"], 1e6);
+            assert_eq!(sc["shell"]["poisson"], 0.45);
+            assert_eq!(sc["shell"]["volume_projection"], "global");
+            // 0.7 rest volumes per second of this body.
+            let rate = sc["gas"]["pump_rate"].as_f64().unwrap();
+            let v0 = s["initial_gas_volume"].as_f64().unwrap();
+            assert!((rate / (0.7 * v0) - 1.0).abs() < 1e-12, "{rate} vs {v0}");
             assert_eq!(sc["shell"]["thickness"], 4e-4);
             assert_eq!(sc["run"]["dt"], 0.005);
             assert_eq!(sc["gas"]["model"], "pump");
