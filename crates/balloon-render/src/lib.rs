@@ -39,6 +39,7 @@ mod gif_out;
 mod image;
 pub mod plot;
 pub mod pov;
+pub mod props;
 mod raster;
 
 pub use camera::{Camera, Framing, Projection, UpAxis};
@@ -46,4 +47,5 @@ pub use colormap::{ColorMap, ColorScale, format_tick, tick_labels};
 pub use error::RenderError;
 pub use gif_out::{GifWriter, quantize, read_gif};
 pub use image::Image;
+pub use props::Prop;
 pub use raster::{RenderOptions, Renderer, Surface};
