@@ -109,6 +109,27 @@ impl Prop {
         Ok(())
     }
 
+    /// The four corners of a plane's drawn square, counter-clockwise seen from the free side
+    /// (`None` for a sphere or an invalid plane): the floor as one quad in frame files.
+    pub fn corners(&self) -> Option<[[f64; 3]; 4]> {
+        self.validate().ok()?;
+        match *self {
+            Prop::Sphere { .. } => None,
+            Prop::Plane {
+                point,
+                normal,
+                half_size,
+                ..
+            } => {
+                let (u, v, _) = plane_frame(normal);
+                let at = |a: f64, b: f64| -> [f64; 3] {
+                    std::array::from_fn(|k| point[k] + half_size * (a * u[k] + b * v[k]))
+                };
+                Some([at(-1.0, -1.0), at(1.0, -1.0), at(1.0, 1.0), at(-1.0, 1.0)])
+            }
+        }
+    }
+
     /// The triangulation the rasteriser draws (flat positions, outward / free-side oriented
     /// triangles): an icosphere of 1280 triangles whose vertices lie on the sphere, or a
     /// 16 x 16 grid of squares covering the plane's drawn square.
@@ -199,6 +220,17 @@ mod tests {
             v.clone().fold(f64::MIN, f64::max) - v.fold(f64::MAX, f64::min)
         };
         assert!((span(0) - 6.0).abs() < 1e-12 && (span(1) - 6.0).abs() < 1e-12);
+        let c = f.corners().unwrap();
+        assert!(
+            c.iter()
+                .all(|p| (p[2] + 1.0).abs() < 1e-12 && p[0].abs() == 3.0)
+        );
+        let turn = crate::camera::cross(
+            [c[1][0] - c[0][0], c[1][1] - c[0][1], 0.0],
+            [c[2][0] - c[1][0], c[2][1] - c[1][1], 0.0],
+        );
+        assert!(turn[2] > 0.0, "counter-clockwise from +z");
+        assert_eq!(s.corners(), None);
         // Every triangle faces the free side (+z).
         for tri in &t {
             let p = |i: usize| [x[3 * tri[i]], x[3 * tri[i] + 1], x[3 * tri[i] + 2]];
