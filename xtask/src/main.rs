@@ -61,8 +61,9 @@ enum Task {
         /// Do not write docs/validation.md and the figures (only print the table).
         #[arg(long)]
         no_write: bool,
-        /// Run one group only (shell, membrane, connected, tube, volumetric, two-layer, meshes); leaves
-        /// docs/ unchanged, draws the group's figures into target/validate-figures/.
+        /// Run one group only (shell, membrane, connected, tube, volumetric, drop-sphere, two-layer,
+        /// meshes); leaves docs/ unchanged, draws the group's figures into
+        /// target/validate-figures/.
         #[arg(long)]
         only: Option<String>,
     },

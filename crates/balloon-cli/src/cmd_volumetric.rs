@@ -4,7 +4,9 @@
 //! Output folder (`--out DIR`): `input_soup.obj` (the soup as read and scaled), `lattice.vtk` (the rest tetrahedral lattice with per-cell rest
 //! volumes and per-particle masses, for ParaView), `frame_NNNNN.obj` (the embedded soup, deformed
 //! with the lattice, every `--frame-every` steps), `lattice_NNNNN.vtk` with `--lattice-frames`,
-//! `stats.jsonl` (one line per step, flushed) and `summary.json`. `--json` prints the summary as
+//! `stats.jsonl` (one line per step, flushed) and `summary.json`. In the drop-sphere scene, the
+//! sphere and the floor go beside each frame as `sphere_NNNNN.<ext>` and `floor.<ext>` (parts 1
+//! and 2 of `series.pvd` with VTK) and into the pictures (docs/outputs.md). `--json` prints the summary as
 //! the last stdout line. `--format vtk` writes `.vtp` frames with fields and `series.pvd`;
 //! `--render`, `--gif` and `--pov` write pictures (see `output.rs`).
 
@@ -26,7 +28,7 @@ use balloon_mesh::TriMesh;
 use balloon_mesh::lattice::{
     DEFAULT_TARGET_CELLS, Lattice, LatticeError, LatticeParams, SizingParams, size_lattice,
 };
-use balloon_render::UpAxis;
+use balloon_render::{Prop, UpAxis};
 use nalgebra::{Point3, Vector3};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -276,6 +278,36 @@ fn style() -> PictureStyle {
     PictureStyle::new("volumetric", UpAxis::Z, ColorField::Stretch, STYLE_FIELDS)
 }
 
+/// The rigid objects of the scene at the current state: the sphere at its centre and radius,
+/// and every plane as a square centred under the rest body (see [`floor_square`]).
+pub fn scene_props(sim: &VolumetricSimulation, floor: (Point3<f64>, f64)) -> Vec<Prop> {
+    let mut props: Vec<Prop> = sim
+        .sphere()
+        .map(|s| Prop::sphere(s.position.into(), s.radius))
+        .into_iter()
+        .collect();
+    let (centre, half) = floor;
+    props.extend(sim.planes().iter().map(|pl| {
+        // The body's centre projected onto the plane.
+        let foot = centre - pl.normal * pl.distance(&centre);
+        Prop::floor(foot.into(), pl.normal.into(), half)
+    }));
+    props
+}
+
+/// Where a plane of the scene is drawn: a square centred on the body's rest bounding-box centre
+/// (projected onto the plane) with half side the box's largest side, so the floor spans twice
+/// the body (and the sphere's footprint, which is narrower than the body) whatever its size.
+pub fn floor_square(sim: &VolumetricSimulation) -> (Point3<f64>, f64) {
+    let x = &sim.lattice().tet_mesh.vertices;
+    let (mut lo, mut hi) = (x[0], x[0]);
+    for p in x {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    (nalgebra::center(&lo, &hi), (hi - lo).max())
+}
+
 /// The embedded surface (the soup deformed with the lattice) as a frame: velocity and speed
 /// interpolated from the lattice particles with the embedding weights, stretch and max_stretch
 /// against the rest soup `rest`.
@@ -297,6 +329,8 @@ struct VolumetricHooks<'a> {
     args: &'a VolumetricArgs,
     soup: TriMesh,
     rest_soup: Vec<f64>,
+    /// Centre and half side of the drawn floor ([`floor_square`]).
+    floor: (Point3<f64>, f64),
     lattice: Lattice,
     p0: Vector3<f64>,
     l0: Vector3<f64>,
@@ -316,7 +350,7 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
     }
 
     fn frame(&self, sim: &VolumetricSimulation, step: usize) -> Result<Frame> {
-        surface_frame(sim, &self.rest_soup, step)
+        Ok(surface_frame(sim, &self.rest_soup, step)?.with_props(scene_props(sim, self.floor)))
     }
 
     fn after_step(
@@ -662,6 +696,7 @@ pub fn execute(
         args,
         soup: soup.clone(),
         rest_soup,
+        floor: floor_square(&sim),
         lattice,
         p0: sim.momentum(),
         l0: sim.angular_momentum(),

@@ -14,7 +14,8 @@ use balloon::fields;
 use balloon_mesh::TriMesh;
 use balloon_mesh::io::{PvdWriter, VtkEncoding, VtpArray};
 use balloon_render::{
-    Camera, ColorScale, Framing, GifWriter, Projection, RenderOptions, Renderer, Surface, UpAxis,
+    Camera, ColorScale, Framing, GifWriter, Projection, Prop, RenderOptions, Renderer, Surface,
+    UpAxis,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -241,6 +242,10 @@ pub struct Frame {
     pub point_data: Vec<Field>,
     /// Per-face fields (thickness, stretch, ...).
     pub cell_data: Vec<Field>,
+    /// Rigid objects of the scene at this step (the volumetric drop-sphere's sphere and floor):
+    /// written beside the frame file (`sphere_NNNNN.<ext>`, `floor.<ext>`, see
+    /// [`OutputDir::frame`]) and drawn in the pictures.
+    pub props: Vec<Prop>,
 }
 
 impl Frame {
@@ -253,7 +258,31 @@ impl Frame {
             triangles,
             point_data: Vec::new(),
             cell_data: Vec::new(),
+            props: Vec::new(),
         }
+    }
+
+    /// The same frame with the rigid objects `props` of the scene.
+    pub fn with_props(mut self, props: Vec<Prop>) -> Self {
+        self.props = props;
+        self
+    }
+
+    /// The region pictures show: the surface and every sphere (not the planes, which extend
+    /// beyond it); `None` without props, so that a frame without them is framed as before.
+    fn framing(&self) -> Option<Framing> {
+        let spheres = self.props.iter().filter_map(|p| match *p {
+            Prop::Sphere { center, radius, .. } => Some(Framing { center, radius }),
+            Prop::Plane { .. } => None,
+        });
+        let mut f: Option<Framing> = None;
+        for s in spheres {
+            let base = f
+                .or_else(|| Framing::of_points(&self.positions))
+                .unwrap_or(s);
+            f = Some(base.union(&s));
+        }
+        f
     }
 
     /// Adds velocity (vector) and speed (scalar) from flat velocities.
@@ -349,6 +378,7 @@ struct GifFrame {
     time: f64,
     positions: Vec<f64>,
     colors: Option<Vec<f64>>,
+    props: Vec<Prop>,
 }
 
 /// Most frames kept for the GIF; beyond, every other one is dropped.
@@ -379,6 +409,8 @@ pub struct OutputDir {
     stats: Option<BufWriter<File>>,
     pvd: Option<PvdWriter>,
     pictures: Option<Pictures>,
+    /// The floor file (`floor.<ext>`) is written (once: the floor does not move).
+    floor_written: bool,
 }
 
 /// Checks that picture flags come with `--out`, parses `--render` and checks `--color` is
@@ -452,6 +484,18 @@ fn is_run_file(name: &str) -> bool {
     EXACT.contains(&name)
         || numbered("frame_", &frames)
         || numbered("lattice_", &["vtk"])
+        || name
+            .strip_prefix("sphere")
+            .and_then(|rest| rest.split_once('_'))
+            .is_some_and(|(k, rest)| {
+                k.bytes().all(|b| b.is_ascii_digit())
+                    && rest.split_once('.').is_some_and(|(n, ext)| {
+                        !n.is_empty()
+                            && n.bytes().all(|b| b.is_ascii_digit())
+                            && frames.contains(&ext)
+                    })
+            })
+        || named("floor", &frames)
         || named("final", &frames)
         || named("input_soup", &frames)
 }
@@ -557,6 +601,7 @@ impl OutputDir {
             stats: Some(BufWriter::new(f)),
             pvd,
             pictures: None,
+            floor_written: false,
         })
     }
 
@@ -613,15 +658,55 @@ impl OutputDir {
     /// Handles frame `frame`: writes `frame_NNNNN.<ext>` when `as_file` (and adds it to
     /// `series.pvd` for VTK), renders it when `--render` asks for its step (or `all` and
     /// `as_file`), and keeps it for the GIF when `as_file`.
+    ///
+    /// The frame's rigid objects go into side files of the same format, so that the frame file
+    /// stays the simulated surface alone for every reader: a sphere as `sphere_NNNNN.<ext>`
+    /// (an icosphere of 642 vertices on the sphere, the second and further spheres
+    /// `sphereK_NNNNN`), a plane as `floor.<ext>` (one quad, written with the first frame: it
+    /// does not move). With VTK, `series.pvd` lists them at the frame's time as parts 1, 2, ...
+    /// after the surface (part 0).
     pub fn frame(&mut self, frame: &Frame, as_file: bool) -> Result<()> {
         if as_file {
-            let name = format!("frame_{:05}.{}", frame.step, self.format.extension());
+            let ext = self.format.extension();
+            let name = format!("frame_{:05}.{ext}", frame.step);
             let path = self.dir.join(&name);
             self.write_frame_file(&path, frame)?;
+            let mut parts = vec![name];
+            let mut spheres = 0;
+            for prop in &frame.props {
+                let (name, positions, triangles) = match prop {
+                    Prop::Sphere { .. } => {
+                        let (x, t) = prop.mesh()?;
+                        let stem = match spheres {
+                            0 => "sphere".to_string(),
+                            k => format!("sphere{k}"),
+                        };
+                        spheres += 1;
+                        (format!("{stem}_{:05}.{ext}", frame.step), x, t)
+                    }
+                    Prop::Plane { .. } => {
+                        let c = prop.corners().context("invalid floor plane")?;
+                        (
+                            format!("floor.{ext}"),
+                            c.iter().flatten().copied().collect(),
+                            vec![[0, 1, 2], [0, 2, 3]],
+                        )
+                    }
+                };
+                let is_floor = matches!(prop, Prop::Plane { .. });
+                if !(is_floor && self.floor_written) {
+                    let side = Frame::new(frame.step, frame.time, positions, triangles);
+                    self.write_frame_file(&self.dir.join(&name), &side)?;
+                }
+                self.floor_written |= is_floor;
+                parts.push(name);
+            }
             if let Some(pvd) = &mut self.pvd {
-                pvd.push(frame.time, &name).with_context(|| {
-                    format!("cannot write {}", self.dir.join("series.pvd").display())
-                })?;
+                for (part, name) in parts.iter().enumerate() {
+                    pvd.push_part(frame.time, name, part).with_context(|| {
+                        format!("cannot write {}", self.dir.join("series.pvd").display())
+                    })?;
+                }
             }
         }
         let Some(p) = &mut self.pictures else {
@@ -696,8 +781,14 @@ impl OutputDir {
                 surface = surface.with_scalars(c);
             }
             let path = dir.join("final.pov");
-            balloon_render::pov::write_scene(&path, &surface, &opts, None)
-                .with_context(|| format!("cannot write {}", path.display()))?;
+            balloon_render::pov::write_scene_with_props(
+                &path,
+                &surface,
+                &last.props,
+                &opts,
+                last.framing().as_ref(),
+            )
+            .with_context(|| format!("cannot write {}", path.display()))?;
         }
         Ok(warnings)
     }
@@ -873,7 +964,7 @@ fn render_png(p: &mut Pictures, dir: &Path, frame: &Frame) -> Result<()> {
         .join("renders")
         .join(format!("frame_{:05}.png", frame.step));
     p.renderer
-        .render(&surface, &opts, None)
+        .render_with_props(&surface, &frame.props, &opts, frame.framing().as_ref())
         .and_then(|img| img.write_png(&path))
         .with_context(|| format!("cannot render {}", path.display()))?;
     p.rendered.insert(frame.step);
@@ -897,6 +988,7 @@ fn keep_for_gif(p: &mut Pictures, frame: &Frame) -> Result<()> {
         time: frame.time,
         positions: frame.positions.clone(),
         colors: colors.map(|c| c.0),
+        props: frame.props.clone(),
     });
     if p.gif_frames.len() >= MAX_GIF_FRAMES {
         // Keep every other frame (always the first), and from now on every other new one.
@@ -919,6 +1011,12 @@ fn write_gif(p: &mut Pictures, path: &Path) -> Result<()> {
         .gif_frames
         .iter()
         .filter_map(|g| Framing::of_points(&g.positions))
+        .chain(p.gif_frames.iter().flat_map(|g| {
+            g.props.iter().filter_map(|prop| match *prop {
+                Prop::Sphere { center, radius, .. } => Some(Framing { center, radius }),
+                Prop::Plane { .. } => None,
+            })
+        }))
         .reduce(|a, b| a.union(&b))
         .context("--gif: no frame has finite coordinates")?;
     let range = p.color_range.of(p
@@ -939,7 +1037,7 @@ fn write_gif(p: &mut Pictures, path: &Path) -> Result<()> {
         }
         let img = p
             .renderer
-            .render(&surface, &opts, Some(&framing))
+            .render_with_props(&surface, &g.props, &opts, Some(&framing))
             .with_context(|| format!("cannot render GIF frame of step {}", g.step))?;
         gif.add_frame(img, delay)?;
     }
@@ -996,6 +1094,10 @@ mod tests {
             "lattice.vtk",
             "lattice_00020.vtk",
             "input_soup.obj",
+            "sphere_00020.obj",
+            "sphere1_00020.vtp",
+            ".sphere_00020.vtp.tmp",
+            "floor.ply",
         ] {
             assert!(is_run_file(ours), "{ours}");
         }
@@ -1008,6 +1110,9 @@ mod tests {
             "my_summary.json",
             "lattice_1.vtp",
             "teddy.obj",
+            "sphere.obj",
+            "sphere_a.obj",
+            "floor_1.obj",
         ] {
             assert!(!is_run_file(theirs), "{theirs}");
         }

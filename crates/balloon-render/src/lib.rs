@@ -6,7 +6,9 @@
 //! optional per-vertex scalar colour map ([`ColorMap`], perceptual, viridis-like) with a legend
 //! bar and numeric labels drawn in a built-in bitmap font ([`font`]), an optional title; PNG
 //! output ([`Image::write_png`]); animated GIF output ([`GifWriter`], median-cut palette per
-//! frame); POV-Ray scene export ([`pov::scene`], the paper's own rendering pipeline); and small
+//! frame); rigid scene objects drawn beside the surface ([`Prop`]: a sphere, a floor plane;
+//! [`Renderer::render_with_props`], [`pov::scene_with_props`]); POV-Ray scene export
+//! ([`pov::scene`], the paper's own rendering pipeline); and small
 //! line charts ([`plot::LinePlot`], e.g. a pressure-volume curve) in the same font.
 //!
 //! **Not for:** interactive display (see `balloon-viewer`) or computing the fields themselves
@@ -39,6 +41,7 @@ mod gif_out;
 mod image;
 pub mod plot;
 pub mod pov;
+pub mod props;
 mod raster;
 
 pub use camera::{Camera, Framing, Projection, UpAxis};
@@ -46,4 +49,5 @@ pub use colormap::{ColorMap, ColorScale, format_tick, tick_labels};
 pub use error::RenderError;
 pub use gif_out::{GifWriter, quantize, read_gif};
 pub use image::Image;
+pub use props::Prop;
 pub use raster::{RenderOptions, Renderer, Surface};

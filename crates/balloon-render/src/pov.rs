@@ -12,7 +12,7 @@
 
 use crate::camera::{Framing, Projection, UpAxis, ViewTransform};
 use crate::image::write_atomically;
-use crate::{RenderError, RenderOptions, Surface};
+use crate::{Prop, RenderError, RenderOptions, Surface};
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
@@ -25,6 +25,22 @@ pub fn scene(
     opts: &RenderOptions,
     framing: Option<&Framing>,
 ) -> Result<String, RenderError> {
+    scene_with_props(surface, &[], opts, framing)
+}
+
+/// [`scene`] with the rigid objects `props` as exact POV-Ray primitives after the `mesh2`: a
+/// [`Prop::Sphere`] as `sphere { <centre>, radius }`, a [`Prop::Plane`] as the infinite
+/// `plane { <normal>, distance }` (unit normal, `distance = normal . point`), each in its own
+/// colour, in the same converted coordinates as the mesh.
+pub fn scene_with_props(
+    surface: &Surface<'_>,
+    props: &[Prop],
+    opts: &RenderOptions,
+    framing: Option<&Framing>,
+) -> Result<String, RenderError> {
+    for prop in props {
+        prop.validate()?;
+    }
     let n = surface.positions.len() / 3;
     if !surface.positions.len().is_multiple_of(3) {
         return Err(RenderError::PositionsLength {
@@ -196,6 +212,34 @@ pub fn scene(
         );
     }
     buf.push_str("}\n");
+    for prop in props {
+        let col = prop.color().map(|v| srgb_to_linear(v as f32 / 255.0));
+        let texture = format!(
+            "texture {{ pigment {{ rgb <{:.4}, {:.4}, {:.4}> }} finish {{ BalloonFinish }} }}",
+            col[0], col[1], col[2]
+        );
+        match *prop {
+            Prop::Sphere { center, radius, .. } => {
+                let c = pov(center);
+                let _ = writeln!(
+                    buf,
+                    "sphere {{ <{}, {}, {}>, {} {texture} }}",
+                    c[0], c[1], c[2], radius
+                );
+            }
+            Prop::Plane { point, normal, .. } => {
+                let (_, _, unit) = crate::props::plane_frame(normal);
+                // The axis swap is orthogonal, so the distance from the origin is kept.
+                let d = crate::camera::dot(unit, point);
+                let q = pov(unit);
+                let _ = writeln!(
+                    buf,
+                    "plane {{ <{}, {}, {}>, {} {texture} }}",
+                    q[0], q[1], q[2], d
+                );
+            }
+        }
+    }
     s.push_str(&buf);
     Ok(s)
 }
@@ -207,7 +251,18 @@ pub fn write_scene(
     opts: &RenderOptions,
     framing: Option<&Framing>,
 ) -> Result<(), RenderError> {
-    let text = scene(surface, opts, framing)?;
+    write_scene_with_props(path, surface, &[], opts, framing)
+}
+
+/// Writes [`scene_with_props`] to `path` atomically (temporary file, then rename).
+pub fn write_scene_with_props(
+    path: &Path,
+    surface: &Surface<'_>,
+    props: &[Prop],
+    opts: &RenderOptions,
+    framing: Option<&Framing>,
+) -> Result<(), RenderError> {
+    let text = scene_with_props(surface, props, opts, framing)?;
     write_atomically(path, |w| {
         w.write_all(text.as_bytes())
             .map_err(|source| RenderError::Io {
@@ -292,6 +347,40 @@ mod tests {
         assert!(line.contains(", 1, "), "{line}");
         let nan = [f64::NAN, 0.0, 0.0];
         assert!(scene(&Surface::new(&nan, &[]), &opts, None).is_err());
+    }
+
+    #[test]
+    fn props_are_written_as_pov_primitives_in_pov_coordinates() {
+        let m = balloon_mesh::generate::icosphere(1.0, 1).unwrap();
+        let x = m.positions_flat();
+        let props = [
+            Prop::sphere([0.5, -0.25, 3.0], 0.75),
+            Prop::floor([0.0, 0.0, -1.5], [0.0, 0.0, 2.0], 4.0),
+        ];
+        let text = scene_with_props(
+            &Surface::new(&x, &m.triangles),
+            &props,
+            &RenderOptions::new(64, 48),
+            None,
+        )
+        .unwrap();
+        // Z up: world (x, y, z) is POV <x, z, y>.
+        assert!(
+            text.contains("sphere { <0.5, 3, -0.25>, 0.75 texture"),
+            "{text}"
+        );
+        assert!(text.contains("plane { <0, 1, 0>, -1.5 texture"), "{text}");
+        assert_eq!(text.matches('{').count(), text.matches('}').count());
+        let bad = [Prop::floor([0.0; 3], [0.0; 3], 1.0)];
+        assert!(
+            scene_with_props(
+                &Surface::new(&x, &m.triangles),
+                &bad,
+                &RenderOptions::new(64, 48),
+                None
+            )
+            .is_err()
+        );
     }
 
     #[test]

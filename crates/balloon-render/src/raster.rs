@@ -4,7 +4,7 @@ use crate::camera::{self, Framing, Projection, ViewTransform};
 use crate::colormap::ColorScale;
 use crate::font::{self, GLYPH_HEIGHT};
 use crate::image::check_size;
-use crate::{Camera, Image, RenderError};
+use crate::{Camera, Image, Prop, RenderError};
 
 /// A triangle surface to draw: flat positions (3 per vertex, m), triangles, and optionally one
 /// scalar per vertex to colour it by (see [`RenderOptions::color_scale`]).
@@ -201,11 +201,30 @@ impl Renderer {
         opts: &RenderOptions,
         framing: Option<&Framing>,
     ) -> Result<&Image, RenderError> {
+        self.render_with_props(surface, &[], opts, framing)
+    }
+
+    /// Renders `surface` and the rigid objects `props` (a sphere, a floor: [`Prop`]), each
+    /// drawn through its triangulation ([`Prop::mesh`]) in its own colour, shaded like the
+    /// surface and depth-tested against it. `framing` as in [`Renderer::render`]; `None` frames
+    /// the surface alone (a large floor then reaches beyond the picture; include a sphere in
+    /// the framing with [`Framing::union`] to keep it in view). Both sides of a prop's
+    /// triangles are drawn.
+    pub fn render_with_props(
+        &mut self,
+        surface: &Surface<'_>,
+        props: &[Prop],
+        opts: &RenderOptions,
+        framing: Option<&Framing>,
+    ) -> Result<&Image, RenderError> {
         check_size(opts.width, opts.height)?;
         camera::validate(&opts.camera)?;
         let n = surface.validate()?;
         if let Some(cs) = &opts.color_scale {
             cs.validate()?;
+        }
+        for prop in props {
+            prop.validate()?;
         }
         let framing = match framing {
             Some(f) => {
@@ -239,7 +258,6 @@ impl Renderer {
         self.depth
             .resize((opts.width * opts.height) as usize, f32::NEG_INFINITY);
 
-        // Project the vertices.
         let view = ViewTransform::new(&opts.camera, &framing);
         let (cx, cy) = (vx0 as f64 + 0.5 * vw as f64, vy0 as f64 + 0.5 * vh as f64);
         let r = framing.radius;
@@ -253,40 +271,38 @@ impl Renderer {
             }
             Projection::Orthographic => None,
         };
-        let ortho_scale = 0.96 * 0.5 * (vw.min(vh) as f64) / r;
-        self.screen.clear();
-        self.screen
-            .extend(surface.positions.chunks_exact(3).map(|p| {
-                let v = view.apply([p[0], p[1], p[2]]);
-                match persp {
-                    Some((dist, focal)) => {
-                        let z = dist - v[2];
-                        if z.is_nan() || z <= 1e-6 * dist {
-                            return [f32::NAN; 3];
-                        }
-                        [
-                            (cx + focal * v[0] / z) as f32,
-                            (cy - focal * v[1] / z) as f32,
-                            (1.0 / z) as f32,
-                        ]
-                    }
-                    None => [
-                        (cx + ortho_scale * v[0]) as f32,
-                        (cy - ortho_scale * v[1]) as f32,
-                        v[2] as f32,
-                    ],
-                }
-            }));
-        // Vertex normals (balloon_mesh::fields) in view space.
-        self.normals.clear();
-        if opts.smooth && !surface.triangles.is_empty() {
-            let nrm = balloon_mesh::fields::vertex_normals(surface.positions, surface.triangles)?;
-            self.normals.extend(nrm.chunks_exact(3).map(|c| {
-                let v = view.rotate([c[0], c[1], c[2]]);
-                [v[0] as f32, v[1] as f32, v[2] as f32]
-            }));
-        }
-        // Colour coordinates.
+        let projector = Projector {
+            view: &view,
+            center: (cx, cy),
+            persp,
+            ortho_scale: 0.96 * 0.5 * (vw.min(vh) as f64) / r,
+        };
+        let key = normalize(KEY);
+        let shade = Shade {
+            key,
+            fill: normalize(FILL),
+            half: normalize([key[0], key[1], key[2] + 1.0]),
+            spec: opts.specular.clamp(0.0, 1.0),
+            width: opts.width as usize,
+            clip: (
+                vx0 as f32,
+                (vx0 + vw - 1) as f32,
+                vy0 as f32,
+                (vy0 + vh - 1) as f32,
+            ),
+        };
+
+        // The surface: projected vertices, vertex normals (balloon_mesh::fields) in view
+        // space, colour coordinates.
+        projector.project(surface.positions, &mut self.screen);
+        debug_assert_eq!(self.screen.len(), n);
+        view_normals(
+            &view,
+            opts.smooth,
+            surface.positions,
+            surface.triangles,
+            &mut self.normals,
+        )?;
         self.tvals.clear();
         let lut = opts.color_scale.as_ref().map(|cs| cs.map.table());
         if let (Some(cs), Some(s)) = (&opts.color_scale, surface.scalars) {
@@ -295,129 +311,47 @@ impl Renderer {
                 if t.is_nan() { 0.0 } else { t as f32 }
             }));
         }
-        let base = opts.base_color.map(|c| c as f32 / 255.0);
-        let key = normalize(KEY);
-        let fill = normalize(FILL);
-        let half = normalize([key[0], key[1], key[2] + 1.0]);
-        let spec = opts.specular.clamp(0.0, 1.0);
-        let width = opts.width as usize;
-        let (xmin_vp, xmax_vp) = (vx0 as f32, (vx0 + vw - 1) as f32);
-        let (ymin_vp, ymax_vp) = (vy0 as f32, (vy0 + vh - 1) as f32);
-        debug_assert_eq!(self.screen.len(), n);
-
-        for tri in surface.triangles {
-            let [a, b, c] = *tri;
-            let (p0, p1, p2) = (self.screen[a], self.screen[b], self.screen[c]);
-            if !(p0.iter().chain(&p1).chain(&p2).all(|v| v.is_finite())) {
-                continue;
-            }
-            let area = (p1[0] - p0[0]) * (p2[1] - p0[1]) - (p2[0] - p0[0]) * (p1[1] - p0[1]);
-            if !area.is_finite() || area.abs() < 1e-9 {
-                continue;
-            }
-            // Screen y points down, so a counter-clockwise (outward, towards the eye) triangle
-            // has negative signed area here.
-            let front = area < 0.0;
-            if !front && opts.cull_back_faces {
-                continue;
-            }
-            let sign = if front { 1.0f32 } else { -1.0 };
-            // Face normal in view space for flat shading and as a fallback.
-            let face_n = {
-                let pa = &surface.positions[3 * a..3 * a + 3];
-                let pb = &surface.positions[3 * b..3 * b + 3];
-                let pc = &surface.positions[3 * c..3 * c + 3];
-                let e1 = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]];
-                let e2 = [pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]];
-                let v = view.rotate(camera::cross(e1, e2));
-                let nn = normalize([v[0] as f32, v[1] as f32, v[2] as f32]);
-                nn.map(|q| q * sign)
-            };
-            let (n0, n1, n2) = if self.normals.is_empty() {
-                (face_n, face_n, face_n)
-            } else {
-                let f = |v: [f32; 3]| v.map(|q| q * sign);
-                (f(self.normals[a]), f(self.normals[b]), f(self.normals[c]))
-            };
-            let colored = !self.tvals.is_empty();
-            let (t0, t1, t2) = if colored {
-                (self.tvals[a], self.tvals[b], self.tvals[c])
-            } else {
-                (0.0, 0.0, 0.0)
-            };
-            let bx0 = p0[0].min(p1[0]).min(p2[0]).floor().max(xmin_vp);
-            let bx1 = p0[0].max(p1[0]).max(p2[0]).ceil().min(xmax_vp);
-            let by0 = p0[1].min(p1[1]).min(p2[1]).floor().max(ymin_vp);
-            let by1 = p0[1].max(p1[1]).max(p2[1]).ceil().min(ymax_vp);
-            if bx0 > bx1 || by0 > by1 {
-                continue;
-            }
-            // Barycentric weights as affine functions of the pixel centre: w_i = a_i x + b_i y + c_i.
-            let inv = 1.0 / area;
-            let edge = |q: [f32; 3], r: [f32; 3]| {
-                let ea = (q[1] - r[1]) * inv;
-                let eb = (r[0] - q[0]) * inv;
-                let ec = (q[0] * r[1] - q[1] * r[0]) * inv;
-                (ea, eb, ec)
-            };
-            let (a0, b0, c0) = edge(p1, p2);
-            let (a1, b1, c1) = edge(p2, p0);
-            let (a2, b2, c2) = edge(p0, p1);
-            let eps = -1e-5f32;
-            for py in by0 as i64..=by1 as i64 {
-                let sy = py as f32 + 0.5;
-                let row = py as usize * width;
-                let sx0 = bx0 + 0.5;
-                let mut w0 = a0 * sx0 + b0 * sy + c0;
-                let mut w1 = a1 * sx0 + b1 * sy + c1;
-                let mut w2 = a2 * sx0 + b2 * sy + c2;
-                for px in bx0 as usize..=bx1 as usize {
-                    if w0 >= eps && w1 >= eps && w2 >= eps {
-                        let depth = w0 * p0[2] + w1 * p1[2] + w2 * p2[2];
-                        let idx = row + px;
-                        if depth > self.depth[idx] {
-                            self.depth[idx] = depth;
-                            let mut nrm = [
-                                w0 * n0[0] + w1 * n1[0] + w2 * n2[0],
-                                w0 * n0[1] + w1 * n1[1] + w2 * n2[1],
-                                w0 * n0[2] + w1 * n1[2] + w2 * n2[2],
-                            ];
-                            let l2 = nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2];
-                            if l2 > 1e-12 {
-                                let il = 1.0 / l2.sqrt();
-                                nrm = nrm.map(|q| q * il);
-                            } else {
-                                nrm = face_n;
-                            }
-                            let albedo = match &lut {
-                                Some(lut) if colored => {
-                                    let t = (w0 * t0 + w1 * t1 + w2 * t2).clamp(0.0, 1.0);
-                                    lut[(t * 255.0 + 0.5) as usize]
-                                }
-                                _ => base,
-                            };
-                            let kd = dot3(nrm, key).max(0.0);
-                            let fd = dot3(nrm, fill).max(0.0);
-                            let diffuse = AMBIENT + 0.72 * kd + 0.22 * fd;
-                            let sh = dot3(nrm, half).max(0.0);
-                            let highlight = if kd > 0.0 {
-                                spec * sh.powi(SHININESS)
-                            } else {
-                                0.0
-                            };
-                            let o = 3 * idx;
-                            let px_rgb = &mut self.image.pixels_mut()[o..o + 3];
-                            for k in 0..3 {
-                                let v = albedo[k] * diffuse + highlight;
-                                px_rgb[k] = (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
-                            }
-                        }
-                    }
-                    w0 += a0;
-                    w1 += a1;
-                    w2 += a2;
-                }
-            }
+        let mut target = Target {
+            depth: &mut self.depth,
+            image: &mut self.image,
+        };
+        target.draw(
+            &Mesh {
+                positions: surface.positions,
+                triangles: surface.triangles,
+                screen: &self.screen,
+                normals: &self.normals,
+                tvals: &self.tvals,
+            },
+            &Paint {
+                base: opts.base_color.map(|c| c as f32 / 255.0),
+                lut: lut.as_ref(),
+                cull: opts.cull_back_faces,
+            },
+            &view,
+            &shade,
+        );
+        // The props, in their own colours.
+        for prop in props {
+            let (x, t) = prop.mesh()?;
+            projector.project(&x, &mut self.screen);
+            view_normals(&view, opts.smooth, &x, &t, &mut self.normals)?;
+            target.draw(
+                &Mesh {
+                    positions: &x,
+                    triangles: &t,
+                    screen: &self.screen,
+                    normals: &self.normals,
+                    tvals: &[],
+                },
+                &Paint {
+                    base: prop.color().map(|c| c as f32 / 255.0),
+                    lut: None,
+                    cull: false,
+                },
+                &view,
+                &shade,
+            );
         }
         self.draw_overlays(opts, &layout);
         Ok(&self.image)
@@ -479,6 +413,222 @@ fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
 fn normalize(a: [f32; 3]) -> [f32; 3] {
     let l = dot3(a, a).sqrt();
     if l > 0.0 { a.map(|q| q / l) } else { a }
+}
+
+/// World to screen: pixel x, pixel y and a depth that grows towards the eye (`1 / z` with
+/// perspective, the view-space z orthographic).
+struct Projector<'a> {
+    view: &'a ViewTransform,
+    center: (f64, f64),
+    persp: Option<(f64, f64)>,
+    ortho_scale: f64,
+}
+
+impl Projector<'_> {
+    /// Projects flat positions into `screen` (cleared first); a vertex behind the eye is NaN.
+    fn project(&self, positions: &[f64], screen: &mut Vec<[f32; 3]>) {
+        let (cx, cy) = self.center;
+        screen.clear();
+        screen.extend(positions.chunks_exact(3).map(|p| {
+            let v = self.view.apply([p[0], p[1], p[2]]);
+            match self.persp {
+                Some((dist, focal)) => {
+                    let z = dist - v[2];
+                    if z.is_nan() || z <= 1e-6 * dist {
+                        return [f32::NAN; 3];
+                    }
+                    [
+                        (cx + focal * v[0] / z) as f32,
+                        (cy - focal * v[1] / z) as f32,
+                        (1.0 / z) as f32,
+                    ]
+                }
+                None => [
+                    (cx + self.ortho_scale * v[0]) as f32,
+                    (cy - self.ortho_scale * v[1]) as f32,
+                    v[2] as f32,
+                ],
+            }
+        }));
+    }
+}
+
+/// Vertex normals in view space into `out` (cleared; left empty for flat shading or no
+/// triangles).
+fn view_normals(
+    view: &ViewTransform,
+    smooth: bool,
+    positions: &[f64],
+    triangles: &[[usize; 3]],
+    out: &mut Vec<[f32; 3]>,
+) -> Result<(), RenderError> {
+    out.clear();
+    if smooth && !triangles.is_empty() {
+        let nrm = balloon_mesh::fields::vertex_normals(positions, triangles)?;
+        out.extend(nrm.chunks_exact(3).map(|c| {
+            let v = view.rotate([c[0], c[1], c[2]]);
+            [v[0] as f32, v[1] as f32, v[2] as f32]
+        }));
+    }
+    Ok(())
+}
+
+/// A projected triangle mesh: world positions, triangles, screen positions, view-space vertex
+/// normals (empty: flat shading) and colour coordinates in `[0, 1]` (empty: uncoloured).
+struct Mesh<'a> {
+    positions: &'a [f64],
+    triangles: &'a [[usize; 3]],
+    screen: &'a [[f32; 3]],
+    normals: &'a [[f32; 3]],
+    tvals: &'a [f32],
+}
+
+/// How a mesh is coloured: its base colour (linear 0..1 channels of the sRGB bytes), the colour
+/// table for its `tvals`, and whether back faces are skipped.
+struct Paint<'a> {
+    base: [f32; 3],
+    lut: Option<&'a [[f32; 3]; 256]>,
+    cull: bool,
+}
+
+/// Lighting and the viewport.
+struct Shade {
+    key: [f32; 3],
+    fill: [f32; 3],
+    half: [f32; 3],
+    spec: f32,
+    width: usize,
+    /// Viewport pixel bounds: x min, x max, y min, y max.
+    clip: (f32, f32, f32, f32),
+}
+
+/// The depth buffer and the image being drawn into.
+struct Target<'a> {
+    depth: &'a mut [f32],
+    image: &'a mut Image,
+}
+
+impl Target<'_> {
+    /// Rasterises `mesh` with the z-buffer: barycentric interpolation of depth, normal and
+    /// colour coordinate per pixel, Lambert (key and fill light) plus a Blinn-Phong highlight.
+    fn draw(&mut self, mesh: &Mesh<'_>, paint: &Paint<'_>, view: &ViewTransform, sh: &Shade) {
+        let (xmin_vp, xmax_vp, ymin_vp, ymax_vp) = sh.clip;
+        let width = sh.width;
+        for tri in mesh.triangles {
+            let [a, b, c] = *tri;
+            let (p0, p1, p2) = (mesh.screen[a], mesh.screen[b], mesh.screen[c]);
+            if !(p0.iter().chain(&p1).chain(&p2).all(|v| v.is_finite())) {
+                continue;
+            }
+            let area = (p1[0] - p0[0]) * (p2[1] - p0[1]) - (p2[0] - p0[0]) * (p1[1] - p0[1]);
+            if !area.is_finite() || area.abs() < 1e-9 {
+                continue;
+            }
+            // Screen y points down, so a counter-clockwise (outward, towards the eye) triangle
+            // has negative signed area here.
+            let front = area < 0.0;
+            if !front && paint.cull {
+                continue;
+            }
+            let sign = if front { 1.0f32 } else { -1.0 };
+            // Face normal in view space for flat shading and as a fallback.
+            let face_n = {
+                let pa = &mesh.positions[3 * a..3 * a + 3];
+                let pb = &mesh.positions[3 * b..3 * b + 3];
+                let pc = &mesh.positions[3 * c..3 * c + 3];
+                let e1 = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]];
+                let e2 = [pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]];
+                let v = view.rotate(camera::cross(e1, e2));
+                let nn = normalize([v[0] as f32, v[1] as f32, v[2] as f32]);
+                nn.map(|q| q * sign)
+            };
+            let (n0, n1, n2) = if mesh.normals.is_empty() {
+                (face_n, face_n, face_n)
+            } else {
+                let f = |v: [f32; 3]| v.map(|q| q * sign);
+                (f(mesh.normals[a]), f(mesh.normals[b]), f(mesh.normals[c]))
+            };
+            let colored = !mesh.tvals.is_empty();
+            let (t0, t1, t2) = if colored {
+                (mesh.tvals[a], mesh.tvals[b], mesh.tvals[c])
+            } else {
+                (0.0, 0.0, 0.0)
+            };
+            let bx0 = p0[0].min(p1[0]).min(p2[0]).floor().max(xmin_vp);
+            let bx1 = p0[0].max(p1[0]).max(p2[0]).ceil().min(xmax_vp);
+            let by0 = p0[1].min(p1[1]).min(p2[1]).floor().max(ymin_vp);
+            let by1 = p0[1].max(p1[1]).max(p2[1]).ceil().min(ymax_vp);
+            if bx0 > bx1 || by0 > by1 {
+                continue;
+            }
+            // Barycentric weights as affine functions of the pixel centre: w_i = a_i x + b_i y + c_i.
+            let inv = 1.0 / area;
+            let edge = |q: [f32; 3], r: [f32; 3]| {
+                let ea = (q[1] - r[1]) * inv;
+                let eb = (r[0] - q[0]) * inv;
+                let ec = (q[0] * r[1] - q[1] * r[0]) * inv;
+                (ea, eb, ec)
+            };
+            let (a0, b0, c0) = edge(p1, p2);
+            let (a1, b1, c1) = edge(p2, p0);
+            let (a2, b2, c2) = edge(p0, p1);
+            let eps = -1e-5f32;
+            for py in by0 as i64..=by1 as i64 {
+                let sy = py as f32 + 0.5;
+                let row = py as usize * width;
+                let sx0 = bx0 + 0.5;
+                let mut w0 = a0 * sx0 + b0 * sy + c0;
+                let mut w1 = a1 * sx0 + b1 * sy + c1;
+                let mut w2 = a2 * sx0 + b2 * sy + c2;
+                for px in bx0 as usize..=bx1 as usize {
+                    if w0 >= eps && w1 >= eps && w2 >= eps {
+                        let depth = w0 * p0[2] + w1 * p1[2] + w2 * p2[2];
+                        let idx = row + px;
+                        if depth > self.depth[idx] {
+                            self.depth[idx] = depth;
+                            let mut nrm = [
+                                w0 * n0[0] + w1 * n1[0] + w2 * n2[0],
+                                w0 * n0[1] + w1 * n1[1] + w2 * n2[1],
+                                w0 * n0[2] + w1 * n1[2] + w2 * n2[2],
+                            ];
+                            let l2 = nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2];
+                            if l2 > 1e-12 {
+                                let il = 1.0 / l2.sqrt();
+                                nrm = nrm.map(|q| q * il);
+                            } else {
+                                nrm = face_n;
+                            }
+                            let albedo = match paint.lut {
+                                Some(lut) if colored => {
+                                    let t = (w0 * t0 + w1 * t1 + w2 * t2).clamp(0.0, 1.0);
+                                    lut[(t * 255.0 + 0.5) as usize]
+                                }
+                                _ => paint.base,
+                            };
+                            let kd = dot3(nrm, sh.key).max(0.0);
+                            let fd = dot3(nrm, sh.fill).max(0.0);
+                            let diffuse = AMBIENT + 0.72 * kd + 0.22 * fd;
+                            let hl = dot3(nrm, sh.half).max(0.0);
+                            let highlight = if kd > 0.0 {
+                                sh.spec * hl.powi(SHININESS)
+                            } else {
+                                0.0
+                            };
+                            let o = 3 * idx;
+                            let px_rgb = &mut self.image.pixels_mut()[o..o + 3];
+                            for k in 0..3 {
+                                let v = albedo[k] * diffuse + highlight;
+                                px_rgb[k] = (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+                            }
+                        }
+                    }
+                    w0 += a0;
+                    w1 += a1;
+                    w2 += a2;
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -674,6 +824,114 @@ mod tests {
             front, shown,
             "a triangle facing the eye is drawn with culling"
         );
+    }
+
+    #[test]
+    fn a_sphere_prop_is_drawn_where_it_projects_and_the_floor_behind_the_body() {
+        let (x, t) = sphere(3);
+        let ball = Prop::sphere([0.3, 0.2, 2.0], 0.5);
+        let floor = Prop::floor([0.0, 0.0, -1.0], [0.0, 0.0, 1.0], 3.0);
+        for projection in [
+            Projection::Orthographic,
+            Projection::Perspective { fov_y_deg: 30.0 },
+        ] {
+            let opts = RenderOptions {
+                camera: Camera {
+                    projection,
+                    ..Camera::default()
+                },
+                ..RenderOptions::new(240, 240)
+            };
+            let (bx, _) = ball.mesh().unwrap();
+            let framing = Framing::of_points(&x)
+                .unwrap()
+                .union(&Framing::of_points(&bx).unwrap());
+            let mut r = Renderer::new();
+            let plain = r
+                .render(&Surface::new(&x, &t), &opts, Some(&framing))
+                .unwrap()
+                .clone();
+            let with = r
+                .render_with_props(&Surface::new(&x, &t), &[ball], &opts, Some(&framing))
+                .unwrap()
+                .clone();
+            // The changed pixels form the sphere's projected disc: its centre and area,
+            // computed here from the camera independently of the triangulation.
+            let (mut n, mut sx, mut sy) = (0usize, 0.0, 0.0);
+            for py in 0..240 {
+                for px in 0..240 {
+                    if plain.get(px, py) != with.get(px, py) {
+                        assert_eq!(with.get(px, py).map(|p| p[2] > p[0]), Some(true));
+                        n += 1;
+                        sx += px as f64 + 0.5;
+                        sy += py as f64 + 0.5;
+                    }
+                }
+            }
+            let layout = Layout::new(&opts);
+            let (vw, vh) = (240 - layout.legend_w, 240 - layout.title_h);
+            let view = ViewTransform::new(&opts.camera, &framing);
+            let c = view.apply([0.3, 0.2, 2.0]);
+            let (cx, cy) = (0.5 * vw as f64, layout.title_h as f64 + 0.5 * vh as f64);
+            let (px, py, rad) = match projection {
+                Projection::Orthographic => {
+                    let k = 0.96 * 0.5 * vw.min(vh) as f64 / framing.radius;
+                    (cx + k * c[0], cy - k * c[1], k * 0.5)
+                }
+                Projection::Perspective { fov_y_deg } => {
+                    let half = 0.5 * fov_y_deg.to_radians();
+                    let dist = 1.04 * framing.radius / half.sin();
+                    let focal = 0.5 * vh as f64 / half.tan();
+                    let z = dist - c[2];
+                    // A sphere seen from distance z: silhouette radius about f r / z.
+                    (
+                        cx + focal * c[0] / z,
+                        cy - focal * c[1] / z,
+                        focal * 0.5 / z,
+                    )
+                }
+            };
+            let disc = std::f64::consts::PI * rad * rad;
+            let (mx, my) = (sx / n as f64, sy / n as f64);
+            assert!(
+                (n as f64 / disc - 1.0).abs() < 0.06,
+                "{projection:?}: {n} pixels vs disc {disc}"
+            );
+            assert!(
+                (mx - px).abs() < 1.0 && (my - py).abs() < 1.0,
+                "{projection:?}: centre ({mx}, {my}) vs ({px}, {py})"
+            );
+            // The floor below the body fills background pixels and never covers the body
+            // (the body is in front of it everywhere it projects).
+            let floored = r
+                .render_with_props(&Surface::new(&x, &t), &[floor], &opts, Some(&framing))
+                .unwrap()
+                .clone();
+            let (mut bg_changed, mut body_changed) = (0, 0);
+            for (a, b) in plain.pixels().chunks(3).zip(floored.pixels().chunks(3)) {
+                if a != b {
+                    if a == opts.background {
+                        bg_changed += 1;
+                    } else {
+                        body_changed += 1;
+                    }
+                }
+            }
+            assert!(bg_changed > 5000, "{projection:?}: floor {bg_changed} px");
+            assert_eq!(body_changed, 0, "{projection:?}");
+        }
+        // A bad prop is an error, not a picture.
+        let bad = Prop::sphere([0.0; 3], -1.0);
+        let e = Renderer::new()
+            .render_with_props(
+                &Surface::new(&x, &t),
+                &[bad],
+                &RenderOptions::new(64, 64),
+                None,
+            )
+            .map(|_| ())
+            .unwrap_err();
+        assert!(e.to_string().contains("sphere"), "{e}");
     }
 
     #[test]

@@ -52,3 +52,21 @@ pub fn shared_meshes_dir() -> Option<std::path::PathBuf> {
     );
     None
 }
+
+/// `balloon volumetric`'s flags parsed on their own, to run its job in this process (keeping
+/// the simulation) with exactly the command's settings.
+#[derive(clap::Parser)]
+struct VolumetricCli {
+    #[command(flatten)]
+    args: balloon_cli::cmd_volumetric::VolumetricArgs,
+}
+
+/// The arguments of `balloon volumetric ARGV...` (`argv` without the subcommand's name).
+pub fn volumetric_args(argv: &[&str]) -> balloon_cli::cmd_volumetric::VolumetricArgs {
+    use clap::Parser as _;
+    let mut all = vec!["volumetric"];
+    all.extend_from_slice(argv);
+    VolumetricCli::try_parse_from(all)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .args
+}

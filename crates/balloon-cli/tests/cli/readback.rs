@@ -392,3 +392,158 @@ fn lattice_files_read_back_and_every_cell_keeps_its_volume() {
         "the cells barely deformed (edge strain {strained})"
     );
 }
+
+/// Vertex centroid and mean distance from it: the centre and radius of a sphere triangulated
+/// with its vertices on it, measured on the file's points.
+fn centre_and_radius(points: &[f64]) -> ([f64; 3], f64) {
+    let n = (points.len() / 3) as f64;
+    let c: [f64; 3] = std::array::from_fn(|k| points.iter().skip(k).step_by(3).sum::<f64>() / n);
+    let r = points
+        .chunks_exact(3)
+        .map(|p| ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt())
+        .sum::<f64>()
+        / n;
+    (c, r)
+}
+
+fn obj_points(path: &Path) -> Vec<f64> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .flat_map(|l| {
+            l.split_whitespace()
+                .map(|v| v.parse::<f64>().unwrap())
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+#[test]
+fn the_drop_sphere_sphere_and_floor_are_written_where_the_simulation_has_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |format: &str| {
+        let out = dir.path().join(format);
+        let argv = [
+            "builtin:icosphere",
+            "--resolution",
+            "12",
+            "--voxels-per-cell",
+            "2",
+            "--steps",
+            "200",
+            "--frame-every",
+            "100",
+            "--format",
+            format,
+            "--pov",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let args = super::volumetric_args(&argv);
+        let start = balloon_cli::cmd_volumetric::build(&args, None).unwrap().sim;
+        let end = balloon_cli::cmd_volumetric::execute(&args, None, true)
+            .unwrap()
+            .sim;
+        (out, start, end)
+    };
+    let close = |a: [f64; 3], b: [f64; 3], tol: f64| (0..3).all(|k| (a[k] - b[k]).abs() <= tol);
+    let (obj, start, end) = run("obj");
+    let floor = end.planes()[0];
+    for (step, sim) in [(0, &start), (200, &end)] {
+        let s = sim.sphere().unwrap();
+        let (c, r) = centre_and_radius(&obj_points(&obj.join(format!("sphere_{step:05}.obj"))));
+        assert!(
+            close(c, s.position.into(), 1e-12) && (r - s.radius).abs() <= 1e-12 * s.radius,
+            "step {step}: file ({c:?}, {r}) vs simulation ({:?}, {})",
+            s.position,
+            s.radius
+        );
+    }
+    // The sphere fell onto the body: the two frames differ by far more than the tolerance.
+    let moved = start.sphere().unwrap().position - end.sphere().unwrap().position;
+    assert!(moved.norm() > 0.1 * end.sphere().unwrap().radius, "{moved}");
+    // The floor: one quad in the floor plane, reaching beyond the body on every side.
+    let f = obj_points(&obj.join("floor.obj"));
+    assert_eq!(f.len(), 12);
+    assert!(f.chunks(3).all(|p| (p[2] - floor.point.z).abs() < 1e-12));
+    let body = obj_points(&obj.join("frame_00200.obj"));
+    for k in 0..2 {
+        let (lo, hi) = body
+            .iter()
+            .skip(k)
+            .step_by(3)
+            .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        let flo = f
+            .iter()
+            .skip(k)
+            .step_by(3)
+            .copied()
+            .fold(f64::MAX, f64::min);
+        let fhi = f
+            .iter()
+            .skip(k)
+            .step_by(3)
+            .copied()
+            .fold(f64::MIN, f64::max);
+        assert!(
+            flo < lo && fhi > hi,
+            "axis {k}: floor {flo}..{fhi}, body {lo}..{hi}"
+        );
+    }
+    // POV-Ray: `sphere { <x, z, y>, r` (z up is POV's y) and `plane { <0, 1, 0>, height`.
+    let pov = std::fs::read_to_string(obj.join("final.pov")).unwrap();
+    let line = pov.lines().find(|l| l.starts_with("sphere {")).unwrap();
+    let nums: Vec<f64> = line["sphere {".len()..]
+        .split(['<', '>', ','])
+        .filter_map(|t| t.split_whitespace().next()?.parse().ok())
+        .collect();
+    let s = end.sphere().unwrap();
+    assert!(
+        close([nums[0], nums[2], nums[1]], s.position.into(), 1e-12)
+            && (nums[3] - s.radius).abs() <= 1e-12,
+        "{line}"
+    );
+    let plane = pov.lines().find(|l| l.starts_with("plane {")).unwrap();
+    let height: f64 = plane
+        .strip_prefix("plane { <0, 1, 0>, ")
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|h| h.parse().ok())
+        .unwrap_or_else(|| panic!("{plane}"));
+    assert!((height - floor.point.z).abs() < 1e-12, "{plane}");
+
+    // VTK: sphere and floor files as parts 1 and 2 of every time step of series.pvd.
+    let (vtk, _, end) = run("vtk");
+    let pvd = std::fs::read_to_string(vtk.join("series.pvd")).unwrap();
+    let doc = roxmltree::Document::parse(&pvd).unwrap();
+    let sets: Vec<(String, String)> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("DataSet"))
+        .map(|n| {
+            (
+                n.attribute("part").unwrap().to_string(),
+                n.attribute("file").unwrap().to_string(),
+            )
+        })
+        .collect();
+    let expect: Vec<(String, String)> = [0, 100, 200]
+        .iter()
+        .flat_map(|s| {
+            [
+                ("0".to_string(), format!("frame_{s:05}.vtp")),
+                ("1".to_string(), format!("sphere_{s:05}.vtp")),
+                ("2".to_string(), "floor.vtp".to_string()),
+            ]
+        })
+        .collect();
+    assert_eq!(sets, expect);
+    let sphere = read_vtp(&vtk.join("sphere_00200.vtp"));
+    let (c, r) = centre_and_radius(&sphere.points);
+    let s = end.sphere().unwrap();
+    assert!(close(c, s.position.into(), 1e-12) && (r - s.radius).abs() <= 1e-12 * s.radius);
+    // A closed outward surface: it encloses the sphere's volume (up to the icosphere's facets).
+    let v = enclosed_volume(&sphere.points, &sphere.triangles);
+    let ball = 4.0 / 3.0 * std::f64::consts::PI * s.radius.powi(3);
+    assert!(v > 0.97 * ball && v < ball, "{v} vs {ball}");
+    assert_eq!(read_vtp(&vtk.join("floor.vtp")).triangles.len(), 2);
+}

@@ -466,3 +466,68 @@ fn color_range_full_robust_and_fixed() {
         assert!((0.02..0.98).contains(&g), "{range}: {g}");
     }
 }
+
+#[test]
+fn volumetric_pictures_draw_the_sphere_above_the_body_and_the_floor() {
+    // A plain red body (--color none): the steel-blue sphere's pixels are the only ones with
+    // blue well above red, and the grey floor the only ones with red, green and blue close
+    // together below the background; in the free scene neither appears.
+    let dir = tempfile::tempdir().unwrap();
+    let picture = |scene: &str| {
+        let out = dir.path().join(scene);
+        ok(&run_balloon(&[
+            "volumetric",
+            "builtin:icosphere",
+            "--resolution",
+            "12",
+            "--voxels-per-cell",
+            "2",
+            "--scene",
+            scene,
+            "--steps",
+            "10",
+            "--frame-every",
+            "10",
+            "--color",
+            "none",
+            "--render",
+            "last",
+            "--gif",
+            "--image-size",
+            "200x150",
+            "--out",
+            out.to_str().unwrap(),
+        ]));
+        assert!(out.join("run.gif").is_file());
+        Image::read_png(&out.join("renders/frame_00010.png")).unwrap()
+    };
+    let count = |img: &Image| {
+        let (mut ball, mut ball_rows, mut floor, mut body_rows) = (0, Vec::new(), 0, Vec::new());
+        for y in 0..img.height() {
+            for x in 0..img.width() {
+                let [r, g, b] = img.get(x, y).unwrap().map(i32::from);
+                if b > r + 25 {
+                    ball += 1;
+                    ball_rows.push(y);
+                } else if r > g + 60 {
+                    body_rows.push(y);
+                } else if (r - b).abs() < 30 && r < 200 && r > 60 {
+                    floor += 1;
+                }
+            }
+        }
+        let mean = |v: &[u32]| v.iter().map(|&y| f64::from(y)).sum::<f64>() / v.len().max(1) as f64;
+        (ball, mean(&ball_rows), floor, mean(&body_rows))
+    };
+    let (ball, ball_y, floor, body_y) = count(&picture("drop-sphere"));
+    assert!(
+        ball > 300 && floor > 300,
+        "sphere {ball} px, floor {floor} px"
+    );
+    assert!(
+        ball_y < body_y,
+        "the sphere is drawn above the body: rows {ball_y} vs {body_y}"
+    );
+    let (ball, _, floor, _) = count(&picture("free"));
+    assert_eq!((ball, floor), (0, 0));
+}

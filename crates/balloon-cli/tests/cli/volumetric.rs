@@ -241,3 +241,169 @@ fn default_lattice_is_sized_for_a_thousand_cells_on_any_model() {
         "{err}"
     );
 }
+
+/// Signed tetrahedron volume from positions.
+fn tet_volume(x: &[nalgebra::Point3<f64>], t: &[usize; 4]) -> f64 {
+    let [a, b, c, d] = t.map(|i| x[i]);
+    (b - a).dot(&(c - a).cross(&(d - a))) / 6.0
+}
+
+/// Distance from `p` to the triangle `(a, b, c)`: the closest point by the Voronoi regions of
+/// its vertices, edges and face.
+fn point_triangle_distance(p: nalgebra::Point3<f64>, [a, b, c]: [nalgebra::Point3<f64>; 3]) -> f64 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(&ap), ac.dot(&ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (p - a).norm();
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(&bp), ac.dot(&bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return (p - b).norm();
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return (p - (a + ab * (d1 / (d1 - d3)))).norm();
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(&cp), ac.dot(&cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return (p - c).norm();
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return (p - (a + ac * (d2 / (d2 - d6)))).norm();
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (p - (b + (c - b) * w)).norm();
+    }
+    let denom = 1.0 / (va + vb + vc);
+    (p - (a + ab * (vb * denom) + ac * (vc * denom))).norm()
+}
+
+#[test]
+fn drop_sphere_impact_with_the_global_solver_keeps_every_cell_and_the_sphere_outside() {
+    // The drop-sphere scene exactly as `balloon volumetric` sets it up (springs, time step,
+    // sphere size, height and speed from the body), on the built-in teddy sized for 300 cells,
+    // stepped here past the impact. Measured independently of the solver after every step: each
+    // tetrahedron's volume recomputed from the positions (none inverts), each cell's volume (the
+    // sum of its five) against its rest volume, and the distance from the sphere's centre to the
+    // lattice's boundary triangles (the sphere may not sink into the body).
+    let args = super::volumetric_args(&["builtin", "--cells", "300"]);
+    let mut sim = balloon_cli::cmd_volumetric::build(&args, None).unwrap().sim;
+    let lattice = sim.lattice().clone();
+    let tets = &lattice.tet_mesh.tets;
+    let cell_volumes = |x: &[nalgebra::Point3<f64>]| -> Vec<f64> {
+        lattice
+            .cell_tets
+            .iter()
+            .map(|c| c.iter().map(|&t| tet_volume(x, &tets[t])).sum())
+            .collect()
+    };
+    let v0 = cell_volumes(&lattice.tet_mesh.vertices);
+    // Boundary triangles: the tetrahedron faces that belong to one tetrahedron only.
+    let mut faces: std::collections::HashMap<[usize; 3], usize> = Default::default();
+    for t in tets {
+        for f in [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]] {
+            let mut k = f.map(|i| t[i]);
+            k.sort_unstable();
+            *faces.entry(k).or_default() += 1;
+        }
+    }
+    let boundary: Vec<[usize; 3]> = faces
+        .into_iter()
+        .filter_map(|(f, n)| (n == 1).then_some(f))
+        .collect();
+    let cell = lattice.info.cell_size;
+    let sphere0 = *sim.sphere().unwrap();
+    // The contacts act between the sphere and the particles (seed 003 Sec. 5), so a sphere
+    // resting on the corners of a boundary triangle dips into it by at most the sagitta
+    // `r - sqrt(r^2 - R^2)` of the triangle's circumradius R. The bound takes the largest rest
+    // circumradius, stretched by 25 % for the deformation under the impact.
+    let circumradius = |[a, b, c]: [nalgebra::Point3<f64>; 3]| {
+        let (ab, bc, ca) = ((b - a).norm(), (c - b).norm(), (a - c).norm());
+        ab * bc * ca / (2.0 * (b - a).cross(&(c - a)).norm())
+    };
+    let r_face = 1.25
+        * boundary
+            .iter()
+            .map(|f| circumradius(f.map(|i| lattice.tet_mesh.vertices[i])))
+            .fold(0.0, f64::max);
+    let r = sphere0.radius;
+    let sagitta = r - (r * r - r_face.min(r).powi(2)).sqrt();
+    let mut deepest_particle = f64::MIN;
+    let (mut worst_cell, mut min_tet, mut deepest) = (0.0f64, f64::MAX, f64::MIN);
+    let (mut touched_at, mut min_vz, mut end_vz) = (None, 0.0f64, 0.0);
+    let mut rebound = f64::MIN;
+    for step in 1..=1200 {
+        sim.step()
+            .unwrap_or_else(|e| panic!("step {step} failed: {e}"));
+        let x = sim.positions();
+        min_tet = tets
+            .iter()
+            .map(|t| tet_volume(x, t))
+            .fold(min_tet, f64::min);
+        worst_cell = cell_volumes(x)
+            .iter()
+            .zip(&v0)
+            .map(|(v, r)| (v / r - 1.0).abs())
+            .fold(worst_cell, f64::max);
+        let s = sim.sphere().unwrap();
+        let gap = boundary
+            .iter()
+            .map(|f| point_triangle_distance(s.position, f.map(|i| x[i])))
+            .fold(f64::MAX, f64::min)
+            - s.radius;
+        deepest = deepest.max(-gap);
+        let particle_gap = x
+            .iter()
+            .map(|p| (p - s.position).norm())
+            .fold(f64::MAX, f64::min)
+            - s.radius;
+        deepest_particle = deepest_particle.max(-particle_gap);
+        if touched_at.is_none() && gap < 0.05 * cell {
+            touched_at = Some(step);
+        }
+        min_vz = min_vz.min(s.velocity.z);
+        end_vz = s.velocity.z;
+        if touched_at.is_some() {
+            rebound = rebound.max(s.velocity.z);
+        }
+    }
+    eprintln!(
+        "contact at step {touched_at:?}; smallest tet {min_tet:.3e} m^3, cell error \
+         {worst_cell:.1e}, particles {deepest_particle:.1e} m and faces {deepest:.3e} m into the \
+         sphere (bound {sagitta:.3e} m), vz {min_vz:.3} .. {rebound:.3} m/s, at the end {end_vz:.3} m/s"
+    );
+    assert!(
+        min_tet > 0.0,
+        "a tetrahedron inverted (smallest volume {min_tet:e})"
+    );
+    assert!(worst_cell <= 1e-9, "cell volume error {worst_cell:e}");
+    let touched = touched_at.expect("the sphere never reached the body");
+    assert!(touched < 900, "contact only at step {touched}");
+    // No particle enters the sphere (beyond the contacts' round-off), and the sphere dips into
+    // the boundary faces no deeper than it can between their corners. Measured on the teddy:
+    // particles -5e-8 m inside at worst, faces 3.2 mm (cell 21 mm, sphere radius 39 mm).
+    assert!(
+        deepest_particle < 1e-5 * r,
+        "a particle is {deepest_particle:.3e} m inside the sphere"
+    );
+    assert!(
+        deepest < sagitta,
+        "the sphere sank {deepest:.3e} m into the body's boundary (bound {sagitta:.3e} m, \
+         cell {cell:.3e} m, radius {r:.3e} m)"
+    );
+    // It was stopped: falling at least as fast as it started, then thrown back up by the body
+    // (restitution 0.2 and the body's elastic rebound), and at the end no longer falling as
+    // fast as it started.
+    let v_start = sphere0.velocity.z;
+    assert!(min_vz <= v_start, "{min_vz} vs {v_start}");
+    assert!(rebound > 0.0, "the sphere never moved up after the contact");
+    assert!(
+        end_vz > 0.5 * v_start,
+        "still falling at {end_vz} m/s (start {v_start} m/s)"
+    );
+}

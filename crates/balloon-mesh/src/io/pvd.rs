@@ -16,6 +16,10 @@ pub struct PvdEntry {
     pub time: f64,
     /// Frame file, relative to the `.pvd` folder.
     pub file: String,
+    /// Part (block) of the time step: 0 for the main surface, further parts for other objects
+    /// of the scene shown at the same time (ParaView loads the parts of a time as one
+    /// multiblock).
+    pub part: usize,
 }
 
 /// Writes a `.pvd` collection incrementally.
@@ -37,8 +41,15 @@ impl PvdWriter {
         Ok(w)
     }
 
-    /// Adds frame `file` (relative to the `.pvd` folder) at `time` and rewrites the file.
+    /// Adds frame `file` (relative to the `.pvd` folder) at `time` as part 0 and rewrites the
+    /// file.
     pub fn push(&mut self, time: f64, file: &str) -> Result<(), MeshError> {
+        self.push_part(time, file, 0)
+    }
+
+    /// Adds `file` at `time` as part `part` (another object of the same time step, e.g. a rigid
+    /// sphere beside the surface) and rewrites the file.
+    pub fn push_part(&mut self, time: f64, file: &str, part: usize) -> Result<(), MeshError> {
         if !time.is_finite() {
             return Err(MeshError::InvalidParameter {
                 name: "time",
@@ -56,6 +67,7 @@ impl PvdWriter {
         self.entries.push(PvdEntry {
             time,
             file: file.to_string(),
+            part,
         });
         self.flush()
     }
@@ -83,8 +95,8 @@ pub fn pvd_string(entries: &[PvdEntry]) -> String {
     for e in entries {
         let _ = writeln!(
             s,
-            "    <DataSet timestep=\"{:?}\" group=\"\" part=\"0\" file=\"{}\"/>",
-            e.time, e.file
+            "    <DataSet timestep=\"{:?}\" group=\"\" part=\"{}\" file=\"{}\"/>",
+            e.time, e.part, e.file
         );
     }
     s.push_str("  </Collection>\n</VTKFile>\n");
@@ -119,7 +131,13 @@ pub fn read_pvd(path: &Path) -> Result<Vec<PvdEntry>, MeshError> {
                 .and_then(|t| t.parse::<f64>().ok())
                 .ok_or_else(|| bad("DataSet without a numeric timestep"))?;
             let file = get("file").ok_or_else(|| bad("DataSet without a file"))?;
-            out.push(PvdEntry { time, file });
+            let part = match get("part") {
+                None => 0,
+                Some(p) => p
+                    .parse::<usize>()
+                    .map_err(|_| bad("DataSet with a part that is not a number"))?,
+            };
+            out.push(PvdEntry { time, file, part });
         }
     }
     Ok(out)
@@ -141,6 +159,15 @@ mod tests {
         assert_eq!(e.len(), 2);
         assert_eq!(e[1].time, 0.1 + 0.2);
         assert_eq!(e[1].file, "frame_00010.vtp");
+        assert_eq!((e[0].part, e[1].part), (0, 0));
+        w.push_part(0.3, "sphere_00010.vtp", 1).unwrap();
+        let e = read_pvd(&p).unwrap();
+        assert_eq!(
+            (e[2].time, e[2].file.as_str(), e[2].part),
+            (0.3, "sphere_00010.vtp", 1)
+        );
+        w.entries.pop();
+        w.flush().unwrap();
         assert!(w.push(f64::NAN, "x.vtp").is_err());
         assert!(w.push(1.0, "a\"b.vtp").is_err());
         assert_eq!(

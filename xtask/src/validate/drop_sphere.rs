@@ -1,0 +1,259 @@
+//! The default drop-sphere scene of `balloon volumetric` (seed 003, Fig. 4, scaled to the body;
+//! issue 16) on every shared model and the built-in teddy, at their natural size: built exactly
+//! as the command builds it (`balloon_cli::cmd_volumetric::build`: lattice sized for about 1000
+//! cells, springs and time step from the particle mass, sphere size, height and speed from the
+//! body) and stepped 2000 times.
+//!
+//! With the global cell-volume solver (the CLI's default) every run must complete its steps
+//! without a failure (an inversion that step halving cannot avoid ends a run), with every
+//! tetrahedron positive and every cell at its rest volume, both recomputed here from the
+//! positions after every step (`balloon_tests::cell_volumes`), not taken from the solver.
+//!
+//! The paper's Gauss-Seidel sweeps are run on the same scenes and recorded as they are: at
+//! about 1000 cells their volume error falls by only about 2 % per sweep, so a step needs more
+//! than the 500-sweep limit to reach the 1e-10 tolerance and the run stops with "did not
+//! converge". Those cases state the step reached and pass when the run ended in the documented
+//! way (the sweep limit, or all steps) with every completed step still volume-conserving and
+//! uninverted; an inversion or a broken volume fails them.
+
+use super::Options;
+use super::meshes::{Source, shared_meshes_dir};
+use crate::report::Case;
+use anyhow::{Context, Result};
+use balloon::volumetric::{VolumetricError, VolumetricSimulation};
+use balloon_cli::cmd_volumetric::{VolumetricArgs, build};
+use clap::Parser;
+
+const G: &str = "drop-sphere";
+
+/// Bound on the per-cell volume error measured from the positions: the solver's tolerance is
+/// 1e-10 per cell; the recomputed tetrahedron sums add round-off.
+const CELL_BOUND: f64 = 1e-9;
+
+/// `balloon volumetric`'s flags on their own.
+#[derive(Parser)]
+struct Cli {
+    #[command(flatten)]
+    args: VolumetricArgs,
+}
+
+/// The command's arguments for `mesh` with `solver` (`global` or `gauss-seidel`).
+fn args(mesh: &str, solver: &str) -> Result<VolumetricArgs> {
+    Ok(Cli::try_parse_from([
+        "volumetric",
+        mesh,
+        "--scene",
+        "drop-sphere",
+        "--volume-solver",
+        solver,
+    ])
+    .context("volumetric arguments")?
+    .args)
+}
+
+/// What one run did.
+struct Outcome {
+    cells: usize,
+    steps: usize,
+    /// The error that ended the run early.
+    error: Option<VolumetricError>,
+    /// Largest per-cell `|V / V0 - 1|` from the positions over the completed steps.
+    worst_cell: f64,
+    /// Smallest tetrahedron volume over the completed steps (m^3) relative to the smallest
+    /// rest tetrahedron.
+    min_tet: f64,
+    halvings: u64,
+    mean_iterations: f64,
+    seconds: f64,
+    /// The sphere reached the body: the closest particle came within 5 % of its radius.
+    touched: bool,
+}
+
+fn run(mesh: &str, solver: &str, steps: usize) -> Result<Outcome> {
+    let mut sim: VolumetricSimulation = build(&args(mesh, solver)?, None)?.sim;
+    let lattice = sim.lattice().clone();
+    let rest = balloon_tests::cell_volumes(sim.positions(), &lattice);
+    let tets = &lattice.tet_mesh.tets;
+    let tet_volume = |x: &[nalgebra::Point3<f64>], t: &[usize; 4]| {
+        let o = x[t[0]];
+        (x[t[1]] - o).dot(&(x[t[2]] - o).cross(&(x[t[3]] - o))) / 6.0
+    };
+    let rest_min = tets
+        .iter()
+        .map(|t| tet_volume(&lattice.tet_mesh.vertices, t))
+        .fold(f64::INFINITY, f64::min);
+    let mut out = Outcome {
+        cells: lattice.cells.len(),
+        steps: 0,
+        error: None,
+        worst_cell: 0.0,
+        min_tet: f64::INFINITY,
+        halvings: 0,
+        mean_iterations: 0.0,
+        seconds: 0.0,
+        touched: false,
+    };
+    let mut iterations = 0usize;
+    let t0 = std::time::Instant::now();
+    for step in 1..=steps {
+        match sim.step() {
+            Ok(s) => {
+                iterations += s.sweeps;
+                out.steps = step;
+            }
+            Err(e) => {
+                out.error = Some(e);
+                break;
+            }
+        }
+        let x = sim.positions();
+        let now = balloon_tests::cell_volumes(x, &lattice);
+        out.worst_cell = out
+            .worst_cell
+            .max(balloon_tests::max_relative_change(&now, &rest));
+        out.min_tet = tets
+            .iter()
+            .map(|t| tet_volume(x, t) / rest_min)
+            .fold(out.min_tet, f64::min);
+        if let Some(s) = sim.sphere() {
+            let gap = x
+                .iter()
+                .map(|p| (p - s.position).norm() - s.radius)
+                .fold(f64::INFINITY, f64::min);
+            out.touched |= gap < 0.05 * s.radius;
+        }
+    }
+    out.seconds = t0.elapsed().as_secs_f64();
+    out.halvings = sim.total_halvings();
+    out.mean_iterations = iterations as f64 / out.steps.max(1) as f64;
+    Ok(out)
+}
+
+/// The models: the built-in teddy and every shared mesh (only the teddy in quick mode).
+fn models(opts: &Options) -> Result<Vec<String>> {
+    let mut names = vec!["builtin".to_string()];
+    if opts.quick {
+        return Ok(names);
+    }
+    let dir = match &opts.meshes {
+        Some(d) => Some(d.clone()),
+        None => shared_meshes_dir(),
+    };
+    match dir {
+        Some(d) => {
+            for src in super::meshes::folder(&d)? {
+                if let Source::File(p) = src {
+                    names.push(p.display().to_string());
+                }
+            }
+        }
+        None => eprintln!("xtask validate: drop-sphere: ../shared/meshes not found, teddy only"),
+    }
+    Ok(names)
+}
+
+fn short(mesh: &str) -> String {
+    match mesh {
+        "builtin" => "teddy (builtin)".into(),
+        m => std::path::Path::new(m)
+            .file_name()
+            .map_or_else(|| m.to_string(), |n| n.to_string_lossy().into_owned()),
+    }
+}
+
+/// All cases of the group.
+pub fn cases(opts: &Options) -> Vec<Case> {
+    let mut cases = Vec::new();
+    let steps = if opts.quick { 400 } else { 2000 };
+    // Gauss-Seidel steps hit the sweep limit early; each of its steps costs up to 500 sweeps, so
+    // its runs are capped shorter (the cap is stated in the case).
+    let gs_steps = if opts.quick { 100 } else { 400 };
+    let models = match models(opts) {
+        Ok(m) => m,
+        Err(e) => return vec![Case::error(G, "models", format!("{e:#}"))],
+    };
+    for mesh in &models {
+        let name = short(mesh);
+        eprintln!("xtask validate: drop-sphere / {name} (global, {steps} steps)");
+        match run(mesh, "global", steps) {
+            Ok(o) => {
+                let ended = match &o.error {
+                    None => format!(
+                        "{} steps, {} halvings, {:.1} Newton it./step, {:.1} s",
+                        o.steps, o.halvings, o.mean_iterations, o.seconds
+                    ),
+                    Some(e) => format!("stopped after {} steps: {e}", o.steps),
+                };
+                cases.push(Case::check(
+                    G,
+                    format!(
+                        "{name}, {} cells, global solver: {steps} steps complete",
+                        o.cells
+                    ),
+                    o.error.is_none() && o.steps == steps,
+                    ended,
+                    format!("{steps} steps"),
+                ));
+                cases.push(Case::at_most(
+                    G,
+                    format!("{name}, global: max per-cell |V/V0 - 1| from the positions"),
+                    o.worst_cell,
+                    CELL_BOUND,
+                ));
+                cases.push(Case::at_least(
+                    G,
+                    format!(
+                        "{name}, global: smallest tetrahedron volume / smallest rest one (no inversion)"
+                    ),
+                    o.min_tet,
+                    1e-3,
+                    "> 0 (1 at rest)",
+                ));
+                cases.push(Case::check(
+                    G,
+                    format!("{name}, global: the sphere reached the body"),
+                    o.touched,
+                    if o.touched { "yes" } else { "no" },
+                    "yes (else the impact was not tested)",
+                ));
+            }
+            Err(e) => cases.push(Case::error(G, format!("{name}, global"), format!("{e:#}"))),
+        }
+        eprintln!("xtask validate: drop-sphere / {name} (gauss-seidel, {gs_steps} steps)");
+        match run(mesh, "gauss-seidel", gs_steps) {
+            Ok(o) => {
+                let sweep_limit = matches!(o.error, Some(VolumetricError::NotConverged { .. }));
+                let measured = match &o.error {
+                    None => format!(
+                        "all {} steps, {:.0} sweeps/step, {:.1} s",
+                        o.steps, o.mean_iterations, o.seconds
+                    ),
+                    Some(e) => format!(
+                        "stopped after {} steps ({:.0} sweeps/step before): {e}",
+                        o.steps, o.mean_iterations
+                    ),
+                };
+                let kept = o.worst_cell <= CELL_BOUND && (o.steps == 0 || o.min_tet > 0.0);
+                cases.push(Case::check(
+                    G,
+                    format!(
+                        "{name}, {} cells, Gauss-Seidel (paper, <= 500 sweeps), first {gs_steps} \
+                         steps: EXPECTED to stop at the sweep limit (known, issue 16); passes \
+                         if it stops there or runs through with the cells kept (max error \
+                         {:.1e}) and no inversion",
+                        o.cells, o.worst_cell
+                    ),
+                    kept && (o.error.is_none() || sweep_limit),
+                    measured,
+                    "sweep limit or all steps",
+                ));
+            }
+            Err(e) => cases.push(Case::error(
+                G,
+                format!("{name}, Gauss-Seidel"),
+                format!("{e:#}"),
+            )),
+        }
+    }
+    cases
+}
