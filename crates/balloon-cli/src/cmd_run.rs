@@ -269,6 +269,7 @@ pub const VOLUMETRIC_KEYS: &[ScenarioKey] = &[
     k("run", "steps", "steps", Number),
     k("run", "tolerance", "tolerance", Number),
     k("run", "over_relaxation", "over_relaxation", Number),
+    k("run", "adaptive_relaxation", "adaptive_relaxation", Bool),
     k("run", "correction", "correction", Text),
     k("run", "volume_solver", "volume_solver", Text),
     unrecorded("output", "out", "out", PathKind),

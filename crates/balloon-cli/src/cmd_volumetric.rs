@@ -116,6 +116,11 @@ pub struct VolumetricArgs {
     /// Over-relaxation of the Gauss-Seidel volume sweeps, in (0, 2) (1 = the paper).
     #[arg(long, default_value_t = 1.0, value_parser = real(Open(0.0), Open(2.0)))]
     pub over_relaxation: f64,
+    /// Gauss-Seidel only: after 16 plain sweeps, over-relax with the factor the measured
+    /// convergence rate suggests (Young's rule, at most 1.9) instead of --over-relaxation
+    /// (`CellVolumeParams::adaptive_relaxation`; 1458 -> 437 sweeps on an 864-cell block).
+    #[arg(long)]
+    pub adaptive_relaxation: bool,
     /// Lumped masses and mass-weighted cell centres instead of equal masses.
     #[arg(long)]
     pub lumped_masses: bool,
@@ -559,6 +564,7 @@ pub fn build(args: &VolumetricArgs, mesh: Option<TriMesh>) -> Result<VolumetricB
                 VolumeSolver::GaussSeidel => CellSolver::GaussSeidel,
                 VolumeSolver::Global => CellSolver::Global,
             },
+            adaptive_relaxation: args.adaptive_relaxation,
             ..CellVolumeParams::default()
         },
         density: args.density,

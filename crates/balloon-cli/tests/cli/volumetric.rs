@@ -407,3 +407,50 @@ fn drop_sphere_impact_with_the_global_solver_keeps_every_cell_and_the_sphere_out
         "still falling at {end_vz} m/s (start {v_start} m/s)"
     );
 }
+
+/// `--adaptive-relaxation` reaches the Gauss-Seidel sweeps (fewer sweeps than the paper's plain
+/// sweeps on the same run) and is refused with the global solver, naming the option.
+#[test]
+fn adaptive_relaxation_cuts_gauss_seidel_sweeps_and_is_refused_with_the_global_solver() {
+    let base = [
+        "volumetric",
+        "builtin:icosphere",
+        "--resolution",
+        "16",
+        "--steps",
+        "20",
+        "--volume-solver",
+        "gauss-seidel",
+        "--correction",
+        "gradient",
+        "--json",
+    ];
+    let sweeps = |extra: &[&str]| {
+        let mut args = base.to_vec();
+        args.extend_from_slice(extra);
+        let out = run_balloon(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        last_json_line(&out)["mean_sweeps"].as_f64().unwrap()
+    };
+    let (plain, adaptive) = (sweeps(&[]), sweeps(&["--adaptive-relaxation"]));
+    assert!(
+        adaptive < plain,
+        "adaptive {adaptive} vs plain {plain} sweeps per step"
+    );
+    let out = run_balloon(&[
+        "volumetric",
+        "builtin:icosphere",
+        "--resolution",
+        "16",
+        "--steps",
+        "2",
+        "--adaptive-relaxation",
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("adaptive_relaxation"), "{err}");
+}
