@@ -703,15 +703,12 @@ impl RunHooks<ConnectSim> for ConnectHooks<'_> {
     }
 
     fn failure(&self, error: SimulationError, step: usize) -> anyhow::Error {
-        let kept = match &self.args.shell.out {
-            Some(dir) => format!("; the output of the steps before is in {}", dir.display()),
-            None => String::new(),
-        };
-        anyhow::Error::new(error).context(format!(
-            "the connected balloons of `{}` failed at step {step} ({} step(s) completed){kept}",
-            self.args.shell.mesh,
-            step - 1
-        ))
+        crate::run::step_failure(
+            error,
+            &format!("the connected balloons of `{}`", self.args.shell.mesh),
+            step,
+            self.args.shell.out.as_deref(),
+        )
     }
 }
 

@@ -447,15 +447,12 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
     }
 
     fn failure(&self, error: SimulationError, step: usize) -> anyhow::Error {
-        let kept = match &self.args.out {
-            Some(dir) => format!("; the output of the steps before is in {}", dir.display()),
-            None => String::new(),
-        };
-        anyhow::Error::new(error).context(format!(
-            "the simulation of `{}` failed at step {step} ({} step(s) completed){kept}",
-            self.args.mesh,
-            step - 1
-        ))
+        crate::run::step_failure(
+            error,
+            &format!("the simulation of `{}`", self.args.mesh),
+            step,
+            self.args.out.as_deref(),
+        )
     }
 }
 

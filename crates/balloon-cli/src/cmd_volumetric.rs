@@ -446,14 +446,7 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
     }
 
     fn failure(&self, error: SimulationError, step: usize) -> anyhow::Error {
-        let kept = match &self.args.out {
-            Some(dir) => format!("; the output of the steps before is in {}", dir.display()),
-            None => String::new(),
-        };
-        anyhow::Error::new(error).context(format!(
-            "the simulation failed at step {step} ({} step(s) completed){kept}",
-            step - 1
-        ))
+        crate::run::step_failure(error, "the simulation", step, self.args.out.as_deref())
     }
 }
 

@@ -158,6 +158,24 @@ pub trait RunHooks<S: Simulation> {
     }
 }
 
+/// The error of a failed step `step` (1-based) of `what` ("the simulation of `MESH`"), saying how
+/// many steps completed and, when there is one, which output folder keeps them.
+pub fn step_failure(
+    error: SimulationError,
+    what: &str,
+    step: usize,
+    out: Option<&std::path::Path>,
+) -> anyhow::Error {
+    let kept = match out {
+        Some(dir) => format!("; the output of the steps before is in {}", dir.display()),
+        None => String::new(),
+    };
+    anyhow::Error::new(error).context(format!(
+        "{what} failed at step {step} ({} step(s) completed){kept}",
+        step - 1
+    ))
+}
+
 /// A `stats.jsonl` line: the system's statistics with `step` set to the 1-based step number
 /// (the systems count their own `step` fields differently).
 fn stats_row<D: Serialize>(stats: &SimulationStats<D>) -> Result<serde_json::Value> {
