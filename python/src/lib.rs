@@ -135,20 +135,35 @@ fn value_text(v: &Bound<'_, PyAny>) -> PyResult<String> {
             .collect::<PyResult<Vec<_>>>()?;
         return Ok(parts.join(","));
     }
-    let os = v.py().import("os")?;
-    if let Ok(p) = os.call_method1("fspath", (v,)) {
-        return p.extract::<String>();
+    // Each attempt below may fail with an `Exception` (try the next); anything else (a
+    // KeyboardInterrupt from Ctrl-C, SystemExit) is passed on, not taken for a wrong type.
+    let py = v.py();
+    let not_an_exception = |e: PyErr| -> PyResult<()> {
+        if e.is_instance_of::<PyException>(py) {
+            Ok(())
+        } else {
+            Err(e)
+        }
+    };
+    let os = py.import("os")?;
+    match os.call_method1("fspath", (v,)) {
+        Ok(p) => return p.extract::<String>(),
+        Err(e) => not_an_exception(e)?,
     }
     // numpy integers (and anything else with `__index__`), then numpy floats and other reals.
-    if let Ok(i) = v.extract::<i64>() {
-        return Ok(i.to_string());
+    match v.extract::<i64>() {
+        Ok(i) => return Ok(i.to_string()),
+        Err(e) => not_an_exception(e)?,
     }
     match v.extract::<f64>() {
         Ok(f) => Ok(format!("{f:?}")),
-        Err(_) => Err(InvalidOption::new_err(format!(
-            "cannot use a value of type {} as an option",
-            v.get_type().name()?
-        ))),
+        Err(e) => {
+            not_an_exception(e)?;
+            Err(InvalidOption::new_err(format!(
+                "cannot use a value of type {} as an option",
+                v.get_type().name()?
+            )))
+        }
     }
 }
 
@@ -194,8 +209,15 @@ fn option_args(cmd: &clap::Command, options: Option<&Bound<'_, PyDict>>) -> PyRe
             }
             continue;
         }
-        let text = value_text(&v)
-            .map_err(|e| InvalidOption::new_err(format!("option `{key}`: {}", e.value(v.py()))))?;
+        // A KeyboardInterrupt (Ctrl-C while the options are read) is not an invalid option:
+        // only `Exception`s are reported as this option's.
+        let text = value_text(&v).map_err(|e| {
+            if e.is_instance_of::<PyException>(v.py()) {
+                InvalidOption::new_err(format!("option `{key}`: {}", e.value(v.py())))
+            } else {
+                e
+            }
+        })?;
         out.push(format!("--{long}={text}"));
     }
     Ok(out)

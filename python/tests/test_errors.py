@@ -93,3 +93,25 @@ def test_scenario_errors_name_file_and_line(tmp_path):
     path.write_text("[run]\nsteps = 2\n")
     with pytest.raises(balloon.InvalidOption, match="unknown option"):
         balloon.run_scenario(path, nonsense=1)
+
+
+def test_a_keyboard_interrupt_while_reading_an_option_is_not_an_invalid_option():
+    """Ctrl-C while a keyword option is converted (here raised by the value itself) stays a
+    KeyboardInterrupt; it was once reported as `InvalidOption: option `steps`: `."""
+
+    class Interrupting:
+        def __index__(self):
+            raise KeyboardInterrupt
+
+        def __float__(self):
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        balloon.inflate("builtin:sphere", steps=Interrupting())
+
+    class NotANumber:
+        pass
+
+    # An ordinary wrong type is still an invalid option.
+    with pytest.raises(balloon.InvalidOption, match="cannot use a value of type NotANumber"):
+        balloon.inflate("builtin:sphere", steps=NotANumber())
