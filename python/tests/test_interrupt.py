@@ -10,9 +10,14 @@ import time
 
 import balloon
 
+# The child restores Python's own Ctrl-C handler first: a process started in the background
+# by a shell without job control inherits SIGINT ignored, and Python then installs no handler,
+# so no Ctrl-C could reach the run (how the CI run of 2026-11-24 started: 11541 more steps in
+# the 60 s after SIGINT).
 LONG_RUN = textwrap.dedent(
     """
-    import sys, balloon
+    import signal, sys, balloon
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     print("started", flush=True)
     try:
         balloon.inflate("builtin:sphere", steps=1_000_000, gas="constant", out=sys.argv[1])
