@@ -7,9 +7,11 @@
 //! [SOLVER] [TOL] [ITERS] [seq]` (defaults: 40, 30, the shell's default solver, the default
 //! Newton tolerance and cap; `-` keeps a default; `seq` factorises on the calling thread). Prints one line per 30 steps (gas volume) and a summary: ms/step,
 //! Newton iterations, linear iterations and numeric factorisations per step (every step with
-//! `STEP_LOG=1`).
+//! `STEP_LOG=1`), and where the time went (`ShellStepStats::times` summed: forces, line-search
+//! energies, assembly, factorisations, solves, projection), in all and per Newton iteration.
 
 use balloon::gas::GasKind;
+use balloon::integrate::PhaseTimes;
 use balloon::integrate::linear::LinearSolverKind;
 use balloon::mesh::generate::teddy::{TeddyParams, teddy};
 use balloon::shell::{ShellBalloon, ShellSimulation};
@@ -63,6 +65,20 @@ fn main() {
         per(totals.substeps),
         sim.gas_volume() / v0
     );
+    let p = totals.times;
+    let other = secs * 1e3 - p.total_ms();
+    println!("phases, ms: {p}; other {other:.1} (state checks, statistics, copies)");
+    let per_newton = |ms: f64| ms / totals.newton.max(1) as f64;
+    println!(
+        "per Newton iteration, ms: forces {:.2}, energy {:.2}, assembly {:.2}, factorisation \
+         {:.2}, solves {:.2}, projection {:.2}",
+        per_newton(p.forces_ms),
+        per_newton(p.energy_ms),
+        per_newton(p.assembly_ms),
+        per_newton(p.factorization_ms),
+        per_newton(p.solve_ms),
+        per_newton(p.projection_ms)
+    );
 }
 
 /// Iteration counts summed over the timed steps.
@@ -72,6 +88,7 @@ struct Totals {
     linear: usize,
     factorizations: usize,
     substeps: usize,
+    times: PhaseTimes,
 }
 
 /// The timed steps, in a function of their own so that callgrind can count only them.
@@ -85,6 +102,7 @@ fn timed_steps(sim: &mut ShellSimulation, steps: usize) -> Totals {
         t.linear += s.linear_iterations;
         t.factorizations += s.factorizations;
         t.substeps += s.substeps;
+        t.times += s.times;
         if std::env::var_os("STEP_LOG").is_some() {
             eprintln!(
                 "step {}: Newton {}, linear {}, factorisations {}, cuts {}, residual {:.2e}, {:.1} ms",

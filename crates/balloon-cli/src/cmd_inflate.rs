@@ -9,9 +9,9 @@ use crate::params::{End::Closed, End::Open, MAX_STEPS, count, real};
 use crate::run::{Finished, FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result};
 use balloon::constraint::shell_volume::{ProjectionScope, ShellVolumeParams};
-use balloon::integrate::TangentKind;
 use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::integrate::linear::{LinearSolverKind, LinearSolverParams, PcgPreconditioner};
+use balloon::integrate::{PhaseTimes, TangentKind};
 use balloon::shell::{
     self, ShellBalloon, ShellMaterial, ShellMaterialModel, ShellSimulation, ShellStepStats,
 };
@@ -218,6 +218,10 @@ pub struct InflateSummary {
     pub shell_volume_ratio_max_deviation: f64,
     /// Mean wall-clock ms per step.
     pub mean_step_ms: f64,
+    /// Where the run's time went, ms summed over the steps: forces, line-search energies,
+    /// assembly, factorisations, linear solves and the shell-volume projection (each step's
+    /// `times` in stats.jsonl).
+    pub phase_times_ms: PhaseTimes,
     /// Newton iterations over the run.
     pub newton_iterations_total: usize,
     /// Linear iterations over the run.
@@ -324,6 +328,7 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
     ) -> Result<bool> {
         let (s, d) = (&mut self.summary, &stats.detail);
         self.total_ms += d.step_ms;
+        s.phase_times_ms += d.times;
         s.newton_iterations_total += d.newton_iterations;
         s.linear_iterations_total += d.linear_iterations;
         s.split_steps += usize::from(d.substeps > 1);

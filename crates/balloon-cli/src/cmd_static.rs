@@ -5,6 +5,7 @@
 use crate::cmd_inflate::{InflateArgs, shell_frame};
 use crate::output::{OutputDir, print_json_line};
 use anyhow::{Context, Result, bail};
+use balloon::integrate::PhaseTimes;
 use balloon::shell::ShellMaterial;
 use balloon::shell::ShellSimulation;
 use balloon::shell::statics::{StaticControl, StaticOptions, StaticReport};
@@ -184,6 +185,9 @@ struct StaticPoint {
     load_steps: usize,
     /// Wall-clock ms.
     solve_ms: f64,
+    /// Where the point's time went, ms (forces, energies, assembly, factorisations, solves,
+    /// projections).
+    times: PhaseTimes,
 }
 
 impl StaticPoint {
@@ -203,6 +207,7 @@ impl StaticPoint {
             newton_iterations: r.newton_iterations,
             load_steps: r.load_steps,
             solve_ms: r.solve_ms,
+            times: r.times,
         }
     }
 }
@@ -238,6 +243,8 @@ struct StaticSummary {
     max_area_stretch: f64,
     /// Wall-clock ms of all solves.
     solve_ms: f64,
+    /// Where the solves' time went, ms, summed over the points.
+    phase_times_ms: PhaseTimes,
     /// Frame files written (the rest shape included).
     frames: usize,
     /// Stopped by SIGINT / SIGTERM between two points.
@@ -346,6 +353,7 @@ pub fn run<M: ShellMaterial>(
                 summary.min_area_stretch = report.min_area_stretch;
                 summary.max_area_stretch = report.max_area_stretch;
                 summary.solve_ms += report.solve_ms;
+                summary.phase_times_ms += report.times;
                 curve.push((
                     report.gas_volume / summary.initial_gas_volume,
                     report.gauge_pressure,

@@ -65,6 +65,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use std::path::Path;
+use std::time::Instant;
 
 use balloon_linalg::sprs::CsMat;
 use balloon_linalg::{
@@ -73,6 +74,7 @@ use balloon_linalg::{
 };
 
 use crate::system::{ForceSystem, SystemError, TangentKind};
+use crate::timing::{PhaseTimes, ms_since};
 
 /// Default [`BackwardEulerParams::newton_iterations`]: the most Newton iterations a step may
 /// take.
@@ -207,6 +209,10 @@ pub struct StepInfo {
     /// Numeric sparse Cholesky factorisations done in the step (Cholesky: one per solve;
     /// factorized PCG: only when the lagged preconditioner was refreshed).
     pub factorizations: usize,
+    /// Wall-clock time of the step per phase (the integrator's phases; `projection_ms` is 0
+    /// here: the shell adds its projection).
+    #[serde(default)]
+    pub times: PhaseTimes,
 }
 
 impl StepInfo {
@@ -416,6 +422,8 @@ pub struct BackwardEuler {
     assembled_last: bool,
     /// The system gave its stiffness as element blocks (`self.triplets` holds only the rest).
     use_blocks: bool,
+    /// Running total of the time per phase over every step (also failed ones).
+    times: PhaseTimes,
 }
 
 impl Default for BackwardEuler {
@@ -587,7 +595,16 @@ impl BackwardEuler {
             last_preconditioner: Preconditioner::Unreported,
             assembled_last: false,
             use_blocks: false,
+            times: PhaseTimes::default(),
         }
+    }
+
+    /// Wall-clock time per phase (forces, energies, assembly, factorisations, solves) summed
+    /// over every step this integrator took, including steps that failed: the difference of
+    /// two readings is the time of what happened in between (a step retried at half the size
+    /// counts both attempts). [`StepInfo::times`] is one successful step's share.
+    pub fn phase_times(&self) -> PhaseTimes {
+        self.times
     }
 
     /// Uses `solver` for the linear solves from now on, in place of the kind named by
@@ -791,6 +808,7 @@ impl BackwardEuler {
         };
         self.refresh_solver();
         let factorizations_before = self.solver.factorizations();
+        let times_before = self.times;
 
         // The first iterate, v_(0) = v^n.
         let mut res = self.evaluate(system, t1, dt, v, x, 0)?;
@@ -935,6 +953,7 @@ impl BackwardEuler {
         if !paper_mode {
             info.converged = true;
         }
+        info.times = self.times - times_before;
         Ok(info)
     }
 
@@ -1017,9 +1036,10 @@ impl BackwardEuler {
                 iteration,
             });
         }
-        system
-            .forces(t1, x, &mut self.f)
-            .map_err(|source| IntegrateError::System { iteration, source })?;
+        let started = Instant::now();
+        let evaluated = system.forces(t1, x, &mut self.f);
+        self.times.forces_ms += ms_since(started);
+        evaluated.map_err(|source| IntegrateError::System { iteration, source })?;
         if let Some(dof) = first_non_finite(&self.f) {
             return Err(IntegrateError::NonFinite {
                 quantity: "force",
@@ -1031,8 +1051,10 @@ impl BackwardEuler {
         // K v_(k) for stiffness damping.
         self.kv.fill(0.0);
         if beta != 0.0 {
+            let started = Instant::now();
             self.tmp.fill(0.0);
             system.add_force_differential(v, &mut self.tmp);
+            self.times.forces_ms += ms_since(started);
             for i in 0..n {
                 self.kv[i] = -self.tmp[i];
             }
@@ -1074,12 +1096,13 @@ impl BackwardEuler {
         for i in 0..n {
             x[i] = self.x_n[i] + dt * v[i];
         }
-        let w = system
-            .potential_energy(t1, x)
-            .map_err(|source| IntegrateError::System {
-                iteration: 0,
-                source,
-            })?;
+        let started = Instant::now();
+        let w = system.potential_energy(t1, x);
+        self.times.energy_ms += ms_since(started);
+        let w = w.map_err(|source| IntegrateError::System {
+            iteration: 0,
+            source,
+        })?;
         let Some(w) = w else {
             return Ok(None);
         };
@@ -1108,11 +1131,13 @@ impl BackwardEuler {
         info: &mut StepInfo,
     ) -> Result<SolveInfo, IntegrateError> {
         if self.solver.needs_assembled_matrix() {
-            self.use_blocks = crate::system::collect_stiffness(&*system, &mut self.triplets)
-                .map_err(|source| IntegrateError::System {
-                    iteration: k,
-                    source,
-                })?;
+            let started = Instant::now();
+            let collected = crate::system::collect_stiffness(&*system, &mut self.triplets);
+            self.times.assembly_ms += ms_since(started);
+            self.use_blocks = collected.map_err(|source| IntegrateError::System {
+                iteration: k,
+                source,
+            })?;
         }
         let mut shift = 0.0;
         let mut retries = 0;
@@ -1149,6 +1174,8 @@ impl BackwardEuler {
         let masses = system.masses();
         let low_rank = system.low_rank_terms();
         self.dv.fill(0.0);
+        let factor_before = self.solver.factorization_seconds();
+        let started = Instant::now();
         let result = if self.solver.needs_assembled_matrix() {
             let blocks = if self.use_blocks {
                 system.stiffness_blocks()
@@ -1166,6 +1193,8 @@ impl BackwardEuler {
                     .assemble(masses, m_coef, &self.triplets, k_coef)?,
             };
             self.assembled_last = true;
+            self.times.assembly_ms += ms_since(started);
+            let started = Instant::now();
             let problem = LinearProblem::assembled(
                 self.assembler.matrix(),
                 self.assembler.pattern_version(),
@@ -1173,13 +1202,19 @@ impl BackwardEuler {
                 k_coef,
                 low_rank,
             );
-            self.solver.solve(&problem, &self.b, &mut self.dv)
+            let solved = self.solver.solve(&problem, &self.b, &mut self.dv);
+            (solved, ms_since(started))
         } else {
             self.assembled_last = false;
             let stiffness = SystemStiffness(system);
             let problem = LinearProblem::matrix_free(m_coef, k_coef, masses, &stiffness, low_rank);
-            self.solver.solve(&problem, &self.b, &mut self.dv)
+            let solved = self.solver.solve(&problem, &self.b, &mut self.dv);
+            (solved, ms_since(started))
         };
+        let factor_ms = (self.solver.factorization_seconds() - factor_before) * 1e3;
+        self.times.factorization_ms += factor_ms;
+        self.times.solve_ms += (result.1 - factor_ms).max(0.0);
+        let result = result.0;
         if let Ok(info) = &result {
             self.last_preconditioner = info.preconditioner;
         }
@@ -1834,6 +1869,60 @@ mod tests {
             assert!(damped.last().unwrap() < undamped.last().unwrap());
         }
         assert!(undamped.windows(2).all(|w| w[1] <= w[0] + 1e-12));
+    }
+
+    #[test]
+    fn phase_times_account_for_the_step_without_double_counting() {
+        // The phases are timed separately: per step they add up to at most the step's wall
+        // time, a step without a factorisation has no factorisation time, a matrix-free solve
+        // no assembly, and the running total is the sum of the steps'.
+        let nv = 12;
+        let x0 = Chain::positions(nv, 5);
+        let v0: Vec<f64> = Rng::new(4).vector(3 * nv);
+        for kind in [
+            LinearSolverKind::FactorizedPcg,
+            LinearSolverKind::MatrixFreeCg,
+        ] {
+            let mut sys = Chain::new(nv, true, 7);
+            let mut p = converging(kind, 30, 1e-9);
+            p.refactor_iterations = 6;
+            let mut be = BackwardEuler::new(p);
+            let (mut x, mut v) = (x0.clone(), v0.clone());
+            let mut sum = PhaseTimes::default();
+            let mut factorized_steps = 0;
+            for s in 0..8 {
+                let started = Instant::now();
+                let info = be
+                    .step(&mut sys, s as f64 * 0.002, 0.002, &mut x, &mut v, None)
+                    .unwrap();
+                let wall = ms_since(started);
+                let t = info.times;
+                assert!(t.total_ms() <= wall + 1e-9, "{kind}: {t} in {wall} ms");
+                assert!(t.forces_ms > 0.0 && t.energy_ms > 0.0, "{kind}: {t}");
+                assert!(t.solve_ms > 0.0 && t.projection_ms == 0.0, "{kind}: {t}");
+                assert_eq!(
+                    t.factorization_ms > 0.0,
+                    info.factorizations > 0,
+                    "{kind}: {t}"
+                );
+                if kind == LinearSolverKind::MatrixFreeCg {
+                    assert_eq!(t.assembly_ms, 0.0, "{t}");
+                } else {
+                    assert!(t.assembly_ms > 0.0, "{t}");
+                }
+                factorized_steps += usize::from(info.factorizations > 0);
+                sum += t;
+            }
+            let total = be.phase_times();
+            assert!(
+                (total.total_ms() - sum.total_ms()).abs() < 1e-9,
+                "{total} vs {sum}"
+            );
+            if kind == LinearSolverKind::FactorizedPcg {
+                // The lagged factor is reused: some steps factorise, some do not.
+                assert!((1..8).contains(&factorized_steps), "{factorized_steps}");
+            }
+        }
     }
 
     #[test]

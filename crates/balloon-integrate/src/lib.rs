@@ -64,6 +64,7 @@ pub mod explicit;
 pub mod implicit;
 pub mod statics;
 pub mod system;
+pub mod timing;
 
 /// The linear algebra behind Newton's method: the `balloon-linalg` crate, re-exported under its
 /// old path (`balloon_integrate::linear::LinearSolverKind` etc.).
@@ -71,3 +72,4 @@ pub use balloon_linalg as linear;
 
 pub use implicit::check_time_step;
 pub use system::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
+pub use timing::PhaseTimes;

@@ -128,6 +128,9 @@ use crate::implicit::{
     MAX_REGULARIZATION_RETRIES, Residual, extent, first_non_finite, norm,
 };
 use crate::system::{ForceSystem, SystemError, TangentKind};
+/// Phase timings (moved to [`crate::timing`]; kept here under their old path).
+pub use crate::timing::PhaseTimes;
+use crate::timing::ms_since;
 
 /// Default [`StaticParams::max_iterations`]: Newton iterations allowed per load stage.
 pub const DEFAULT_STATIC_ITERATIONS: usize = 200;
@@ -256,69 +259,6 @@ pub struct StaticInfo {
     /// Wall-clock time per phase over all load stages.
     #[serde(default)]
     pub times: PhaseTimes,
-}
-
-/// Wall-clock time of a solve split by phase, ms: where a Newton iteration's time goes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct PhaseTimes {
-    /// Force evaluations: the element forces with their stiffness blocks, the gas term.
-    pub forces_ms: f64,
-    /// Energy evaluations of the line search.
-    pub energy_ms: f64,
-    /// Stiffness collection and sparse assembly of the Newton matrix.
-    pub assembly_ms: f64,
-    /// Numeric sparse factorisations (with their symbolic analyses).
-    pub factorization_ms: f64,
-    /// Linear solves without their factorisations (triangular solves, CG iterations).
-    pub solve_ms: f64,
-    /// Shell-volume projections (filled by callers that project; 0 here).
-    pub projection_ms: f64,
-}
-
-impl PhaseTimes {
-    /// The sum of the phases, ms.
-    pub fn total_ms(&self) -> f64 {
-        self.forces_ms
-            + self.energy_ms
-            + self.assembly_ms
-            + self.factorization_ms
-            + self.solve_ms
-            + self.projection_ms
-    }
-}
-
-impl std::ops::AddAssign for PhaseTimes {
-    fn add_assign(&mut self, o: Self) {
-        self.forces_ms += o.forces_ms;
-        self.energy_ms += o.energy_ms;
-        self.assembly_ms += o.assembly_ms;
-        self.factorization_ms += o.factorization_ms;
-        self.solve_ms += o.solve_ms;
-        self.projection_ms += o.projection_ms;
-    }
-}
-
-impl std::fmt::Display for PhaseTimes {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "forces {:.1}, energy {:.1}, assembly {:.1}, factorisation {:.1}, solves {:.1}, \
-             projection {:.1} (sum {:.1} ms)",
-            self.forces_ms,
-            self.energy_ms,
-            self.assembly_ms,
-            self.factorization_ms,
-            self.solve_ms,
-            self.projection_ms,
-            self.total_ms()
-        )
-    }
-}
-
-/// Milliseconds since `t`.
-fn ms_since(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
 }
 
 /// Errors of [`StaticSolver`].

@@ -32,6 +32,80 @@ const SUMMARY_KEYS: &[&str] = &[
 ];
 
 #[test]
+fn every_step_and_the_summary_say_where_the_time_went() {
+    // stats.jsonl's `times` per step and the summary's `phase_times_ms`: the phases are timed
+    // apart, so per step they sum to at most the step's wall time, the run's totals are the
+    // sum of the steps', the default (factorising) solver spends time factorising and the
+    // global projection runs every step.
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = small_sphere(dir.path());
+    let out_dir = dir.path().join("run");
+    let out = run_balloon(&[
+        "inflate",
+        mesh.to_str().unwrap(),
+        "--steps",
+        "4",
+        "--json",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s = last_json_line(&out);
+    let phases = [
+        "forces_ms",
+        "energy_ms",
+        "assembly_ms",
+        "factorization_ms",
+        "solve_ms",
+        "projection_ms",
+    ];
+    let stats = std::fs::read_to_string(out_dir.join("stats.jsonl")).unwrap();
+    let mut sum = [0.0; 6];
+    let mut lines = 0;
+    for line in stats.lines() {
+        let v: serde_json::Value = serde_json::from_str(line).unwrap();
+        let t = &v["times"];
+        let mut total = 0.0;
+        for (k, name) in phases.iter().enumerate() {
+            let x = t[name]
+                .as_f64()
+                .unwrap_or_else(|| panic!("no `{name}` in {line}"));
+            assert!(x >= 0.0, "{name} {x}");
+            sum[k] += x;
+            total += x;
+        }
+        let step_ms = v["step_ms"].as_f64().unwrap();
+        assert!(
+            total <= step_ms + 1e-9,
+            "phases {total} ms in a {step_ms} ms step"
+        );
+        assert!(t["forces_ms"].as_f64().unwrap() > 0.0, "{line}");
+        assert!(t["projection_ms"].as_f64().unwrap() > 0.0, "{line}");
+        lines += 1;
+    }
+    assert_eq!(lines, 4, "{stats}");
+    let run = &s["phase_times_ms"];
+    for (k, name) in phases.iter().enumerate() {
+        let x = run[name].as_f64().unwrap();
+        assert!(
+            (x - sum[k]).abs() <= 1e-9 * (1.0 + x),
+            "{name}: {x} vs {}",
+            sum[k]
+        );
+    }
+    assert!(run["factorization_ms"].as_f64().unwrap() > 0.0, "{run}");
+    let mean = s["mean_step_ms"].as_f64().unwrap();
+    assert!(
+        sum.iter().sum::<f64>() <= 4.0 * mean + 1e-9,
+        "{run} vs {mean} ms/step"
+    );
+}
+
+#[test]
 fn json_summary_has_the_documented_keys_and_sane_values() {
     let dir = tempfile::tempdir().unwrap();
     let mesh = small_sphere(dir.path());

@@ -131,7 +131,7 @@ use balloon_gas::{
 };
 use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
 use balloon_integrate::linear::{LinearSolverKind, PcgPreconditioner};
-use balloon_integrate::{ForceSystem, TangentKind};
+use balloon_integrate::{ForceSystem, PhaseTimes, TangentKind};
 use balloon_material::{Lame, MaterialKind, MaterialModel};
 use balloon_mesh::TriMesh;
 use nalgebra::{Point3, Vector3};
@@ -798,6 +798,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             external_forces: Vec::new(),
             anchor_springs: Vec::new(),
             pins: pins::Pins::default(),
+            projection_ms: 0.0,
         })
     }
 }
@@ -852,6 +853,12 @@ pub struct ShellStepStats {
     pub thickness_max: f64,
     /// Wall-clock time of the step, ms.
     pub step_ms: f64,
+    /// Where the step's time went, ms: the integrator's phases (forces, energies of the line
+    /// search, assembly, factorisations, linear solves) and the shell-volume projection, over
+    /// every sub-step including those rolled back and retried. `step_ms` minus their sum is
+    /// the rest (state checks, statistics, copies).
+    #[serde(default)]
+    pub times: PhaseTimes,
 }
 
 /// Work summed over the sub-steps of one step.
@@ -903,6 +910,10 @@ pub struct ShellSimulation<M: ShellMaterial = MaterialModel, G: GasModel = Gas> 
     anchor_springs: Vec<AnchorSpring>,
     /// Hard pins: vertices removed from the solve (`pins.rs`); none by default.
     pins: pins::Pins,
+    /// Wall-clock time of every shell-volume projection so far (also of sub-steps rolled
+    /// back), ms: with [`BackwardEuler::phase_times`] the running total of
+    /// [`ShellStepStats::times`].
+    projection_ms: f64,
 }
 
 /// Gas volume growth beyond this factor of the rest volume is reported as a runaway.
@@ -917,7 +928,12 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         let (step, time, dt) = (self.step + 1, self.time, self.dt);
         let volume_old = self.system.gas.state().volume;
         let mut totals = StepTotals::default();
+        let mut times = self.integrator.phase_times();
+        times.projection_ms = self.projection_ms;
         self.advance(step, time, dt, &mut totals)?;
+        let mut now = self.integrator.phase_times();
+        now.projection_ms = self.projection_ms;
+        let times = now - times;
         self.time = time + dt;
         // A gas with a history (a leak, a supply pump) keeps the amount the step reached.
         let end_volume = self.gas_volume;
@@ -959,6 +975,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             thickness_min: tmin,
             thickness_max: tmax,
             step_ms: start.elapsed().as_secs_f64() * 1e3,
+            times,
         })
     }
 
@@ -1147,9 +1164,10 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 rest_shell_volume: self.rest_shell_volume,
                 rest_element_volumes: &self.rest_element_volumes,
             };
-            let pi = proj
-                .project(&input, &mut self.x, &mut self.system.thickness)
-                .map_err(|source| ShellError::Projection { step, source })?;
+            let started = std::time::Instant::now();
+            let projected = proj.project(&input, &mut self.x, &mut self.system.thickness);
+            self.projection_ms += started.elapsed().as_secs_f64() * 1e3;
+            let pi = projected.map_err(|source| ShellError::Projection { step, source })?;
             proj_iters = pi.iterations;
             self.system.refresh_thickness(&self.x);
         }
