@@ -107,3 +107,30 @@ pub fn shell_material_volume(x: &[f64], triangles: &[[usize; 3]], thickness: &[f
         })
         .sum()
 }
+
+/// The sphere of the peer comparison (issue 12; `cargo xtask bench --converged sphere`, the
+/// `static_profile` example): an icosphere of `level` (5: 10242 vertices) with radius 1 m,
+/// StVK with E t = 1155 N/m at t = 1 mm and nu = 1/3, 1 kg of wall in all, the ideal gas at
+/// 377 Pa gauge with no ambient pressure, mass damping 20 1/s. A builder, so callers can change
+/// the solver settings before `build`.
+pub fn peer_sphere(
+    level: u32,
+) -> Result<balloon::shell::ShellBalloon, Box<dyn std::error::Error + Send + Sync>> {
+    use balloon::gas::GasKind;
+    use balloon::material::{Lame, MaterialKind, MaterialModel};
+    let mesh = balloon::mesh::generate::icosphere(1.0, level)?;
+    let thickness = 1e-3;
+    let area = geometry::surface_area(&mesh);
+    let lame = Lame::try_from_young_poisson(1155.0 / thickness, 1.0 / 3.0)?;
+    Ok(balloon::shell::ShellBalloon::new(mesh)
+        .with_material(MaterialModel::from_lame(
+            MaterialKind::StVenantKirchhoff,
+            lame,
+        ))
+        .with_thickness(thickness)
+        .with_density(1.0 / (area * thickness))
+        .with_gas(GasKind::Ideal)
+        .with_ambient_pressure(0.0)
+        .with_gauge_pressure(377.0)
+        .configure_integrator(|p| p.mass_damping = 20.0))
+}

@@ -7,11 +7,7 @@
 //! [REPEATS]` (defaults: 5, the static default linear solver, 1; `-` keeps a default). Prints
 //! the report's counts and its per-phase times.
 
-use balloon::gas::GasKind;
 use balloon::integrate::linear::LinearSolverKind;
-use balloon::material::{Lame, MaterialKind, MaterialModel};
-use balloon::mesh::generate::icosphere;
-use balloon::shell::ShellBalloon;
 use balloon::shell::statics::StaticOptions;
 use std::time::Instant;
 
@@ -25,22 +21,9 @@ fn main() {
         options.solver.solver.linear.kind = kind;
     }
     let repeats: usize = arg(2).map_or(1, |s| s.parse().expect("REPEATS is a number"));
-    let mesh = icosphere(1.0, level).expect("icosphere");
-    let thickness = 1e-3;
-    let area = balloon::mesh::geometry::surface_area(&mesh);
-    let lame = Lame::try_from_young_poisson(1155.0 / thickness, 1.0 / 3.0).expect("lame");
     for _ in 0..repeats {
-        let mut sim = ShellBalloon::new(mesh.clone())
-            .with_material(MaterialModel::from_lame(
-                MaterialKind::StVenantKirchhoff,
-                lame,
-            ))
-            .with_thickness(thickness)
-            .with_density(1.0 / (area * thickness))
-            .with_gas(GasKind::Ideal)
-            .with_ambient_pressure(0.0)
-            .with_gauge_pressure(377.0)
-            .configure_integrator(|p| p.mass_damping = 20.0)
+        let mut sim = balloon_tests::peer_sphere(level)
+            .expect("peer sphere")
             .build()
             .expect("balloon");
         let t = Instant::now();
@@ -49,7 +32,7 @@ fn main() {
         println!(
             "{} v: {:.3} s, outer {}, Newton {}, factorisations {}, linear it. {}, cuts {}, \
              residual {:.2e}, thickness change {:.1e}, V/V0 {:.6}",
-            mesh.num_vertices(),
+            sim.positions().len() / 3,
             secs,
             r.outer_iterations,
             r.newton_iterations,

@@ -472,34 +472,22 @@ fn job_result<'py, S: Simulation>(
     Ok(d)
 }
 
-fn shell_args(
-    mesh: &Bound<'_, PyAny>,
+/// The flags of a command that runs on a mesh (`C`: the CLI's parser of `inflate` or
+/// `volumetric`): the mesh's name as the first argument (in-memory arrays are returned beside
+/// it, with a placeholder name), then the keyword options; with the parsed matches, from which
+/// the run's scenario record is written.
+fn mesh_command_args<C: Parser>(
+    mesh: Option<&Bound<'_, PyAny>>,
     options: Option<&Bound<'_, PyDict>>,
-) -> PyResult<(
-    InflateArgs,
-    Option<balloon::mesh::TriMesh>,
-    clap::ArgMatches,
-)> {
-    let (name, arrays) = mesh_spec(mesh)?.split();
+) -> PyResult<(C, Option<balloon::mesh::TriMesh>, clap::ArgMatches)> {
+    let (name, arrays) = match mesh {
+        Some(mesh) => mesh_spec(mesh)?.split(),
+        None => ("builtin".to_owned(), None),
+    };
     let mut argv = vec![name];
-    argv.extend(option_args(&ShellCli::command(), options)?);
-    let (cli, m) = parse_args::<ShellCli>(&argv)?;
-    Ok((cli.args, arrays, m))
-}
-
-fn volumetric_args(
-    mesh: &Bound<'_, PyAny>,
-    options: Option<&Bound<'_, PyDict>>,
-) -> PyResult<(
-    VolumetricArgs,
-    Option<balloon::mesh::TriMesh>,
-    clap::ArgMatches,
-)> {
-    let (name, arrays) = mesh_spec(mesh)?.split();
-    let mut argv = vec![name];
-    argv.extend(option_args(&VolumetricCli::command(), options)?);
-    let (cli, m) = parse_args::<VolumetricCli>(&argv)?;
-    Ok((cli.args, arrays, m))
+    argv.extend(option_args(&C::command(), options)?);
+    let (cli, m) = parse_args::<C>(&argv)?;
+    Ok((cli, arrays, m))
 }
 
 fn two_layer_args(
@@ -586,8 +574,8 @@ fn run_two_layer<'py>(py: Python<'py>, args: TwoLayerArgs) -> PyResult<Bound<'py
 /// "thickness": (m,) float64 per triangle, "triangles": (m, 3) int64}; with `static=True` (the
 /// static solve, `inflate --static`) also "points": one dict per converged point (the
 /// `stats.jsonl` lines, e.g. of a `gas="volume", volume_ratios="1.5:3:0.5"` continuation).
-/// With `out=DIR` the run writes the CLI's output folder too. The GIL is released while it runs; Ctrl-C stops it
-/// after the current step (records written, KeyboardInterrupt raised).
+/// With `out=DIR` the run writes the CLI's output folder too. The GIL is released while it
+/// runs; Ctrl-C stops it after the current step (records written, KeyboardInterrupt raised).
 #[pyfunction]
 #[pyo3(signature = (mesh = None, **options))]
 fn inflate<'py>(
@@ -595,8 +583,8 @@ fn inflate<'py>(
     mesh: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let builtin = PyString::new(py, "builtin").into_any();
-    let (mut args, arrays, m) = shell_args(mesh.unwrap_or(&builtin), options)?;
+    let (cli, arrays, m) = mesh_command_args::<ShellCli>(mesh, options)?;
+    let mut args = cli.args;
     // A recorded scenario names its mesh file: in-memory arrays have none, so none is written.
     if arrays.is_none() {
         args.scenario_record = Some(cmd_run::record(&cmd_run::SHELL, &m));
@@ -617,8 +605,8 @@ fn volumetric<'py>(
     mesh: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let builtin = PyString::new(py, "builtin").into_any();
-    let (mut args, arrays, m) = volumetric_args(mesh.unwrap_or(&builtin), options)?;
+    let (cli, arrays, m) = mesh_command_args::<VolumetricCli>(mesh, options)?;
+    let mut args = cli.args;
     // A recorded scenario names its mesh file: in-memory arrays have none, so none is written.
     if arrays.is_none() {
         args.scenario_record = Some(cmd_run::record(&cmd_run::VOLUMETRIC, &m));
@@ -661,16 +649,12 @@ fn connect<'py>(
     mesh: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let builtin = PyString::new(py, "builtin").into_any();
-    let (name, arrays) = mesh_spec(mesh.unwrap_or(&builtin))?.split();
+    let (cli, arrays, m) = mesh_command_args::<ConnectCli>(mesh, options)?;
     if arrays.is_some() {
         return Err(InvalidOption::new_err(
             "connect takes a mesh path or \"builtin:NAME\", not arrays: write the mesh to a file",
         ));
     }
-    let mut argv = vec![name];
-    argv.extend(option_args(&ConnectCli::command(), options)?);
-    let (cli, m) = parse_args::<ConnectCli>(&argv)?;
     let mut args = cli.args;
     args.shell.scenario_record = Some(cmd_run::record(&cmd_run::CONNECT, &m));
     run_connect(py, args)
@@ -680,7 +664,8 @@ fn connect<'py>(
 /// --
 ///
 /// Runs a scenario file (`balloon run PATH`): `[system] kind` selects inflate, volumetric,
-/// two_layer or connect; keyword `overrides` are that system's options and replace the file's values.
+/// two_layer or connect; keyword `overrides` are that system's options and replace the file's
+/// values.
 /// Returns what the matching whole-job function returns.
 #[pyfunction]
 #[pyo3(signature = (path, **overrides))]
@@ -763,8 +748,8 @@ impl Shell {
         mesh: Option<&Bound<'_, PyAny>>,
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let builtin = PyString::new(py, "builtin").into_any();
-        let (args, arrays, _) = shell_args(mesh.unwrap_or(&builtin), options)?;
+        let (cli, arrays, _) = mesh_command_args::<ShellCli>(mesh, options)?;
+        let args = cli.args;
         let (sim, loads) = detached(py, move || cmd_inflate::build_with_loads(&args, arrays))?;
         Ok(Self {
             sim: Mutex::new(sim),
@@ -913,8 +898,8 @@ impl Volumetric {
         mesh: Option<&Bound<'_, PyAny>>,
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let builtin = PyString::new(py, "builtin").into_any();
-        let (args, arrays, _) = volumetric_args(mesh.unwrap_or(&builtin), options)?;
+        let (cli, arrays, _) = mesh_command_args::<VolumetricCli>(mesh, options)?;
+        let args = cli.args;
         let built = detached(py, move || cmd_volumetric::build(&args, arrays))?;
         Ok(Self {
             sim: Mutex::new(built.sim),

@@ -655,28 +655,10 @@ struct TeddyInflation {
     shape_difference: f64,
 }
 
-/// The peer comparison's sphere: 10242 vertices (icosphere level 5, radius 1 m), E t =
-/// 1155 N/m (t = 1 mm), nu = 1/3, 1 kg in all, the ideal gas at 377 Pa gauge with no ambient,
-/// mass damping 20 1/s.
+/// The peer comparison's sphere (10242 vertices; [`balloon_tests::peer_sphere`]).
 pub fn peer_sphere() -> Result<balloon::shell::ShellSimulation> {
-    use balloon::gas::GasKind;
-    use balloon::material::{Lame, MaterialKind, MaterialModel};
-    let mesh = icosphere(1.0, 5)?;
-    let thickness = 1e-3;
-    let area = balloon::mesh::geometry::surface_area(&mesh);
-    let lame = Lame::try_from_young_poisson(1155.0 / thickness, 1.0 / 3.0)?;
-    Ok(ShellBalloon::new(mesh)
-        .with_material(MaterialModel::from_lame(
-            MaterialKind::StVenantKirchhoff,
-            lame,
-        ))
-        .with_thickness(thickness)
-        .with_density(1.0 / (area * thickness))
-        .with_gas(GasKind::Ideal)
-        .with_ambient_pressure(0.0)
-        .with_gauge_pressure(377.0)
-        .configure_integrator(|p| p.mass_damping = 20.0)
-        .build()?)
+    let builder = balloon_tests::peer_sphere(5).map_err(|e| anyhow::anyhow!(e))?;
+    Ok(builder.build()?)
 }
 
 /// Largest vertex distance between `a` and `b` over the bounding-box diagonal of `a`.
