@@ -525,7 +525,7 @@ pub fn build_with_loads(
         pcg_preconditioner: args.pcg_preconditioner,
         tangent: args.tangent,
         refactor_cost: shell::DEFAULT_REFACTOR_COST,
-        parallel_factorization: true,
+        parallel_factorization: false,
         ..Default::default()
     };
     let projection = match args.volume_projection.unwrap_or(if membrane {

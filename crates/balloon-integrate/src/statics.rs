@@ -211,7 +211,7 @@ impl Default for StaticParams {
     fn default() -> Self {
         let mut solver = SolverSettings::default();
         solver.linear.kind = LinearSolverKind::FactorizedPcg;
-        solver.parallel_factorization = true;
+        solver.parallel_factorization = false;
         Self {
             tolerance: DEFAULT_NEWTON_TOLERANCE,
             continuation_tolerance: 1e-3,

@@ -383,8 +383,9 @@ pub const DEFAULT_REFACTOR_COST: usize = 8;
 /// preconditioned by a sparse Cholesky factor kept across Newton iterations and steps with the
 /// gas term as a Sherman-Morrison update ([`LinearSolverKind::FactorizedPcg`]; refreshed when
 /// a solve needs more than 8 CG iterations, fails, or the extra iterations since the last
-/// factorisation add up to [`DEFAULT_REFACTOR_COST`]; factorised on the rayon pool for large
-/// meshes), IC(0) for PCG. Start from these (not
+/// factorisation add up to [`DEFAULT_REFACTOR_COST`]; factorised on the calling thread: on
+/// the rayon pool it took twice as long on 2 idle cores, see `docs/benchmarks.md`), IC(0) for
+/// PCG. Start from these (not
 /// from `BackwardEulerParams::default()`) when building parameters for
 /// [`ShellBalloon::with_integrator`].
 pub fn default_integrator_params() -> BackwardEulerParams {
@@ -397,7 +398,7 @@ pub fn default_integrator_params() -> BackwardEulerParams {
     integrator.tangent = TangentKind::Exact;
     integrator.linear.relative_tolerance = DEFAULT_LINEAR_TOLERANCE;
     integrator.refactor_cost = DEFAULT_REFACTOR_COST;
-    integrator.parallel_factorization = true;
+    integrator.parallel_factorization = false;
     integrator
 }
 
