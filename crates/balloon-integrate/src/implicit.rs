@@ -811,7 +811,7 @@ impl BackwardEuler {
         let times_before = self.times;
 
         // The first iterate, v_(0) = v^n.
-        let mut res = self.evaluate(system, t1, dt, v, x, 0)?;
+        let mut res = self.evaluate(system, t1, dt, v, x, 0, true)?;
         let mut energy = None;
         if !paper_mode && beta == 0.0 {
             energy = self.incremental_potential(system, t1, dt, v, x)?;
@@ -851,7 +851,7 @@ impl BackwardEuler {
                     });
                 }
                 if k + 1 < p.newton_iterations {
-                    res = self.evaluate(system, t1, dt, v, x, k + 1)?;
+                    res = self.evaluate(system, t1, dt, v, x, k + 1, true)?;
                     info.newton_residuals.push(res.norm);
                     info.relative_residuals.push(res.relative());
                 }
@@ -986,34 +986,45 @@ impl BackwardEuler {
                 };
                 if e1 <= e0 - ARMIJO * step_length * slope {
                     return self
-                        .evaluate(system, t1, dt, trial_v, x, iteration)
+                        .evaluate(system, t1, dt, trial_v, x, iteration, false)
                         .map(|r| Some((Some(e1), r)));
                 }
                 // Within round-off of the energy (close to convergence the decrease is below
                 // what f64 resolves in E): accept if the residual falls instead.
                 if e1 <= e0 + ENERGY_ROUNDOFF * self.energy_magnitude {
-                    return Ok(match self.evaluate(system, t1, dt, trial_v, x, iteration) {
-                        Ok(r) if r.norm < current.norm => Some((Some(e1), r)),
-                        _ => None,
-                    });
+                    return Ok(
+                        match self.evaluate(system, t1, dt, trial_v, x, iteration, false) {
+                            Ok(r) if r.norm < current.norm => Some((Some(e1), r)),
+                            _ => None,
+                        },
+                    );
                 }
                 Ok(None)
             }
             (LineSearch::Off, _) => self
-                .evaluate(system, t1, dt, trial_v, x, iteration)
+                .evaluate(system, t1, dt, trial_v, x, iteration, false)
                 .map(|r| Some((None, r))),
-            _ => Ok(match self.evaluate(system, t1, dt, trial_v, x, iteration) {
-                Ok(r) if r.norm <= (1.0 - ARMIJO * step_length) * current.norm => Some((None, r)),
-                // The residual search found no decrease: take the shortest step and let the
-                // iteration limit decide.
-                Ok(r) if last_cut => Some((None, r)),
-                _ => None,
-            }),
+            _ => Ok(
+                match self.evaluate(system, t1, dt, trial_v, x, iteration, false) {
+                    Ok(r) if r.norm <= (1.0 - ARMIJO * step_length) * current.norm => {
+                        Some((None, r))
+                    }
+                    // The residual search found no decrease: take the shortest step and let the
+                    // iteration limit decide.
+                    Ok(r) if last_cut => Some((None, r)),
+                    _ => None,
+                },
+            ),
         }
     }
 
     /// Evaluates the forces at `x = x^n + dt v` (written to `x`) and the Newton right-hand side
     /// `b` (Eq. 23) into `self.b`, with its norm and the force scale of the relative residual.
+    /// With `linearize` false (a line-search trial, which Newton may stop at) the system may
+    /// leave its stiffness for [`ForceSystem::refresh_stiffness`], which
+    /// [`BackwardEuler::newton_direction`] calls before it needs it; stiffness damping needs
+    /// `K v` here, so it always linearises.
+    #[allow(clippy::too_many_arguments)]
     fn evaluate<S: ForceSystem>(
         &mut self,
         system: &mut S,
@@ -1022,6 +1033,7 @@ impl BackwardEuler {
         v: &[f64],
         x: &mut [f64],
         iteration: usize,
+        linearize: bool,
     ) -> Result<Residual, IntegrateError> {
         let n = v.len();
         let (alpha, beta) = (self.params.mass_damping, self.params.stiffness_damping);
@@ -1037,7 +1049,11 @@ impl BackwardEuler {
             });
         }
         let started = Instant::now();
-        let evaluated = system.forces(t1, x, &mut self.f);
+        let evaluated = if linearize || beta != 0.0 {
+            system.forces(t1, x, &mut self.f)
+        } else {
+            system.residual_forces(t1, x, &mut self.f)
+        };
         self.times.forces_ms += ms_since(started);
         evaluated.map_err(|source| IntegrateError::System { iteration, source })?;
         if let Some(dof) = first_non_finite(&self.f) {
@@ -1130,6 +1146,13 @@ impl BackwardEuler {
         k: usize,
         info: &mut StepInfo,
     ) -> Result<SolveInfo, IntegrateError> {
+        let started = Instant::now();
+        let refreshed = system.refresh_stiffness();
+        self.times.forces_ms += ms_since(started);
+        refreshed.map_err(|source| IntegrateError::System {
+            iteration: k,
+            source,
+        })?;
         if self.solver.needs_assembled_matrix() {
             let started = Instant::now();
             let collected = crate::system::collect_stiffness(&*system, &mut self.triplets);
@@ -1869,6 +1892,149 @@ mod tests {
             assert!(damped.last().unwrap() < undamped.last().unwrap());
         }
         assert!(undamped.windows(2).all(|w| w[1] <= w[0] + 1e-12));
+    }
+
+    /// A chain whose `residual_forces` leaves its linearisation at the previous point (as a
+    /// lazy system may) until `refresh_stiffness`; every stiffness query panics while stale.
+    struct LazyChain {
+        inner: Chain,
+        pending: Vec<f64>,
+        pending_low_rank: Vec<LowRankTerm>,
+        stale: bool,
+        residual_calls: usize,
+        refreshes: usize,
+    }
+
+    impl LazyChain {
+        fn check(&self, what: &str) {
+            assert!(!self.stale, "{what} asked while the stiffness is stale");
+        }
+    }
+
+    impl ForceSystem for LazyChain {
+        fn num_dofs(&self) -> usize {
+            self.inner.num_dofs()
+        }
+        fn masses(&self) -> &[f64] {
+            self.inner.masses()
+        }
+        fn forces(&mut self, t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+            self.stale = false;
+            self.inner.forces(t, x, f)
+        }
+        fn residual_forces(&mut self, t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+            let (old_x, old_lr) = (self.inner.x.clone(), self.inner.low_rank.clone());
+            self.inner.forces(t, x, f)?;
+            self.pending = std::mem::replace(&mut self.inner.x, old_x);
+            self.pending_low_rank = std::mem::replace(&mut self.inner.low_rank, old_lr);
+            self.stale = true;
+            self.residual_calls += 1;
+            Ok(())
+        }
+        fn refresh_stiffness(&mut self) -> Result<(), SystemError> {
+            if self.stale {
+                self.inner.x.clone_from(&self.pending);
+                self.inner.low_rank.clone_from(&self.pending_low_rank);
+                self.stale = false;
+                self.refreshes += 1;
+            }
+            Ok(())
+        }
+        fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+            self.check("the differential");
+            self.inner.add_force_differential(dx, df);
+        }
+        fn add_stiffness_triplets(
+            &self,
+            t: &mut Vec<(usize, usize, f64)>,
+        ) -> Result<(), SystemError> {
+            self.check("the stiffness");
+            self.inner.add_stiffness_triplets(t)
+        }
+        fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
+            self.check("the stiffness diagonal");
+            self.inner.add_stiffness_diagonal(diagonal)
+        }
+        fn low_rank_terms(&self) -> &[LowRankTerm] {
+            self.check("the low-rank terms");
+            self.inner.low_rank_terms()
+        }
+        fn potential_energy(&mut self, t: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+            self.inner.potential_energy(t, x)
+        }
+    }
+
+    #[test]
+    fn line_search_trials_may_skip_the_stiffness_and_the_step_is_unchanged() {
+        // The trials of the line search use `residual_forces`; before Newton goes on from one,
+        // the integrator refreshes the stiffness (a stale query would panic). The states are
+        // bit-identical to those of the same chain linearised at every evaluation, for every
+        // linear solver, with and without stiffness damping (which needs `K v` at once).
+        let nv = 10;
+        let x0 = Chain::positions(nv, 5);
+        let v0: Vec<f64> = Rng::new(4).vector(3 * nv);
+        for kind in [
+            LinearSolverKind::Cholesky,
+            LinearSolverKind::FactorizedPcg,
+            LinearSolverKind::Pcg,
+            LinearSolverKind::MatrixFreeCg,
+        ] {
+            for beta in [0.0, 0.01] {
+                let mut p = converging(kind, 30, 1e-10);
+                p.stiffness_damping = beta;
+                let run = |lazy: bool| {
+                    let mut be = BackwardEuler::new(p);
+                    let mut sys = LazyChain {
+                        inner: Chain::new(nv, true, 7),
+                        pending: Vec::new(),
+                        pending_low_rank: Vec::new(),
+                        stale: false,
+                        residual_calls: 0,
+                        refreshes: 0,
+                    };
+                    let (mut x, mut v) = (x0.clone(), v0.clone());
+                    let mut newton = 0;
+                    for s in 0..6 {
+                        let info = if lazy {
+                            be.step(&mut sys, s as f64 * 0.01, 0.01, &mut x, &mut v, None)
+                        } else {
+                            be.step(&mut sys.inner, s as f64 * 0.01, 0.01, &mut x, &mut v, None)
+                        }
+                        .unwrap();
+                        newton += info.newton_iterations;
+                    }
+                    (x, v, newton, sys.residual_calls, sys.refreshes)
+                };
+                let (xl, vl, nl, calls, refreshes) = run(true);
+                let (xe, ve, ne, _, _) = run(false);
+                assert_eq!(nl, ne, "{kind}, beta {beta}");
+                assert!(
+                    xl.iter().zip(&xe).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{kind}"
+                );
+                assert!(
+                    vl.iter().zip(&ve).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{kind}"
+                );
+                if beta == 0.0 {
+                    // One trial per Newton iteration at least; a refresh only where Newton went
+                    // on from a trial (not after the last one of each step).
+                    assert!(
+                        calls >= nl,
+                        "{kind}: {calls} trials, {nl} Newton iterations"
+                    );
+                    assert!(
+                        refreshes < calls && refreshes >= nl - 6,
+                        "{kind}: {refreshes}"
+                    );
+                } else {
+                    assert_eq!(
+                        calls, 0,
+                        "{kind}: stiffness damping linearises every evaluation"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

@@ -1578,12 +1578,23 @@ impl<S: ForceSystem> ForceSystem for WithAnchors<'_, S> {
         f: &mut [f64],
     ) -> Result<(), balloon_integrate::SystemError> {
         self.inner.forces(time, x, f)?;
-        for s in self.springs {
-            for d in 0..3 {
-                f[3 * s.vertex + d] += s.stiffness * (s.anchor[d] - x[3 * s.vertex + d]);
-            }
-        }
+        self.add_spring_forces(x, f);
         Ok(())
+    }
+
+    fn residual_forces(
+        &mut self,
+        time: f64,
+        x: &[f64],
+        f: &mut [f64],
+    ) -> Result<(), balloon_integrate::SystemError> {
+        self.inner.residual_forces(time, x, f)?;
+        self.add_spring_forces(x, f);
+        Ok(())
+    }
+
+    fn refresh_stiffness(&mut self) -> Result<(), balloon_integrate::SystemError> {
+        self.inner.refresh_stiffness()
     }
 
     fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
@@ -1668,6 +1679,15 @@ impl<S: ForceSystem> ForceSystem for WithAnchors<'_, S> {
 }
 
 impl<S> WithAnchors<'_, S> {
+    /// The springs' forces `k (anchor - x)` added to `f`.
+    fn add_spring_forces(&self, x: &[f64], f: &mut [f64]) {
+        for s in self.springs {
+            for d in 0..3 {
+                f[3 * s.vertex + d] += s.stiffness * (s.anchor[d] - x[3 * s.vertex + d]);
+            }
+        }
+    }
+
     fn add_spring_triplets(&self, triplets: &mut Vec<(usize, usize, f64)>) {
         for s in self.springs {
             for d in 0..3 {

@@ -70,6 +70,14 @@ pub trait ShellMaterial: Clone + Send + Sync + std::fmt::Debug {
         projected: bool,
     ) -> ([Vector3<f64>; 3], SMatrix<f64, 9, 9>);
 
+    /// The elastic forces of `element` alone, bit for bit those of
+    /// [`ShellMaterial::forces_and_stiffness`] (the line-search trials of the Newton solve need
+    /// no stiffness: [`balloon_integrate::ForceSystem::residual_forces`]). The default takes
+    /// them from `forces_and_stiffness`.
+    fn forces(&self, element: &Self::Element, x: &[Vector3<f64>; 3], h: f64) -> [Vector3<f64>; 3] {
+        self.forces_and_stiffness(element, x, h, false).0
+    }
+
     /// Checks the state of `element` (finite, not degenerate, inside the model's admissible
     /// set). Used to explain a non-finite force or energy.
     ///
@@ -125,6 +133,11 @@ impl<M: Material> ShellMaterial for M {
     #[inline]
     fn energy(&self, element: &ThreePrism, x: &[Vector3<f64>; 3], h: f64) -> f64 {
         element.energy(self, x, h)
+    }
+
+    #[inline]
+    fn forces(&self, element: &ThreePrism, x: &[Vector3<f64>; 3], h: f64) -> [Vector3<f64>; 3] {
+        element.forces(self, x, h)
     }
 
     #[inline]
@@ -187,6 +200,11 @@ impl<W: MembraneMaterial> ShellMaterial for Membrane<W> {
     #[inline]
     fn energy(&self, element: &HyperMembrane, x: &[Vector3<f64>; 3], _h: f64) -> f64 {
         element.energy(&self.0, x)
+    }
+
+    #[inline]
+    fn forces(&self, element: &HyperMembrane, x: &[Vector3<f64>; 3], _h: f64) -> [Vector3<f64>; 3] {
+        element.forces(&self.0, x)
     }
 
     #[inline]
@@ -355,6 +373,15 @@ impl ShellMaterial for ShellMaterialModel {
             (Self::Solid(m), ShellElement::Prism(e)) => e.energy(m, x, h),
             (Self::Membrane(m), ShellElement::Membrane(e)) => e.energy(m, x),
             _ => f64::NAN,
+        }
+    }
+
+    #[inline]
+    fn forces(&self, element: &ShellElement, x: &[Vector3<f64>; 3], h: f64) -> [Vector3<f64>; 3] {
+        match (self, element) {
+            (Self::Solid(m), ShellElement::Prism(e)) => ShellMaterial::forces(m, e, x, h),
+            (Self::Membrane(m), ShellElement::Membrane(e)) => e.forces(m, x),
+            _ => mismatch().0,
         }
     }
 

@@ -17,6 +17,11 @@ type ElementWork<'a, E> = (
     ((&'a E, &'a [usize; 3]), &'a f64),
     (&'a mut [Vector3<f64>; 3], &'a mut [f64; 81]),
 );
+/// One element's inputs and its force slot, for the force-only pass.
+type ElementForceWork<'a, E> = (
+    ((&'a E, &'a [usize; 3]), &'a f64),
+    &'a mut [Vector3<f64>; 3],
+);
 
 /// Elastic shell + gas, with per-element force and stiffness caches filled at each linearisation.
 #[derive(Debug)]
@@ -42,6 +47,9 @@ pub struct ShellSystem<M: ShellMaterial, G: GasModel> {
     tangent: TangentKind,
     /// `|f_elastic| + |f_gas|` at the last evaluation, N ([`ForceSystem::force_scale`]).
     force_scale: f64,
+    /// The last evaluation was [`ForceSystem::residual_forces`]: `elem_stiffness` is still that
+    /// of an earlier point until [`ForceSystem::refresh_stiffness`] recomputes it at `x_lin`.
+    stiffness_stale: bool,
 }
 
 impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
@@ -86,6 +94,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             elem_forces: vec![[Vector3::zeros(); 3]; ne],
             elem_stiffness: vec![[0.0; 81]; ne],
             x_lin: Vec::new(),
+            stiffness_stale: false,
             tangent: TangentKind::Exact,
             force_scale: 0.0,
         }
@@ -152,6 +161,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             elem_forces: self.elem_forces.clone(),
             elem_stiffness: self.elem_stiffness.clone(),
             x_lin: self.x_lin.clone(),
+            stiffness_stale: self.stiffness_stale,
             tangent: self.tangent,
             force_scale: self.force_scale,
         }
@@ -241,33 +251,8 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
         &self.material
     }
 
-    /// Elastic part of the force differential, `df += -K_elastic dx`.
-    pub(crate) fn add_elastic_differential(&self, dx: &[f64], df: &mut [f64]) {
-        let tris = &self.triangles;
-        let ks = &self.elem_stiffness;
-        self.gather(df, |e, l| {
-            let t = &tris[e];
-            let mut dxe = SMatrix::<f64, 9, 1>::zeros();
-            for (c, &v) in t.iter().enumerate() {
-                dxe[3 * c] = dx[3 * v];
-                dxe[3 * c + 1] = dx[3 * v + 1];
-                dxe[3 * c + 2] = dx[3 * v + 2];
-            }
-            -(SMatrixView::<f64, 9, 9>::from_slice(&ks[e]).fixed_view::<3, 9>(3 * l, 0) * dxe)
-        });
-    }
-}
-
-impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
-    fn num_dofs(&self) -> usize {
-        self.masses.len()
-    }
-
-    fn masses(&self) -> &[f64] {
-        &self.masses
-    }
-
-    fn forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+    /// Element forces and stiffness blocks at `x` into the caches (seed 000, Eq. 8 and 11).
+    fn element_forces_and_stiffness(&mut self, x: &[f64]) {
         let material = &self.material;
         let triangles = &self.triangles;
         let projected = self.tangent == TangentKind::Projected;
@@ -301,6 +286,12 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
             )
             .for_each(work);
         }
+    }
+
+    /// The rest of a force evaluation once the element forces are cached: their check, the
+    /// gather into `f`, the gas forces (Eq. 15) and the force scale; keeps `x` as the
+    /// linearisation point.
+    fn finish_forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
         if let Some(e) = self
             .elem_forces
             .iter()
@@ -339,6 +330,78 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
         self.force_scale = elastic + gas;
         self.x_lin.clear();
         self.x_lin.extend_from_slice(x);
+        Ok(())
+    }
+
+    /// Elastic part of the force differential, `df += -K_elastic dx`.
+    pub(crate) fn add_elastic_differential(&self, dx: &[f64], df: &mut [f64]) {
+        let tris = &self.triangles;
+        let ks = &self.elem_stiffness;
+        self.gather(df, |e, l| {
+            let t = &tris[e];
+            let mut dxe = SMatrix::<f64, 9, 1>::zeros();
+            for (c, &v) in t.iter().enumerate() {
+                dxe[3 * c] = dx[3 * v];
+                dxe[3 * c + 1] = dx[3 * v + 1];
+                dxe[3 * c + 2] = dx[3 * v + 2];
+            }
+            -(SMatrixView::<f64, 9, 9>::from_slice(&ks[e]).fixed_view::<3, 9>(3 * l, 0) * dxe)
+        });
+    }
+}
+
+impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
+    fn num_dofs(&self) -> usize {
+        self.masses.len()
+    }
+
+    fn masses(&self) -> &[f64] {
+        &self.masses
+    }
+
+    fn forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+        self.element_forces_and_stiffness(x);
+        self.stiffness_stale = false;
+        self.finish_forces(time, x, f)
+    }
+
+    /// The forces alone (`ShellMaterial::forces`, bit for bit those of [`ForceSystem::forces`]);
+    /// the element stiffness waits for [`ForceSystem::refresh_stiffness`].
+    fn residual_forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+        let material = &self.material;
+        let triangles = &self.triangles;
+        let work = |(((el, t), &h), fe): ElementForceWork<'_, M::Element>| {
+            *fe = material.forces(el, &Self::corner_positions(x, t), h);
+        };
+        if self.elements.len() >= PARALLEL_THRESHOLD {
+            self.elements
+                .par_iter()
+                .zip(triangles.par_iter())
+                .zip(self.thickness.par_iter())
+                .zip(self.elem_forces.par_iter_mut())
+                .for_each(work);
+        } else {
+            self.elements
+                .iter()
+                .zip(triangles.iter())
+                .zip(self.thickness.iter())
+                .zip(self.elem_forces.iter_mut())
+                .for_each(work);
+        }
+        self.stiffness_stale = true;
+        self.finish_forces(time, x, f)
+    }
+
+    /// Recomputes the element forces and stiffness at `x_lin` after
+    /// [`ForceSystem::residual_forces`] (the forces come out the same; the gas terms were
+    /// already evaluated there).
+    fn refresh_stiffness(&mut self) -> Result<(), SystemError> {
+        if self.stiffness_stale {
+            let x = std::mem::take(&mut self.x_lin);
+            self.element_forces_and_stiffness(&x);
+            self.x_lin = x;
+            self.stiffness_stale = false;
+        }
         Ok(())
     }
 
@@ -488,6 +551,91 @@ mod tests {
                 "p = {p}, {kind}: stretch {lambda} vs analytic {expected}"
             );
         }
+    }
+
+    /// The forces of a line-search trial (`residual_forces`) are bit for bit those of
+    /// `forces`, for the prism (StVK and neo-Hookean), a membrane and the run-time material
+    /// enum; the stiffness stays that of the earlier point until `refresh_stiffness`, which
+    /// then gives exactly the blocks `forces` computes.
+    #[test]
+    fn residual_forces_equal_the_forces_and_the_refresh_gives_their_stiffness() {
+        use crate::material::{MaterialKind, MaterialModel, NeoHookean};
+        use crate::shell::{ShellMaterial, ShellMaterialModel, ShellSimulation};
+        use balloon_material::membrane::{MembraneModel, MembraneNeoHookean};
+
+        fn check<M: ShellMaterial>(name: &str, mut sim: ShellSimulation<M>) {
+            let rest = sim.positions().to_vec();
+            let n = rest.len();
+            let mut rng = balloon_test_support::Rng::new(11);
+            let x: Vec<f64> = rest
+                .iter()
+                .map(|v| 1.15 * v + 2e-3 * rng.next_f64())
+                .collect();
+            let sys = &mut sim.system;
+            let (mut f_full, mut f_res) = (vec![0.0; n], vec![0.0; n]);
+            sys.forces(0.0, &rest, &mut f_full).unwrap();
+            let at_rest = sys.stiffness_blocks().unwrap().values.to_vec();
+            sys.residual_forces(0.0, &x, &mut f_res).unwrap();
+            assert_eq!(
+                sys.stiffness_blocks().unwrap().values,
+                &at_rest[..],
+                "{name}: stale until refreshed"
+            );
+            sys.refresh_stiffness().unwrap();
+            let refreshed = sys.stiffness_blocks().unwrap().values.to_vec();
+            sys.forces(0.0, &x, &mut f_full).unwrap();
+            let eager = sys.stiffness_blocks().unwrap().values.to_vec();
+            assert!(
+                f_res
+                    .iter()
+                    .zip(&f_full)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{name}: residual forces differ"
+            );
+            assert!(
+                refreshed
+                    .iter()
+                    .zip(&eager)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{name}: refreshed stiffness differs"
+            );
+            assert!(refreshed != at_rest, "{name}: the point moved");
+            // A second refresh changes nothing (it is a no-op once fresh).
+            sys.refresh_stiffness().unwrap();
+            assert_eq!(sys.stiffness_blocks().unwrap().values, &eager[..]);
+        }
+
+        let mesh = icosphere(0.1, 2).unwrap();
+        let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
+        let base = || {
+            ShellBalloon::new(mesh.clone())
+                .with_gas(GasKind::Constant)
+                .with_gauge_pressure(800.0)
+        };
+        check("stvk", base().build().unwrap());
+        check(
+            "neo-hookean",
+            base().with_material(NeoHookean::new(lame)).build().unwrap(),
+        );
+        let membrane = MembraneNeoHookean::try_new(3e5).unwrap();
+        check("membrane", base().with_membrane(membrane).build().unwrap());
+        check(
+            "enum prism",
+            base()
+                .with_material(ShellMaterialModel::from(MaterialModel::from_lame(
+                    MaterialKind::StVenantKirchhoff,
+                    lame,
+                )))
+                .build()
+                .unwrap(),
+        );
+        check(
+            "enum membrane",
+            base()
+                .with_material(ShellMaterialModel::from(MembraneModel::from(membrane)))
+                .build()
+                .unwrap(),
+        );
     }
 
     /// The element blocks plus the remaining (follower) triplets are the full stiffness.
