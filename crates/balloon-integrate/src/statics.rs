@@ -710,7 +710,7 @@ impl StaticSolver {
         let p = self.params;
         info.energies.clear();
         info.relative_residuals.clear();
-        let mut res = self.evaluate(system, time, x, 0)?;
+        let mut res = self.evaluate(system, time, x, 0, true)?;
         if self.shift_scale == 0.0 {
             self.set_scales(system, x);
             res.scale = res.scale.max(self.scale_floor);
@@ -770,7 +770,7 @@ impl StaticSolver {
                 None => {
                     // No acceptable step: the forces at `x` must be current for the next
                     // direction.
-                    res = self.evaluate(system, time, x, k + 1)?;
+                    res = self.evaluate(system, time, x, k + 1, false)?;
                     if self.shift >= MAX_SHIFT {
                         break;
                     }
@@ -809,32 +809,41 @@ impl StaticSolver {
             _ => return Ok(None),
         };
         if e1 <= e0 - ARMIJO * step * slope {
-            return match self.evaluate(system, time, trial, iteration + 1) {
+            return match self.evaluate(system, time, trial, iteration + 1, false) {
                 Ok(r) => Ok(Some((e1, r))),
                 // A state with an energy but no forces (should not happen): cut.
                 Err(_) => Ok(None),
             };
         }
         if e1 <= e0 + ENERGY_ROUNDOFF * self.energy_magnitude {
-            return Ok(match self.evaluate(system, time, trial, iteration + 1) {
-                Ok(r) if r.norm < current.norm => Some((e1, r)),
-                _ => None,
-            });
+            return Ok(
+                match self.evaluate(system, time, trial, iteration + 1, false) {
+                    Ok(r) if r.norm < current.norm => Some((e1, r)),
+                    _ => None,
+                },
+            );
         }
         Ok(None)
     }
 
     /// Forces at `x` into `self.f`, the residual `r = f + f_ext` into `self.r`, and its norm
-    /// with the force scale.
+    /// with the force scale. Without `linearize` (line-search trials, which Newton may stop at)
+    /// the system may leave its stiffness for [`ForceSystem::refresh_stiffness`], which
+    /// [`StaticSolver::direction`] calls.
     fn evaluate<S: ForceSystem>(
         &mut self,
         system: &mut S,
         time: f64,
         x: &[f64],
         iteration: usize,
+        linearize: bool,
     ) -> Result<Residual, StaticError> {
         let started = Instant::now();
-        let evaluated = system.forces(time, x, &mut self.f);
+        let evaluated = if linearize {
+            system.forces(time, x, &mut self.f)
+        } else {
+            system.residual_forces(time, x, &mut self.f)
+        };
         self.times.forces_ms += ms_since(started);
         evaluated.map_err(|source| StaticError::System { iteration, source })?;
         if let Some(dof) = first_non_finite(&self.f) {
@@ -881,10 +890,17 @@ impl StaticSolver {
     /// indefinite; returns the slope `r . dx`.
     fn direction<S: ForceSystem>(
         &mut self,
-        system: &S,
+        system: &mut S,
         k: usize,
         info: &mut StaticInfo,
     ) -> Result<f64, StaticError> {
+        let started = Instant::now();
+        let refreshed = system.refresh_stiffness();
+        self.times.forces_ms += ms_since(started);
+        refreshed.map_err(|source| StaticError::System {
+            iteration: k,
+            source,
+        })?;
         if self.solver.needs_assembled_matrix() {
             let started = Instant::now();
             let collected = crate::system::collect_stiffness(system, &mut self.triplets);
@@ -1140,6 +1156,103 @@ mod tests {
             // A rigid body: the chain is stretched (the pulls exceed the linear range).
             let span = x[3 * (nv - 1)] - x[0];
             assert!(span > 0.75, "{kind}: span {span}");
+        }
+    }
+
+    /// Any cloneable system made lazy: `residual_forces` evaluates a copy, leaving the
+    /// linearisation at the earlier point until `refresh_stiffness`; a stale stiffness query
+    /// panics.
+    struct Lazy<S> {
+        inner: S,
+        pending: Option<(f64, Vec<f64>)>,
+        trials: usize,
+    }
+
+    impl<S: ForceSystem + Clone> ForceSystem for Lazy<S> {
+        fn num_dofs(&self) -> usize {
+            self.inner.num_dofs()
+        }
+        fn masses(&self) -> &[f64] {
+            self.inner.masses()
+        }
+        fn forces(&mut self, t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+            self.pending = None;
+            self.inner.forces(t, x, f)
+        }
+        fn residual_forces(&mut self, t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+            self.inner.clone().forces(t, x, f)?;
+            self.pending = Some((t, x.to_vec()));
+            self.trials += 1;
+            Ok(())
+        }
+        fn refresh_stiffness(&mut self) -> Result<(), SystemError> {
+            if let Some((t, x)) = self.pending.take() {
+                let mut f = vec![0.0; x.len()];
+                self.inner.forces(t, &x, &mut f)?;
+            }
+            Ok(())
+        }
+        fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+            assert!(self.pending.is_none(), "stale differential");
+            self.inner.add_force_differential(dx, df);
+        }
+        fn add_stiffness_triplets(
+            &self,
+            t: &mut Vec<(usize, usize, f64)>,
+        ) -> Result<(), SystemError> {
+            assert!(self.pending.is_none(), "stale stiffness");
+            self.inner.add_stiffness_triplets(t)
+        }
+        fn add_stiffness_diagonal(&self, d: &mut [f64]) -> Result<(), SystemError> {
+            assert!(self.pending.is_none(), "stale diagonal");
+            self.inner.add_stiffness_diagonal(d)
+        }
+        fn low_rank_terms(&self) -> &[crate::LowRankTerm] {
+            assert!(self.pending.is_none(), "stale low-rank terms");
+            self.inner.low_rank_terms()
+        }
+        fn potential_energy(&mut self, t: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+            self.inner.potential_energy(t, x)
+        }
+    }
+
+    #[test]
+    fn trials_may_skip_the_stiffness_and_the_solve_is_unchanged() {
+        let nv = 8;
+        for kind in [
+            LinearSolverKind::Cholesky,
+            LinearSolverKind::FactorizedPcg,
+            LinearSolverKind::MatrixFreeCg,
+            LinearSolverKind::Pcg,
+        ] {
+            let mut params = StaticParams::default();
+            params.solver.linear.kind = kind;
+            params.solver.linear.relative_tolerance = 1e-10;
+            params.tolerance = 1e-9;
+            let pull = Chain::new(nv).pull.clone();
+            let mut eager = Chain::new(nv);
+            let mut xe = Chain::positions(nv);
+            let ie = StaticSolver::new(params)
+                .solve(&mut eager, 0.0, &mut xe, Some(&pull))
+                .unwrap();
+            let mut lazy = Lazy {
+                inner: Chain::new(nv),
+                pending: None,
+                trials: 0,
+            };
+            let mut xl = Chain::positions(nv);
+            let il = StaticSolver::new(params)
+                .solve(&mut lazy, 0.0, &mut xl, Some(&pull))
+                .unwrap();
+            assert!(
+                il.converged && lazy.trials >= il.iterations,
+                "{kind}: {il:?}"
+            );
+            assert_eq!(il.iterations, ie.iterations, "{kind}");
+            assert!(
+                xl.iter().zip(&xe).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{kind}: the lazy solve differs"
+            );
         }
     }
 

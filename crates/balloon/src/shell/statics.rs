@@ -236,6 +236,9 @@ pub(crate) struct StaticShell<'a, M: ShellMaterial, G: GasModel> {
     /// `-(p - p_ambient) d^2V/dx^2` (column-major 9x9 per triangle, as the inner blocks), so
     /// that the Newton matrix is assembled from blocks alone.
     blocks: Vec<f64>,
+    /// `blocks` wait for [`ForceSystem::refresh_stiffness`] (the last evaluation was
+    /// [`ForceSystem::residual_forces`]).
+    blocks_stale: bool,
 }
 
 impl<'a, M: ShellMaterial, G: GasModel> StaticShell<'a, M, G> {
@@ -251,6 +254,7 @@ impl<'a, M: ShellMaterial, G: GasModel> StaticShell<'a, M, G> {
             rank1: LowRankTerm::default(),
             scale: 0.0,
             blocks: Vec::new(),
+            blocks_stale: false,
         }
     }
 
@@ -316,23 +320,9 @@ impl<'a, M: ShellMaterial, G: GasModel> StaticShell<'a, M, G> {
         }
     }
 
-    /// The gauge pressure of the last evaluation, Pa.
-    pub(crate) fn gauge_pressure(&self) -> f64 {
-        self.gauge
-    }
-}
-
-impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
-    fn num_dofs(&self) -> usize {
-        self.inner.num_dofs()
-    }
-
-    fn masses(&self) -> &[f64] {
-        self.inner.masses()
-    }
-
-    fn forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
-        self.inner.forces(time, x, f)?;
+    /// Replaces the inner gas force in `f` (elastic plus inner gas, at `x`) by this solve's gas
+    /// term (Eq. 15 with [`StaticShell::pressure`]), and keeps what its linearisation needs.
+    fn gas_forces(&mut self, x: &[f64], f: &mut [f64]) {
         // Remove the inner gas force (gauge * dV/dx, Eq. 15): `f` is then elastic only.
         let inner_gauge = self.inner.gas.state().gauge_pressure;
         let g = &self.inner.gas.low_rank_term().vector;
@@ -354,8 +344,51 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
         self.volume = volume;
         self.x.clear();
         self.x.extend_from_slice(x);
+    }
+
+    /// The gauge pressure of the last evaluation, Pa.
+    pub(crate) fn gauge_pressure(&self) -> f64 {
+        self.gauge
+    }
+}
+
+impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
+    fn num_dofs(&self) -> usize {
+        self.inner.num_dofs()
+    }
+
+    fn masses(&self) -> &[f64] {
+        self.inner.masses()
+    }
+
+    fn forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+        self.inner.forces(time, x, f)?;
+        self.gas_forces(x, f);
         if self.follower {
             self.fill_follower_blocks(x);
+        }
+        self.blocks_stale = false;
+        Ok(())
+    }
+
+    /// The forces alone (the inner shell's [`ForceSystem::residual_forces`]); the element and
+    /// follower blocks wait for [`ForceSystem::refresh_stiffness`].
+    fn residual_forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+        self.inner.residual_forces(time, x, f)?;
+        self.gas_forces(x, f);
+        self.blocks_stale = true;
+        Ok(())
+    }
+
+    fn refresh_stiffness(&mut self) -> Result<(), SystemError> {
+        self.inner.refresh_stiffness()?;
+        if self.blocks_stale {
+            if self.follower {
+                let x = std::mem::take(&mut self.x);
+                self.fill_follower_blocks(&x);
+                self.x = x;
+            }
+            self.blocks_stale = false;
         }
         Ok(())
     }
