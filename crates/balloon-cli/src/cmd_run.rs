@@ -262,6 +262,7 @@ pub const VOLUMETRIC_KEYS: &[ScenarioKey] = &[
     k("body", "diagonal_damping", "diagonal_damping", Number),
     k("body", "density", "density", Number),
     k("body", "lumped_masses", "lumped_masses", Bool),
+    k("body", "pin_stiffness", "pin_stiffness", Number),
     k("run", "scene", "scene", Text),
     k("run", "gravity", "gravity", Number),
     k("run", "restitution", "restitution", Number),
@@ -284,6 +285,8 @@ pub const VOLUMETRIC_KEYS: &[ScenarioKey] = &[
     k("output", "pov", "pov", Bool),
     k("output", "image_size", "image_size", Text),
     k("output", "color_range", "color_range", Text),
+    k("anchors", "", "pin", Tables),
+    k("loads", "", "load", Tables),
 ];
 
 /// Every key of a two-layer scenario (`balloon two-layer`, seed 004).

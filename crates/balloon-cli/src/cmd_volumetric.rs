@@ -145,6 +145,23 @@ pub struct VolumetricArgs {
     /// Number of steps, 0 to 1e8.
     #[arg(long, default_value_t = 600, value_parser = count(0, MAX_STEPS))]
     pub steps: usize,
+    /// Pin lattice particles, picked by their rest positions (repeatable): `indices:1,2,3`,
+    /// `file:PATH`, `below:AXIS:VALUE`, `above:AXIS:VALUE` or `box:XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX`
+    /// (m), with `@K` for springs of K N/m to the rest position instead of a hard pin (a
+    /// hard-pinned particle never moves: infinite mass in the springs, contacts and volume
+    /// impulses).
+    #[arg(long, value_parser = crate::selection::parse_pin)]
+    pub pin: Vec<crate::selection::Pin>,
+    /// Stiffness of the --pin anchors without their own `@K`, N/m, in (0, 1e12]; absent: hard
+    /// pins. Springs act explicitly: K dt^2 / m well below 1 keeps them stable.
+    #[arg(long, value_parser = crate::selection::stiffness)]
+    pub pin_stiffness: Option<f64>,
+    /// A load on the lattice particles (repeatable): `gravity=GX,GY,GZ` (m/s^2, replaces
+    /// --gravity while active), `force=FX,FY,FZ;on=SELECTOR` (N per particle; `per=total`
+    /// spreads it over the selection) or `grab=X,Y,Z;on=SELECTOR;stiffness=K` (pulled toward
+    /// the point, N/m per particle); `start=S;end=S` schedule it (s).
+    #[arg(long, value_parser = crate::selection::parse_load)]
+    pub load: Vec<crate::selection::Load>,
     /// Output folder.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -345,6 +362,8 @@ struct VolumetricHooks<'a> {
     max_err: f64,
     total_sweeps: usize,
     max_strain: f64,
+    /// Spring anchors and loads (`--pin ...@K`, `--load`).
+    loads: crate::selection::VolumetricLoads,
 }
 
 impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
@@ -352,6 +371,10 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
 
     fn scenario(&self) -> Option<String> {
         self.args.scenario_record.clone()
+    }
+
+    fn before_step(&mut self, sim: &mut VolumetricSimulation) -> Result<()> {
+        Ok(self.loads.before_step(sim)?)
     }
 
     fn frame(&self, sim: &VolumetricSimulation, step: usize) -> Result<Frame> {
@@ -386,7 +409,10 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
 
     fn summary(&self, sim: &VolumetricSimulation, run: &RunRecord<StepStats>) -> Summary {
         let args = self.args;
-        let isolated = args.gravity == 0.0 && args.scene == SceneArg::Free;
+        let isolated = args.gravity == 0.0
+            && args.scene == SceneArg::Free
+            && args.pin.is_empty()
+            && args.load.is_empty();
         Summary {
             mesh: args.mesh.clone(),
             scene: format!("{:?}", args.scene),
@@ -607,7 +633,8 @@ pub fn build(args: &VolumetricArgs, mesh: Option<TriMesh>) -> Result<VolumetricB
             soft_diagonals: args.soft_diagonals,
         },
     };
-    let sim = scene.setup(body)?;
+    let mut sim = scene.setup(body)?;
+    crate::selection::fix_volumetric(&mut sim, &args.pin, args.pin_stiffness)?;
     Ok(VolumetricBuild {
         sim,
         soup,
@@ -640,6 +667,8 @@ pub fn execute(
         lattice_ms,
         stiffness: [edge, diagonal],
     } = build(args, mesh)?;
+    let loads =
+        crate::selection::volumetric_loads(&mut sim, &args.pin, args.pin_stiffness, &args.load)?;
     let lattice = sim.lattice().clone();
     let rest_soup: Vec<f64> = lattice
         .embedding
@@ -705,6 +734,7 @@ pub fn execute(
         max_err: 0.0,
         total_sweeps: 0,
         max_strain: 0.0,
+        loads,
     };
     let summary = run_simulation(&mut sim, &mut hooks, &plan, out)?;
     Ok(Finished {

@@ -4,6 +4,7 @@ mod anchors;
 mod connect;
 mod gas_laws;
 mod inflate;
+mod loads;
 mod membrane;
 mod mesh;
 mod params;

@@ -256,3 +256,68 @@ fn a_two_layer_scenario_file_selects_its_system() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("t.toml:3: `shell`: unknown table"), "{err}");
 }
+
+#[test]
+fn volumetric_anchors_and_loads_are_scenario_tables_and_repeat_themselves() {
+    repeats_itself(
+        &[
+            "volumetric",
+            "builtin:icosphere",
+            "--resolution",
+            "10",
+            "--voxels-per-cell",
+            "2",
+            "--scene",
+            "free",
+            "--steps",
+            "8",
+            "--frame-every",
+            "4",
+            "--pin",
+            "below:z:-0.06",
+            "--pin",
+            "above:z:0.06@2000",
+            "--load",
+            "force=0.1,0,0;on=above:x:0.03;per=total;end=0.002",
+            "--load",
+            "gravity=0,0,-3;start=0.001",
+        ],
+        "volumetric",
+        "frame_00008.obj",
+    );
+    // The same from a hand-written scenario: `[[anchors]]` and `[[loads]]` tables.
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("v.toml");
+    std::fs::write(
+        &scenario,
+        "[system]\nkind = \"volumetric\"\n[mesh]\npath = \"builtin:icosphere\"\n\
+         [lattice]\nresolution = 10\nvoxels_per_cell = 2\n[run]\nscene = \"free\"\nsteps = 3\n\
+         [[anchors]]\nbelow = { axis = \"z\", value = -0.06 }\n\
+         [[loads]]\nforce = [0.0, 0.0, 1.0]\nabove = { axis = \"z\", value = 0.06 }\n\
+         [[loads]]\ngrab = [0.0, 0.0, 2.0]\nindices = [0]\nstiffness = 10.0\n",
+    )
+    .unwrap();
+    let out_dir = dir.path().join("o");
+    let out = run_balloon(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    ok(&out);
+    let recorded = std::fs::read_to_string(out_dir.join("scenario.toml")).unwrap();
+    for want in ["below:z:-0.06", "force=0.0,0.0,1.0;per=vertex;on=above:z:0.06", "grab=0.0,0.0,2.0;stiffness=10.0;on=indices:0"] {
+        assert!(recorded.contains(want), "{want} missing in\n{recorded}");
+    }
+    // An anchor that selects nothing names its selector and the file's table.
+    std::fs::write(
+        &scenario,
+        "[system]\nkind = \"volumetric\"\n[mesh]\npath = \"builtin:icosphere\"\n\
+         [lattice]\nresolution = 10\nvoxels_per_cell = 2\n[[anchors]]\nbelow = { axis = \"z\", value = -9.0 }\n",
+    )
+    .unwrap();
+    let out = run_balloon(&["run", scenario.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("`below:z:-9.0` selects no particle"), "{err}");
+}
