@@ -329,6 +329,7 @@ pub const TWO_LAYER_KEYS: &[ScenarioKey] = &[
     k("run", "drag", "drag", Text),
     k("run", "drag_stiffness", "drag_stiffness", Number),
     k("run", "drag_damping", "drag_damping", Number),
+    k("run", "pin_stiffness", "pin_stiffness", Number),
     unrecorded("output", "out", "out", PathKind),
     unrecorded("output", "overwrite", "overwrite", Bool),
     unrecorded("output", "json", "json", Bool),
@@ -341,6 +342,7 @@ pub const TWO_LAYER_KEYS: &[ScenarioKey] = &[
     k("output", "image_size", "image_size", Text),
     k("output", "color_range", "color_range", Text),
     k("anchors", "", "pin", Tables),
+    k("loads", "", "load", Tables),
 ];
 
 /// A system a scenario can select with `[system] kind`: its keys and its flags' parser.

@@ -684,24 +684,137 @@ impl SetupArgs {
     }
 }
 
-/// Pins the `--pin` selections of a two-layer body hard
-/// (`balloon::two_layer::TwoLayerSimulation::fix_particles`); springs (`@K`) are refused.
+/// Pins the hard `--pin` selections of a two-layer body (those without `@K` when there is no
+/// `--pin-stiffness`; `balloon::two_layer::TwoLayerSimulation::fix_particles`). Spring anchors
+/// are left to [`two_layer_loads`].
 pub fn fix_two_layer(
     sim: &mut balloon::two_layer::TwoLayerSimulation,
     pins: &[Pin],
+    pin_stiffness: Option<f64>,
 ) -> Result<(), SelectionError> {
     let rest = sim.positions().to_vec();
     for pin in pins {
-        if pin.stiffness.is_some() {
-            return Err(SelectionError::Unsupported(format!(
-                "`--pin {pin}`: the two-layer body takes hard pins only (no @K)"
-            )));
+        if pin.stiffness.or(pin_stiffness).is_none() {
+            let particles = pin.selector.select(&rest)?;
+            sim.fix_particles(&particles)?;
         }
-        let particles = pin.selector.select(&rest)?;
-        sim.fix_particles(&particles)
-            .map_err(|e| SelectionError::Unsupported(e.to_string()))?;
     }
     Ok(())
+}
+
+/// The spring anchors and scheduled loads of a two-layer run
+/// (`balloon::two_layer::TwoLayerSimulation::set_loads`), updated before each step
+/// ([`TwoLayerLoads::before_step`]).
+#[derive(Debug)]
+pub struct TwoLayerLoads {
+    /// The `--pin ...@K` springs to the rest positions (always on).
+    springs: Vec<balloon::two_layer::AnchorSpring>,
+    /// The loads with their selected particles.
+    loads: Vec<(Load, Vec<usize>)>,
+    /// Which loads were active at the last update (`None` before the first).
+    active: Option<Vec<bool>>,
+}
+
+/// Selects the spring anchors (`@K`, or every pin with `--pin-stiffness`) and the loads of a
+/// two-layer run on the particles' positions at the start and applies those of time 0.
+pub fn two_layer_loads(
+    sim: &mut balloon::two_layer::TwoLayerSimulation,
+    pins: &[Pin],
+    pin_stiffness: Option<f64>,
+    loads: &[Load],
+) -> Result<TwoLayerLoads, SelectionError> {
+    let rest = sim.positions().to_vec();
+    let mut springs = Vec::new();
+    for pin in pins {
+        if let Some(k) = pin.stiffness.or(pin_stiffness) {
+            springs.extend(pin.selector.select(&rest)?.into_iter().map(|i| {
+                balloon::two_layer::AnchorSpring {
+                    particle: i,
+                    point: [rest[3 * i], rest[3 * i + 1], rest[3 * i + 2]],
+                    stiffness: k,
+                }
+            }));
+        }
+    }
+    let loads = loads
+        .iter()
+        .map(|l| {
+            let particles = match &l.on {
+                Some(s) => s.select(&rest)?,
+                None => Vec::new(),
+            };
+            Ok((l.clone(), particles))
+        })
+        .collect::<Result<Vec<_>, SelectionError>>()?;
+    let mut out = TwoLayerLoads {
+        springs,
+        loads,
+        active: None,
+    };
+    out.before_step(sim)?;
+    Ok(out)
+}
+
+impl TwoLayerLoads {
+    /// Sets the anchor springs and the forces of the loads active in the middle of the coming
+    /// step (`start <= t < end`), when that set changed. Gravity loads add each particle's mass
+    /// times g to its force.
+    pub fn before_step(
+        &mut self,
+        sim: &mut balloon::two_layer::TwoLayerSimulation,
+    ) -> Result<(), SelectionError> {
+        if self.springs.is_empty() && self.loads.is_empty() {
+            return Ok(());
+        }
+        let t = sim.time() + 0.5 * sim.dt();
+        let active: Vec<bool> = self
+            .loads
+            .iter()
+            .map(|(l, _)| l.start <= t && t < l.end)
+            .collect();
+        if self.active.as_ref() == Some(&active) {
+            return Ok(());
+        }
+        let masses = sim.model().masses.clone();
+        let mut forces = vec![0.0; 3 * masses.len()];
+        let mut springs = self.springs.clone();
+        let mut any_force = false;
+        for ((load, particles), _) in self.loads.iter().zip(&active).filter(|(_, a)| **a) {
+            match &load.kind {
+                LoadKind::Gravity(g) => {
+                    any_force = true;
+                    for (i, m) in masses.iter().enumerate() {
+                        for d in 0..3 {
+                            forces[3 * i + d] += m * g[d];
+                        }
+                    }
+                }
+                LoadKind::Force { force, total } => {
+                    any_force = true;
+                    let share = if *total {
+                        1.0 / particles.len() as f64
+                    } else {
+                        1.0
+                    };
+                    for &i in particles {
+                        for d in 0..3 {
+                            forces[3 * i + d] += share * force[d];
+                        }
+                    }
+                }
+                LoadKind::Grab { target, stiffness } => {
+                    springs.extend(particles.iter().map(|&i| balloon::two_layer::AnchorSpring {
+                        particle: i,
+                        point: *target,
+                        stiffness: *stiffness,
+                    }));
+                }
+            }
+        }
+        sim.set_loads(springs, any_force.then_some(&forces[..]))?;
+        self.active = Some(active);
+        Ok(())
+    }
 }
 
 /// The anchor springs and scheduled loads of a shell run.

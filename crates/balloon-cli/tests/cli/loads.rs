@@ -141,3 +141,108 @@ fn an_empty_volumetric_selection_is_an_error_naming_the_selector() {
 fn shown(selector: &str) -> String {
     balloon_cli::selection::parse_selector(selector).unwrap().to_string()
 }
+
+/// `balloon two-layer`'s flags parsed on their own.
+#[derive(clap::Parser)]
+struct TwoLayerCli {
+    #[command(flatten)]
+    args: balloon_cli::cmd_two_layer::TwoLayerArgs,
+}
+
+fn two_layer(argv: &[&str]) -> balloon_cli::cmd_two_layer::TwoLayerArgs {
+    use clap::Parser as _;
+    let mut all = vec!["two-layer"];
+    all.extend_from_slice(argv);
+    TwoLayerCli::try_parse_from(all)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .args
+}
+
+#[test]
+fn spring_pinned_two_layer_particles_hang_at_the_static_deflection_m_g_over_k() {
+    // Every particle of a gas-free sphere on a spring of K to its rest position: the body
+    // translates as a whole (its own springs stay at rest length), a mass m on a spring K under
+    // g, undamped: z(t) = z0 - d (1 - cos w t) about the static deflection d = m g / K, with
+    // w = sqrt(K / m). Over whole periods the mean drop is d and the largest is 2 d; both are
+    // read from `stats.jsonl` (`min_height`, one row per step).
+    let (m, k, g, dt) = (0.01f64, 10.0f64, 9.81f64, 5e-4f64);
+    let d = m * g / k;
+    let period = 2.0 * std::f64::consts::PI * (m / k).sqrt();
+    let steps = (5.0 * period / dt).round() as usize;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o");
+    let steps_arg = steps.to_string();
+    let o = run_balloon(&[
+        "two-layer",
+        "--level",
+        "1",
+        "--pressure",
+        "0",
+        "--inner-pressure",
+        "0",
+        "--steps",
+        &steps_arg,
+        "--frame-every",
+        &steps_arg,
+        "--pin",
+        "box:-5,-5,-5,5,5,5",
+        "--pin-stiffness",
+        "10",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rows: Vec<serde_json::Value> = std::fs::read_to_string(out.join("stats.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(rows.len(), steps);
+    let rest = two_layer(&["--level", "1"]);
+    let sim = balloon_cli::cmd_two_layer::build(&rest).unwrap();
+    let z0 = sim.positions().iter().skip(2).step_by(3).copied().fold(f64::INFINITY, f64::min);
+    let drops: Vec<f64> = rows
+        .iter()
+        .map(|r| z0 - r["min_height"].as_f64().unwrap())
+        .collect();
+    let mean = drops.iter().sum::<f64>() / drops.len() as f64;
+    let largest = drops.iter().copied().fold(0.0, f64::max);
+    assert!((mean - d).abs() < 0.01 * d, "mean drop {mean} m, m g / K = {d} m");
+    assert!((largest - 2.0 * d).abs() < 0.01 * d, "largest drop {largest} m vs 2 m g / K");
+}
+
+#[test]
+fn a_force_load_changes_the_two_layer_momentum_by_f_t() {
+    // 0.3 N in total along +x on the upper half of a gas-free sphere, no gravity, no box,
+    // from 0.05 s to 0.15 s: the momentum is F (end - start) afterwards, to round-off.
+    let args = two_layer(&[
+        "--level",
+        "1",
+        "--pressure",
+        "0",
+        "--inner-pressure",
+        "0",
+        "--gravity",
+        "0",
+        "--no-box",
+        "--steps",
+        "400",
+        "--load",
+        "force=0.3,0,0;on=above:z:0;per=total;start=0.05;end=0.15",
+    ]);
+    let done = balloon_cli::cmd_two_layer::execute(&args, true).unwrap();
+    let sim = &done.sim;
+    let masses = &sim.model().masses;
+    let p: Vec<f64> = (0..3)
+        .map(|d| {
+            masses
+                .iter()
+                .enumerate()
+                .map(|(i, m)| m * sim.velocities()[3 * i + d])
+                .sum()
+        })
+        .collect();
+    let want = 0.3 * (0.15 - 0.05);
+    assert!((p[0] - want).abs() < 1e-9 * want, "momentum {p:?} vs F t = {want}");
+    assert!(p[1].abs() < 1e-9 * want && p[2].abs() < 1e-9 * want, "{p:?}");
+}

@@ -321,3 +321,24 @@ fn volumetric_anchors_and_loads_are_scenario_tables_and_repeat_themselves() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("`below:z:-9.0` selects no particle"), "{err}");
 }
+
+#[test]
+fn two_layer_spring_anchors_and_loads_repeat_themselves() {
+    repeats_itself(
+        &[
+            "two-layer",
+            "--level",
+            "1",
+            "--steps",
+            "20",
+            "--pin",
+            "below:z:-0.9@50",
+            "--load",
+            "grab=0,0,2;on=above:z:0.9;stiffness=5;end=0.004",
+            "--load",
+            "gravity=1,0,0;start=0.002",
+        ],
+        "two-layer",
+        "frame_00020.obj",
+    );
+}
