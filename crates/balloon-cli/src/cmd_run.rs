@@ -152,6 +152,7 @@ use Kind::{Bool, Number, NumberOrText, Numbers, Path as PathKind, Rule, Tables, 
 pub const SHELL_KEYS: &[ScenarioKey] = &[
     k("mesh", "path", "mesh", PathKind),
     k("mesh", "scale", "scale", Number),
+    k("mesh", "transform", "transform", Numbers),
     k("shell", "material", "material", Text),
     k("shell", "material_preset", "material_preset", Text),
     k("shell", "young", "young", Number),
@@ -239,6 +240,7 @@ pub const CONNECT_KEYS: &[ScenarioKey] =
 pub const VOLUMETRIC_KEYS: &[ScenarioKey] = &[
     k("mesh", "path", "mesh", PathKind),
     k("mesh", "scale", "scale", Number),
+    k("mesh", "transform", "transform", Numbers),
     k("lattice", "resolution", "resolution", Number),
     k("lattice", "cells", "cells", Number),
     k("lattice", "voxels_per_cell", "voxels_per_cell", Number),

@@ -12,6 +12,7 @@ mod readback;
 mod records;
 mod render;
 mod scenario;
+mod transform;
 mod two_layer;
 mod view;
 mod volumetric;
