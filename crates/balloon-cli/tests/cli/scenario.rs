@@ -342,3 +342,72 @@ fn two_layer_spring_anchors_and_loads_repeat_themselves() {
         "frame_00020.obj",
     );
 }
+
+#[test]
+fn a_json_scenario_runs_like_its_toml_twin_and_names_its_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let toml = dir.path().join("v.toml");
+    let json = dir.path().join("v.json");
+    std::fs::write(
+        &toml,
+        "[system]\nkind = \"volumetric\"\n[mesh]\npath = \"builtin:icosphere\"\n\
+         [lattice]\nresolution = 10\nvoxels_per_cell = 2\n[run]\nscene = \"free\"\nsteps = 4\n\
+         [[anchors]]\nbelow = { axis = \"z\", value = -0.06 }\n\
+         [[loads]]\nforce = [0.0, 0.0, 1.0]\nabove = { axis = \"z\", value = 0.06 }\n",
+    )
+    .unwrap();
+    std::fs::write(
+        &json,
+        r#"{
+  "system": {"kind": "volumetric"},
+  "mesh": {"path": "builtin:icosphere"},
+  "lattice": {"resolution": 10, "voxels_per_cell": 2},
+  "run": {"scene": "free", "steps": 4},
+  "anchors": [{"below": {"axis": "z", "value": -0.06}}],
+  "loads": [{"force": [0.0, 0.0, 1.0], "above": {"axis": "z", "value": 0.06}}]
+}
+"#,
+    )
+    .unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    for (file, out) in [(&toml, &a), (&json, &b)] {
+        ok(&run_balloon(&[
+            "run",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]));
+    }
+    // The same run: the same record (TOML for both) and the same last frame.
+    assert_eq!(bytes(&a, "scenario.toml"), bytes(&b, "scenario.toml"));
+    assert_eq!(bytes(&a, "frame_00000.obj"), bytes(&b, "frame_00000.obj"));
+    let last = |d: &std::path::Path| {
+        let mut frames: Vec<_> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .filter(|n| n.starts_with("frame_"))
+            .collect();
+        frames.sort();
+        frames.pop().unwrap()
+    };
+    assert_eq!(bytes(&a, &last(&a)), bytes(&b, &last(&b)));
+    // Errors name the JSON file's line and the key.
+    for (text, want) in [
+        (
+            "{\n  \"run\": {\n    \"steps\": -3\n  }\n}\n",
+            "v.json:3: `run.steps`",
+        ),
+        ("{\n  \"run\": {\"stepz\": 3}\n}\n", "v.json:2: `run.stepz`: unknown key"),
+        ("{\n  \"run\": {\"steps\": 3,}\n}\n", "v.json:2: not valid JSON"),
+        (
+            "{\"system\": {\"kind\": \"volumetric\"},\n \"anchors\": [\n  {\"below\": 3}\n ]\n}\n",
+            "v.json:3: `anchors.below`",
+        ),
+    ] {
+        std::fs::write(&json, text).unwrap();
+        let out = run_balloon(&["run", json.to_str().unwrap()]);
+        assert!(!out.status.success(), "{text}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(want), "{want} not in: {err}");
+    }
+}
