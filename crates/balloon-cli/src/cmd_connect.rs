@@ -281,7 +281,8 @@ fn balloon_meshes(args: &ConnectArgs) -> Result<(Vec<TriMesh>, &'static str)> {
     if s.scale != 1.0 {
         mesh.scale(s.scale);
     }
-    crate::params::apply_transform(&mut mesh, s.transform.as_deref()).map_err(anyhow::Error::msg)?;
+    crate::params::apply_transform(&mut mesh, s.transform.as_deref())
+        .map_err(anyhow::Error::msg)?;
     let Some(n) = args.copies else {
         let parts = split_components(&mesh);
         if parts.len() < 2 {

@@ -514,7 +514,8 @@ pub fn build_with_loads(
     if args.scale != 1.0 {
         mesh.scale(args.scale);
     }
-    crate::params::apply_transform(&mut mesh, args.transform.as_deref()).map_err(anyhow::Error::msg)?;
+    crate::params::apply_transform(&mut mesh, args.transform.as_deref())
+        .map_err(anyhow::Error::msg)?;
     let integrator = BackwardEulerParams {
         newton_iterations: args.newton_iters,
         newton_tolerance: args.newton_tol,

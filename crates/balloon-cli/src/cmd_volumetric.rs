@@ -554,7 +554,8 @@ pub fn build(args: &VolumetricArgs, mesh: Option<TriMesh>) -> Result<VolumetricB
         }
     };
     soup.scale(args.scale);
-    crate::params::apply_transform(&mut soup, args.transform.as_deref()).map_err(anyhow::Error::msg)?;
+    crate::params::apply_transform(&mut soup, args.transform.as_deref())
+        .map_err(anyhow::Error::msg)?;
     let params = VolumetricParams {
         lattice: LatticeParams {
             resolution: args

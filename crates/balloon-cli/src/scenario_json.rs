@@ -293,7 +293,10 @@ mod tests {
             c.lines[i]
         };
         assert_eq!(line_of("transform"), 5);
-        assert_eq!(line_of("stiffness") /* same line as its table's members */, 8);
+        assert_eq!(
+            line_of("stiffness"), /* same line as its table's members */
+            8
+        );
         assert_eq!(line_of("spec"), 9);
         assert_eq!(line_of("steps"), 11);
     }

@@ -972,11 +972,15 @@ pub fn volumetric_loads(
     let mut springs = Vec::new();
     for pin in pins {
         if let Some(k) = pin.stiffness.or(pin_stiffness) {
-            springs.extend(select_particles(&pin.selector, &rest)?.into_iter().map(|v| PointSpring {
-                particle: v,
-                anchor: [rest[3 * v], rest[3 * v + 1], rest[3 * v + 2]],
-                stiffness: k,
-            }));
+            springs.extend(
+                select_particles(&pin.selector, &rest)?
+                    .into_iter()
+                    .map(|v| PointSpring {
+                        particle: v,
+                        anchor: [rest[3 * v], rest[3 * v + 1], rest[3 * v + 2]],
+                        stiffness: k,
+                    }),
+            );
         }
     }
     let loads = loads

@@ -260,10 +260,13 @@ impl ImpulseStepper {
         // Masses seen by the contacts and the volume impulses: infinite for a fixed particle.
         if any_fixed {
             self.pinned_masses.clear();
-            self.pinned_masses
-                .extend(model.masses.iter().enumerate().map(|(i, &m)| {
-                    if fixed(i) { f64::INFINITY } else { m }
-                }));
+            self.pinned_masses.extend(
+                model.masses.iter().enumerate().map(
+                    |(i, &m)| {
+                        if fixed(i) { f64::INFINITY } else { m }
+                    },
+                ),
+            );
         }
         let masses: &[f64] = if any_fixed {
             &self.pinned_masses

@@ -885,18 +885,30 @@ mod viewer_api_tests {
                 .collect();
             assert!(!pinned.is_empty() && pinned.len() < rest.len());
             sim.set_fixed_particles(&pinned).unwrap();
-            assert_eq!(sim.fixed_particles().iter().filter(|&&f| f).count(), pinned.len());
+            assert_eq!(
+                sim.fixed_particles().iter().filter(|&&f| f).count(),
+                pinned.len()
+            );
             for _ in 0..200 {
                 let s = sim.step().unwrap();
                 assert!(s.max_cell_volume_error <= 1e-9, "{solver:?}: {s:?}");
             }
             for &i in &pinned {
-                assert_eq!(sim.positions()[i], rest[i], "{solver:?}: particle {i} moved");
+                assert_eq!(
+                    sim.positions()[i],
+                    rest[i],
+                    "{solver:?}: particle {i} moved"
+                );
                 assert_eq!(sim.velocities()[i], Vector3::zeros());
             }
-            let top = (0..rest.len()).max_by(|&a, &b| rest[a].z.total_cmp(&rest[b].z)).unwrap();
+            let top = (0..rest.len())
+                .max_by(|&a, &b| rest[a].z.total_cmp(&rest[b].z))
+                .unwrap();
             let sag = rest[top].z - sim.positions()[top].z;
-            assert!(sag > 0.0 && sag.is_finite(), "{solver:?}: top sagged {sag} m");
+            assert!(
+                sag > 0.0 && sag.is_finite(),
+                "{solver:?}: top sagged {sag} m"
+            );
             assert!((sim.total_volume() / sim.body().rest_volume() - 1.0).abs() < 1e-8);
         }
         let mut sim = free_cube();

@@ -403,9 +403,21 @@ fn the_two_layer_body_takes_hard_pins_from_flags_and_scenario_files() {
     assert!(rec.contains("[[anchors]]\nspec = \"above:z:0.0\""), "{rec}");
     // Spring anchors (`@K`) are taken too (crate::loads tests what they do).
     let springs = run_balloon(&[
-        "two-layer", "--dim", "3", "--level", "1", "--steps", "5", "--pin", "above:z:0@10",
+        "two-layer",
+        "--dim",
+        "3",
+        "--level",
+        "1",
+        "--steps",
+        "5",
+        "--pin",
+        "above:z:0@10",
     ]);
-    assert!(springs.status.success(), "{}", String::from_utf8_lossy(&springs.stderr));
+    assert!(
+        springs.status.success(),
+        "{}",
+        String::from_utf8_lossy(&springs.stderr)
+    );
 }
 
 #[test]

@@ -367,7 +367,11 @@ fn a_connect_record_states_the_resolved_material_and_repeats_the_run() {
         "--out",
         a.to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let rec = std::fs::read_to_string(a.join("scenario.toml")).unwrap();
     for line in [
         "\nmaterial = \"stvk\"\n",
@@ -383,10 +387,17 @@ fn a_connect_record_states_the_resolved_material_and_repeats_the_run() {
         "--out",
         b.to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_eq!(
         std::fs::read(a.join("final.obj")).unwrap(),
         std::fs::read(b.join("final.obj")).unwrap()
     );
-    assert_eq!(rec, std::fs::read_to_string(b.join("scenario.toml")).unwrap());
+    assert_eq!(
+        rec,
+        std::fs::read_to_string(b.join("scenario.toml")).unwrap()
+    );
 }

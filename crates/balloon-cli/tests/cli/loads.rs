@@ -32,7 +32,11 @@ fn a_volumetric_body_pinned_at_its_bottom_hangs_without_moving_its_pins() {
     let pinned: Vec<usize> = (0..rest.len())
         .filter(|&i| rest[i].z < bottom + 0.3 * cell)
         .collect();
-    assert!(pinned.len() >= 4 && pinned.len() < rest.len() / 4, "{}", pinned.len());
+    assert!(
+        pinned.len() >= 4 && pinned.len() < rest.len() / 4,
+        "{}",
+        pinned.len()
+    );
     for solver in ["global", "gauss-seidel"] {
         let args = volumetric(&["--pin", &below, "--steps", "500", "--volume-solver", solver]);
         let done = execute(&args, None, true).unwrap();
@@ -40,7 +44,11 @@ fn a_volumetric_body_pinned_at_its_bottom_hangs_without_moving_its_pins() {
         let summary = done.summary.unwrap();
         // Not a femtometre of motion: the pinned particles are exactly at rest.
         for &i in &pinned {
-            assert_eq!(sim.positions()[i], rest[i], "{solver}: pinned particle {i} moved");
+            assert_eq!(
+                sim.positions()[i],
+                rest[i],
+                "{solver}: pinned particle {i} moved"
+            );
         }
         assert_eq!(
             sim.fixed_particles().iter().filter(|&&f| f).count(),
@@ -60,7 +68,10 @@ fn a_volumetric_body_pinned_at_its_bottom_hangs_without_moving_its_pins() {
         );
         let com_rest = rest.iter().map(|p| p.z).sum::<f64>() / rest.len() as f64;
         let com = sim.positions().iter().map(|p| p.z).sum::<f64>() / rest.len() as f64;
-        assert!(com < com_rest, "{solver}: the body does not sag ({com} vs {com_rest})");
+        assert!(
+            com < com_rest,
+            "{solver}: the body does not sag ({com} vs {com_rest})"
+        );
         let error = summary["max_cell_volume_error"].as_f64().unwrap();
         assert!(error <= 1e-10, "{solver}: cell volume error {error:e}");
         let ratio = summary["total_volume_ratio"].as_f64().unwrap();
@@ -90,8 +101,15 @@ fn a_constant_force_on_a_particle_group_moves_the_centre_of_mass_by_its_impulse(
     let mass: f64 = sim.masses().iter().sum();
     let t = steps as f64 * dt;
     let p = sim.momentum();
-    assert!((p.y - f * t).abs() < 1e-9 * f * t, "momentum {p:?} vs F t = {}", f * t);
-    assert!(p.x.abs() < 1e-9 * f * t && p.z.abs() < 1e-9 * f * t, "{p:?}");
+    assert!(
+        (p.y - f * t).abs() < 1e-9 * f * t,
+        "momentum {p:?} vs F t = {}",
+        f * t
+    );
+    assert!(
+        p.x.abs() < 1e-9 * f * t && p.z.abs() < 1e-9 * f * t,
+        "{p:?}"
+    );
     let com = |x: &[nalgebra::Point3<f64>]| -> nalgebra::Vector3<f64> {
         x.iter()
             .zip(sim.masses())
@@ -109,7 +127,10 @@ fn a_constant_force_on_a_particle_group_moves_the_centre_of_mass_by_its_impulse(
     );
     // The force acted on the upper half only, so the body also turned and deformed, but its
     // centre of mass went straight.
-    assert!(moved.x.abs() < 1e-6 * want && moved.z.abs() < 1e-6 * want, "{moved:?}");
+    assert!(
+        moved.x.abs() < 1e-6 * want && moved.z.abs() < 1e-6 * want,
+        "{moved:?}"
+    );
     let summary = done.summary.unwrap();
     let impulse = summary["external_impulse"][1].as_f64().unwrap();
     assert!((impulse - f * t).abs() < 1e-12, "{impulse}");
@@ -128,7 +149,13 @@ fn an_empty_volumetric_selection_is_an_error_naming_the_selector() {
         let o = run_balloon(&argv);
         assert!(!o.status.success(), "{value}");
         let err = String::from_utf8_lossy(&o.stderr);
-        let selector = value.split("on=").last().unwrap().split('@').next().unwrap();
+        let selector = value
+            .split("on=")
+            .last()
+            .unwrap()
+            .split('@')
+            .next()
+            .unwrap();
         let shown = shown(selector);
         assert!(
             err.contains(&format!("`{shown}` selects no particle of the body")),
@@ -139,7 +166,9 @@ fn an_empty_volumetric_selection_is_an_error_naming_the_selector() {
 
 /// A selector as the error prints it (numbers in Rust's round-trip form).
 fn shown(selector: &str) -> String {
-    balloon_cli::selection::parse_selector(selector).unwrap().to_string()
+    balloon_cli::selection::parse_selector(selector)
+        .unwrap()
+        .to_string()
 }
 
 /// `balloon two-layer`'s flags parsed on their own.
@@ -200,15 +229,27 @@ fn spring_pinned_two_layer_particles_hang_at_the_static_deflection_m_g_over_k() 
     assert_eq!(rows.len(), steps);
     let rest = two_layer(&["--level", "1"]);
     let sim = balloon_cli::cmd_two_layer::build(&rest).unwrap();
-    let z0 = sim.positions().iter().skip(2).step_by(3).copied().fold(f64::INFINITY, f64::min);
+    let z0 = sim
+        .positions()
+        .iter()
+        .skip(2)
+        .step_by(3)
+        .copied()
+        .fold(f64::INFINITY, f64::min);
     let drops: Vec<f64> = rows
         .iter()
         .map(|r| z0 - r["min_height"].as_f64().unwrap())
         .collect();
     let mean = drops.iter().sum::<f64>() / drops.len() as f64;
     let largest = drops.iter().copied().fold(0.0, f64::max);
-    assert!((mean - d).abs() < 0.01 * d, "mean drop {mean} m, m g / K = {d} m");
-    assert!((largest - 2.0 * d).abs() < 0.01 * d, "largest drop {largest} m vs 2 m g / K");
+    assert!(
+        (mean - d).abs() < 0.01 * d,
+        "mean drop {mean} m, m g / K = {d} m"
+    );
+    assert!(
+        (largest - 2.0 * d).abs() < 0.01 * d,
+        "largest drop {largest} m vs 2 m g / K"
+    );
 }
 
 #[test]
@@ -243,6 +284,12 @@ fn a_force_load_changes_the_two_layer_momentum_by_f_t() {
         })
         .collect();
     let want = 0.3 * (0.15 - 0.05);
-    assert!((p[0] - want).abs() < 1e-9 * want, "momentum {p:?} vs F t = {want}");
-    assert!(p[1].abs() < 1e-9 * want && p[2].abs() < 1e-9 * want, "{p:?}");
+    assert!(
+        (p[0] - want).abs() < 1e-9 * want,
+        "momentum {p:?} vs F t = {want}"
+    );
+    assert!(
+        p[1].abs() < 1e-9 * want && p[2].abs() < 1e-9 * want,
+        "{p:?}"
+    );
 }

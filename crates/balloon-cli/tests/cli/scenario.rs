@@ -306,7 +306,11 @@ fn volumetric_anchors_and_loads_are_scenario_tables_and_repeat_themselves() {
     ]);
     ok(&out);
     let recorded = std::fs::read_to_string(out_dir.join("scenario.toml")).unwrap();
-    for want in ["below:z:-0.06", "force=0.0,0.0,1.0;per=vertex;on=above:z:0.06", "grab=0.0,0.0,2.0;stiffness=10.0;on=indices:0"] {
+    for want in [
+        "below:z:-0.06",
+        "force=0.0,0.0,1.0;per=vertex;on=above:z:0.06",
+        "grab=0.0,0.0,2.0;stiffness=10.0;on=indices:0",
+    ] {
         assert!(recorded.contains(want), "{want} missing in\n{recorded}");
     }
     // An anchor that selects nothing names its selector and the file's table.
@@ -397,8 +401,14 @@ fn a_json_scenario_runs_like_its_toml_twin_and_names_its_lines() {
             "{\n  \"run\": {\n    \"steps\": -3\n  }\n}\n",
             "v.json:3: `run.steps`",
         ),
-        ("{\n  \"run\": {\"stepz\": 3}\n}\n", "v.json:2: `run.stepz`: unknown key"),
-        ("{\n  \"run\": {\"steps\": 3,}\n}\n", "v.json:2: not valid JSON"),
+        (
+            "{\n  \"run\": {\"stepz\": 3}\n}\n",
+            "v.json:2: `run.stepz`: unknown key",
+        ),
+        (
+            "{\n  \"run\": {\"steps\": 3,}\n}\n",
+            "v.json:2: not valid JSON",
+        ),
         (
             "{\"system\": {\"kind\": \"volumetric\"},\n \"anchors\": [\n  {\"below\": 3}\n ]\n}\n",
             "v.json:3: `anchors.below`",

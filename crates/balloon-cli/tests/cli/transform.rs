@@ -10,7 +10,11 @@ fn run(dir: &Path, name: &str, argv: &[&str]) -> (serde_json::Value, balloon_mes
     let mut all = argv.to_vec();
     all.extend(["--out", out.to_str().unwrap(), "--json"]);
     let o = run_balloon(&all);
-    assert!(o.status.success(), "{name}: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "{name}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let last = if out.join("final.obj").is_file() {
         out.join("final.obj")
     } else {
@@ -133,7 +137,10 @@ fn a_mirror_or_a_short_matrix_is_refused_by_name() {
         ]);
         assert!(!o.status.success(), "{value}");
         let err = String::from_utf8_lossy(&o.stderr);
-        assert!(err.contains("--transform") && err.contains(what), "{value}: {err}");
+        assert!(
+            err.contains("--transform") && err.contains(what),
+            "{value}: {err}"
+        );
     }
 }
 
@@ -149,7 +156,12 @@ fn a_scenario_transform_is_applied_and_recorded() {
     )
     .unwrap();
     let out = dir.path().join("o");
-    let o = run_balloon(&["run", scenario.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let o = run_balloon(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let recorded = std::fs::read_to_string(out.join("scenario.toml")).unwrap();
     assert!(
@@ -157,6 +169,13 @@ fn a_scenario_transform_is_applied_and_recorded() {
         "{recorded}"
     );
     let soup = balloon_mesh::io::read_obj(&out.join("input_soup.obj")).unwrap();
-    let z_min = soup.vertices.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
-    assert!((z_min - (2.0 - 0.1)).abs() < 1e-9, "lowest soup point {z_min}");
+    let z_min = soup
+        .vertices
+        .iter()
+        .map(|p| p.z)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        (z_min - (2.0 - 0.1)).abs() < 1e-9,
+        "lowest soup point {z_min}"
+    );
 }
