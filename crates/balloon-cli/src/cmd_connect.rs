@@ -281,6 +281,8 @@ fn balloon_meshes(args: &ConnectArgs) -> Result<(Vec<TriMesh>, &'static str)> {
     if s.scale != 1.0 {
         mesh.scale(s.scale);
     }
+    crate::params::apply_transform(&mut mesh, s.transform.as_deref())
+        .map_err(anyhow::Error::msg)?;
     let Some(n) = args.copies else {
         let parts = split_components(&mesh);
         if parts.len() < 2 {
@@ -482,6 +484,8 @@ fn sphere_of(
 /// What `connect` adds to the shared run loop: the balloons' paths, settling, the summary.
 struct ConnectHooks<'a> {
     args: &'a ConnectArgs,
+    /// The resolved scenario ([`crate::cmd_inflate::resolved_record`]), repeated in the summary.
+    record: Option<String>,
     summary: ConnectSummary,
     /// The analytic thin sphere and the membrane, when the balloons are equal spheres.
     sphere: Option<(ThinSphere, MembraneModel)>,
@@ -554,7 +558,7 @@ impl RunHooks<ConnectSim> for ConnectHooks<'_> {
     type Summary = ConnectSummary;
 
     fn scenario(&self) -> Option<String> {
-        self.args.shell.scenario_record.as_deref().map(recorded)
+        self.record.clone()
     }
 
     fn frame(&self, sim: &ConnectSim, step: usize) -> Result<Frame> {
@@ -813,8 +817,21 @@ pub fn execute(mut args: ConnectArgs, quiet: bool) -> Result<Finished<ConnectSim
         )?),
         None => None,
     };
-    if let (Some(o), Some(text)) = (&out, &args.shell.scenario_record) {
-        o.write_text("scenario.toml", &recorded(text))?;
+    // Resolved like inflate's record: the material's defaults and the projection made
+    // explicit (the balloons are built by `cmd_inflate::build` with the same shell flags; the
+    // gas is the ideal gas, so there is no pump rate to resolve).
+    let record = match (&args.shell.scenario_record, sim.balloons().first()) {
+        (Some(text), Some(first)) => Some(crate::cmd_inflate::resolved_record(
+            &recorded(text),
+            &args.shell,
+            &material,
+            first,
+        )),
+        (Some(text), None) => Some(recorded(text)),
+        (None, _) => None,
+    };
+    if let (Some(o), Some(text)) = (&out, &record) {
+        o.write_text("scenario.toml", text)?;
     }
     let sphere = sphere_of(&sim, &args.shell, &material);
     let (l, g, a) = (sim.stretches(), sim.gauge_pressures(), sim.amounts());
@@ -860,6 +877,7 @@ pub fn execute(mut args: ConnectArgs, quiet: bool) -> Result<Finished<ConnectSim
     };
     let mut hooks = ConnectHooks {
         args,
+        record,
         paths: l.iter().zip(&g).map(|(&l, &p)| vec![(l, p)]).collect(),
         volumes: sim.balloons().iter().map(|b| b.gas_volume()).collect(),
         start: frame(&sim, 0)?,

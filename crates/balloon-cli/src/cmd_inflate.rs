@@ -154,6 +154,13 @@ pub struct InflateArgs {
     /// Multiply mesh coordinates by this factor (mesh units -> metres), in (0, 1e6].
     #[arg(long, default_value_t = 1.0, value_parser = real(Open(0.0), Closed(1e6)))]
     pub scale: f64,
+    /// Affine map applied to the mesh after --scale: 12 comma-separated numbers, a 3x4 matrix
+    /// row by row `a11,a12,a13,t1,a21,a22,a23,t2,a31,a32,a33,t3` mapping x to A x + t (m);
+    /// A must have a positive determinant (no mirror). E.g. a translation by (0.1, 0, 0) is
+    /// `1,0,0,0.1,0,1,0,0,0,0,1,0`. Each number in [-1e6, 1e6].
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 1,
+          value_parser = real(Closed(-1e6), Closed(1e6)))]
+    pub transform: Option<Vec<f64>>,
     /// Output folder: frames, final mesh, stats.jsonl, summary.json.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -512,6 +519,8 @@ pub fn build_with_loads(
     if args.scale != 1.0 {
         mesh.scale(args.scale);
     }
+    crate::params::apply_transform(&mut mesh, args.transform.as_deref())
+        .map_err(anyhow::Error::msg)?;
     let integrator = BackwardEulerParams {
         newton_iterations: args.newton_iters,
         newton_tolerance: args.newton_tol,

@@ -35,7 +35,7 @@ use toml_edit::{Item, Value};
 /// Arguments of `balloon run`.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
-    /// Scenario file (TOML): `[system] kind` (`shell`, `connect`, `volumetric` or `two-layer`) and tables
+    /// Scenario file (TOML, or JSON with the same tables as objects when it ends in `.json`): `[system] kind` (`shell`, `connect`, `volumetric` or `two-layer`) and tables
     /// (for the shell `[mesh]`, `[shell]`, `[gas]`, `[run]`, `[output]`) whose keys are the
     /// flags of that system's command with `_` for `-` (docs/scenarios.md). Paths in it are
     /// relative to the file.
@@ -152,6 +152,7 @@ use Kind::{Bool, Number, NumberOrText, Numbers, Path as PathKind, Rule, Tables, 
 pub const SHELL_KEYS: &[ScenarioKey] = &[
     k("mesh", "path", "mesh", PathKind),
     k("mesh", "scale", "scale", Number),
+    k("mesh", "transform", "transform", Numbers),
     k("shell", "material", "material", Text),
     k("shell", "material_preset", "material_preset", Text),
     k("shell", "young", "young", Number),
@@ -239,6 +240,7 @@ pub const CONNECT_KEYS: &[ScenarioKey] =
 pub const VOLUMETRIC_KEYS: &[ScenarioKey] = &[
     k("mesh", "path", "mesh", PathKind),
     k("mesh", "scale", "scale", Number),
+    k("mesh", "transform", "transform", Numbers),
     k("lattice", "resolution", "resolution", Number),
     k("lattice", "cells", "cells", Number),
     k("lattice", "voxels_per_cell", "voxels_per_cell", Number),
@@ -262,6 +264,7 @@ pub const VOLUMETRIC_KEYS: &[ScenarioKey] = &[
     k("body", "diagonal_damping", "diagonal_damping", Number),
     k("body", "density", "density", Number),
     k("body", "lumped_masses", "lumped_masses", Bool),
+    k("body", "pin_stiffness", "pin_stiffness", Number),
     k("run", "scene", "scene", Text),
     k("run", "gravity", "gravity", Number),
     k("run", "restitution", "restitution", Number),
@@ -284,6 +287,8 @@ pub const VOLUMETRIC_KEYS: &[ScenarioKey] = &[
     k("output", "pov", "pov", Bool),
     k("output", "image_size", "image_size", Text),
     k("output", "color_range", "color_range", Text),
+    k("anchors", "", "pin", Tables),
+    k("loads", "", "load", Tables),
 ];
 
 /// Every key of a two-layer scenario (`balloon two-layer`, seed 004).
@@ -326,6 +331,7 @@ pub const TWO_LAYER_KEYS: &[ScenarioKey] = &[
     k("run", "drag", "drag", Text),
     k("run", "drag_stiffness", "drag_stiffness", Number),
     k("run", "drag_damping", "drag_damping", Number),
+    k("run", "pin_stiffness", "pin_stiffness", Number),
     unrecorded("output", "out", "out", PathKind),
     unrecorded("output", "overwrite", "overwrite", Bool),
     unrecorded("output", "json", "json", Bool),
@@ -338,6 +344,7 @@ pub const TWO_LAYER_KEYS: &[ScenarioKey] = &[
     k("output", "image_size", "image_size", Text),
     k("output", "color_range", "color_range", Text),
     k("anchors", "", "pin", Tables),
+    k("loads", "", "load", Tables),
 ];
 
 /// A system a scenario can select with `[system] kind`: its keys and its flags' parser.
@@ -401,6 +408,16 @@ pub enum ScenarioError {
         /// The parser's message.
         message: String,
     },
+    /// A JSON scenario is not valid JSON, or not an object of tables.
+    #[error("{}:{line}: {message}", path.display())]
+    Json {
+        /// The scenario file.
+        path: PathBuf,
+        /// 1-based line of the error (0 if unknown).
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
     /// A key or table is unknown, has the wrong type or an invalid value.
     #[error("{}:{line}: `{key}`: {message}", path.display())]
     Key {
@@ -434,18 +451,24 @@ pub enum ScenarioError {
 struct Source<'a> {
     path: &'a Path,
     text: &'a str,
+    /// For a JSON scenario, the JSON line of each line of `text` (its TOML translation).
+    lines: Option<&'a [usize]>,
 }
 
 impl Source<'_> {
     /// The 1-based line of byte offset `at` (0 if unknown).
     fn line(&self, span: Option<std::ops::Range<usize>>) -> usize {
-        span.map_or(0, |s| {
+        let line = span.map_or(0, |s| {
             self.text[..s.start.min(self.text.len())]
                 .bytes()
                 .filter(|&b| b == b'\n')
                 .count()
                 + 1
-        })
+        });
+        match self.lines {
+            Some(map) if line > 0 => map.get(line - 1).copied().unwrap_or(0),
+            _ => line,
+        }
     }
 
     fn key_error(
@@ -875,21 +898,52 @@ fn parse<C: Parser>(
     Ok((cli, matches))
 }
 
-/// Reads and checks a scenario file: its text, its TOML and its `[system] kind`.
-fn read(path: &Path) -> Result<(String, toml_edit::Document<String>, System), ScenarioError> {
+/// A scenario file read: its TOML text (a JSON file's translation), the JSON line of each
+/// TOML line for a JSON file, the parsed document and the system.
+type ReadScenario = (
+    String,
+    Option<Vec<usize>>,
+    toml_edit::Document<String>,
+    System,
+);
+
+/// Reads and checks a scenario file: its text, its TOML and its `[system] kind`. A file
+/// ending in `.json` is a JSON scenario ([`crate::scenario_json`]).
+fn read(path: &Path) -> Result<ReadScenario, ScenarioError> {
     let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Read {
         path: path.to_path_buf(),
         source,
     })?;
+    let json = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let (text, lines) = if json {
+        let c = crate::scenario_json::to_toml(&text).map_err(|e| ScenarioError::Json {
+            path: path.to_path_buf(),
+            line: e.line,
+            message: e.message,
+        })?;
+        (c.toml, Some(c.lines))
+    } else {
+        (text, None)
+    };
     let doc = toml_edit::Document::parse(text.clone()).map_err(|e| {
-        let src = Source { path, text: &text };
+        let src = Source {
+            path,
+            text: &text,
+            lines: lines.as_deref(),
+        };
         ScenarioError::Syntax {
             path: path.to_path_buf(),
             line: src.line(e.span()),
             message: e.message().trim().to_owned(),
         }
     })?;
-    let src = Source { path, text: &text };
+    let src = Source {
+        path,
+        text: &text,
+        lines: lines.as_deref(),
+    };
     // A `[connect]` table selects the connected balloons unless `[system] kind` says otherwise.
     let mut system = if doc.as_table().contains_key("connect") {
         CONNECT
@@ -944,7 +998,7 @@ fn read(path: &Path) -> Result<(String, toml_edit::Document<String>, System), Sc
             }
         }
     }
-    Ok((text, doc, system))
+    Ok((text, lines, doc, system))
 }
 
 /// The `balloon inflate` arguments of a shell scenario file with command-line overrides; the
@@ -974,8 +1028,12 @@ pub enum SystemArgs {
 /// The arguments of a scenario file with command-line overrides, for the system its
 /// `[system] kind` selects; the arguments carry their recorded scenario ([`record`]).
 pub fn scenario_args(path: &Path, overrides: &[String]) -> Result<SystemArgs, ScenarioError> {
-    let (text, doc, system) = read(path)?;
-    let src = Source { path, text: &text };
+    let (text, lines, doc, system) = read(path)?;
+    let src = Source {
+        path,
+        text: &text,
+        lines: lines.as_deref(),
+    };
     let base = path.parent().map_or_else(PathBuf::new, Path::to_path_buf);
     let files = file_args(&system, &src, doc.as_table(), &base, &overridden(overrides))?;
     Ok(match system.kind {
@@ -1016,11 +1074,15 @@ pub fn connect_scenario_args(
     path: &Path,
     overrides: &[String],
 ) -> Result<Option<ConnectArgs>, ScenarioError> {
-    let (text, doc, system) = read(path)?;
+    let (text, lines, doc, system) = read(path)?;
     if system.kind != CONNECT.kind {
         return Ok(None);
     }
-    let src = Source { path, text: &text };
+    let src = Source {
+        path,
+        text: &text,
+        lines: lines.as_deref(),
+    };
     let base = path.parent().map_or_else(PathBuf::new, Path::to_path_buf);
     let files = file_args(&system, &src, doc.as_table(), &base, &overridden(overrides))?;
     let (c, m) = parse::<ConnectCli>(&system, path, files, overrides)?;

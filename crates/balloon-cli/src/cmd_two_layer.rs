@@ -146,11 +146,22 @@ pub struct TwoLayerArgs {
     /// Number of steps, 0 to 1e8.
     #[arg(long, default_value_t = 2000, value_parser = count(0, MAX_STEPS))]
     pub steps: usize,
-    /// Pin particles hard (repeatable; they do not move at all): `indices:1,2,3`, `file:PATH`,
-    /// `below:AXIS:VALUE`, `above:AXIS:VALUE` or `box:XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX` (m, the
-    /// rest positions), as `balloon inflate --pin` without springs.
+    /// Pin particles (repeatable): `indices:1,2,3`, `file:PATH`, `below:AXIS:VALUE`,
+    /// `above:AXIS:VALUE` or `box:XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX` (m, the rest positions), hard
+    /// (they do not move at all) or with `@K` as zero-length springs of K N/m to the rest
+    /// position, as `balloon inflate --pin`.
     #[arg(long, value_parser = crate::selection::parse_pin)]
     pub pin: Vec<crate::selection::Pin>,
+    /// Stiffness of the --pin anchors without their own `@K`, N/m, in (0, 1e12]; absent: hard
+    /// pins. The springs are integrated explicitly like the body's: K dt^2 / m well below 1.
+    #[arg(long, value_parser = crate::selection::stiffness)]
+    pub pin_stiffness: Option<f64>,
+    /// A load (repeatable): `gravity=GX,GY,GZ` (m/s^2, each particle's mass times g, added to
+    /// --gravity), `force=FX,FY,FZ;on=SELECTOR` (N per particle; `per=total` spreads it over the
+    /// selection) or `grab=X,Y,Z;on=SELECTOR;stiffness=K` (pulled toward the point, N/m per
+    /// particle); `start=S;end=S` schedule it (s).
+    #[arg(long, value_parser = crate::selection::parse_load)]
+    pub load: Vec<crate::selection::Load>,
     /// Drag ("mouse") target `X,Y,Z` (m), optionally active only in a time window `@T0:T1` (s).
     #[arg(long, allow_hyphen_values = true)]
     pub drag: Option<String>,
@@ -348,6 +359,8 @@ fn layer_frame(sim: &TwoLayerSimulation, rest: &[f64], step: usize) -> Result<Fr
 struct TwoLayerHooks<'a> {
     args: &'a TwoLayerArgs,
     drag: Option<DragSpec>,
+    /// Spring anchors and loads (`--pin ...@K`, `--load`).
+    loads: crate::selection::TwoLayerLoads,
     /// Initial positions, the reference of the stretch field.
     rest: Vec<f64>,
 }
@@ -364,6 +377,7 @@ impl RunHooks<TwoLayerSimulation> for TwoLayerHooks<'_> {
     }
 
     fn before_step(&mut self, sim: &mut TwoLayerSimulation) -> Result<()> {
+        self.loads.before_step(sim)?;
         let Some(d) = &self.drag else {
             return Ok(());
         };
@@ -455,7 +469,7 @@ pub fn run(args: TwoLayerArgs) -> Result<()> {
 pub fn build(args: &TwoLayerArgs) -> Result<TwoLayerSimulation> {
     let body = body_from(args)?;
     let mut sim = body.simulate(args.integrator, args.dt)?;
-    crate::selection::fix_two_layer(&mut sim, &args.pin)?;
+    crate::selection::fix_two_layer(&mut sim, &args.pin, args.pin_stiffness)?;
     Ok(sim)
 }
 
@@ -493,7 +507,14 @@ pub fn execute(args: &TwoLayerArgs, quiet: bool) -> Result<Finished<TwoLayerSimu
         json: args.json,
         quiet,
     };
-    let mut hooks = TwoLayerHooks { args, drag, rest };
+    let loads =
+        crate::selection::two_layer_loads(&mut sim, &args.pin, args.pin_stiffness, &args.load)?;
+    let mut hooks = TwoLayerHooks {
+        args,
+        drag,
+        loads,
+        rest,
+    };
     let summary = run_simulation(&mut sim, &mut hooks, &plan, out)?;
     Ok(Finished {
         summary: Some(summary),

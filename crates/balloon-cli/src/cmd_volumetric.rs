@@ -71,6 +71,13 @@ pub struct VolumetricArgs {
     /// Scale factor applied to the mesh coordinates (to metres), in (0, 1e6].
     #[arg(long, default_value_t = 1.0, value_parser = real(Open(0.0), Closed(1e6)))]
     pub scale: f64,
+    /// Affine map applied to the mesh after --scale: 12 comma-separated numbers, a 3x4 matrix
+    /// row by row `a11,a12,a13,t1,a21,a22,a23,t2,a31,a32,a33,t3` mapping x to A x + t (m);
+    /// A must have a positive determinant (no mirror). E.g. a translation by (0.1, 0, 0) is
+    /// `1,0,0,0.1,0,1,0,0,0,0,1,0`. Each number in [-1e6, 1e6].
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 1,
+          value_parser = real(Closed(-1e6), Closed(1e6)))]
+    pub transform: Option<Vec<f64>>,
     /// Lattice generator flags (boxed to keep the subcommand enum small).
     #[command(flatten)]
     pub lattice: Box<LatticeArgs>,
@@ -145,6 +152,23 @@ pub struct VolumetricArgs {
     /// Number of steps, 0 to 1e8.
     #[arg(long, default_value_t = 600, value_parser = count(0, MAX_STEPS))]
     pub steps: usize,
+    /// Pin lattice particles, picked by their rest positions (repeatable): `indices:1,2,3`,
+    /// `file:PATH`, `below:AXIS:VALUE`, `above:AXIS:VALUE` or `box:XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX`
+    /// (m), with `@K` for springs of K N/m to the rest position instead of a hard pin (a
+    /// hard-pinned particle never moves: infinite mass in the springs, contacts and volume
+    /// impulses).
+    #[arg(long, value_parser = crate::selection::parse_pin)]
+    pub pin: Vec<crate::selection::Pin>,
+    /// Stiffness of the --pin anchors without their own `@K`, N/m, in (0, 1e12]; absent: hard
+    /// pins. Springs act explicitly: K dt^2 / m well below 1 keeps them stable.
+    #[arg(long, value_parser = crate::selection::stiffness)]
+    pub pin_stiffness: Option<f64>,
+    /// A load on the lattice particles (repeatable): `gravity=GX,GY,GZ` (m/s^2, replaces
+    /// --gravity while active), `force=FX,FY,FZ;on=SELECTOR` (N per particle; `per=total`
+    /// spreads it over the selection) or `grab=X,Y,Z;on=SELECTOR;stiffness=K` (pulled toward
+    /// the point, N/m per particle); `start=S;end=S` schedule it (s).
+    #[arg(long, value_parser = crate::selection::parse_load)]
+    pub load: Vec<crate::selection::Load>,
     /// Output folder.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -345,6 +369,8 @@ struct VolumetricHooks<'a> {
     max_err: f64,
     total_sweeps: usize,
     max_strain: f64,
+    /// Spring anchors and loads (`--pin ...@K`, `--load`).
+    loads: crate::selection::VolumetricLoads,
 }
 
 impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
@@ -352,6 +378,10 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
 
     fn scenario(&self) -> Option<String> {
         self.args.scenario_record.clone()
+    }
+
+    fn before_step(&mut self, sim: &mut VolumetricSimulation) -> Result<()> {
+        Ok(self.loads.before_step(sim)?)
     }
 
     fn frame(&self, sim: &VolumetricSimulation, step: usize) -> Result<Frame> {
@@ -386,7 +416,10 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
 
     fn summary(&self, sim: &VolumetricSimulation, run: &RunRecord<StepStats>) -> Summary {
         let args = self.args;
-        let isolated = args.gravity == 0.0 && args.scene == SceneArg::Free;
+        let isolated = args.gravity == 0.0
+            && args.scene == SceneArg::Free
+            && args.pin.is_empty()
+            && args.load.is_empty();
         Summary {
             mesh: args.mesh.clone(),
             scene: format!("{:?}", args.scene),
@@ -521,6 +554,8 @@ pub fn build(args: &VolumetricArgs, mesh: Option<TriMesh>) -> Result<VolumetricB
         }
     };
     soup.scale(args.scale);
+    crate::params::apply_transform(&mut soup, args.transform.as_deref())
+        .map_err(anyhow::Error::msg)?;
     let params = VolumetricParams {
         lattice: LatticeParams {
             resolution: args
@@ -607,7 +642,8 @@ pub fn build(args: &VolumetricArgs, mesh: Option<TriMesh>) -> Result<VolumetricB
             soft_diagonals: args.soft_diagonals,
         },
     };
-    let sim = scene.setup(body)?;
+    let mut sim = scene.setup(body)?;
+    crate::selection::fix_volumetric(&mut sim, &args.pin, args.pin_stiffness)?;
     Ok(VolumetricBuild {
         sim,
         soup,
@@ -640,6 +676,8 @@ pub fn execute(
         lattice_ms,
         stiffness: [edge, diagonal],
     } = build(args, mesh)?;
+    let loads =
+        crate::selection::volumetric_loads(&mut sim, &args.pin, args.pin_stiffness, &args.load)?;
     let lattice = sim.lattice().clone();
     let rest_soup: Vec<f64> = lattice
         .embedding
@@ -705,6 +743,7 @@ pub fn execute(
         max_err: 0.0,
         total_sweeps: 0,
         max_strain: 0.0,
+        loads,
     };
     let summary = run_simulation(&mut sim, &mut hooks, &plan, out)?;
     Ok(Finished {

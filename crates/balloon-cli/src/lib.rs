@@ -36,6 +36,7 @@ pub mod material_args;
 pub mod output;
 pub mod params;
 pub mod run;
+pub mod scenario_json;
 pub mod selection;
 
 /// The error and its causes joined by `: `, skipping a cause whose text the message already

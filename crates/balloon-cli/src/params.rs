@@ -93,6 +93,55 @@ pub fn count(lo: usize, hi: usize) -> impl Fn(&str) -> Result<usize, String> + C
 /// typo).
 pub const MAX_STEPS: usize = 100_000_000;
 
+/// Number of values of `--transform`: a 3x4 matrix.
+pub const TRANSFORM_LEN: usize = 12;
+
+/// Applies `--transform` to `mesh` (already scaled by `--scale`): the 12 numbers are a 3x4
+/// matrix written row by row, `[a11, a12, a13, t1, a21, a22, a23, t2, a31, a32, a33, t3]`,
+/// mapping each vertex `x` to `A x + t` (m). `A` must keep the orientation (determinant > 0),
+/// so that closed surfaces keep their outward normals and positive volumes; a rotation by an
+/// angle `q` about z is `[cos q, -sin q, 0, tx, sin q, cos q, 0, ty, 0, 0, 1, tz]`, a
+/// translation `[1, 0, 0, tx, 0, 1, 0, ty, 0, 0, 1, tz]`.
+///
+/// ```
+/// let mut mesh = balloon::mesh::generate::icosphere(1.0, 1).unwrap();
+/// let before = mesh.vertices[3];
+/// let t = [1.0, 0.0, 0.0, 0.5, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, -2.0];
+/// balloon_cli::params::apply_transform(&mut mesh, Some(&t)).unwrap();
+/// assert_eq!(mesh.vertices[3].x, before.x + 0.5);
+/// assert_eq!(mesh.vertices[3].z, before.z - 2.0);
+/// let mirror = [-1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+/// assert!(balloon_cli::params::apply_transform(&mut mesh, Some(&mirror)).is_err());
+/// ```
+pub fn apply_transform(
+    mesh: &mut balloon::mesh::TriMesh,
+    transform: Option<&[f64]>,
+) -> Result<(), String> {
+    let Some(m) = transform else {
+        return Ok(());
+    };
+    if m.len() != TRANSFORM_LEN {
+        return Err(format!(
+            "--transform takes {TRANSFORM_LEN} numbers (a 3x4 matrix, row by row: A | t), \
+             found {}",
+            m.len()
+        ));
+    }
+    let a = nalgebra::Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
+    let t = nalgebra::Vector3::new(m[3], m[7], m[11]);
+    let det = a.determinant();
+    if !(det.is_finite() && det > 0.0) {
+        return Err(format!(
+            "--transform: the 3x3 part has determinant {det:e}; it must be positive (a \
+             rotation, scaling or shear keeping the orientation, not a mirror)"
+        ));
+    }
+    for p in &mut mesh.vertices {
+        p.coords = a * p.coords + t;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

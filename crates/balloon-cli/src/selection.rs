@@ -20,6 +20,7 @@ use crate::params::{End, check_real};
 use balloon::mesh::TriMesh;
 use balloon::mesh::io::PlyProperty;
 use balloon::shell::{AnchorSpring, ShellMaterial, ShellSimulation};
+use balloon::volumetric::VolumetricSimulation;
 use std::path::{Path, PathBuf};
 
 /// The flags of thickness maps, anchors and loads (part of `balloon inflate`).
@@ -127,6 +128,12 @@ pub enum SelectionError {
     /// The simulation refuses the anchors or loads.
     #[error(transparent)]
     Shell(#[from] balloon::shell::ShellError),
+    /// The volumetric simulation refuses the anchors or loads.
+    #[error(transparent)]
+    Volumetric(#[from] balloon::volumetric::VolumetricError),
+    /// The two-layer simulation refuses the anchors or loads.
+    #[error(transparent)]
+    TwoLayer(#[from] balloon::two_layer::TwoLayerError),
 }
 
 /// A coordinate axis.
@@ -144,8 +151,8 @@ fn finite(s: &str) -> Result<f64, String> {
     check_real(s, End::Closed(-1e12), End::Closed(1e12))
 }
 
-/// A stiffness, N/m, in (0, 1e12].
-fn stiffness(s: &str) -> Result<f64, String> {
+/// A stiffness, N/m, in (0, 1e12] (`--pin-stiffness`).
+pub fn stiffness(s: &str) -> Result<f64, String> {
     check_real(s, End::Open(0.0), End::Closed(1e12))
 }
 
@@ -677,24 +684,137 @@ impl SetupArgs {
     }
 }
 
-/// Pins the `--pin` selections of a two-layer body hard
-/// (`balloon::two_layer::TwoLayerSimulation::fix_particles`); springs (`@K`) are refused.
+/// Pins the hard `--pin` selections of a two-layer body (those without `@K` when there is no
+/// `--pin-stiffness`; `balloon::two_layer::TwoLayerSimulation::fix_particles`). Spring anchors
+/// are left to [`two_layer_loads`].
 pub fn fix_two_layer(
     sim: &mut balloon::two_layer::TwoLayerSimulation,
     pins: &[Pin],
+    pin_stiffness: Option<f64>,
 ) -> Result<(), SelectionError> {
     let rest = sim.positions().to_vec();
     for pin in pins {
-        if pin.stiffness.is_some() {
-            return Err(SelectionError::Unsupported(format!(
-                "`--pin {pin}`: the two-layer body takes hard pins only (no @K)"
-            )));
+        if pin.stiffness.or(pin_stiffness).is_none() {
+            let particles = pin.selector.select(&rest)?;
+            sim.fix_particles(&particles)?;
         }
-        let particles = pin.selector.select(&rest)?;
-        sim.fix_particles(&particles)
-            .map_err(|e| SelectionError::Unsupported(e.to_string()))?;
     }
     Ok(())
+}
+
+/// The spring anchors and scheduled loads of a two-layer run
+/// (`balloon::two_layer::TwoLayerSimulation::set_loads`), updated before each step
+/// ([`TwoLayerLoads::before_step`]).
+#[derive(Debug)]
+pub struct TwoLayerLoads {
+    /// The `--pin ...@K` springs to the rest positions (always on).
+    springs: Vec<balloon::two_layer::AnchorSpring>,
+    /// The loads with their selected particles.
+    loads: Vec<(Load, Vec<usize>)>,
+    /// Which loads were active at the last update (`None` before the first).
+    active: Option<Vec<bool>>,
+}
+
+/// Selects the spring anchors (`@K`, or every pin with `--pin-stiffness`) and the loads of a
+/// two-layer run on the particles' positions at the start and applies those of time 0.
+pub fn two_layer_loads(
+    sim: &mut balloon::two_layer::TwoLayerSimulation,
+    pins: &[Pin],
+    pin_stiffness: Option<f64>,
+    loads: &[Load],
+) -> Result<TwoLayerLoads, SelectionError> {
+    let rest = sim.positions().to_vec();
+    let mut springs = Vec::new();
+    for pin in pins {
+        if let Some(k) = pin.stiffness.or(pin_stiffness) {
+            springs.extend(pin.selector.select(&rest)?.into_iter().map(|i| {
+                balloon::two_layer::AnchorSpring {
+                    particle: i,
+                    point: [rest[3 * i], rest[3 * i + 1], rest[3 * i + 2]],
+                    stiffness: k,
+                }
+            }));
+        }
+    }
+    let loads = loads
+        .iter()
+        .map(|l| {
+            let particles = match &l.on {
+                Some(s) => s.select(&rest)?,
+                None => Vec::new(),
+            };
+            Ok((l.clone(), particles))
+        })
+        .collect::<Result<Vec<_>, SelectionError>>()?;
+    let mut out = TwoLayerLoads {
+        springs,
+        loads,
+        active: None,
+    };
+    out.before_step(sim)?;
+    Ok(out)
+}
+
+impl TwoLayerLoads {
+    /// Sets the anchor springs and the forces of the loads active in the middle of the coming
+    /// step (`start <= t < end`), when that set changed. Gravity loads add each particle's mass
+    /// times g to its force.
+    pub fn before_step(
+        &mut self,
+        sim: &mut balloon::two_layer::TwoLayerSimulation,
+    ) -> Result<(), SelectionError> {
+        if self.springs.is_empty() && self.loads.is_empty() {
+            return Ok(());
+        }
+        let t = sim.time() + 0.5 * sim.dt();
+        let active: Vec<bool> = self
+            .loads
+            .iter()
+            .map(|(l, _)| l.start <= t && t < l.end)
+            .collect();
+        if self.active.as_ref() == Some(&active) {
+            return Ok(());
+        }
+        let masses = sim.model().masses.clone();
+        let mut forces = vec![0.0; 3 * masses.len()];
+        let mut springs = self.springs.clone();
+        let mut any_force = false;
+        for ((load, particles), _) in self.loads.iter().zip(&active).filter(|(_, a)| **a) {
+            match &load.kind {
+                LoadKind::Gravity(g) => {
+                    any_force = true;
+                    for (i, m) in masses.iter().enumerate() {
+                        for d in 0..3 {
+                            forces[3 * i + d] += m * g[d];
+                        }
+                    }
+                }
+                LoadKind::Force { force, total } => {
+                    any_force = true;
+                    let share = if *total {
+                        1.0 / particles.len() as f64
+                    } else {
+                        1.0
+                    };
+                    for &i in particles {
+                        for d in 0..3 {
+                            forces[3 * i + d] += share * force[d];
+                        }
+                    }
+                }
+                LoadKind::Grab { target, stiffness } => {
+                    springs.extend(particles.iter().map(|&i| balloon::two_layer::AnchorSpring {
+                        particle: i,
+                        point: *target,
+                        stiffness: *stiffness,
+                    }));
+                }
+            }
+        }
+        sim.set_loads(springs, any_force.then_some(&forces[..]))?;
+        self.active = Some(active);
+        Ok(())
+    }
 }
 
 /// The anchor springs and scheduled loads of a shell run.
@@ -763,6 +883,200 @@ impl ShellLoads {
         sim.set_external_forces(any_force.then_some(&forces[..]))?;
         sim.set_anchor_springs(springs)?;
         self.active = Some(active);
+        Ok(())
+    }
+}
+
+/// The flat rest positions (m) of the volumetric body's lattice particles, which the
+/// selectors pick from.
+fn particle_rest(sim: &VolumetricSimulation) -> Vec<f64> {
+    sim.lattice()
+        .tet_mesh
+        .vertices
+        .iter()
+        .flat_map(|p| [p.x, p.y, p.z])
+        .collect()
+}
+
+/// The particles `selector` picks from the flat rest positions `rest`; an empty selection is
+/// an error naming the selector and the particles.
+fn select_particles(selector: &Selector, rest: &[f64]) -> Result<Vec<usize>, SelectionError> {
+    selector.select(rest).map_err(|e| match e {
+        SelectionError::Empty(s) => SelectionError::Unsupported(format!(
+            "`{s}` selects no particle of the body ({} particles)",
+            rest.len() / 3
+        )),
+        other => other,
+    })
+}
+
+/// Pins the hard `--pin` selections of a volumetric body (those without `@K` when there is no
+/// `--pin-stiffness`): the selected lattice particles, picked by their rest positions, never
+/// move (`VolumetricSimulation::set_fixed_particles`). Spring anchors are left to
+/// [`volumetric_loads`].
+pub fn fix_volumetric(
+    sim: &mut VolumetricSimulation,
+    pins: &[Pin],
+    pin_stiffness: Option<f64>,
+) -> Result<(), SelectionError> {
+    let rest = particle_rest(sim);
+    for pin in pins {
+        if pin.stiffness.or(pin_stiffness).is_none() {
+            let particles = select_particles(&pin.selector, &rest)?;
+            sim.set_fixed_particles(&particles)?;
+        }
+    }
+    Ok(())
+}
+
+/// A zero-length spring pulling one particle toward a point.
+#[derive(Clone, Copy, Debug)]
+struct PointSpring {
+    particle: usize,
+    anchor: [f64; 3],
+    stiffness: f64,
+}
+
+/// The spring anchors and scheduled loads of a volumetric run, applied through
+/// `VolumetricSimulation::set_external_forces` (and `set_gravity`) before each step
+/// ([`VolumetricLoads::before_step`]).
+#[derive(Debug)]
+pub struct VolumetricLoads {
+    /// The `--pin ...@K` springs to the rest positions (always on).
+    springs: Vec<PointSpring>,
+    /// The loads with their selected particles.
+    loads: Vec<(Load, Vec<usize>)>,
+    /// Gravity when no gravity load is active (`--gravity`), m/s^2.
+    gravity: [f64; 3],
+    /// The constant forces of the active loads (N, one per particle) and the springs of the
+    /// active grabs, as of the last change of the active set.
+    constant: Vec<nalgebra::Vector3<f64>>,
+    /// Whether any constant force is active.
+    any_constant: bool,
+    /// Anchor springs plus the springs of the active grabs.
+    active_springs: Vec<PointSpring>,
+    /// Which loads were active at the last update (`None` before the first).
+    active: Option<Vec<bool>>,
+}
+
+/// Selects the spring anchors (`@K`, or every pin with `--pin-stiffness`) and the loads of a
+/// volumetric run on its lattice particles (by their rest positions) and applies those of time
+/// 0. A selection that picks no particle is an error naming the selector.
+pub fn volumetric_loads(
+    sim: &mut VolumetricSimulation,
+    pins: &[Pin],
+    pin_stiffness: Option<f64>,
+    loads: &[Load],
+) -> Result<VolumetricLoads, SelectionError> {
+    let rest = particle_rest(sim);
+    let mut springs = Vec::new();
+    for pin in pins {
+        if let Some(k) = pin.stiffness.or(pin_stiffness) {
+            springs.extend(
+                select_particles(&pin.selector, &rest)?
+                    .into_iter()
+                    .map(|v| PointSpring {
+                        particle: v,
+                        anchor: [rest[3 * v], rest[3 * v + 1], rest[3 * v + 2]],
+                        stiffness: k,
+                    }),
+            );
+        }
+    }
+    let loads = loads
+        .iter()
+        .map(|l| {
+            let particles = match &l.on {
+                Some(s) => select_particles(s, &rest)?,
+                None => Vec::new(),
+            };
+            Ok((l.clone(), particles))
+        })
+        .collect::<Result<Vec<_>, SelectionError>>()?;
+    let mut out = VolumetricLoads {
+        springs,
+        loads,
+        gravity: sim.body().params.gravity,
+        constant: Vec::new(),
+        any_constant: false,
+        active_springs: Vec::new(),
+        active: None,
+    };
+    out.before_step(sim)?;
+    Ok(out)
+}
+
+impl VolumetricLoads {
+    /// Whether there is nothing to apply (no spring anchor, no load).
+    pub fn is_empty(&self) -> bool {
+        self.springs.is_empty() && self.loads.is_empty()
+    }
+
+    /// Sets the gravity and external forces of the coming step: the loads active at its middle
+    /// (`start <= t < end`), and the springs (anchors and grabs) at the current positions,
+    /// `F = K (anchor - x)` per particle, evaluated explicitly like the cell springs (Eq. 1).
+    /// A gravity load replaces `--gravity` while active (several add up).
+    pub fn before_step(&mut self, sim: &mut VolumetricSimulation) -> Result<(), SelectionError> {
+        if self.is_empty() {
+            return Ok(());
+        }
+        let t = sim.time() + 0.5 * sim.body().params.dt;
+        let active: Vec<bool> = self
+            .loads
+            .iter()
+            .map(|(l, _)| l.start <= t && t < l.end)
+            .collect();
+        if self.active.as_ref() != Some(&active) {
+            let n = sim.positions().len();
+            let mut forces = vec![nalgebra::Vector3::zeros(); n];
+            let mut springs = self.springs.clone();
+            let mut gravity: Option<[f64; 3]> = None;
+            let mut any = false;
+            for ((load, particles), _) in self.loads.iter().zip(&active).filter(|(_, a)| **a) {
+                match &load.kind {
+                    LoadKind::Gravity(g) => {
+                        let sum = gravity.get_or_insert([0.0; 3]);
+                        for d in 0..3 {
+                            sum[d] += g[d];
+                        }
+                    }
+                    LoadKind::Force { force, total } => {
+                        any = true;
+                        let share = if *total {
+                            1.0 / particles.len() as f64
+                        } else {
+                            1.0
+                        };
+                        for &i in particles {
+                            forces[i] += nalgebra::Vector3::from(*force) * share;
+                        }
+                    }
+                    LoadKind::Grab { target, stiffness } => {
+                        springs.extend(particles.iter().map(|&i| PointSpring {
+                            particle: i,
+                            anchor: *target,
+                            stiffness: *stiffness,
+                        }));
+                    }
+                }
+            }
+            sim.set_gravity(gravity.unwrap_or(self.gravity))?;
+            self.constant = forces;
+            self.any_constant = any;
+            self.active_springs = springs;
+            self.active = Some(active);
+        }
+        if self.active_springs.is_empty() {
+            sim.set_external_forces(self.any_constant.then_some(&self.constant[..]))?;
+            return Ok(());
+        }
+        let mut forces = self.constant.clone();
+        let x = sim.positions();
+        for s in &self.active_springs {
+            forces[s.particle] +=
+                (nalgebra::Vector3::from(s.anchor) - x[s.particle].coords) * s.stiffness;
+        }
+        sim.set_external_forces(Some(&forces))?;
         Ok(())
     }
 }

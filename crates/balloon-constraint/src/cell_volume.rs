@@ -345,7 +345,9 @@ impl CellVolumeConstraints {
     ///   positions;
     /// * `velocities`: `v(t + h)` (m/s), changed by `Delta v_i = (lambda - 1)(x_i - c) / h` so that
     ///   `p + h v` equals the corrected preview again;
-    /// * `masses`: particle masses (kg), used only by [`CellCentre::MassWeighted`];
+    /// * `masses`: particle masses (kg), used by [`CellCentre::MassWeighted`] and the gradient
+    ///   correction; `f64::INFINITY` marks a fixed particle, which the projection never moves
+    ///   (its cells take the gradient correction);
     /// * `h`: the time step (s).
     ///
     /// Returns [`ConstraintError::Inverted`] when a preview tetrahedron is not positive (before
@@ -416,7 +418,11 @@ impl CellVolumeConstraints {
                         volume: v,
                     });
                 }
-                if self.params.correction == CellCorrection::Gradient {
+                // A fixed corner (infinite mass) cannot follow a scaling about the centre: such
+                // a cell is corrected along the gradient, where that corner's weight is zero.
+                if self.params.correction == CellCorrection::Gradient
+                    || cell.iter().any(|&i| masses[i] == f64::INFINITY)
+                {
                     self.gradient_correction(c, v, omega, preview, velocities, masses, h);
                     continue;
                 }

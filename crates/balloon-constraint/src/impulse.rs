@@ -13,6 +13,12 @@
 //!    volume;
 //! 3. `p = x`; the sphere moves with its velocity.
 //!
+//! Fixed particles ([`ImpulseModel::fixed`], hard anchors) have infinite mass: step 1 leaves
+//! their velocity at zero, the plane contacts do not move them, and the sphere contacts and the
+//! volume impulses see a zero inverse mass, so their cells are corrected by the other corners
+//! only (a cell with a fixed corner takes the gradient correction, which weights every corner by
+//! its inverse mass, whatever [`crate::cell_volume::CellCorrection`] says).
+//!
 //! If a preview tetrahedron inverts, the state is restored and the step redone as two half
 //! steps, recursively, up to `max_halvings` times (Sec. 4); beyond that the step fails with
 //! [`ConstraintError::Inversion`]. Any failure leaves the state as it was before the failed
@@ -29,7 +35,7 @@
 //! let constraints = CellVolumeConstraints::new(lattice.cells.clone(), tets, &x, CellVolumeParams::default()).unwrap();
 //! let springs = CellSprings::new(&lattice.cells, &x, &SpringParams::default());
 //! let masses = vec![0.01; x.len()];
-//! let model = ImpulseModel { masses: &masses, constraints: &constraints, springs: &springs, planes: &[], external: &[] };
+//! let model = ImpulseModel { masses: &masses, constraints: &constraints, springs: &springs, planes: &[], external: &[], fixed: &[] };
 //! let params = ImpulseParams { gravity: [0.0, 0.0, -9.81], ..ImpulseParams::default() };
 //! let mut state = ImpulseState::at_rest(x);
 //! let info = ImpulseStepper::new().step(&model, &params, &mut state, 1e-3).unwrap();
@@ -87,6 +93,9 @@ pub struct ImpulseModel<'a> {
     pub planes: &'a [Plane],
     /// External forces per particle (N), added to the spring forces; empty for none.
     pub external: &'a [Vector3<f64>],
+    /// Fixed particles (hard anchors), one flag per particle, or empty for none: a fixed
+    /// particle keeps zero velocity and never moves (infinite mass; see the module docs).
+    pub fixed: &'a [bool],
 }
 
 /// What a step changes: particle positions and velocities, the optional rigid sphere and the
@@ -141,6 +150,8 @@ pub struct ImpulseStepInfo {
 #[derive(Clone, Debug, Default)]
 pub struct ImpulseStepper {
     forces: Vec<Vector3<f64>>,
+    /// The masses with infinity for the fixed particles (only when some are fixed).
+    pinned_masses: Vec<f64>,
     projection: CellProjectionWorkspace,
 }
 
@@ -222,9 +233,46 @@ impl ImpulseStepper {
         info: &mut ImpulseStepInfo,
     ) -> Result<(), ConstraintError> {
         let g = Vector3::from(params.gravity);
-        let total_mass = model.masses.iter().sum::<f64>() + state.sphere.map_or(0.0, |s| s.mass);
-        let mut external =
-            g * (h * total_mass) + model.external.iter().fold(Vector3::zeros(), |a, f| a + f) * h;
+        let fixed = |i: usize| model.fixed.get(i).copied().unwrap_or(false);
+        let any_fixed = model.fixed.iter().any(|&f| f);
+        let total_mass = if any_fixed {
+            model
+                .masses
+                .iter()
+                .enumerate()
+                .filter(|&(i, _)| !fixed(i))
+                .map(|(_, m)| m)
+                .sum::<f64>()
+        } else {
+            model.masses.iter().sum::<f64>()
+        } + state.sphere.map_or(0.0, |s| s.mass);
+        let applied = if any_fixed {
+            model
+                .external
+                .iter()
+                .enumerate()
+                .filter(|&(i, _)| !fixed(i))
+                .fold(Vector3::zeros(), |a, (_, f)| a + f)
+        } else {
+            model.external.iter().fold(Vector3::zeros(), |a, f| a + f)
+        };
+        let mut external = g * (h * total_mass) + applied * h;
+        // Masses seen by the contacts and the volume impulses: infinite for a fixed particle.
+        if any_fixed {
+            self.pinned_masses.clear();
+            self.pinned_masses.extend(
+                model.masses.iter().enumerate().map(
+                    |(i, &m)| {
+                        if fixed(i) { f64::INFINITY } else { m }
+                    },
+                ),
+            );
+        }
+        let masses: &[f64] = if any_fixed {
+            &self.pinned_masses
+        } else {
+            model.masses
+        };
         // 1. External forces: gravity and cell springs (Eq. 1).
         self.forces.clear();
         self.forces.resize(state.positions.len(), Vector3::zeros());
@@ -234,12 +282,17 @@ impl ImpulseStepper {
         for (f, e) in self.forces.iter_mut().zip(model.external) {
             *f += e;
         }
-        for ((v, f), m) in state
+        for (i, ((v, f), m)) in state
             .velocities
             .iter_mut()
             .zip(&self.forces)
             .zip(model.masses)
+            .enumerate()
         {
+            if any_fixed && fixed(i) {
+                *v = Vector3::zeros();
+                continue;
+            }
             *v += (f / *m + g) * h;
         }
         if let Some(s) = &mut state.sphere {
@@ -259,6 +312,14 @@ impl ImpulseStepper {
                     contacts += usize::from(plane_sphere_contact(plane, s, h, e));
                 }
             }
+            if any_fixed {
+                // A plane does not push an anchored particle.
+                for (i, v) in state.velocities.iter_mut().enumerate() {
+                    if fixed(i) {
+                        *v = Vector3::zeros();
+                    }
+                }
+            }
             if let Some(before) = before {
                 external += momentum(model.masses, state) - before;
             }
@@ -267,7 +328,7 @@ impl ImpulseStepper {
                     s,
                     &state.positions,
                     &mut state.velocities,
-                    model.masses,
+                    masses,
                     h,
                     e,
                 );
@@ -288,7 +349,7 @@ impl ImpulseStepper {
                 &mut self.projection,
                 &mut preview,
                 &mut state.velocities,
-                model.masses,
+                masses,
                 h,
                 tolerance,
             )?;
@@ -370,6 +431,7 @@ mod tests {
             springs: &b.springs,
             planes: &[],
             external: &[],
+            fixed: &[],
         }
     }
 

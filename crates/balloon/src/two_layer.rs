@@ -43,7 +43,7 @@ mod sim;
 
 pub use balloon_constraint::two_layer::AxisBox;
 pub use balloon_integrate::explicit::ExplicitMethod;
-pub use forces::{DragTarget, EnergyBreakdown, TwoLayerForces};
+pub use forces::{AnchorSpring, DragTarget, EnergyBreakdown, TwoLayerForces};
 pub use model::{Dimension, Shape, Spring, SpringKind, SpringParams, TwoLayerBody, TwoLayerModel};
 pub use sim::{TwoLayerSimulation, TwoLayerStats};
 

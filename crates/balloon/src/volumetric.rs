@@ -430,6 +430,8 @@ pub struct VolumetricSimulation {
     total_halvings: u64,
     /// External forces per particle (N) added in step 1 of every step; empty = none.
     external: Vec<Vector3<f64>>,
+    /// Fixed (hard-anchored) particles, one flag each; empty = none.
+    fixed: Vec<bool>,
     stepper: ImpulseStepper,
 }
 
@@ -444,6 +446,7 @@ impl VolumetricSimulation {
             step: 0,
             total_halvings: 0,
             external: Vec::new(),
+            fixed: Vec::new(),
             stepper: ImpulseStepper::new(),
         }
     }
@@ -634,6 +637,7 @@ impl VolumetricSimulation {
             springs: &self.body.springs,
             planes: &self.planes,
             external: &self.external,
+            fixed: &self.fixed,
         };
         let impulse = ImpulseParams {
             gravity: params.gravity,
@@ -739,6 +743,58 @@ impl VolumetricSimulation {
         &self.external
     }
 
+    /// Pins `particles` hard from now on (in addition to those pinned before): each keeps its
+    /// current position and zero velocity, as if of infinite mass, in the spring update (Eq. 1),
+    /// the contacts and the volume impulses (Eq. 2-4), whose correction the other corners of
+    /// its cells then carry alone (see [`balloon_constraint::impulse`]). Every index must be a
+    /// particle; an empty list changes nothing.
+    ///
+    /// The momentum reported by [`VolumetricSimulation::momentum`] and the step's
+    /// `external_impulse` do not count the anchors' reactions.
+    ///
+    /// ```
+    /// use balloon::volumetric::{VolumetricParams, VolumetricScene};
+    /// use balloon_mesh::lattice::LatticeParams;
+    /// let soup = balloon_mesh::generate::icosphere(0.5, 2).unwrap();
+    /// let params = VolumetricParams {
+    ///     lattice: LatticeParams { resolution: 8, ..LatticeParams::default() },
+    ///     ..VolumetricParams::default()
+    /// };
+    /// let mut sim = VolumetricScene::Free.build(Some(&soup), params).unwrap();
+    /// let before = sim.positions()[0];
+    /// sim.set_fixed_particles(&[0]).unwrap();
+    /// for _ in 0..20 {
+    ///     sim.step().unwrap();
+    /// }
+    /// assert_eq!(sim.positions()[0], before);
+    /// assert!(sim.positions()[1].z < sim.body().lattice.tet_mesh.vertices[1].z); // the rest falls
+    /// ```
+    pub fn set_fixed_particles(&mut self, particles: &[usize]) -> Result<(), VolumetricError> {
+        let n = self.state.positions.len();
+        if let Some(&bad) = particles.iter().find(|&&i| i >= n) {
+            return Err(VolumetricError::InvalidParameter {
+                name: "fixed particle",
+                value: bad.to_string(),
+                reason: format!("the body has {n} particles"),
+            });
+        }
+        if particles.is_empty() {
+            return Ok(());
+        }
+        self.fixed.resize(n, false);
+        for &i in particles {
+            self.fixed[i] = true;
+            self.state.velocities[i] = Vector3::zeros();
+        }
+        Ok(())
+    }
+
+    /// Which particles are pinned hard ([`VolumetricSimulation::set_fixed_particles`]): one
+    /// flag per particle, or empty when none is.
+    pub fn fixed_particles(&self) -> &[bool] {
+        &self.fixed
+    }
+
     /// Changes gravity (m/s^2, finite) for the following steps.
     pub fn set_gravity(&mut self, gravity: [f64; 3]) -> Result<(), VolumetricError> {
         let mut params = self.body.params.clone();
@@ -803,6 +859,61 @@ mod viewer_api_tests {
         sim.set_external_forces(None).unwrap();
         sim.step().unwrap();
         assert!((sim.momentum().y - want).abs() < 1e-9 * want);
+    }
+
+    /// A cube hung by its bottom layer under gravity: the pinned particles stay exactly where
+    /// they are, the rest sags, every cell keeps its volume and nothing turns non-finite, with
+    /// the Gauss-Seidel scaling correction (cells with a fixed corner switch to the gradient)
+    /// and with the global solver.
+    #[test]
+    fn hard_pinned_particles_never_move_and_cells_keep_their_volume() {
+        use balloon_constraint::cell_volume::CellCorrection;
+        for solver in [CellSolver::GaussSeidel, CellSolver::Global] {
+            let mut sim = free_cube();
+            let mut volume = sim.body.params.volume;
+            volume.solver = solver;
+            volume.correction = match solver {
+                CellSolver::GaussSeidel => CellCorrection::Scaling,
+                CellSolver::Global => CellCorrection::Gradient,
+            };
+            sim.body.constraints.params = volume;
+            sim.set_gravity([0.0, 0.0, -9.81]).unwrap();
+            let rest = sim.positions().to_vec();
+            let bottom = rest.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+            let pinned: Vec<usize> = (0..rest.len())
+                .filter(|&i| rest[i].z < bottom + 1e-9)
+                .collect();
+            assert!(!pinned.is_empty() && pinned.len() < rest.len());
+            sim.set_fixed_particles(&pinned).unwrap();
+            assert_eq!(
+                sim.fixed_particles().iter().filter(|&&f| f).count(),
+                pinned.len()
+            );
+            for _ in 0..200 {
+                let s = sim.step().unwrap();
+                assert!(s.max_cell_volume_error <= 1e-9, "{solver:?}: {s:?}");
+            }
+            for &i in &pinned {
+                assert_eq!(
+                    sim.positions()[i],
+                    rest[i],
+                    "{solver:?}: particle {i} moved"
+                );
+                assert_eq!(sim.velocities()[i], Vector3::zeros());
+            }
+            let top = (0..rest.len())
+                .max_by(|&a, &b| rest[a].z.total_cmp(&rest[b].z))
+                .unwrap();
+            let sag = rest[top].z - sim.positions()[top].z;
+            assert!(
+                sag > 0.0 && sag.is_finite(),
+                "{solver:?}: top sagged {sag} m"
+            );
+            assert!((sim.total_volume() / sim.body().rest_volume() - 1.0).abs() < 1e-8);
+        }
+        let mut sim = free_cube();
+        let n = sim.positions().len();
+        assert!(sim.set_fixed_particles(&[n]).is_err());
     }
 
     #[test]

@@ -346,3 +346,58 @@ fn the_two_balloon_example_scenario_runs() {
         "{s}"
     );
 }
+
+#[test]
+fn a_connect_record_states_the_resolved_material_and_repeats_the_run() {
+    // Without material flags the balloons are StVK shells with the default modulus and
+    // Poisson ratio and the global volume projection: the record says so (as inflate's does),
+    // instead of "(not set: ...)" comments, and running it again repeats the run bit for bit.
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = sphere_file(dir.path(), false);
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    let out = run_balloon(&[
+        "connect",
+        mesh.to_str().unwrap(),
+        "--copies",
+        "2",
+        "--stretches",
+        "1.02,1.04",
+        "--steps",
+        "3",
+        "--out",
+        a.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rec = std::fs::read_to_string(a.join("scenario.toml")).unwrap();
+    for line in [
+        "\nmaterial = \"stvk\"\n",
+        &format!("\nyoung = {:?}\n", balloon::shell::DEFAULT_YOUNG),
+        &format!("\npoisson = {:?}\n", balloon::shell::DEFAULT_POISSON),
+        "\nvolume_projection = \"global\"\n",
+    ] {
+        assert!(rec.contains(line), "{line:?} missing in\n{rec}");
+    }
+    let out = run_balloon(&[
+        "run",
+        a.join("scenario.toml").to_str().unwrap(),
+        "--out",
+        b.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        std::fs::read(a.join("final.obj")).unwrap(),
+        std::fs::read(b.join("final.obj")).unwrap()
+    );
+    assert_eq!(
+        rec,
+        std::fs::read_to_string(b.join("scenario.toml")).unwrap()
+    );
+}

@@ -256,3 +256,168 @@ fn a_two_layer_scenario_file_selects_its_system() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("t.toml:3: `shell`: unknown table"), "{err}");
 }
+
+#[test]
+fn volumetric_anchors_and_loads_are_scenario_tables_and_repeat_themselves() {
+    repeats_itself(
+        &[
+            "volumetric",
+            "builtin:icosphere",
+            "--resolution",
+            "10",
+            "--voxels-per-cell",
+            "2",
+            "--scene",
+            "free",
+            "--steps",
+            "8",
+            "--frame-every",
+            "4",
+            "--pin",
+            "below:z:-0.06",
+            "--pin",
+            "above:z:0.06@2000",
+            "--load",
+            "force=0.1,0,0;on=above:x:0.03;per=total;end=0.002",
+            "--load",
+            "gravity=0,0,-3;start=0.001",
+        ],
+        "volumetric",
+        "frame_00008.obj",
+    );
+    // The same from a hand-written scenario: `[[anchors]]` and `[[loads]]` tables.
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("v.toml");
+    std::fs::write(
+        &scenario,
+        "[system]\nkind = \"volumetric\"\n[mesh]\npath = \"builtin:icosphere\"\n\
+         [lattice]\nresolution = 10\nvoxels_per_cell = 2\n[run]\nscene = \"free\"\nsteps = 3\n\
+         [[anchors]]\nbelow = { axis = \"z\", value = -0.06 }\n\
+         [[loads]]\nforce = [0.0, 0.0, 1.0]\nabove = { axis = \"z\", value = 0.06 }\n\
+         [[loads]]\ngrab = [0.0, 0.0, 2.0]\nindices = [0]\nstiffness = 10.0\n",
+    )
+    .unwrap();
+    let out_dir = dir.path().join("o");
+    let out = run_balloon(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    ok(&out);
+    let recorded = std::fs::read_to_string(out_dir.join("scenario.toml")).unwrap();
+    for want in [
+        "below:z:-0.06",
+        "force=0.0,0.0,1.0;per=vertex;on=above:z:0.06",
+        "grab=0.0,0.0,2.0;stiffness=10.0;on=indices:0",
+    ] {
+        assert!(recorded.contains(want), "{want} missing in\n{recorded}");
+    }
+    // An anchor that selects nothing names its selector and the file's table.
+    std::fs::write(
+        &scenario,
+        "[system]\nkind = \"volumetric\"\n[mesh]\npath = \"builtin:icosphere\"\n\
+         [lattice]\nresolution = 10\nvoxels_per_cell = 2\n[[anchors]]\nbelow = { axis = \"z\", value = -9.0 }\n",
+    )
+    .unwrap();
+    let out = run_balloon(&["run", scenario.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("`below:z:-9.0` selects no particle"), "{err}");
+}
+
+#[test]
+fn two_layer_spring_anchors_and_loads_repeat_themselves() {
+    repeats_itself(
+        &[
+            "two-layer",
+            "--level",
+            "1",
+            "--steps",
+            "20",
+            "--pin",
+            "below:z:-0.9@50",
+            "--load",
+            "grab=0,0,2;on=above:z:0.9;stiffness=5;end=0.004",
+            "--load",
+            "gravity=1,0,0;start=0.002",
+        ],
+        "two-layer",
+        "frame_00020.obj",
+    );
+}
+
+#[test]
+fn a_json_scenario_runs_like_its_toml_twin_and_names_its_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let toml = dir.path().join("v.toml");
+    let json = dir.path().join("v.json");
+    std::fs::write(
+        &toml,
+        "[system]\nkind = \"volumetric\"\n[mesh]\npath = \"builtin:icosphere\"\n\
+         [lattice]\nresolution = 10\nvoxels_per_cell = 2\n[run]\nscene = \"free\"\nsteps = 4\n\
+         [[anchors]]\nbelow = { axis = \"z\", value = -0.06 }\n\
+         [[loads]]\nforce = [0.0, 0.0, 1.0]\nabove = { axis = \"z\", value = 0.06 }\n",
+    )
+    .unwrap();
+    std::fs::write(
+        &json,
+        r#"{
+  "system": {"kind": "volumetric"},
+  "mesh": {"path": "builtin:icosphere"},
+  "lattice": {"resolution": 10, "voxels_per_cell": 2},
+  "run": {"scene": "free", "steps": 4},
+  "anchors": [{"below": {"axis": "z", "value": -0.06}}],
+  "loads": [{"force": [0.0, 0.0, 1.0], "above": {"axis": "z", "value": 0.06}}]
+}
+"#,
+    )
+    .unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    for (file, out) in [(&toml, &a), (&json, &b)] {
+        ok(&run_balloon(&[
+            "run",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]));
+    }
+    // The same run: the same record (TOML for both) and the same last frame.
+    assert_eq!(bytes(&a, "scenario.toml"), bytes(&b, "scenario.toml"));
+    assert_eq!(bytes(&a, "frame_00000.obj"), bytes(&b, "frame_00000.obj"));
+    let last = |d: &std::path::Path| {
+        let mut frames: Vec<_> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .filter(|n| n.starts_with("frame_"))
+            .collect();
+        frames.sort();
+        frames.pop().unwrap()
+    };
+    assert_eq!(bytes(&a, &last(&a)), bytes(&b, &last(&b)));
+    // Errors name the JSON file's line and the key.
+    for (text, want) in [
+        (
+            "{\n  \"run\": {\n    \"steps\": -3\n  }\n}\n",
+            "v.json:3: `run.steps`",
+        ),
+        (
+            "{\n  \"run\": {\"stepz\": 3}\n}\n",
+            "v.json:2: `run.stepz`: unknown key",
+        ),
+        (
+            "{\n  \"run\": {\"steps\": 3,}\n}\n",
+            "v.json:2: not valid JSON",
+        ),
+        (
+            "{\"system\": {\"kind\": \"volumetric\"},\n \"anchors\": [\n  {\"below\": 3}\n ]\n}\n",
+            "v.json:3: `anchors.below`",
+        ),
+    ] {
+        std::fs::write(&json, text).unwrap();
+        let out = run_balloon(&["run", json.to_str().unwrap()]);
+        assert!(!out.status.success(), "{text}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(want), "{want} not in: {err}");
+    }
+}

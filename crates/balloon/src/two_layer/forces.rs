@@ -34,12 +34,16 @@ pub struct EnergyBreakdown {
     pub gravity: f64,
     /// Energy of the drag spring `1/2 k_m (l - L_m)^2`.
     pub drag: f64,
+    /// Energy of the loads ([`TwoLayerForces::set_loads`]): the anchor springs
+    /// `1/2 K |x - a|^2` and the potential `-F . x` of the constant external forces.
+    #[serde(default)]
+    pub loads: f64,
 }
 
 impl EnergyBreakdown {
-    /// Potential energy (spring + gas + gravity + drag).
+    /// Potential energy (spring + gas + gravity + drag + loads).
     pub fn potential(&self) -> f64 {
-        self.spring + self.gas + self.gravity + self.drag
+        self.spring + self.gas + self.gravity + self.drag + self.loads
     }
 
     /// Total energy (kinetic + potential).
@@ -68,6 +72,8 @@ pub struct TwoLayerForces {
     gravity: f64,
     valence_factor: Option<Vec<f64>>,
     drag: Option<(DragTarget, usize)>,
+    /// Anchor springs and constant external forces ([`TwoLayerForces::set_loads`]).
+    loads: Loads,
     /// Per coordinate: `1 / m`, or 0 for fixed particles and axes outside the dimension.
     inverse_mass: Vec<f64>,
     spring_force: Vec<f64>,
@@ -230,6 +236,55 @@ impl GasLayer {
     }
 }
 
+/// A zero-length spring holding a particle at a point (a spring anchor, or a grab load).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AnchorSpring {
+    /// The particle.
+    pub particle: usize,
+    /// Where it is held (m).
+    pub point: [f64; 3],
+    /// Stiffness (N/m).
+    pub stiffness: f64,
+}
+
+/// The anchor springs and constant external forces of [`TwoLayerForces::set_loads`].
+#[derive(Clone, Debug, Default)]
+struct Loads {
+    anchors: Vec<AnchorSpring>,
+    /// Flat, `3 * particles`, or empty.
+    external: Vec<f64>,
+}
+
+impl Loads {
+    /// Adds `K (a - x)` per anchor and the external forces to `f`.
+    fn add_forces(&self, x: &[f64], f: &mut [f64]) {
+        for a in &self.anchors {
+            for d in 0..3 {
+                f[3 * a.particle + d] += a.stiffness * (a.point[d] - x[3 * a.particle + d]);
+            }
+        }
+        for (fi, e) in f.iter_mut().zip(&self.external) {
+            *fi += e;
+        }
+    }
+
+    /// `sum 1/2 K |x - a|^2 - sum F . x`.
+    fn energy(&self, x: &[f64]) -> f64 {
+        let springs: f64 = self
+            .anchors
+            .iter()
+            .map(|a| {
+                let d2: f64 = (0..3)
+                    .map(|d| (x[3 * a.particle + d] - a.point[d]).powi(2))
+                    .sum();
+                0.5 * a.stiffness * d2
+            })
+            .sum();
+        let work: f64 = self.external.iter().zip(x).map(|(f, x)| f * x).sum();
+        springs - work
+    }
+}
+
 fn drag_spring(t: &DragTarget) -> TargetSpring {
     TargetSpring::new(Spring::new(t.rest_length, t.stiffness, t.damping))
 }
@@ -318,6 +373,7 @@ impl TwoLayerForces {
             gravity: body.gravity,
             valence_factor,
             drag: None,
+            loads: Loads::default(),
             inverse_mass,
             spring_force: vec![0.0; dof],
         }
@@ -355,6 +411,18 @@ impl TwoLayerForces {
             (t, nearest)
         });
         self.drag.map(|(_, i)| i)
+    }
+
+    /// Replaces the anchor springs and the constant external forces (N, flat, one triple per
+    /// particle, or empty for none) that [`TwoLayerForces::forces_into`] adds after the drag
+    /// spring. Each anchor pulls its particle toward its point with `F = K (a - x)`.
+    pub fn set_loads(&mut self, anchors: Vec<AnchorSpring>, external: Vec<f64>) {
+        self.loads = Loads { anchors, external };
+    }
+
+    /// The anchor springs and external forces set by [`TwoLayerForces::set_loads`].
+    pub fn loads(&self) -> (&[AnchorSpring], &[f64]) {
+        (&self.loads.anchors, &self.loads.external)
     }
 
     /// Current gas pressures `(outer, inner)` (Pa) for positions `x`: `P = nRT / V`
@@ -415,6 +483,7 @@ impl TwoLayerForces {
             let fd = drag_spring(&t).force(&vec3(x, i), &vec3(v, i), &t.point, &Vector3::zeros());
             add3(f, i, fd);
         }
+        self.loads.add_forces(x, f);
     }
 
     /// Energies at positions `x` and velocities `v`.
@@ -454,6 +523,7 @@ impl TwoLayerForces {
         if let Some((t, i)) = self.drag {
             e.drag = drag_spring(&t).energy(&vec3(x, i), &t.point);
         }
+        e.loads = self.loads.energy(x);
         e
     }
 

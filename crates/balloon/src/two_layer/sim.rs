@@ -2,7 +2,7 @@
 //! for blow-up, report.
 
 use super::containment::LayerContainment;
-use super::forces::{DragTarget, EnergyBreakdown, TwoLayerForces};
+use super::forces::{AnchorSpring, DragTarget, EnergyBreakdown, TwoLayerForces};
 use super::model::{Dimension, TwoLayerBody, TwoLayerModel};
 use super::{BlowUpReason, TwoLayerError, non_negative, positive};
 use balloon_constraint::two_layer::{AxisBox, collide_box, polygon_winding_number, winding_number};
@@ -208,6 +208,71 @@ impl TwoLayerSimulation {
         let particle = self.forces.set_drag(target, &self.state[..n3]);
         self.work += self.energies().drag - before;
         Ok(particle)
+    }
+
+    /// Sets the loads of the following steps, replacing earlier ones: zero-length anchor
+    /// springs `F = K (a - x)` (spring anchors and grabs) and constant external forces (N, flat,
+    /// one triple per particle; `None` for none), added to the forces of every evaluation of
+    /// the integrator. Their energy (`EnergyBreakdown::loads`: `1/2 K |x - a|^2 - F . x`) is
+    /// part of the total, and the change it makes at this moment counts as work done on the
+    /// body, as for the drag. Every particle must exist, every stiffness be positive and
+    /// finite, every coordinate and force finite.
+    ///
+    /// ```
+    /// use balloon::two_layer::{AnchorSpring, ExplicitMethod, TwoLayerBody};
+    /// // A 2D ring without gravity, its particle 0 held by a spring 1 m below where it is.
+    /// let mut sim = TwoLayerBody::circle(12).with_gravity(0.0).simulate(ExplicitMethod::Rk4, 1e-3)?;
+    /// let y0 = sim.positions()[1];
+    /// let anchor = AnchorSpring { particle: 0, point: [sim.positions()[0], y0 - 1.0, 0.0], stiffness: 5.0 };
+    /// sim.set_loads(vec![anchor], None)?;
+    /// sim.run(50)?;
+    /// assert!(sim.positions()[1] < y0); // pulled down
+    /// assert!(sim.work_done() > 0.0); // the spring's 1/2 K (1 m)^2 counts as work
+    /// # Ok::<(), balloon::two_layer::TwoLayerError>(())
+    /// ```
+    pub fn set_loads(
+        &mut self,
+        anchors: Vec<AnchorSpring>,
+        external: Option<&[f64]>,
+    ) -> Result<(), TwoLayerError> {
+        let n3 = self.state.len() / 2;
+        let n = n3 / 3;
+        for a in &anchors {
+            if a.particle >= n {
+                return Err(TwoLayerError::InvalidParameter {
+                    name: "anchor particle",
+                    value: a.particle.to_string(),
+                    reason: format!("the body has {n} particles"),
+                });
+            }
+            positive("anchor stiffness", a.stiffness)?;
+            if !a.point.iter().all(|c| c.is_finite()) {
+                return Err(TwoLayerError::InvalidParameter {
+                    name: "anchor point",
+                    value: format!("{:?}", a.point),
+                    reason: "must be finite".into(),
+                });
+            }
+        }
+        let external = external.map(<[f64]>::to_vec).unwrap_or_default();
+        if !external.is_empty() && external.len() != n3 {
+            return Err(TwoLayerError::InvalidParameter {
+                name: "external forces",
+                value: external.len().to_string(),
+                reason: format!("expected {n3} components (3 per particle)"),
+            });
+        }
+        if let Some(i) = external.iter().position(|f| !f.is_finite()) {
+            return Err(TwoLayerError::InvalidParameter {
+                name: "external forces",
+                value: external[i].to_string(),
+                reason: format!("the force on particle {} must be finite", i / 3),
+            });
+        }
+        let before = self.energies().loads;
+        self.forces.set_loads(anchors, external);
+        self.work += self.energies().loads - before;
+        Ok(())
     }
 
     /// Statistics of the current state.
