@@ -72,3 +72,17 @@ pub fn volumetric_args(argv: &[&str]) -> balloon_cli::cmd_volumetric::Volumetric
         .unwrap_or_else(|e| panic!("{e}"))
         .args
 }
+
+/// The `v` lines of an OBJ file as flat `x y z` coordinates.
+pub fn obj_points(path: &std::path::Path) -> Vec<f64> {
+    std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .flat_map(|l| {
+            l.split_whitespace()
+                .map(|v| v.parse::<f64>().unwrap())
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}

@@ -1,7 +1,7 @@
 //! `balloon run SCENARIO.toml`: the example runs as written, flags override the file, errors
 //! name the file, line and key, and a run repeats itself from its recorded `scenario.toml`.
 
-use super::{last_json_line, run_balloon};
+use super::{last_json_line, obj_points, run_balloon};
 use std::path::{Path, PathBuf};
 
 /// A small closed sphere (162 vertices) written as OBJ into `dir`.
@@ -32,6 +32,64 @@ fn the_example_shell_scenario_runs_as_written() {
     assert!(
         s["final_gas_volume"].as_f64().unwrap() > s["initial_gas_volume"].as_f64().unwrap(),
         "1500 Pa inflates the sphere: {s}"
+    );
+}
+
+/// The example scenario `examples/NAME/scenario.toml` run as written, with `extra` flags after
+/// it (fewer steps for the test); returns the summary and the output folder.
+fn run_example(name: &str, extra: &[&str]) -> (serde_json::Value, tempfile::TempDir) {
+    let example = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples")
+        .join(name)
+        .join("scenario.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("run");
+    let mut args = vec!["run", example.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--out", out_dir.to_str().unwrap(), "--json"]);
+    let out = run_balloon(&args);
+    ok(&out);
+    (last_json_line(&out), dir)
+}
+
+/// Lowest and highest `z` of the points.
+fn z_range(points: &[f64]) -> (f64, f64) {
+    points
+        .chunks_exact(3)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p[2]), hi.max(p[2]))
+        })
+}
+
+#[test]
+fn the_example_volumetric_and_two_layer_scenarios_run_as_written() {
+    // The hanging teddy: its head is pinned, so the top of its surface stays where it was
+    // while the rest sags under gravity; the cells keep their volumes.
+    let (s, dir) = run_example("hanging-teddy", &["--steps", "400", "--frame-every", "400"]);
+    assert_eq!(s["steps"], 400, "{s}");
+    assert!(s["max_cell_volume_error"].as_f64().unwrap() < 1e-9, "{s}");
+    let run = dir.path().join("run");
+    let (lo0, hi0) = z_range(&obj_points(&run.join("frame_00000.obj")));
+    let (lo1, hi1) = z_range(&obj_points(&run.join("frame_00400.obj")));
+    assert!(
+        (hi1 - hi0).abs() < 2e-3,
+        "the pinned head moved: {hi0} -> {hi1}"
+    );
+    assert!(lo1 < lo0 - 1e-4, "the feet sag: {lo0} -> {lo1}");
+    // The tethered two-layer ball hangs from springs at its top: it drops onto them.
+    let (s, dir) = run_example(
+        "tethered-two-layer",
+        &["--steps", "400", "--frame-every", "400"],
+    );
+    assert_eq!(s["steps"], 400, "{s}");
+    assert_eq!(s["escaped_particles"], 0, "{s}");
+    let run = dir.path().join("run");
+    let (lo0, hi0) = z_range(&obj_points(&run.join("frame_00000.obj")));
+    let (lo1, hi1) = z_range(&obj_points(&run.join("frame_00400.obj")));
+    assert!(lo1 < lo0 - 0.05, "the ball drops: {lo0} -> {lo1}");
+    assert!(
+        hi0 - hi1 < lo0 - lo1,
+        "the anchored top moves less than the bottom"
     );
 }
 
