@@ -735,6 +735,18 @@ fn selector_value(key: &str, v: &Item, base: &Path) -> Option<Result<String, Str
             .as_str()
             .map(|p| format!("file:{}", base.join(p).display()))
             .ok_or_else(|| "expected a path (relative to the scenario file)".to_owned()),
+        "vertex_group" => {
+            let t = v.as_inline_table();
+            let file = t.and_then(|t| t.get("file")).and_then(Value::as_str);
+            let property = t.and_then(|t| t.get("property")).and_then(Value::as_str);
+            match (file, property, t.map_or(0, |t| t.len())) {
+                (Some(f), Some(p), 2) => Ok(format!("ply:{}:{p}", base.join(f).display())),
+                _ => Err(
+                    "expected { file = \"PATH.ply\" (relative to the scenario file), property = \"NAME\" }"
+                        .to_owned(),
+                ),
+            }
+        }
         "below" | "above" => {
             let t = v.as_inline_table();
             let axis = t.and_then(|t| t.get("axis")).and_then(Value::as_str);
@@ -774,7 +786,8 @@ fn table_value(
         if let Some(sel) = selector_value(key, item, base) {
             if selector.is_some() {
                 return Err(fail(
-                    "a second selector (one of indices, vertices_file, below, above, box)".into(),
+                    "a second selector (one of indices, vertices_file, vertex_group, below, above, box)"
+                        .into(),
                 ));
             }
             selector = Some(sel.map_err(fail)?);

@@ -5,7 +5,9 @@
 //! A selector picks vertices of the (scaled) rest mesh:
 //! `indices:1,2,3`, `file:PATH` (one vertex index per line, `#` comments),
 //! `below:AXIS:VALUE` / `above:AXIS:VALUE` (a half-space, coordinate in m, `AXIS` one of `x`,
-//! `y`, `z`) or `box:XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX` (m, bounds included).
+//! `y`, `z`), `box:XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX` (m, bounds included) or
+//! `ply:PATH:PROPERTY` (a vertex group stored in a PLY file: the vertices whose `PROPERTY` is
+//! not zero, typically the mesh's own file, e.g. `ply:balloon.ply:neck`).
 //!
 //! An anchor (`--pin SELECTOR[@K]`) holds its vertices where they are at rest: hard (removed
 //! from the solve, `balloon::shell::ShellSimulation::set_pinned_vertices`) unless a stiffness is
@@ -38,8 +40,9 @@ pub struct SetupArgs {
     #[arg(long, value_parser = parse_rule)]
     pub thickness_rule: Option<LinearRule>,
     /// Pin vertices (repeatable): `indices:1,2,3`, `file:PATH`, `below:AXIS:VALUE`,
-    /// `above:AXIS:VALUE` or `box:XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX` (m), with `@K` for springs of
-    /// K N/m instead of a hard pin (a hard-pinned vertex does not move at all).
+    /// `above:AXIS:VALUE`, `box:XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX` (m) or `ply:PATH:PROPERTY` (the
+    /// vertices whose PLY vertex property is not 0), with `@K` for springs of K N/m instead of
+    /// a hard pin (a hard-pinned vertex does not move at all).
     #[arg(long, value_parser = parse_pin)]
     pub pin: Vec<Pin>,
     /// Stiffness of the --pin anchors without their own `@K`, N/m, in (0, 1e12]; absent: hard
@@ -113,6 +116,27 @@ pub enum SelectionError {
     /// A selector picks no vertex.
     #[error("`{0}` selects no vertex of the mesh")]
     Empty(String),
+    /// A PLY vertex group cannot be read.
+    #[error("cannot read the vertex group `{property}` of {}", path.display())]
+    GroupFile {
+        /// The PLY file.
+        path: PathBuf,
+        /// The vertex property.
+        property: String,
+        /// Why.
+        #[source]
+        source: balloon::mesh::MeshError,
+    },
+    /// A PLY vertex group is missing, per face, or of another vertex count.
+    #[error("{}: vertex group `{property}`: {message}", path.display())]
+    Group {
+        /// The PLY file.
+        path: PathBuf,
+        /// The vertex property.
+        property: String,
+        /// What is wrong.
+        message: String,
+    },
     /// The mesh's own thickness property cannot be read.
     #[error("cannot read the thickness property of {}", path.display())]
     Mesh {
@@ -206,12 +230,20 @@ pub enum Selector {
     },
     /// Vertices inside the box `[xmin, ymin, zmin, xmax, ymax, zmax]` (m, bounds included).
     Box([f64; 6]),
+    /// The vertices whose vertex property `property` of the PLY file `path` is not zero (a
+    /// vertex group; the file's vertices must be the mesh's, in order).
+    PlyGroup {
+        /// The PLY file.
+        path: PathBuf,
+        /// The vertex property.
+        property: String,
+    },
 }
 
-/// `indices:..`, `file:..`, `below:..`, `above:..` or `box:..`.
+/// `indices:..`, `file:..`, `below:..`, `above:..`, `box:..` or `ply:PATH:PROPERTY`.
 pub fn parse_selector(s: &str) -> Result<Selector, String> {
     let (kind, rest) = s.split_once(':').ok_or_else(|| {
-        format!("`{s}`: expected indices:1,2,3, file:PATH, below:AXIS:VALUE, above:AXIS:VALUE or box:XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX")
+        format!("`{s}`: expected indices:1,2,3, file:PATH, below:AXIS:VALUE, above:AXIS:VALUE, box:XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX or ply:PATH:PROPERTY")
     })?;
     match kind.trim() {
         "indices" => rest
@@ -241,8 +273,17 @@ pub fn parse_selector(s: &str) -> Result<Selector, String> {
             }
             Ok(Selector::Box(b))
         }
+        "ply" => match rest.rsplit_once(':') {
+            Some((path, property)) if !path.is_empty() && !property.trim().is_empty() => {
+                Ok(Selector::PlyGroup {
+                    path: PathBuf::from(path),
+                    property: property.trim().to_owned(),
+                })
+            }
+            _ => Err(format!("`{s}`: expected ply:PATH:PROPERTY")),
+        },
         other => Err(format!(
-            "`{other}` is not a selector (indices, file, below, above, box)"
+            "`{other}` is not a selector (indices, file, below, above, box, ply)"
         )),
     }
 }
@@ -265,6 +306,9 @@ impl std::fmt::Display for Selector {
                 let list: Vec<String> = b.iter().map(|v| format!("{v:?}")).collect();
                 write!(f, "box:{}", list.join(","))
             }
+            Selector::PlyGroup { path, property } => {
+                write!(f, "ply:{}:{property}", path.display())
+            }
         }
     }
 }
@@ -274,6 +318,10 @@ impl Selector {
     pub fn relative_to(self, base: &Path) -> Selector {
         match self {
             Selector::File(p) if p.is_relative() => Selector::File(base.join(p)),
+            Selector::PlyGroup { path, property } if path.is_relative() => Selector::PlyGroup {
+                path: base.join(path),
+                property,
+            },
             other => other,
         }
     }
@@ -282,6 +330,10 @@ impl Selector {
     pub fn absolute(self) -> Selector {
         match self {
             Selector::File(p) => Selector::File(std::path::absolute(&p).unwrap_or(p)),
+            Selector::PlyGroup { path, property } => Selector::PlyGroup {
+                path: std::path::absolute(&path).unwrap_or(path),
+                property,
+            },
             other => other,
         }
     }
@@ -305,6 +357,7 @@ impl Selector {
             Selector::Box(b) => (0..nv)
                 .filter(|&v| (0..3).all(|k| p(v, k) >= b[k] && p(v, k) <= b[k + 3]))
                 .collect(),
+            Selector::PlyGroup { path, property } => ply_group(path, property, nv)?,
         };
         if let Some(&index) = picked.iter().find(|&&i| i >= nv) {
             return Err(SelectionError::Index {
@@ -320,6 +373,40 @@ impl Selector {
         picked.sort_unstable();
         picked.dedup();
         Ok(picked)
+    }
+}
+
+/// The vertices of a PLY vertex group: those whose vertex property `property` is not zero. The
+/// file must have `vertices` vertices (the mesh's).
+fn ply_group(path: &Path, property: &str, vertices: usize) -> Result<Vec<usize>, SelectionError> {
+    let group = |message: String| SelectionError::Group {
+        path: path.to_path_buf(),
+        property: property.to_owned(),
+        message,
+    };
+    let (mesh, values) =
+        balloon::mesh::io::read_ply_with_property(path, property).map_err(|source| {
+            SelectionError::GroupFile {
+                path: path.to_path_buf(),
+                property: property.to_owned(),
+                source,
+            }
+        })?;
+    match values {
+        balloon::mesh::io::PlyProperty::PerVertex(v) if mesh.num_vertices() == vertices => Ok(v
+            .iter()
+            .enumerate()
+            .filter(|(_, x)| **x != 0.0)
+            .map(|(i, _)| i)
+            .collect()),
+        balloon::mesh::io::PlyProperty::PerVertex(_) => Err(group(format!(
+            "the file has {} vertices, the body {vertices}",
+            mesh.num_vertices()
+        ))),
+        balloon::mesh::io::PlyProperty::PerFace(_) => Err(group(
+            "is a face property; a vertex group is a vertex property".into(),
+        )),
+        balloon::mesh::io::PlyProperty::Absent => Err(group("no vertex has this property".into())),
     }
 }
 
@@ -1163,6 +1250,69 @@ mod tests {
         assert!(e.contains("g.txt:2:") && e.contains("one"), "{e}");
         let rel = rewrite_paths("pin", "file:g.txt@5", Some(dir.path()));
         assert_eq!(rel, format!("file:{}@5.0", f.display()));
+    }
+
+    #[test]
+    fn a_ply_vertex_group_selects_its_nonzero_vertices_and_is_checked() {
+        let x = [0.0, 0.0, 0.0, 1.0, 0.0, 0.5, 0.0, 1.0, 1.0];
+        let dir = tempfile::tempdir().unwrap();
+        let ply = |name: &str, element: &str, values: &[&str]| {
+            let path = dir.path().join(name);
+            let (vp, fp) = if element == "vertex" {
+                ("property float neck\n", "")
+            } else {
+                ("", "property float neck\n")
+            };
+            let verts = ["0 0 0", "1 0 0.5", "0 1 1"];
+            let mut text = format!(
+                "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                 property float z\n{vp}element face 1\nproperty list uchar int vertex_indices\n\
+                 {fp}end_header\n"
+            );
+            for (i, v) in verts.iter().enumerate() {
+                let extra = if element == "vertex" {
+                    format!(" {}", values[i])
+                } else {
+                    String::new()
+                };
+                text += &format!("{v}{extra}\n");
+            }
+            let extra = if element == "face" {
+                format!(" {}", values[0])
+            } else {
+                String::new()
+            };
+            text += &format!("3 0 1 2{extra}\n");
+            std::fs::write(&path, text).unwrap();
+            path
+        };
+        let good = ply("g.ply", "vertex", &["0", "1", "2.5"]);
+        let s = parse_selector(&format!("ply:{}:neck", good.display())).unwrap();
+        assert_eq!(s.select(&x).unwrap(), vec![1, 2]);
+        assert_eq!(parse_selector(&s.to_string()).unwrap(), s, "round trip");
+        let err = |sel: String, x: &[f64]| {
+            parse_selector(&sel)
+                .unwrap()
+                .select(x)
+                .unwrap_err()
+                .to_string()
+        };
+        assert!(err(format!("ply:{}:tail", good.display()), &x).contains("no vertex has"));
+        assert!(
+            err(format!("ply:{}:neck", good.display()), &x[..6]).contains("3 vertices, the body 2")
+        );
+        let face = ply("f.ply", "face", &["1"]);
+        assert!(err(format!("ply:{}:neck", face.display()), &x).contains("face property"));
+        let none = ply("z.ply", "vertex", &["0", "0", "0"]);
+        assert!(err(format!("ply:{}:neck", none.display()), &x).contains("selects no vertex"));
+        let e = err(
+            format!("ply:{}:neck", dir.path().join("missing.ply").display()),
+            &x,
+        );
+        assert!(e.contains("missing.ply") && e.contains("`neck`"), "{e}");
+        assert!(parse_selector("ply:only").is_err());
+        let rel = rewrite_paths("pin", "ply:g.ply:neck", Some(dir.path()));
+        assert_eq!(rel, format!("ply:{}:neck", good.display()));
     }
 
     #[test]

@@ -88,6 +88,81 @@ fn a_hard_pinned_neck_stays_exactly_where_it_is_while_the_rest_inflates() {
 }
 
 #[test]
+fn a_ply_vertex_group_pins_the_neck_from_the_command_line_and_a_scenario() {
+    // The mesh as a PLY whose vertex property `neck` marks the bottom cap: `--pin
+    // ply:FILE:neck` (and `vertex_group` in a scenario) holds exactly those vertices.
+    let dir = tempfile::tempdir().unwrap();
+    let input = sphere();
+    let neck = neck_vertices(&input);
+    let mut ply = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\n\
+         property double z\nproperty uchar neck\nelement face {}\n\
+         property list uchar int vertex_indices\nend_header\n",
+        input.num_vertices(),
+        input.num_triangles()
+    );
+    for (v, p) in input.vertices.iter().enumerate() {
+        let mark = u8::from(neck.contains(&v));
+        ply.push_str(&format!("{:?} {:?} {:?} {mark}\n", p.x, p.y, p.z));
+    }
+    for t in &input.triangles {
+        ply.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
+    }
+    let path = dir.path().join("balloon.ply");
+    std::fs::write(&path, ply).unwrap();
+    let spec = format!("ply:{}:neck", path.display());
+    let scenario = dir.path().join("s.toml");
+    std::fs::write(
+        &scenario,
+        "[mesh]\npath = \"balloon.ply\"\n[gas]\nmodel = \"constant\"\npressure = 3000\n\
+         [run]\nsteps = 8\n[[anchors]]\nvertex_group = { file = \"balloon.ply\", property = \"neck\" }\n",
+    )
+    .unwrap();
+    for (k, args) in [
+        vec![
+            "inflate",
+            path.to_str().unwrap(),
+            "--gas",
+            "constant",
+            "--pressure",
+            "3000",
+            "--steps",
+            "8",
+            "--pin",
+            spec.as_str(),
+        ],
+        vec!["run", scenario.to_str().unwrap()],
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let out = dir.path().join(format!("out{k}"));
+        let mut args = args;
+        args.extend(["--out", out.to_str().unwrap()]);
+        let s = run_ok(&args);
+        assert!(
+            s["final_gas_volume"].as_f64().unwrap()
+                > 1.05 * s["initial_gas_volume"].as_f64().unwrap()
+        );
+        let end = final_mesh(&out);
+        for v in 0..input.num_vertices() {
+            let still = end.vertices[v] == input.vertices[v];
+            assert_eq!(
+                still,
+                neck.contains(&v),
+                "run {k}: vertex {v} pinned {}",
+                !still
+            );
+        }
+        let rec = std::fs::read_to_string(out.join("scenario.toml")).unwrap();
+        assert!(
+            rec.contains(&format!("ply:{}:neck", path.display())),
+            "{rec}"
+        );
+    }
+}
+
+#[test]
 fn spring_anchors_under_a_force_move_by_f_over_k() {
     // Every vertex on a spring of k = 10 N/m to its rest position and pushed by F = 0.01 N:
     // the whole (unpressurised) shell shifts rigidly by F / k = 1 mm.
