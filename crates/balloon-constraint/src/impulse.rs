@@ -134,6 +134,13 @@ pub struct ImpulseStepInfo {
     /// else (springs, volume impulses with momentum-conserving centres, sphere-particle
     /// contacts) is internal, so the momentum changes by exactly this much up to round-off.
     pub external_impulse: [f64; 3],
+    /// Active sphere-particle contacts of the completed sub-steps (summed over sub-steps and
+    /// contact rounds; part of `contacts`).
+    pub sphere_contacts: usize,
+    /// Impulse (N s) the particles gave the sphere through their contacts over the completed
+    /// sub-steps, `M (V_after - V_before)` of each contact pass (the particles received the
+    /// opposite; zero without a sphere).
+    pub sphere_contact_impulse: [f64; 3],
 }
 
 /// The stepper: scratch buffers and the caches of the global cell-volume solve, kept from step
@@ -225,6 +232,7 @@ impl ImpulseStepper {
         let total_mass = model.masses.iter().sum::<f64>() + state.sphere.map_or(0.0, |s| s.mass);
         let mut external =
             g * (h * total_mass) + model.external.iter().fold(Vector3::zeros(), |a, f| a + f) * h;
+        let (mut sphere_contacts, mut sphere_impulse) = (0, Vector3::zeros());
         // 1. External forces: gravity and cell springs (Eq. 1).
         self.forces.clear();
         self.forces.resize(state.positions.len(), Vector3::zeros());
@@ -263,7 +271,8 @@ impl ImpulseStepper {
                 external += momentum(model.masses, state) - before;
             }
             if let Some(s) = &mut state.sphere {
-                contacts += sphere_particle_contacts(
+                let before = s.momentum();
+                let touching = sphere_particle_contacts(
                     s,
                     &state.positions,
                     &mut state.velocities,
@@ -271,6 +280,9 @@ impl ImpulseStepper {
                     h,
                     e,
                 );
+                contacts += touching;
+                sphere_contacts += touching;
+                sphere_impulse += s.momentum() - before;
             }
             info.contacts += contacts;
             for ((x, p), v) in preview
@@ -305,6 +317,14 @@ impl ImpulseStepper {
         for (acc, x) in info.external_impulse.iter_mut().zip(external.iter()) {
             *acc += x;
         }
+        for (acc, x) in info
+            .sphere_contact_impulse
+            .iter_mut()
+            .zip(sphere_impulse.iter())
+        {
+            *acc += x;
+        }
+        info.sphere_contacts += sphere_contacts;
         Ok(())
     }
 }

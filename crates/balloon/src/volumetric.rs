@@ -416,6 +416,26 @@ pub struct StepStats {
     pub contacts: usize,
     /// Largest spring strain `|l / L0 - 1|` over all springs.
     pub max_strain: f64,
+    /// The rigid sphere after the step (`None`, and left out of the JSON, without a sphere).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sphere: Option<SphereStep>,
+}
+
+/// The rigid sphere's state after a step ([`StepStats::sphere`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SphereStep {
+    /// Centre (m).
+    pub centre: [f64; 3],
+    /// Velocity (m/s).
+    pub velocity: [f64; 3],
+    /// Whether any particle touched the sphere during the step.
+    pub contact: bool,
+    /// Sphere-particle contacts resolved in the step (summed over sub-steps and contact
+    /// rounds).
+    pub contacts: usize,
+    /// Impulse the body gave the sphere through the contacts in the step (N s); the body
+    /// received the opposite.
+    pub contact_impulse: [f64; 3],
 }
 
 /// A running simulation of a volumetric body, optionally with a rigid sphere and static planes:
@@ -695,6 +715,13 @@ impl VolumetricSimulation {
             kinetic_energy: self.kinetic_energy(),
             contacts: info.contacts,
             max_strain: self.max_strain(),
+            sphere: self.state.sphere.map(|s| SphereStep {
+                centre: s.position.into(),
+                velocity: s.velocity.into(),
+                contact: info.sphere_contacts > 0,
+                contacts: info.sphere_contacts,
+                contact_impulse: info.sphere_contact_impulse,
+            }),
         };
         self.step += 1;
         Ok(stats)
