@@ -481,16 +481,12 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
 
 /// Largest default time step (s).
 const MAX_DT: f64 = 5e-4;
-/// Default edge stiffness relative to `m / dt^2` (explicit springs stay stable well below 1;
-/// 0.1 runs without halvings on every shared model).
-const EDGE_STIFFNESS: f64 = 0.1;
+/// Default edge stiffness relative to `m / dt^2` (the library's, shared with the viewer).
+const EDGE_STIFFNESS: f64 = balloon::volumetric::DEFAULT_SPRING_STIFFNESS;
 /// Sag under the body's weight that the default time step allows. With 0.02 (and stiffness
 /// 1/50, the same time step) the drop-sphere impact strained springs by 40-95 % and inverted
 /// cells of the bunny, spot and armadillo within 2000 steps; 0.004 is five times stiffer.
 const SAG_STRAIN: f64 = 0.004;
-/// Default spring damping relative to `m / dt`: 2 % of `m / dt`, about 3 % of the critical
-/// damping `2 sqrt(k m)` of one spring at the default stiffness.
-const DAMPING: f64 = 0.02;
 
 /// The cell-volume solver settings of `args`: [`CellVolumeParams::gauss_seidel`] or
 /// [`CellVolumeParams::global`] changed by the flags given.
@@ -614,16 +610,14 @@ pub fn build(args: &VolumetricArgs, mesh: Option<TriMesh>) -> Result<VolumetricB
         .dt
         .unwrap_or_else(|| body.sag_limited_dt(EDGE_STIFFNESS, SAG_STRAIN, args.gravity, MAX_DT));
     body.params.dt = dt;
-    let m_particle = body.mass() / body.masses.len() as f64;
-    let edge = args
-        .edge_stiffness
-        .unwrap_or(EDGE_STIFFNESS * m_particle / (dt * dt));
+    let defaults = body.default_springs(EDGE_STIFFNESS);
+    let edge = args.edge_stiffness.unwrap_or(defaults.edge_stiffness);
     let diagonal = args.diagonal_stiffness.unwrap_or(if args.soft_diagonals {
         edge / 20.0
     } else {
         edge
     });
-    let damping = args.damping.unwrap_or(DAMPING * m_particle / dt);
+    let damping = args.damping.unwrap_or(defaults.edge_damping);
     let diagonal_damping = args.diagonal_damping.unwrap_or(if args.soft_diagonals {
         damping / 2.0
     } else {
