@@ -35,7 +35,7 @@
 
 use balloon_constraint::ConstraintError;
 use balloon_constraint::cell_volume::{
-    CellSolver, CellSprings, CellVolumeConstraints, CellVolumeParams, SpringParams,
+    CellCorrection, CellSolver, CellSprings, CellVolumeConstraints, CellVolumeParams, SpringParams,
 };
 use balloon_constraint::impulse::{ImpulseModel, ImpulseParams, ImpulseState, ImpulseStepper};
 use balloon_constraint::rigid::{Plane, RigidSphere};
@@ -181,7 +181,7 @@ pub enum VolumetricError {
     /// the same simulated time whatever `dt`), so stiffen the springs, add damping or soften the
     /// impact, or switch to the other solver.
     #[error(
-        "step {step}: tetrahedron {tet} of cell {cell} inverts even after {halvings} step halvings (dt {dt:.3e} s) with the {solver} cell-volume solver; the body deforms too far here: stiffen the springs (--edge-stiffness, or a smaller --dt at the same stiffness), raise the spring damping (--damping), soften the impact (--restitution, a lighter or slower sphere), or try the {other} solver (--volume-solver {other})"
+        "step {step}: tetrahedron {tet} of cell {cell} inverts even after {halvings} step halvings (dt {dt:.3e} s) with the {solver} cell-volume solver; the body deforms too far here: stiffen the springs (--edge-stiffness, or a smaller --dt at the same stiffness), raise the spring damping (--damping), soften the impact (--restitution, a lighter or slower sphere), or try the {other} solver (--volume-solver {other}){advice}"
     )]
     Inversion {
         /// The step that failed (1-based, as in the CLI's records).
@@ -198,6 +198,8 @@ pub enum VolumetricError {
         solver: &'static str,
         /// The other solver.
         other: &'static str,
+        /// More advice for the settings used (empty, or `; ...` naming the flag to change).
+        advice: &'static str,
     },
     /// The volume projection did not converge in a step.
     #[error("step {step}: {source}")]
@@ -697,7 +699,15 @@ impl VolumetricSimulation {
                         CellSolver::GaussSeidel => ("gauss-seidel", "global"),
                         CellSolver::Global => ("global", "gauss-seidel"),
                     };
+                    let advice = match params.volume.correction {
+                        CellCorrection::Scaling => {
+                            "; the scaling correction adds kinetic energy at impacts: the \
+                             gradient correction does not (--correction gradient)"
+                        }
+                        CellCorrection::Gradient => "",
+                    };
                     VolumetricError::Inversion {
+                        advice,
                         step: self.step + 1,
                         cell,
                         tet,
@@ -1245,6 +1255,9 @@ mod tests {
             "{e}"
         );
         assert!(e.to_string().contains("--volume-solver global"), "{e}");
+        // With the paper's scaling correction (the library default) it names the gradient one.
+        assert_eq!(sim.body().params.volume.correction, CellCorrection::Scaling);
+        assert!(e.to_string().contains("--correction gradient"), "{e}");
     }
 
     #[test]
