@@ -163,7 +163,7 @@ pub struct VolumetricArgs {
     /// time, as in the paper; with the default `--correction gradient --over-relaxation
     /// adaptive` they run the drop-sphere scene on every shared model, at a few hundred sweeps
     /// per step; the paper's exact sweeps, `--correction scaling --over-relaxation 1`, stop at
-    /// the 500-sweep limit within 7-36 steps at the default ~1000 cells).
+    /// the 500-sweep limit within 6-35 steps on most of them at the default ~1000 cells).
     #[arg(long, value_enum, default_value_t = VolumeSolver::Global)]
     pub volume_solver: VolumeSolver,
     /// Time step (s), in (0, 0.1]. Default: the step at which the body with the default springs

@@ -182,8 +182,10 @@ impl CellVolumeParams {
     /// gradient correction and [`CellVolumeParams::adaptive_relaxation`], other settings at
     /// their defaults. The paper's sweeps ([`CellVolumeParams::default`]: scaling correction,
     /// `omega = 1`) reduce the largest cell error by only about 2 % per sweep there and stop
-    /// at the 500-sweep limit within 7-36 steps of `balloon volumetric`'s drop-sphere scene on
-    /// every shared model; with the scaling correction and adaptive relaxation the impact
+    /// at the 500-sweep limit within 6-35 steps of `balloon volumetric`'s drop-sphere scene on
+    /// the teddy, bunny, spot and armadillo (the torus ran its first 400 steps at 157 sweeps
+    /// per step); these settings run 2000 steps on all five (`cargo xtask validate --only
+    /// drop-sphere`, 93-344 sweeps per step); with the scaling correction and adaptive relaxation the impact
     /// inverts a cell (bunny step 1417, spot step 970), as the scaling adds kinetic energy.
     /// This is the default of `balloon volumetric --volume-solver gauss-seidel`.
     pub fn gauss_seidel() -> Self {
