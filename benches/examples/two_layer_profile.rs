@@ -2,9 +2,10 @@
 //! or under `valgrind --tool=callgrind` (instruction counts).
 //!
 //! `cargo run --release -p balloon-benches --example two_layer_profile -- LEVEL [STEPS]
-//! [step|forces|triad]`: the octahedron sphere of subdivision LEVEL (radii 0.7 / 1 m, 40 / 20 Pa,
-//! default springs and masses, gravity, in a 4 m box), RK4 at dt = 0.1 ms (the default real-time
-//! configuration of issue 16). `step` (default) times whole steps, `forces` one force evaluation
+//! [step|forces|triad] [DT]`: the octahedron sphere of subdivision LEVEL (radii 0.7 / 1 m,
+//! 40 / 20 Pa, default springs and masses, gravity, in a 4 m box), RK4 at dt = DT seconds
+//! (default 0.1 ms, the real-time configuration first measured for issue 16; `balloon
+//! two-layer` defaults to 0.5 ms). `step` (default) times whole steps, `forces` one force evaluation
 //! (springs, gas, gravity) at a perturbed state, `triad` the streaming triad on 3 x 64 MiB
 //! (STEPS passes) for the memory bandwidth.
 
@@ -32,7 +33,11 @@ fn main() {
         .with_radii(0.7, 1.0)
         .with_pressure(40.0, 20.0)
         .with_box(Some(bbox));
-    let dt = 1e-4;
+    let dt: f64 = args
+        .get(3)
+        .and_then(|a| a.parse().ok())
+        .filter(|dt: &f64| *dt > 0.0 && dt.is_finite())
+        .unwrap_or(1e-4);
     match mode {
         "triad" => {
             // The streaming triad of `benches/benches/triad.rs` on 3 x 64 MiB: GB/s.

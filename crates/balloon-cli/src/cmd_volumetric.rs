@@ -21,9 +21,7 @@ use balloon::volumetric::{
     VolumetricSimulation,
 };
 use balloon::{SimulationError, SimulationStats};
-use balloon_constraint::cell_volume::{
-    CellCentre, CellCorrection, CellSolver, CellVolumeParams, SpringParams,
-};
+use balloon_constraint::cell_volume::{CellCentre, CellCorrection, CellVolumeParams, SpringParams};
 use balloon_mesh::TriMesh;
 use balloon_mesh::lattice::{
     DEFAULT_TARGET_CELLS, Lattice, LatticeError, LatticeParams, SizingParams, size_lattice,
@@ -50,6 +48,37 @@ pub enum Correction {
     Scaling,
     /// Move along the mass-weighted volume gradient.
     Gradient,
+}
+
+/// Over-relaxation of the Gauss-Seidel volume sweeps (`--over-relaxation`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Relaxation {
+    /// Chosen from the measured convergence rate (`CellVolumeParams::adaptive_relaxation`).
+    Adaptive,
+    /// A fixed factor `omega` in (0, 2) (1 = the paper).
+    Fixed(f64),
+}
+
+impl std::str::FromStr for Relaxation {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s.trim() == "adaptive" {
+            return Ok(Self::Adaptive);
+        }
+        crate::params::check_real(s, Open(0.0), Open(2.0))
+            .map(Self::Fixed)
+            .map_err(|e| format!("{e}, or `adaptive`"))
+    }
+}
+
+impl std::fmt::Display for Relaxation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Adaptive => f.write_str("adaptive"),
+            Self::Fixed(omega) => write!(f, "{omega:?}"),
+        }
+    }
 }
 
 /// How the cell constraints are solved (`--volume-solver`).
@@ -120,28 +149,28 @@ pub struct VolumetricArgs {
     /// no longer conserves volume).
     #[arg(long, default_value_t = 1e-10, value_parser = real(Open(0.0), Closed(0.1)))]
     pub tolerance: f64,
-    /// Over-relaxation of the Gauss-Seidel volume sweeps, in (0, 2) (1 = the paper).
-    #[arg(long, default_value_t = 1.0, value_parser = real(Open(0.0), Open(2.0)))]
-    pub over_relaxation: f64,
-    /// Gauss-Seidel only: after 16 plain sweeps, over-relax with the factor the measured
-    /// convergence rate suggests (Young's rule, at most 1.9) instead of --over-relaxation
-    /// (`CellVolumeParams::adaptive_relaxation`; 1458 -> 437 sweeps on an 864-cell block).
-    #[arg(long)]
-    pub adaptive_relaxation: bool,
+    /// Over-relaxation of the Gauss-Seidel volume sweeps: `adaptive` (the default: after 16
+    /// plain sweeps, the factor the measured convergence rate suggests, Young's rule, at most
+    /// 1.9; `CellVolumeParams::adaptive_relaxation`) or a fixed factor in (0, 2) (1 = the
+    /// paper). The global solver has no sweeps: it takes `adaptive` or 1.
+    #[arg(long, default_value_t = Relaxation::Adaptive,
+          value_parser = clap::value_parser!(Relaxation))]
+    pub over_relaxation: Relaxation,
     /// Lumped masses and mass-weighted cell centres instead of equal masses.
     #[arg(long)]
     pub lumped_masses: bool,
-    /// Volume correction: `scaling` (the paper's scaling about the cell centre) or `gradient`
-    /// (along the mass-weighted volume gradient: never adds kinetic energy to first order).
-    /// Default: `scaling` with Gauss-Seidel sweeps, `gradient` with the global solver (the only
-    /// one it supports).
-    #[arg(long, value_enum)]
-    pub correction: Option<Correction>,
+    /// Volume correction: `gradient` (the default: along the mass-weighted volume gradient,
+    /// never adds kinetic energy to first order; the only one the global solver supports) or
+    /// `scaling` (the paper's scaling about the cell centre, Gauss-Seidel only: it adds energy
+    /// at an impact, where it inverted cells of the bunny and spot in the drop-sphere scene).
+    #[arg(long, value_enum, default_value_t = Correction::Gradient)]
+    pub correction: Correction,
     /// Cell-volume solver: `global` (the default: Newton on all cells at once with a sparse
-    /// Cholesky solve, a few iterations at any size) or `gauss-seidel` (the paper's sweeps; the
-    /// sweeps grow with the lattice: at the default ~1000 cells they do not reach the 1e-10
-    /// tolerance within 500 sweeps on the teddy by step 62, where the global solver runs the
-    /// default 600 steps in 6.9 s).
+    /// Cholesky solve, a few iterations at any size) or `gauss-seidel` (sweeps one cell at a
+    /// time, as in the paper; with the default `--correction gradient --over-relaxation
+    /// adaptive` they run the drop-sphere scene on every shared model, at a few hundred sweeps
+    /// per step; the paper's exact sweeps, `--correction scaling --over-relaxation 1`, stop at
+    /// the 500-sweep limit within 6-35 steps on most of them at the default ~1000 cells).
     #[arg(long, value_enum, default_value_t = VolumeSolver::Global)]
     pub volume_solver: VolumeSolver,
     /// Time step (s), in (0, 0.1]. Default: the step at which the body with the default springs
@@ -485,16 +514,41 @@ impl RunHooks<VolumetricSimulation> for VolumetricHooks<'_> {
 
 /// Largest default time step (s).
 const MAX_DT: f64 = 5e-4;
-/// Default edge stiffness relative to `m / dt^2` (explicit springs stay stable well below 1;
-/// 0.1 runs without halvings on every shared model).
-const EDGE_STIFFNESS: f64 = 0.1;
+/// Default edge stiffness relative to `m / dt^2` (the library's, shared with the viewer).
+const EDGE_STIFFNESS: f64 = balloon::volumetric::DEFAULT_SPRING_STIFFNESS;
 /// Sag under the body's weight that the default time step allows. With 0.02 (and stiffness
 /// 1/50, the same time step) the drop-sphere impact strained springs by 40-95 % and inverted
 /// cells of the bunny, spot and armadillo within 2000 steps; 0.004 is five times stiffer.
 const SAG_STRAIN: f64 = 0.004;
-/// Default spring damping relative to `m / dt`: 2 % of `m / dt`, about 3 % of the critical
-/// damping `2 sqrt(k m)` of one spring at the default stiffness.
-const DAMPING: f64 = 0.02;
+
+/// The cell-volume solver settings of `args`: [`CellVolumeParams::gauss_seidel`] or
+/// [`CellVolumeParams::global`] changed by the flags given.
+fn volume_params(args: &VolumetricArgs) -> CellVolumeParams {
+    let base = match args.volume_solver {
+        VolumeSolver::GaussSeidel => CellVolumeParams::gauss_seidel(),
+        VolumeSolver::Global => CellVolumeParams::global(),
+    };
+    let (over_relaxation, adaptive_relaxation) = match args.over_relaxation {
+        // The global solver has no sweeps to relax.
+        Relaxation::Adaptive => (1.0, args.volume_solver == VolumeSolver::GaussSeidel),
+        Relaxation::Fixed(omega) => (omega, false),
+    };
+    CellVolumeParams {
+        tolerance: args.tolerance,
+        over_relaxation,
+        adaptive_relaxation,
+        centre: if args.lumped_masses {
+            CellCentre::MassWeighted
+        } else {
+            CellCentre::Arithmetic
+        },
+        correction: match args.correction {
+            Correction::Scaling => CellCorrection::Scaling,
+            Correction::Gradient => CellCorrection::Gradient,
+        },
+        ..base
+    }
+}
 
 /// The body at `--resolution`, or sized for `--cells` (default [`DEFAULT_TARGET_CELLS`]). A
 /// resolution that leaves no interior is reported with the resolution the sizing would choose.
@@ -572,29 +626,7 @@ pub fn build(args: &VolumetricArgs, mesh: Option<TriMesh>) -> Result<VolumetricB
             smoothing_iterations: args.lattice.smoothing_iterations,
             smoothing_weight: args.lattice.smoothing_weight,
         },
-        volume: CellVolumeParams {
-            tolerance: args.tolerance,
-            over_relaxation: args.over_relaxation,
-            centre: if args.lumped_masses {
-                CellCentre::MassWeighted
-            } else {
-                CellCentre::Arithmetic
-            },
-            correction: match (args.correction, args.volume_solver) {
-                (Some(Correction::Scaling), _) | (None, VolumeSolver::GaussSeidel) => {
-                    CellCorrection::Scaling
-                }
-                (Some(Correction::Gradient), _) | (None, VolumeSolver::Global) => {
-                    CellCorrection::Gradient
-                }
-            },
-            solver: match args.volume_solver {
-                VolumeSolver::GaussSeidel => CellSolver::GaussSeidel,
-                VolumeSolver::Global => CellSolver::Global,
-            },
-            adaptive_relaxation: args.adaptive_relaxation,
-            ..CellVolumeParams::default()
-        },
+        volume: volume_params(args),
         density: args.density,
         mass_model: if args.lumped_masses {
             MassModel::Lumped
@@ -613,16 +645,14 @@ pub fn build(args: &VolumetricArgs, mesh: Option<TriMesh>) -> Result<VolumetricB
         .dt
         .unwrap_or_else(|| body.sag_limited_dt(EDGE_STIFFNESS, SAG_STRAIN, args.gravity, MAX_DT));
     body.params.dt = dt;
-    let m_particle = body.mass() / body.masses.len() as f64;
-    let edge = args
-        .edge_stiffness
-        .unwrap_or(EDGE_STIFFNESS * m_particle / (dt * dt));
+    let defaults = body.default_springs(EDGE_STIFFNESS);
+    let edge = args.edge_stiffness.unwrap_or(defaults.edge_stiffness);
     let diagonal = args.diagonal_stiffness.unwrap_or(if args.soft_diagonals {
         edge / 20.0
     } else {
         edge
     });
-    let damping = args.damping.unwrap_or(DAMPING * m_particle / dt);
+    let damping = args.damping.unwrap_or(defaults.edge_damping);
     let diagonal_damping = args.diagonal_damping.unwrap_or(if args.soft_diagonals {
         damping / 2.0
     } else {

@@ -105,7 +105,7 @@ pub enum ConstraintError {
     },
     /// The sweeps did not bring every cell below the tolerance.
     #[error(
-        "volume projection did not converge in {sweeps} sweeps: max relative error {max_error:.3e} in cell {cell} (Gauss-Seidel sweeps slow down as the lattice grows: try the global cell-volume solver, more sweeps or a looser tolerance)"
+        "volume projection did not converge in {sweeps} sweeps: max relative error {max_error:.3e} in cell {cell} (Gauss-Seidel sweeps slow down as the lattice grows: try adaptive over-relaxation (balloon volumetric --over-relaxation adaptive), the global cell-volume solver (--volume-solver global), more sweeps or a looser tolerance (--tolerance))"
     )]
     CellVolumeNotConverged {
         /// Sweeps done.

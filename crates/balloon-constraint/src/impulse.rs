@@ -143,6 +143,13 @@ pub struct ImpulseStepInfo {
     /// else (springs, volume impulses with momentum-conserving centres, sphere-particle
     /// contacts) is internal, so the momentum changes by exactly this much up to round-off.
     pub external_impulse: [f64; 3],
+    /// Active sphere-particle contacts of the completed sub-steps (summed over sub-steps and
+    /// contact rounds; part of `contacts`).
+    pub sphere_contacts: usize,
+    /// Impulse (N s) the particles gave the sphere through their contacts over the completed
+    /// sub-steps, `M (V_after - V_before)` of each contact pass (the particles received the
+    /// opposite; zero without a sphere).
+    pub sphere_contact_impulse: [f64; 3],
 }
 
 /// The stepper: scratch buffers and the caches of the global cell-volume solve, kept from step
@@ -273,6 +280,7 @@ impl ImpulseStepper {
         } else {
             model.masses
         };
+        let (mut sphere_contacts, mut sphere_impulse) = (0, Vector3::zeros());
         // 1. External forces: gravity and cell springs (Eq. 1).
         self.forces.clear();
         self.forces.resize(state.positions.len(), Vector3::zeros());
@@ -324,7 +332,8 @@ impl ImpulseStepper {
                 external += momentum(model.masses, state) - before;
             }
             if let Some(s) = &mut state.sphere {
-                contacts += sphere_particle_contacts(
+                let before = s.momentum();
+                let touching = sphere_particle_contacts(
                     s,
                     &state.positions,
                     &mut state.velocities,
@@ -332,6 +341,9 @@ impl ImpulseStepper {
                     h,
                     e,
                 );
+                contacts += touching;
+                sphere_contacts += touching;
+                sphere_impulse += s.momentum() - before;
             }
             info.contacts += contacts;
             for ((x, p), v) in preview
@@ -366,6 +378,14 @@ impl ImpulseStepper {
         for (acc, x) in info.external_impulse.iter_mut().zip(external.iter()) {
             *acc += x;
         }
+        for (acc, x) in info
+            .sphere_contact_impulse
+            .iter_mut()
+            .zip(sphere_impulse.iter())
+        {
+            *acc += x;
+        }
+        info.sphere_contacts += sphere_contacts;
         Ok(())
     }
 }

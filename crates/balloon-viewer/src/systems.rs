@@ -714,7 +714,7 @@ impl VolumetricView {
     /// A volumetric view of the soup `soup` (m) with the default controls.
     pub fn new(soup: TriMesh) -> Result<Self, ViewerError> {
         let settings = VolumetricSettings {
-            stiffness: 0.1,
+            stiffness: balloon::volumetric::DEFAULT_SPRING_STIFFNESS,
             // The paper's scaling correction gains energy on the floor and inverts cells of the
             // coarse teddy within a second; the gradient correction does not (measured with the
             // `volumetric_view_*` tests).
@@ -748,9 +748,10 @@ impl VolumetricView {
         params.volume.correction = s.correction;
         params.volume.solver = s.solver;
         let body = VolumetricBody::build(soup, params).map_err(ViewerError::from)?;
-        // Springs relative to the particle mass and the time step, as `balloon volumetric`
-        // does: `k = s m / dt^2` (explicit, stable for s well below 1), damping `m / (1000 dt)`.
-        let springs = body.mass_scaled_springs(s.stiffness, 1.0 / 1000.0);
+        // Springs relative to the particle mass and the time step with `balloon volumetric`'s
+        // damping: `k = s m / dt^2` (explicit, stable for s well below 1), damping
+        // `DEFAULT_SPRING_DAMPING m / dt`.
+        let springs = body.default_springs(s.stiffness);
         let body = body.with_springs(springs).map_err(ViewerError::from)?;
         let sim = VolumetricSimulation::new(body);
         let lowest = sim
@@ -1241,6 +1242,36 @@ mod tests {
         }
         eprintln!("height {h0} m, lowest {lowest} m, end {} m", height(&v));
         assert!(lowest > 0.8 * h0, "height {h0} m fell to {lowest} m");
+    }
+
+    #[test]
+    fn volumetric_view_springs_use_the_cli_defaults() {
+        // The same stiffness and damping relative to `m / dt^2` and `m / dt` as `balloon
+        // volumetric` (`VolumetricBody::default_springs`), also after a stiffness change.
+        use balloon::volumetric::{DEFAULT_SPRING_DAMPING, DEFAULT_SPRING_STIFFNESS};
+        let soup = crate::default_mesh(crate::SystemKind::Volumetric).unwrap();
+        let mut v = VolumetricView::new(soup).unwrap();
+        for stiffness in [DEFAULT_SPRING_STIFFNESS, 0.05] {
+            if stiffness != v.settings.stiffness {
+                v.set_control("stiffness", &ControlValue::Number(stiffness))
+                    .unwrap();
+                v.rebuild().unwrap();
+            }
+            let body = v.sim.body();
+            let m = body.mass() / body.masses.len() as f64;
+            let dt = body.params.dt;
+            let springs = body.params.springs;
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b;
+            assert!(
+                close(springs.edge_stiffness, stiffness * m / (dt * dt)),
+                "{springs:?}"
+            );
+            assert!(
+                close(springs.edge_damping, DEFAULT_SPRING_DAMPING * m / dt),
+                "{springs:?}"
+            );
+            assert_eq!(springs.diagonal_damping, springs.edge_damping);
+        }
     }
 
     #[test]

@@ -35,7 +35,7 @@
 
 use balloon_constraint::ConstraintError;
 use balloon_constraint::cell_volume::{
-    CellSolver, CellSprings, CellVolumeConstraints, CellVolumeParams, SpringParams,
+    CellCorrection, CellSolver, CellSprings, CellVolumeConstraints, CellVolumeParams, SpringParams,
 };
 use balloon_constraint::impulse::{ImpulseModel, ImpulseParams, ImpulseState, ImpulseStepper};
 use balloon_constraint::rigid::{Plane, RigidSphere};
@@ -181,7 +181,7 @@ pub enum VolumetricError {
     /// the same simulated time whatever `dt`), so stiffen the springs, add damping or soften the
     /// impact, or switch to the other solver.
     #[error(
-        "step {step}: tetrahedron {tet} of cell {cell} inverts even after {halvings} step halvings (dt {dt:.3e} s) with the {solver} cell-volume solver; the body deforms too far here: stiffen the springs (--edge-stiffness, or a smaller --dt at the same stiffness), raise the spring damping (--damping), soften the impact (--restitution, a lighter or slower sphere), or try the {other} solver (--volume-solver {other})"
+        "step {step}: tetrahedron {tet} of cell {cell} inverts even after {halvings} step halvings (dt {dt:.3e} s) with the {solver} cell-volume solver; the body deforms too far here: stiffen the springs (--edge-stiffness, or a smaller --dt at the same stiffness), raise the spring damping (--damping), soften the impact (--restitution, a lighter or slower sphere), or try the {other} solver (--volume-solver {other}){advice}"
     )]
     Inversion {
         /// The step that failed (1-based, as in the CLI's records).
@@ -198,6 +198,8 @@ pub enum VolumetricError {
         solver: &'static str,
         /// The other solver.
         other: &'static str,
+        /// More advice for the settings used (empty, or `; ...` naming the flag to change).
+        advice: &'static str,
     },
     /// The volume projection did not converge in a step.
     #[error("step {step}: {source}")]
@@ -348,6 +350,15 @@ impl VolumetricBody {
         }
     }
 
+    /// The default springs of `balloon volumetric` and the live viewer at stiffness
+    /// `stiffness` (relative to `m / h^2`, [`DEFAULT_SPRING_STIFFNESS`] by default): damping
+    /// [`DEFAULT_SPRING_DAMPING`]` m / h`, about 3 % of a spring's critical damping
+    /// `2 sqrt(k m)` at the default stiffness; [`VolumetricBody::mass_scaled_springs`] with
+    /// that damping.
+    pub fn default_springs(&self, stiffness: f64) -> SpringParams {
+        self.mass_scaled_springs(stiffness, DEFAULT_SPRING_DAMPING)
+    }
+
     /// A time step (s) at which this body, with springs of [`VolumetricBody::mass_scaled_springs`]
     /// stiffness `stiffness`, sags by about `strain` under gravity `gravity` (m/s^2, magnitude),
     /// capped at `max_dt`.
@@ -385,6 +396,18 @@ impl VolumetricBody {
     }
 }
 
+/// Default cell-spring stiffness relative to `m / h^2` (particle mass `m`, time step `h`) of
+/// `balloon volumetric` and the live viewer ([`VolumetricBody::default_springs`]): explicit
+/// springs (Eq. 1) stay stable well below 1; 0.1 runs the CLI's drop-sphere scene without step
+/// halvings on every shared model.
+pub const DEFAULT_SPRING_STIFFNESS: f64 = 0.1;
+
+/// Default cell-spring damping relative to `m / h` ([`VolumetricBody::default_springs`]): about
+/// 3 % of one spring's critical damping at [`DEFAULT_SPRING_STIFFNESS`]. The earlier
+/// `m / (1000 h)` (0.35 %) let the drop-sphere impact ring through the body until thin parts
+/// inverted.
+pub const DEFAULT_SPRING_DAMPING: f64 = 0.02;
+
 /// Numbers reported after each step.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StepStats {
@@ -416,6 +439,26 @@ pub struct StepStats {
     pub contacts: usize,
     /// Largest spring strain `|l / L0 - 1|` over all springs.
     pub max_strain: f64,
+    /// The rigid sphere after the step (`None`, and left out of the JSON, without a sphere).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sphere: Option<SphereStep>,
+}
+
+/// The rigid sphere's state after a step ([`StepStats::sphere`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SphereStep {
+    /// Centre (m).
+    pub centre: [f64; 3],
+    /// Velocity (m/s).
+    pub velocity: [f64; 3],
+    /// Whether any particle touched the sphere during the step.
+    pub contact: bool,
+    /// Sphere-particle contacts resolved in the step (summed over sub-steps and contact
+    /// rounds).
+    pub contacts: usize,
+    /// Impulse the body gave the sphere through the contacts in the step (N s); the body
+    /// received the opposite.
+    pub contact_impulse: [f64; 3],
 }
 
 /// A running simulation of a volumetric body, optionally with a rigid sphere and static planes:
@@ -660,7 +703,15 @@ impl VolumetricSimulation {
                         CellSolver::GaussSeidel => ("gauss-seidel", "global"),
                         CellSolver::Global => ("global", "gauss-seidel"),
                     };
+                    let advice = match params.volume.correction {
+                        CellCorrection::Scaling => {
+                            "; the scaling correction adds kinetic energy at impacts: the \
+                             gradient correction does not (--correction gradient)"
+                        }
+                        CellCorrection::Gradient => "",
+                    };
                     VolumetricError::Inversion {
+                        advice,
                         step: self.step + 1,
                         cell,
                         tet,
@@ -699,6 +750,13 @@ impl VolumetricSimulation {
             kinetic_energy: self.kinetic_energy(),
             contacts: info.contacts,
             max_strain: self.max_strain(),
+            sphere: self.state.sphere.map(|s| SphereStep {
+                centre: s.position.into(),
+                velocity: s.velocity.into(),
+                contact: info.sphere_contacts > 0,
+                contacts: info.sphere_contacts,
+                contact_impulse: info.sphere_contact_impulse,
+            }),
         };
         self.step += 1;
         Ok(stats)
@@ -1308,6 +1366,9 @@ mod tests {
             "{e}"
         );
         assert!(e.to_string().contains("--volume-solver global"), "{e}");
+        // With the paper's scaling correction (the library default) it names the gradient one.
+        assert_eq!(sim.body().params.volume.correction, CellCorrection::Scaling);
+        assert!(e.to_string().contains("--correction gradient"), "{e}");
     }
 
     #[test]

@@ -238,10 +238,12 @@ fn render_markdown(
     s.push_str(
         "* **drop-sphere**: `balloon volumetric`'s default drop-sphere scene (sphere and springs \
          scaled to the body, lattice of about 1000 cells) on the teddy and every shared model at \
-         its natural size, 2000 steps with the global cell solver: every step completes, the cells \
-         keep their volume and no tetrahedron inverts (both recomputed from the positions), the \
-         sphere reaches the body; the paper's Gauss-Seidel sweeps on the same scenes, recorded as \
-         an expected stop at the 500-sweep limit.\n",
+         its natural size, 2000 steps with each cell solver at its defaults (global; Gauss-Seidel \
+         with the gradient correction and adaptive over-relaxation): every step completes, the \
+         cells keep their volume and no tetrahedron inverts (both recomputed from the positions), \
+         the sphere reaches the body; `--scene free` 2000 steps with both solvers; the paper's \
+         exact Gauss-Seidel sweeps on the same scenes, recorded as an expected stop at the \
+         500-sweep limit.\n",
     );
     s.push_str(
         "* **two-layer**: fitted global order of each explicit integrator (seed 004, Ch. 5) on the \

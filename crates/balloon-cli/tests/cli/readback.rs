@@ -6,7 +6,7 @@
 //! volume (volume conservation measured on the written geometry, not by the projection's own
 //! error).
 
-use super::{last_json_line, run_balloon};
+use super::{last_json_line, obj_points, run_balloon};
 use base64::Engine as _;
 use std::collections::HashMap;
 use std::path::Path;
@@ -406,19 +406,6 @@ fn centre_and_radius(points: &[f64]) -> ([f64; 3], f64) {
     (c, r)
 }
 
-fn obj_points(path: &Path) -> Vec<f64> {
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .filter_map(|l| l.strip_prefix("v "))
-        .flat_map(|l| {
-            l.split_whitespace()
-                .map(|v| v.parse::<f64>().unwrap())
-                .collect::<Vec<_>>()
-        })
-        .collect()
-}
-
 #[test]
 fn the_drop_sphere_sphere_and_floor_are_written_where_the_simulation_has_them() {
     let dir = tempfile::tempdir().unwrap();
@@ -546,4 +533,125 @@ fn the_drop_sphere_sphere_and_floor_are_written_where_the_simulation_has_them() 
     let ball = 4.0 / 3.0 * std::f64::consts::PI * s.radius.powi(3);
     assert!(v > 0.97 * ball && v < ball, "{v} vs {ball}");
     assert_eq!(read_vtp(&vtk.join("floor.vtp")).triangles.len(), 2);
+}
+
+/// `stats.jsonl` of the drop-sphere scene carries the sphere after every step: its centre
+/// matches the sphere files and the final simulation, its centre moves by its velocity times
+/// the step, and its velocity changes by gravity plus the contact impulse the line reports
+/// (the sphere touches only the body here, not the floor), which is non-zero exactly on the
+/// lines that say `contact`.
+#[test]
+fn stats_lines_carry_the_sphere_consistent_with_its_files_and_motion() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let argv = [
+        "builtin:icosphere",
+        "--resolution",
+        "12",
+        "--voxels-per-cell",
+        "2",
+        "--steps",
+        "300",
+        "--frame-every",
+        "100",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let args = super::volumetric_args(&argv);
+    let end = balloon_cli::cmd_volumetric::execute(&args, None, true)
+        .unwrap()
+        .sim;
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(out.join("stats.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 300);
+    let vec3 = |v: &serde_json::Value| -> [f64; 3] {
+        std::array::from_fn(|k| v[k].as_f64().unwrap_or_else(|| panic!("{v}")))
+    };
+    let sphere = end.sphere().unwrap();
+    let g = end.body().params.gravity;
+    let close = |a: [f64; 3], b: [f64; 3], tol: f64| (0..3).all(|k| (a[k] - b[k]).abs() <= tol);
+    for step in [100, 200, 300] {
+        let s = &lines[step - 1]["sphere"];
+        let (c, _) = centre_and_radius(&obj_points(&out.join(format!("sphere_{step:05}.obj"))));
+        assert!(close(c, vec3(&s["centre"]), 1e-12), "step {step}: {s}");
+    }
+    let last = &lines[299]["sphere"];
+    // serde_json's default float parsing may be off by an ulp.
+    let (centre, velocity) = (vec3(&last["centre"]), vec3(&last["velocity"]));
+    assert!(close(centre, sphere.position.into(), 1e-15), "{last}");
+    assert!(close(velocity, sphere.velocity.into(), 1e-14), "{last}");
+    let (mut touched, mut impulse_up) = (0, 0.0);
+    for pair in lines.windows(2) {
+        let (a, b) = (&pair[0], &pair[1]);
+        let h = b["time"].as_f64().unwrap() - a["time"].as_f64().unwrap();
+        let (sa, sb) = (&a["sphere"], &b["sphere"]);
+        let (ca, cb, vb) = (
+            vec3(&sa["centre"]),
+            vec3(&sb["centre"]),
+            vec3(&sb["velocity"]),
+        );
+        let va = vec3(&sa["velocity"]);
+        let j = vec3(&sb["contact_impulse"]);
+        let scale = sphere.radius;
+        // One position update `x += V h` per step (several with step halvings).
+        assert!(
+            b["halvings"] != 0
+                || (0..3).all(|k| (cb[k] - ca[k] - vb[k] * h).abs() <= 1e-12 * scale),
+            "step {}: the centre moved {:?}, velocity * dt {:?}",
+            b["step"],
+            [cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]],
+            [vb[0] * h, vb[1] * h, vb[2] * h]
+        );
+        // M (V_b - V_a) = M g h + J.
+        let m = sphere.mass;
+        let residual: f64 = (0..3)
+            .map(|k| (m * (vb[k] - va[k]) - m * g[k] * h - j[k]).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            residual <= 1e-12 * m * (1.0 + va[2].abs()),
+            "step {}: momentum residual {residual:e} ({sb})",
+            b["step"]
+        );
+        let contact = sb["contact"].as_bool().unwrap();
+        assert_eq!(contact, sb["contacts"].as_u64().unwrap() > 0, "{sb}");
+        assert_eq!(contact, j != [0.0; 3], "{sb}");
+        if contact {
+            touched += 1;
+            impulse_up += j[2];
+        }
+    }
+    // The sphere landed on the body, which pushed it up.
+    assert!(
+        touched > 0,
+        "the sphere never touched the body in 300 steps"
+    );
+    assert!(
+        impulse_up > 0.0,
+        "net contact impulse {impulse_up} N s is not upward"
+    );
+    // The free scene has no sphere and writes none.
+    let free = dir.path().join("free");
+    let out = run_balloon(&[
+        "volumetric",
+        "builtin:icosphere",
+        "--resolution",
+        "12",
+        "--steps",
+        "3",
+        "--scene",
+        "free",
+        "--out",
+        free.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stats = std::fs::read_to_string(free.join("stats.jsonl")).unwrap();
+    assert_eq!(stats.lines().count(), 3);
+    assert!(!stats.contains("sphere"), "{stats}");
 }

@@ -408,10 +408,16 @@ fn drop_sphere_impact_with_the_global_solver_keeps_every_cell_and_the_sphere_out
     );
 }
 
-/// `--adaptive-relaxation` reaches the Gauss-Seidel sweeps (fewer sweeps than the paper's plain
-/// sweeps on the same run) and is refused with the global solver, naming the option.
+/// `--volume-solver gauss-seidel` defaults to the gradient correction with adaptive
+/// over-relaxation (fewer sweeps than fixed `--over-relaxation 1` on the same run), recorded
+/// resolved in scenario.toml; the paper's exact sweeps (`--correction scaling
+/// --over-relaxation 1`) stay reachable; a fixed over-relaxation is refused with the global
+/// solver, naming the option.
 #[test]
-fn adaptive_relaxation_cuts_gauss_seidel_sweeps_and_is_refused_with_the_global_solver() {
+fn gauss_seidel_defaults_to_adaptive_gradient_sweeps_and_the_paper_stays_reachable() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let out_s = out.to_str().unwrap();
     let base = [
         "volumetric",
         "builtin:icosphere",
@@ -421,8 +427,6 @@ fn adaptive_relaxation_cuts_gauss_seidel_sweeps_and_is_refused_with_the_global_s
         "20",
         "--volume-solver",
         "gauss-seidel",
-        "--correction",
-        "gradient",
         "--json",
     ];
     let sweeps = |extra: &[&str]| {
@@ -434,13 +438,27 @@ fn adaptive_relaxation_cuts_gauss_seidel_sweeps_and_is_refused_with_the_global_s
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        last_json_line(&out)["mean_sweeps"].as_f64().unwrap()
+        let j = last_json_line(&out);
+        assert!(j["max_cell_volume_error"].as_f64().unwrap() <= 1e-10, "{j}");
+        j["mean_sweeps"].as_f64().unwrap()
     };
-    let (plain, adaptive) = (sweeps(&[]), sweeps(&["--adaptive-relaxation"]));
+    let default = sweeps(&["--out", out_s]);
+    let plain = sweeps(&["--over-relaxation", "1"]);
     assert!(
-        adaptive < plain,
-        "adaptive {adaptive} vs plain {plain} sweeps per step"
+        default < plain,
+        "default (adaptive) {default} vs fixed omega = 1: {plain} sweeps per step"
     );
+    let rec = std::fs::read_to_string(out.join("scenario.toml")).unwrap();
+    for line in [
+        "over_relaxation = \"adaptive\"",
+        "correction = \"gradient\"",
+        "volume_solver = \"gauss-seidel\"",
+    ] {
+        assert!(rec.lines().any(|l| l == line), "{line} not in\n{rec}");
+    }
+    // The paper's sweeps: scaling about the cell centre, no over-relaxation.
+    let paper = sweeps(&["--correction", "scaling", "--over-relaxation", "1"]);
+    assert!(paper >= 1.0, "{paper}");
     let out = run_balloon(&[
         "volumetric",
         "builtin:icosphere",
@@ -448,9 +466,14 @@ fn adaptive_relaxation_cuts_gauss_seidel_sweeps_and_is_refused_with_the_global_s
         "16",
         "--steps",
         "2",
-        "--adaptive-relaxation",
+        "--over-relaxation",
+        "1.5",
     ]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("adaptive_relaxation"), "{err}");
+    assert!(err.contains("over_relaxation"), "{err}");
+    let out = run_balloon(&["volumetric", "--over-relaxation", "fast"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("adaptive"), "{err}");
 }
