@@ -61,9 +61,15 @@ pub fn cg(
             converged: true,
         });
     }
-    apply(x, &mut ws.ap);
-    for i in 0..n {
-        ws.r[i] = b[i] - ws.ap[i];
+    if x.iter().all(|&v| v == 0.0) {
+        // A zero start (every Newton solve): r = b, without a product with A (whose result
+        // would be exactly zero for a finite A).
+        ws.r.copy_from_slice(b);
+    } else {
+        apply(x, &mut ws.ap);
+        for i in 0..n {
+            ws.r[i] = b[i] - ws.ap[i];
+        }
     }
     let target = relative_tolerance * bnorm;
     let mut rnorm = dot(&ws.r, &ws.r).sqrt();

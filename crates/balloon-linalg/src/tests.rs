@@ -294,6 +294,47 @@ fn cg_solves_spd_system_and_reports_non_convergence() {
 }
 
 #[test]
+fn cg_from_zero_takes_one_product_per_iteration_and_from_a_guess_one_more() {
+    // A zero start needs no product for its residual (r = b); a nonzero start does. Both reach
+    // the same solution.
+    let n = 40;
+    let t = spd_triplets(n, 7);
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&vec![0.0; n], 0.0, &t, 1.0).unwrap();
+    let a = asm.matrix().clone();
+    let b = Rng::new(2).vector(n);
+    let mut ws = CgWorkspace::default();
+    let mut run = |x: &mut Vec<f64>| {
+        let mut products = 0;
+        let info = cg(
+            |p, o| {
+                products += 1;
+                a.mul_into(p, o)
+            },
+            |r, z| z.copy_from_slice(r),
+            &b,
+            x,
+            200,
+            1e-12,
+            &mut ws,
+        )
+        .unwrap();
+        assert!(info.converged);
+        (info.iterations, products)
+    };
+    let mut x0 = vec![0.0; n];
+    let (it, products) = run(&mut x0);
+    assert_eq!(products, it);
+    let mut x1 = vec![0.0; n];
+    x1[3] = 0.5;
+    let (it, products) = run(&mut x1);
+    assert_eq!(products, it + 1);
+    for i in 0..n {
+        assert!((x0[i] - x1[i]).abs() < 1e-9, "{i}");
+    }
+}
+
+#[test]
 fn cholesky_with_sherman_morrison_and_woodbury_matches_dense_solve() {
     let n = 30;
     let t = spd_triplets(n, 11);
