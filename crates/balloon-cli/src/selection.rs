@@ -750,17 +750,7 @@ impl SetupArgs {
         if !hard.is_empty() {
             sim.set_pinned_vertices(hard)?;
         }
-        let loads = self
-            .load
-            .iter()
-            .map(|l| {
-                let vertices = match &l.on {
-                    Some(s) => s.select(&rest)?,
-                    None => Vec::new(),
-                };
-                Ok((l.clone(), vertices))
-            })
-            .collect::<Result<Vec<_>, SelectionError>>()?;
+        let loads = select_loads(&self.load, &rest, Selector::select)?;
         let mut out = ShellLoads {
             springs,
             loads,
@@ -768,6 +758,42 @@ impl SetupArgs {
         };
         out.before_step(sim)?;
         Ok(out)
+    }
+}
+
+/// Each load with the vertices (or particles) its `on` selector picks from the rest positions
+/// `rest` by `select` (the system's selection, with its own message for an empty one); an
+/// empty list for a load without `on` (gravity, on everything).
+fn select_loads(
+    loads: &[Load],
+    rest: &[f64],
+    select: impl Fn(&Selector, &[f64]) -> Result<Vec<usize>, SelectionError>,
+) -> Result<Vec<(Load, Vec<usize>)>, SelectionError> {
+    loads
+        .iter()
+        .map(|l| {
+            let picked = match &l.on {
+                Some(s) => select(s, rest)?,
+                None => Vec::new(),
+            };
+            Ok((l.clone(), picked))
+        })
+        .collect()
+}
+
+/// The part of a force load each selected vertex takes: all of it (`per=vertex`) or its share
+/// of the total (`per=total`).
+fn force_share(total: bool, picked: usize) -> f64 {
+    if total { 1.0 / picked as f64 } else { 1.0 }
+}
+
+/// Adds a force load to the flat `forces` (N per dof) of the `picked` vertices.
+fn spread_force(forces: &mut [f64], force: &[f64; 3], total: bool, picked: &[usize]) {
+    let share = force_share(total, picked.len());
+    for &v in picked {
+        for d in 0..3 {
+            forces[3 * v + d] += share * force[d];
+        }
     }
 }
 
@@ -823,16 +849,7 @@ pub fn two_layer_loads(
             }));
         }
     }
-    let loads = loads
-        .iter()
-        .map(|l| {
-            let particles = match &l.on {
-                Some(s) => s.select(&rest)?,
-                None => Vec::new(),
-            };
-            Ok((l.clone(), particles))
-        })
-        .collect::<Result<Vec<_>, SelectionError>>()?;
+    let loads = select_loads(loads, &rest, Selector::select)?;
     let mut out = TwoLayerLoads {
         springs,
         loads,
@@ -878,16 +895,7 @@ impl TwoLayerLoads {
                 }
                 LoadKind::Force { force, total } => {
                     any_force = true;
-                    let share = if *total {
-                        1.0 / particles.len() as f64
-                    } else {
-                        1.0
-                    };
-                    for &i in particles {
-                        for d in 0..3 {
-                            forces[3 * i + d] += share * force[d];
-                        }
-                    }
+                    spread_force(&mut forces, force, *total, particles);
                 }
                 LoadKind::Grab { target, stiffness } => {
                     springs.extend(particles.iter().map(|&i| balloon::two_layer::AnchorSpring {
@@ -947,16 +955,7 @@ impl ShellLoads {
                 }
                 LoadKind::Force { force, total } => {
                     any_force = true;
-                    let share = if *total {
-                        1.0 / vertices.len() as f64
-                    } else {
-                        1.0
-                    };
-                    for &v in vertices {
-                        for d in 0..3 {
-                            forces[3 * v + d] += share * force[d];
-                        }
-                    }
+                    spread_force(&mut forces, force, *total, vertices);
                 }
                 LoadKind::Grab { target, stiffness } => {
                     springs.extend(vertices.iter().map(|&v| AnchorSpring {
@@ -1070,16 +1069,7 @@ pub fn volumetric_loads(
             );
         }
     }
-    let loads = loads
-        .iter()
-        .map(|l| {
-            let particles = match &l.on {
-                Some(s) => select_particles(s, &rest)?,
-                None => Vec::new(),
-            };
-            Ok((l.clone(), particles))
-        })
-        .collect::<Result<Vec<_>, SelectionError>>()?;
+    let loads = select_loads(loads, &rest, select_particles)?;
     let mut out = VolumetricLoads {
         springs,
         loads,
@@ -1129,11 +1119,7 @@ impl VolumetricLoads {
                     }
                     LoadKind::Force { force, total } => {
                         any = true;
-                        let share = if *total {
-                            1.0 / particles.len() as f64
-                        } else {
-                            1.0
-                        };
+                        let share = force_share(*total, particles.len());
                         for &i in particles {
                             forces[i] += nalgebra::Vector3::from(*force) * share;
                         }
