@@ -91,6 +91,19 @@ fn the_example_volumetric_and_two_layer_scenarios_run_as_written() {
         hi0 - hi1 < lo0 - lo1,
         "the anchored top moves less than the bottom"
     );
+    // As written, without an output folder (nothing in them needs one).
+    for name in ["hanging-teddy", "tethered-two-layer"] {
+        let file = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../../examples")
+            .join(name)
+            .join("scenario.toml");
+        ok(&run_balloon(&[
+            "run",
+            file.to_str().unwrap(),
+            "--steps",
+            "5",
+        ]));
+    }
 }
 
 #[test]
