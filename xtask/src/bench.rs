@@ -646,6 +646,8 @@ struct TeddyInflation {
     default_s: f64,
     default_newton: usize,
     default_factorizations: usize,
+    /// The default run's time per phase (`ShellStepStats::times` summed).
+    default_times: balloon::integrate::PhaseTimes,
     /// Wall time of the reference run (`--newton-tol 1e-10 --newton-iters 100`), s.
     reference_s: f64,
     reference_newton: usize,
@@ -759,6 +761,7 @@ struct TeddyRun {
     secs: f64,
     newton: usize,
     factorizations: usize,
+    times: balloon::integrate::PhaseTimes,
     volumes: Vec<f64>,
     positions: Vec<f64>,
     vertices: usize,
@@ -768,11 +771,13 @@ fn teddy_run(reference: bool, steps: usize) -> Result<TeddyRun> {
     let mut sim = paper_teddy(reference)?;
     let vertices = sim.positions().len() / 3;
     let (mut newton, mut factorizations, mut volumes) = (0, 0, Vec::new());
+    let mut times = balloon::integrate::PhaseTimes::default();
     let t = Instant::now();
     for k in 0..steps {
         let s = sim.step()?;
         newton += s.newton_iterations;
         factorizations += s.factorizations;
+        times += s.times;
         if (k + 1) % 30 == 0 || k + 1 == steps {
             volumes.push(s.gas_volume);
         }
@@ -781,6 +786,7 @@ fn teddy_run(reference: bool, steps: usize) -> Result<TeddyRun> {
         secs: t.elapsed().as_secs_f64(),
         newton,
         factorizations,
+        times,
         volumes,
         positions: sim.positions().to_vec(),
         vertices,
@@ -806,6 +812,7 @@ fn teddy_inflation(steps: usize) -> Result<TeddyInflation> {
         default_s: d.secs,
         default_newton: d.newton,
         default_factorizations: d.factorizations,
+        default_times: d.times,
         reference_s: r.secs,
         reference_newton: r.newton,
         max_volume_difference,
@@ -932,6 +939,30 @@ pub fn run_converged(opts: &Options, parts: ConvergedParts) -> Result<String> {
             t.reference_newton,
             t.max_volume_difference,
             t.shape_difference
+        );
+        let p = &t.default_times;
+        let per = |ms: f64| ms / t.default_newton.max(1) as f64;
+        let _ = writeln!(
+            md,
+            "Default run, time per phase, ms in all / per Newton iteration:\n\n\
+             | forces | energy | assembly | factorisation | solves | projection | other | total |\n\
+             |---|---|---|---|---|---|---|---|\n\
+             | {:.0} / {:.2} | {:.0} / {:.2} | {:.0} / {:.2} | {:.0} / {:.2} | {:.0} / {:.2} | \
+             {:.0} / {:.2} | {:.0} | {:.0} |\n",
+            p.forces_ms,
+            per(p.forces_ms),
+            p.energy_ms,
+            per(p.energy_ms),
+            p.assembly_ms,
+            per(p.assembly_ms),
+            p.factorization_ms,
+            per(p.factorization_ms),
+            p.solve_ms,
+            per(p.solve_ms),
+            p.projection_ms,
+            per(p.projection_ms),
+            (t.default_s * 1e3 - p.total_ms()).max(0.0),
+            t.default_s * 1e3
         );
     }
     if let Some(s) = &report.scaling {
