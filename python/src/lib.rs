@@ -167,9 +167,10 @@ fn value_text(v: &Bound<'_, PyAny>) -> PyResult<String> {
     }
 }
 
-/// The command-line arguments of keyword `options` for the flags of `cmd`: `--name=value`,
-/// `--name` for `True`, nothing for `False` and `None`. Unknown keywords are refused with the
-/// list of the known ones.
+/// The command-line arguments of keyword `options` for the flags of `cmd`: `--name=value`;
+/// for an on/off flag `--name` for `True` and nothing for `False`; for a switch with a default
+/// of its own (`follower_term`) `--name=true` or `--name=false`; nothing for `None`. Unknown
+/// keywords are refused with the list of the known ones.
 fn option_args(cmd: &clap::Command, options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
     let mut out = Vec::new();
     let Some(options) = options else {
@@ -207,6 +208,11 @@ fn option_args(cmd: &clap::Command, options: Option<&Bound<'_, PyDict>>) -> PyRe
             if on.is_true() {
                 out.push(format!("--{long}"));
             }
+            continue;
+        }
+        // A switch with a default of its own (`--flag[=true|false]`): the value spelled out.
+        if let Ok(on) = v.cast::<PyBool>() {
+            out.push(format!("--{long}={}", on.is_true()));
             continue;
         }
         // A KeyboardInterrupt (Ctrl-C while the options are read) is not an invalid option:

@@ -143,9 +143,12 @@ pub struct InflateArgs {
     /// Maximum CG iterations per Newton iteration, 1 to 1e6 (0 would never update the shell).
     #[arg(long, default_value_t = 500, value_parser = count(1, 1_000_000))]
     pub cg_max_iters: usize,
-    /// Include the area-normal (follower) term of the pressure tangent (the paper drops it).
-    #[arg(long)]
-    pub follower_term: bool,
+    /// Include the area-normal (follower) term `-(p - p_ambient) d^2V/dx^2` of the pressure
+    /// tangent: `--follower-term` or `--follower-term=true` on, `--follower-term=false` off.
+    /// Default: on with the residual test (the exact tangent: quadratic Newton convergence),
+    /// off in the paper's mode (`--newton-tol 0`; the paper drops it).
+    #[arg(long, num_args = 0..=1, require_equals = true, default_missing_value = "true")]
+    pub follower_term: Option<bool>,
     /// Shell-volume projection: `global` (seed 000, Algorithm 2), `per-element` or `off`
     /// [default: global; off for membranes, whose thickness H / (l1 l2) keeps every element's
     /// volume exactly, so the projection has nothing to correct].
@@ -258,6 +261,9 @@ pub struct InflateSummary {
     pub linear_solver: String,
     /// Newton tangent (`exact` or `projected`).
     pub tangent: String,
+    /// Whether the tangent includes the pressure follower term (`--follower-term`, resolved:
+    /// on by default with the residual test, off in the paper's mode).
+    pub follower_term: bool,
     /// The error that stopped the run, if any.
     pub error: Option<String>,
 }
@@ -375,6 +381,7 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
             material_parameters: self.summary.material_parameters.clone(),
             linear_solver: self.summary.linear_solver.clone(),
             tangent: self.summary.tangent.clone(),
+            follower_term: sim.follower_term(),
             steps: run.steps,
             sim_time_s: sim.time(),
             final_gas_volume: sim.gas_volume(),
@@ -700,6 +707,7 @@ pub fn execute_with_points(
             material_parameters: Some(material),
             linear_solver: args.linear_solver.to_string(),
             tangent: args.tangent.to_string(),
+            follower_term: sim.follower_term(),
             newton_tolerance: args.newton_tol,
             ..Default::default()
         },

@@ -88,6 +88,9 @@ struct TwoLayerCli {
 pub enum Kind {
     /// `true` gives the flag, `false` leaves it out.
     Bool,
+    /// A flag with a default of its own (`--flag[=true|false]`, absent: the program decides):
+    /// `true` gives `--flag=true`, `false` gives `--flag=false`.
+    Switch,
     /// An integer or a float.
     Number,
     /// A list of numbers (a single number is a list of one): the comma-separated flags.
@@ -145,7 +148,7 @@ const fn unrecorded(
     }
 }
 
-use Kind::{Bool, Number, NumberOrText, Numbers, Path as PathKind, Rule, Tables, Text};
+use Kind::{Bool, Number, NumberOrText, Numbers, Path as PathKind, Rule, Switch, Tables, Text};
 
 /// Every key of a shell scenario, in the order the recorded scenario writes them. Each flag of
 /// `balloon inflate` has exactly one key (a unit test checks it).
@@ -194,7 +197,7 @@ pub const SHELL_KEYS: &[ScenarioKey] = &[
     k("run", "pcg_preconditioner", "pcg_preconditioner", Text),
     k("run", "cg_tol", "cg_tol", Number),
     k("run", "cg_max_iters", "cg_max_iters", Number),
-    k("run", "follower_term", "follower_term", Bool),
+    k("run", "follower_term", "follower_term", Switch),
     unrecorded("output", "out", "out", PathKind),
     unrecorded("output", "overwrite", "overwrite", Bool),
     unrecorded("output", "json", "json", Bool),
@@ -547,6 +550,13 @@ fn value_args(
                 Ok(long.map(|l| vec![format!("--{l}")]).unwrap_or_default())
             }
             Value::Boolean(_) => Ok(Vec::new()),
+            _ => Err(expected("a boolean (true or false)")),
+        },
+        Switch => match v {
+            Value::Boolean(b) => Ok(vec![match long {
+                Some(l) => format!("--{l}={}", b.value()),
+                None => b.value().to_string(),
+            }]),
             _ => Err(expected("a boolean (true or false)")),
         },
         Number => number_text(v).map(flag).ok_or_else(|| expected("a number")),
@@ -1155,7 +1165,7 @@ pub fn record(system: &System, matches: &ArgMatches) -> String {
             s.push_str(&format!("\n[{table}]\n"));
         }
         let line = match spec.kind {
-            Bool => matches
+            Bool | Switch => matches
                 .try_get_one::<bool>(spec.id)
                 .ok()
                 .flatten()

@@ -870,12 +870,7 @@ impl TwoLayerLoads {
         if self.springs.is_empty() && self.loads.is_empty() {
             return Ok(());
         }
-        let t = sim.time() + 0.5 * sim.dt();
-        let active: Vec<bool> = self
-            .loads
-            .iter()
-            .map(|(l, _)| l.start <= t && t < l.end)
-            .collect();
+        let active = active_loads(&self.loads, sim.time(), sim.dt());
         if self.active.as_ref() == Some(&active) {
             return Ok(());
         }
@@ -930,14 +925,7 @@ impl ShellLoads {
         &mut self,
         sim: &mut ShellSimulation<M>,
     ) -> Result<(), SelectionError> {
-        // The middle of the coming step decides, so a load scheduled at a step boundary is
-        // not missed by round-off in the time.
-        let t = sim.time() + 0.5 * sim.dt();
-        let active: Vec<bool> = self
-            .loads
-            .iter()
-            .map(|(l, _)| l.start <= t && t < l.end)
-            .collect();
+        let active = active_loads(&self.loads, sim.time(), sim.dt());
         if self.active.as_ref() == Some(&active) {
             return Ok(());
         }
@@ -1097,12 +1085,7 @@ impl VolumetricLoads {
         if self.is_empty() {
             return Ok(());
         }
-        let t = sim.time() + 0.5 * sim.body().params.dt;
-        let active: Vec<bool> = self
-            .loads
-            .iter()
-            .map(|(l, _)| l.start <= t && t < l.end)
-            .collect();
+        let active = active_loads(&self.loads, sim.time(), sim.body().params.dt);
         if self.active.as_ref() != Some(&active) {
             let n = sim.positions().len();
             let mut forces = vec![nalgebra::Vector3::zeros(); n];
@@ -1152,6 +1135,17 @@ impl VolumetricLoads {
         sim.set_external_forces(Some(&forces))?;
         Ok(())
     }
+}
+
+/// Which of `loads` act during the step from `time` of size `dt`: those whose `[start, end)`
+/// holds the middle of the step, so that a load scheduled at a step boundary is not missed by
+/// round-off in the time (the same rule for the three systems).
+fn active_loads<T>(loads: &[(Load, T)], time: f64, dt: f64) -> Vec<bool> {
+    let t = time + 0.5 * dt;
+    loads
+        .iter()
+        .map(|(l, _)| l.start <= t && t < l.end)
+        .collect()
 }
 
 #[cfg(test)]

@@ -61,8 +61,8 @@ pub use model::{
 };
 pub use pressure_field::vertex_pressure_forces;
 pub use volume::{
-    add_volume_hessian_product, add_volume_hessian_triplets, check_surface, enclosed_volume,
-    volume_and_gradient,
+    add_volume_hessian_block, add_volume_hessian_product, add_volume_hessian_triplets,
+    check_surface, enclosed_volume, volume_and_gradient,
 };
 
 #[cfg(test)]

@@ -216,16 +216,25 @@ impl<G: GasModel> PressureLoad<G> {
                 });
             }
         }
-        let gdx: f64 = g.iter().zip(dx).map(|(a, b)| a * b).sum();
-        let s = self.dpressure_dvolume * gdx;
-        for (d, gi) in df.iter_mut().zip(g) {
-            *d += s * gi;
-        }
+        self.add_rank1_differential(dx, df);
         if self.follower {
             check_surface(x, triangles)?;
             add_volume_hessian_product(x, triangles, self.state.gauge_pressure, dx, df);
         }
         Ok(())
+    }
+
+    /// Adds the rank-1 part of the force differential at the last evaluation,
+    /// `df += (dp/dV) (g . dx) g` (Eq. 17 with the corrected constant), without the follower
+    /// term (for a caller that has the follower term in its own element blocks). `dx` and `df`
+    /// have the length of `g` (checked by [`PressureLoad::add_differential`]).
+    pub fn add_rank1_differential(&self, dx: &[f64], df: &mut [f64]) {
+        let g = &self.rank1.vector;
+        let gdx: f64 = g.iter().zip(dx).map(|(a, b)| a * b).sum();
+        let s = self.dpressure_dvolume * gdx;
+        for (d, gi) in df.iter_mut().zip(g) {
+            *d += s * gi;
+        }
     }
 
     /// Appends the follower part of the stiffness, `K_f = -(p - p_amb) H_V`, as `(row, col,

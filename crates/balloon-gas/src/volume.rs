@@ -124,6 +124,25 @@ pub(crate) fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }
 
+/// Adds `scale * H_t` to a triangle's dense 9x9 block (column-major, corner-major dofs
+/// `[x_a y_a z_a x_b ...]`), `H_t` the triangle's share of the volume Hessian `H_V` (the blocks
+/// of [`add_volume_hessian_product`]: `(a, b) = -(1/6) [x_c]_x`, `(a, c) = (1/6) [x_b]_x` for
+/// each cyclic `(a, b, c)`; diagonal blocks vanish). With `scale = -(p - p_ambient)` it is the
+/// triangle's block of the pressure follower stiffness.
+pub fn add_volume_hessian_block(corners: &[Vector3<f64>; 3], scale: f64, block: &mut [f64]) {
+    let s = scale / 6.0;
+    for a in 0..3 {
+        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+        for (col_corner, m) in [(b, skew(&corners[c]) * (-s)), (c, skew(&corners[b]) * s)] {
+            for q in 0..3 {
+                for r in 0..3 {
+                    block[(3 * col_corner + q) * 9 + 3 * a + r] += m[(r, q)];
+                }
+            }
+        }
+    }
+}
+
 /// Appends `scale * H_V` as `(row, col, value)` triplets (off-diagonal 3x3 blocks only; 54 per
 /// triangle). Indices must have been checked.
 pub fn add_volume_hessian_triplets(

@@ -60,6 +60,20 @@
 //! [`BackwardEulerParams::newton_iterations`] is [`IntegrateError::NotConverged`].
 //! `newton_tolerance = 0` is the paper's mode: a fixed number of full Newton steps, no line
 //! search and no residual test (the residual of the result is still reported).
+//!
+//! # Reused tangent (chord steps)
+//!
+//! Near rest a step is settled by one Newton iteration, whose cost is mostly the tangent: the
+//! stiffness evaluation and the assembly of `A` (on the teddy with the paper's gas, 7.4 and 3.7
+//! ms of a 25 ms step). After such a step the next step's first iteration solves with the same
+//! `A` and low-rank terms (a chord, or Shamanskii, step), evaluating only the forces at
+//! `v^n`. The direction is the only thing that changes: the step is still line-searched and
+//! stopped on the residual test above, so it converges to the same tolerance, and a second
+//! iteration, if the tolerance asks for one, linearises at its own iterate. A chord step the
+//! line search would cut is dropped (the iteration is repeated from the same iterate with its
+//! own tangent). Conditions: [`BackwardEulerParams::tangent_reuse_steps`] (at most that many in
+//! a row), an assembled linear solver, no stiffness damping, a residual test, the same `dt` and
+//! no regularisation shift in the matrix. [`StepInfo::reused_tangent`] says when it was used.
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -73,7 +87,7 @@ use balloon_linalg::{
     SolveInfo, SolverSettings, SparseAssembler, StiffnessOperator,
 };
 
-use crate::system::{ForceSystem, SystemError, TangentKind};
+use crate::system::{ForceSystem, LowRankTerm, SystemError, TangentKind};
 use crate::timing::{PhaseTimes, ms_since};
 
 /// Default [`BackwardEulerParams::newton_iterations`]: the most Newton iterations a step may
@@ -134,7 +148,21 @@ pub struct BackwardEulerParams {
     /// iterations more than the first solve after the factorisation (default 0: off; see
     /// `balloon_linalg::FactorizedPcgParams::refactor_cost`).
     pub refactor_cost: usize,
+    /// Steps in a row whose first Newton iteration may reuse the Newton matrix of the previous
+    /// step (a chord iteration; default [`DEFAULT_TANGENT_REUSE_STEPS`], `0`: never). Only with
+    /// an assembled linear solver, no stiffness damping, a residual test
+    /// (`newton_tolerance > 0`), the same `dt` as the step that assembled the matrix, and after
+    /// a converged step whose last matrix needed no regularisation shift. The reused matrix
+    /// only chooses the direction: the step is still line-searched, stopped on the residual at
+    /// the new iterate and so converges to the same tolerance. A chord step the line search
+    /// would cut is not taken: the step goes on with a fresh tangent from the same iterate.
+    /// Near rest, where one Newton iteration per step is all the tolerance asks for, it saves
+    /// the stiffness evaluation and the assembly of most steps (module docs, "Reused tangent").
+    pub tangent_reuse_steps: usize,
 }
+
+/// Default [`BackwardEulerParams::tangent_reuse_steps`].
+pub const DEFAULT_TANGENT_REUSE_STEPS: usize = 8;
 
 impl BackwardEulerParams {
     /// The settings [`SolverSettings::build`] makes the configured linear solver from.
@@ -164,6 +192,7 @@ impl Default for BackwardEulerParams {
             refactor_iterations: 8,
             parallel_factorization: false,
             refactor_cost: 0,
+            tangent_reuse_steps: DEFAULT_TANGENT_REUSE_STEPS,
         }
     }
 }
@@ -213,6 +242,10 @@ pub struct StepInfo {
     /// here: the shell adds its projection).
     #[serde(default)]
     pub times: PhaseTimes,
+    /// The first Newton iteration reused the previous step's Newton matrix (a chord step,
+    /// [`BackwardEulerParams::tangent_reuse_steps`]) and its step was taken.
+    #[serde(default)]
+    pub reused_tangent: bool,
 }
 
 impl StepInfo {
@@ -420,6 +453,15 @@ pub struct BackwardEuler {
     last_preconditioner: Preconditioner,
     /// Whether the assembler holds the matrix of the last linear solve.
     assembled_last: bool,
+    /// `(m_coef, k_coef)` of the matrix in the assembler when the next step's first Newton
+    /// iteration may reuse it ([`BackwardEulerParams::tangent_reuse_steps`]); `None` when not.
+    reusable_matrix: Option<(f64, f64)>,
+    /// Steps in a row whose first iteration reused the matrix.
+    reused_steps: usize,
+    /// The low-rank terms that go with the assembled matrix (for its reuse).
+    kept_low_rank: Vec<LowRankTerm>,
+    /// The mass shift of the last successful linear solve (0 without regularisation).
+    last_shift: f64,
     /// The system gave its stiffness as element blocks (`self.triplets` holds only the rest).
     use_blocks: bool,
     /// Running total of the time per phase over every step (also failed ones).
@@ -567,6 +609,16 @@ pub(crate) fn extent(x: &[f64]) -> f64 {
         .sqrt()
 }
 
+/// Copies `terms` into `kept`, re-using its buffers.
+fn keep_low_rank(kept: &mut Vec<LowRankTerm>, terms: &[LowRankTerm]) {
+    kept.resize_with(terms.len(), LowRankTerm::default);
+    for (k, t) in kept.iter_mut().zip(terms) {
+        k.coefficient = t.coefficient;
+        k.vector.clear();
+        k.vector.extend_from_slice(&t.vector);
+    }
+}
+
 pub(crate) fn first_non_finite(v: &[f64]) -> Option<usize> {
     v.iter().position(|a| !a.is_finite())
 }
@@ -594,6 +646,10 @@ impl BackwardEuler {
             solver_settings: Some(settings),
             last_preconditioner: Preconditioner::Unreported,
             assembled_last: false,
+            reusable_matrix: None,
+            reused_steps: 0,
+            kept_low_rank: Vec::new(),
+            last_shift: 0.0,
             use_blocks: false,
             times: PhaseTimes::default(),
         }
@@ -809,9 +865,20 @@ impl BackwardEuler {
         self.refresh_solver();
         let factorizations_before = self.solver.factorizations();
         let times_before = self.times;
+        // Whether the first Newton iteration reuses the last step's matrix (a chord step).
+        let reusable = self.reusable_matrix.take();
+        let mut chord = !paper_mode
+            && beta == 0.0
+            && self.reused_steps < p.tangent_reuse_steps
+            && self.solver.needs_assembled_matrix()
+            && self.assembled_last
+            && reusable == Some((m_coef, k_coef));
+        let mut last_solve_reused = false;
+        let mut chord_taken = false;
+        let mut accepted_steps = 0;
 
-        // The first iterate, v_(0) = v^n.
-        let mut res = self.evaluate(system, t1, dt, v, x, 0, true)?;
+        // The first iterate, v_(0) = v^n (its stiffness only when it is needed).
+        let mut res = self.evaluate(system, t1, dt, v, x, 0, !chord)?;
         let mut energy = None;
         if !paper_mode && beta == 0.0 {
             energy = self.incremental_potential(system, t1, dt, v, x)?;
@@ -825,7 +892,7 @@ impl BackwardEuler {
         for k in 0..p.newton_iterations {
             // At least one Newton iteration: the first iterate is only the prediction
             // `v^n`, and stopping there would let a nearly balanced state creep.
-            if !paper_mode && k > 0 && res.relative() <= p.newton_tolerance {
+            if !paper_mode && accepted_steps > 0 && res.relative() <= p.newton_tolerance {
                 newton_converged = true;
                 break;
             }
@@ -833,7 +900,20 @@ impl BackwardEuler {
                 newton_converged = true;
                 break;
             }
-            let lin = self.newton_direction(system, m_coef, k_coef, k, &mut info)?;
+            let lin = if chord {
+                match self.reused_direction(system, m_coef, k_coef) {
+                    Ok(lin) => lin,
+                    Err(_) => {
+                        // The reused matrix does not give a direction: a fresh one from here
+                        // (the stiffness at this iterate is still to be computed).
+                        chord = false;
+                        self.newton_direction(system, m_coef, k_coef, k, &mut info)?
+                    }
+                }
+            } else {
+                self.newton_direction(system, m_coef, k_coef, k, &mut info)?
+            };
+            last_solve_reused = chord;
             info.newton_iterations += 1;
             info.linear_iterations.push(lin.iterations);
             info.linear_residuals.push(lin.relative_residual);
@@ -869,7 +949,9 @@ impl BackwardEuler {
             };
             let mut step_length = 1.0;
             let mut accepted = false;
-            for cut in 0..=MAX_LINE_SEARCH_CUTS {
+            // A chord step is taken whole or not at all.
+            let max_cuts = if chord { 0 } else { MAX_LINE_SEARCH_CUTS };
+            for cut in 0..=max_cuts {
                 if cut > 0 {
                     step_length *= 0.5;
                     info.line_search_cuts += 1;
@@ -885,7 +967,7 @@ impl BackwardEuler {
                     &trial_v,
                     x,
                     (energy, slope, step_length, &res),
-                    cut == MAX_LINE_SEARCH_CUTS,
+                    !chord && cut == MAX_LINE_SEARCH_CUTS,
                 );
                 self.v_trial = trial_v;
                 if let Some((e1, r)) = outcome? {
@@ -905,6 +987,17 @@ impl BackwardEuler {
                     break;
                 }
             }
+            if !accepted && chord {
+                // The line search would cut the chord step: go on from the same iterate with
+                // its own tangent (the next iteration), as if the matrix had not been reused.
+                chord = false;
+                last_solve_reused = false;
+                res = self.evaluate(system, t1, dt, v, x, k, true)?;
+                continue;
+            }
+            chord_taken |= chord;
+            chord = false;
+            accepted_steps += accepted as usize;
             if !accepted {
                 return Err(IntegrateError::NotConverged {
                     iterations: info.newton_iterations,
@@ -954,6 +1047,24 @@ impl BackwardEuler {
             info.converged = true;
         }
         info.times = self.times - times_before;
+        info.reused_tangent = chord_taken;
+        // The matrix of the last solve may serve the next step's first iteration.
+        self.reused_steps = if last_solve_reused {
+            self.reused_steps + 1
+        } else {
+            0
+        };
+        // Only after a step that one Newton iteration settled: where steps need more, a chord
+        // step would add iterations rather than save linearisations.
+        if self.assembled_last && self.last_shift == 0.0 && info.newton_iterations == 1 {
+            self.reusable_matrix = Some((m_coef, k_coef));
+        }
+        if std::env::var_os("RES_LOG").is_some() {
+            eprintln!(
+                "RES {:?} reused {}",
+                info.relative_residuals, last_solve_reused
+            );
+        }
         Ok(info)
     }
 
@@ -1165,8 +1276,11 @@ impl BackwardEuler {
         let mut shift = 0.0;
         let mut retries = 0;
         loop {
-            match self.solve(system, m_coef + shift, k_coef) {
-                Ok(lin) => return Ok(lin),
+            match self.solve(system, m_coef + shift, k_coef, false) {
+                Ok(lin) => {
+                    self.last_shift = shift;
+                    return Ok(lin);
+                }
                 Err(err)
                     if err.is_indefinite()
                         && self.params.regularize_indefinite
@@ -1186,38 +1300,68 @@ impl BackwardEuler {
             }
         }
     }
-    /// Solves `(m_coef M + k_coef K) dv = b` with the linear solver, assembling `A` first when
-    /// the solver needs it (the triplets of `K` are already in `self.triplets` then).
-    fn solve<S: ForceSystem>(
+    /// Solves for the direction `dv` of a chord step: with the matrix still in the assembler
+    /// (the last step's, `(m_coef, k_coef)` checked by the caller) and the current low-rank
+    /// terms, without the stiffness at the current iterate.
+    fn reused_direction<S: ForceSystem>(
         &mut self,
         system: &S,
         m_coef: f64,
         k_coef: f64,
     ) -> Result<SolveInfo, SolveError> {
+        let solved = self.solve(system, m_coef, k_coef, true);
+        if solved.is_ok() {
+            self.last_shift = 0.0;
+        }
+        solved
+    }
+
+    /// Solves `(m_coef M + k_coef K) dv = b` with the linear solver, assembling `A` first when
+    /// the solver needs it (the triplets of `K` are already in `self.triplets` then), or with
+    /// the matrix already in the assembler when `reuse` is set (a chord step).
+    fn solve<S: ForceSystem>(
+        &mut self,
+        system: &S,
+        m_coef: f64,
+        k_coef: f64,
+        reuse: bool,
+    ) -> Result<SolveInfo, SolveError> {
         let masses = system.masses();
-        let low_rank = system.low_rank_terms();
         self.dv.fill(0.0);
         let factor_before = self.solver.factorization_seconds();
         let started = Instant::now();
         let result = if self.solver.needs_assembled_matrix() {
-            let blocks = if self.use_blocks {
-                system.stiffness_blocks()
-            } else {
-                None
-            };
-            self.assembled_last = false;
-            match blocks {
-                Some(b) => {
-                    self.assembler
-                        .assemble_blocks(masses, m_coef, &b, &self.triplets, k_coef)?
-                }
-                None => self
-                    .assembler
-                    .assemble(masses, m_coef, &self.triplets, k_coef)?,
-            };
-            self.assembled_last = true;
-            self.times.assembly_ms += ms_since(started);
+            if !reuse {
+                let blocks = if self.use_blocks {
+                    system.stiffness_blocks()
+                } else {
+                    None
+                };
+                self.assembled_last = false;
+                match blocks {
+                    Some(b) => self.assembler.assemble_blocks(
+                        masses,
+                        m_coef,
+                        &b,
+                        &self.triplets,
+                        k_coef,
+                    )?,
+                    None => self
+                        .assembler
+                        .assemble(masses, m_coef, &self.triplets, k_coef)?,
+                };
+                self.assembled_last = true;
+                keep_low_rank(&mut self.kept_low_rank, system.low_rank_terms());
+                self.times.assembly_ms += ms_since(started);
+            }
             let started = Instant::now();
+            // A chord step solves with the whole earlier tangent: its low-rank terms too (the
+            // system's may wait for `refresh_stiffness` after `residual_forces`).
+            let low_rank = if reuse {
+                self.kept_low_rank.as_slice()
+            } else {
+                system.low_rank_terms()
+            };
             let problem = LinearProblem::assembled(
                 self.assembler.matrix(),
                 self.assembler.pattern_version(),
@@ -1230,6 +1374,7 @@ impl BackwardEuler {
         } else {
             self.assembled_last = false;
             let stiffness = SystemStiffness(system);
+            let low_rank = system.low_rank_terms();
             let problem = LinearProblem::matrix_free(m_coef, k_coef, masses, &stiffness, low_rank);
             let solved = self.solver.solve(&problem, &self.b, &mut self.dv);
             (solved, ms_since(started))
@@ -1903,6 +2048,8 @@ mod tests {
         stale: bool,
         residual_calls: usize,
         refreshes: usize,
+        /// Calls of `forces` (each linearises).
+        linearizations: usize,
     }
 
     impl LazyChain {
@@ -1920,6 +2067,7 @@ mod tests {
         }
         fn forces(&mut self, t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
             self.stale = false;
+            self.linearizations += 1;
             self.inner.forces(t, x, f)
         }
         fn residual_forces(&mut self, t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
@@ -1964,6 +2112,146 @@ mod tests {
         }
     }
 
+    fn lazy_chain(nv: usize) -> LazyChain {
+        LazyChain {
+            inner: Chain::new(nv, true, 7),
+            pending: Vec::new(),
+            pending_low_rank: Vec::new(),
+            stale: false,
+            residual_calls: 0,
+            refreshes: 0,
+            linearizations: 0,
+        }
+    }
+
+    /// The settings of the chord tests: a damped chain settling to rest, Newton to 1e-6.
+    fn chord_params(kind: LinearSolverKind, reuse: usize) -> BackwardEulerParams {
+        let mut p = converging(kind, 30, 1e-6);
+        p.tangent_reuse_steps = reuse;
+        p.mass_damping = 10.0;
+        p
+    }
+
+    /// Runs `steps` steps of the lazy chain (whose stale stiffness panics when asked for) with
+    /// `tangent_reuse_steps = reuse`, calling `between(step, system)` before each; returns the
+    /// states, whether each step was a chord step, the Newton iterations and the
+    /// linearisations (`forces` calls and stiffness refreshes).
+    fn chord_run(
+        kind: LinearSolverKind,
+        reuse: usize,
+        steps: usize,
+        mut between: impl FnMut(usize, &mut LazyChain),
+    ) -> (Vec<f64>, Vec<f64>, Vec<bool>, usize, usize) {
+        let nv = 10;
+        let mut be = BackwardEuler::new(chord_params(kind, reuse));
+        let mut sys = lazy_chain(nv);
+        let mut x = Chain::positions(nv, 5);
+        let mut v: Vec<f64> = Rng::new(4).vector(3 * nv);
+        let (mut chords, mut newton) = (Vec::new(), 0);
+        for s in 0..steps {
+            between(s, &mut sys);
+            let info = be
+                .step(&mut sys, s as f64 * 0.01, 0.01, &mut x, &mut v, None)
+                .unwrap();
+            chords.push(info.reused_tangent);
+            newton += info.newton_iterations;
+        }
+        (x, v, chords, newton, sys.refreshes + sys.linearizations)
+    }
+
+    /// Largest entry-wise difference of `a` and `b` over the largest entry of `b`.
+    fn relative_gap(a: &[f64], b: &[f64]) -> f64 {
+        let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        a.iter()
+            .zip(b)
+            .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()))
+            / scale
+    }
+
+    #[test]
+    fn chord_steps_reuse_the_last_matrix_and_reach_the_same_states() {
+        // A chord step (the first Newton iteration with the last step's matrix and low-rank
+        // terms, after a step one iteration settled) only picks the direction: every step
+        // still stops on the residual, so 200 steps of a damped nonlinear chain settling to
+        // rest end where the run with a fresh tangent at every iteration does, to the Newton
+        // tolerance (1e-6). Chord steps are taken once the chain is near rest, they halve the
+        // linearisations for a few more Newton iterations, and they never ask the lazy chain
+        // for its stale stiffness or low-rank terms (it panics).
+        for kind in [
+            LinearSolverKind::Cholesky,
+            LinearSolverKind::FactorizedPcg,
+            LinearSolverKind::Pcg,
+        ] {
+            let (x1, v1, chords, newton1, lin1) = chord_run(kind, 8, 200, |_, _| {});
+            let (x0, v0, none, newton0, lin0) = chord_run(kind, 0, 200, |_, _| {});
+            let taken = chords.iter().filter(|&&c| c).count();
+            assert!(
+                !none.contains(&true),
+                "{kind}: no chord steps when reuse is off"
+            );
+            assert!(!chords[0], "{kind}: no chord step without a last matrix");
+            assert!(taken >= 100, "{kind}: {taken} chord steps of 200");
+            assert!(
+                2 * lin1 < lin0 + 20,
+                "{kind}: linearisations {lin1} against {lin0}"
+            );
+            assert!(
+                10 * newton1 < 11 * newton0,
+                "{kind}: Newton {newton1} against {newton0}"
+            );
+            let (gx, gv) = (relative_gap(&x1, &x0), relative_gap(&v1, &v0));
+            assert!(gx < 1e-6 && gv < 1e-4, "{kind}: gaps {gx:e} {gv:e}");
+            // At most 8 chord steps in a row, then a fresh tangent.
+            let longest = chords.split(|&c| !c).map(<[bool]>::len).max().unwrap_or(0);
+            assert!(longest <= 8, "{kind}: {longest} chord steps in a row");
+        }
+    }
+
+    #[test]
+    fn a_chord_step_the_line_search_would_cut_is_not_taken() {
+        // Stiffening the springs a thousandfold and lengthening them by 30 % between two steps
+        // of the settled chain makes the last step's matrix a poor one far from the new rest:
+        // its full step raises the incremental potential, so that step goes on with a fresh
+        // tangent from the same iterate (no chord step counted) and lands where the run without
+        // reuse does.
+        let stiffen = |s: usize, sys: &mut LazyChain| {
+            if s == 150 {
+                for spring in &mut sys.inner.springs {
+                    spring.2 *= 1000.0;
+                    spring.3 *= 1.3;
+                }
+            }
+        };
+        let kind = LinearSolverKind::Cholesky;
+        let (x1, v1, chords, _, _) = chord_run(kind, 1000, 152, stiffen);
+        let (x0, v0, _, _, _) = chord_run(kind, 0, 152, stiffen);
+        assert!(chords[149], "a chord step right before the change");
+        assert!(!chords[150], "no chord step across the stiffening");
+        let (gx, gv) = (relative_gap(&x1, &x0), relative_gap(&v1, &v0));
+        assert!(gx < 1e-6 && gv < 1e-4, "gaps {gx:e} {gv:e}");
+    }
+
+    #[test]
+    fn a_step_of_another_size_does_not_reuse_the_matrix() {
+        let mut be = BackwardEuler::new(chord_params(LinearSolverKind::Cholesky, 1000));
+        let mut sys = lazy_chain(10);
+        let mut x = Chain::positions(10, 5);
+        let mut v: Vec<f64> = Rng::new(4).vector(30);
+        let mut last = false;
+        for s in 0..150 {
+            last = be
+                .step(&mut sys, s as f64 * 0.01, 0.01, &mut x, &mut v, None)
+                .unwrap()
+                .reused_tangent;
+        }
+        assert!(last, "chord steps at the settled state");
+        let info = be.step(&mut sys, 1.5, 0.005, &mut x, &mut v, None).unwrap();
+        assert!(
+            !info.reused_tangent,
+            "the Newton matrix of dt = 0.005 differs"
+        );
+    }
+
     #[test]
     fn line_search_trials_may_skip_the_stiffness_and_the_step_is_unchanged() {
         // The trials of the line search use `residual_forces`; before Newton goes on from one,
@@ -1984,14 +2272,7 @@ mod tests {
                 p.stiffness_damping = beta;
                 let run = |lazy: bool| {
                     let mut be = BackwardEuler::new(p);
-                    let mut sys = LazyChain {
-                        inner: Chain::new(nv, true, 7),
-                        pending: Vec::new(),
-                        pending_low_rank: Vec::new(),
-                        stale: false,
-                        residual_calls: 0,
-                        refreshes: 0,
-                    };
+                    let mut sys = lazy_chain(nv);
                     let (mut x, mut v) = (x0.clone(), v0.clone());
                     let mut newton = 0;
                     for s in 0..6 {

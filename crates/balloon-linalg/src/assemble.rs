@@ -224,8 +224,25 @@ impl SparseAssembler {
                 (e - triplets.len(), e - triplets.len())
             }
         };
-        let mut order: Vec<usize> = (0..total).collect();
-        order.sort_unstable_by_key(|&e| key(e));
+        // Entries bucketed by row (a counting sort, stable), then each row's by column: the
+        // order of sorting all the keys at once, in O(entries) plus small per-row sorts.
+        let mut row_start = vec![0usize; n + 1];
+        for e in 0..total {
+            row_start[key(e).0 + 1] += 1;
+        }
+        for r in 0..n {
+            row_start[r + 1] += row_start[r];
+        }
+        let mut next = row_start.clone();
+        let mut order = vec![0usize; total];
+        for e in 0..total {
+            let r = key(e).0;
+            order[next[r]] = e;
+            next[r] += 1;
+        }
+        for r in 0..n {
+            order[row_start[r]..row_start[r + 1]].sort_unstable_by_key(|&e| key(e).1);
+        }
         let mut entry_slot = vec![0usize; total];
         let mut row_ptr = vec![0usize; n + 1];
         let mut col_idx = Vec::with_capacity(total);

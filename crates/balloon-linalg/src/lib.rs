@@ -80,7 +80,7 @@ mod precond;
 mod solver;
 
 pub use assemble::{SparseAssembler, StiffnessBlocks};
-pub use cholesky::{PARALLEL_FACTORIZATION_ROWS, SparseCholesky};
+pub use cholesky::{PARALLEL_FACTORIZATION_ROWS, SOLVE_BATCH_COLUMNS, SparseCholesky};
 pub use csr::{CsrMatrix, read_matrix_market, write_matrix_market};
 pub use error::SolveError;
 pub use krylov::{CgWorkspace, cg, dot};

@@ -724,3 +724,112 @@ fn matrix_market_round_trip_equals_the_dense_assembly() {
     let err = read_matrix_market(dir.path().join("missing.mtx")).unwrap_err();
     assert!(err.to_string().contains("missing.mtx"), "{err}");
 }
+
+/// Several right-hand sides at once (more than one batch of [`SOLVE_BATCH_COLUMNS`]) give each
+/// column's own solution: against a dense LU solve, and the single-column solve to round-off.
+/// Wrong lengths and a missing factor are errors.
+#[test]
+fn sparse_cholesky_solves_several_columns_at_once() {
+    let n = 50;
+    let t = spd_triplets(n, 23);
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&vec![1.0; n], 1.0, &t, 1.0).unwrap();
+    let mut chol = SparseCholesky::new();
+    let mut rhs = Rng::new(5).vector(n);
+    assert!(matches!(
+        chol.solve_columns_in_place(&mut rhs, 1),
+        Err(SolveError::NotFactorized)
+    ));
+    chol.factorize(asm.matrix(), asm.pattern_version()).unwrap();
+    let columns = SOLVE_BATCH_COLUMNS + 2;
+    let b = Rng::new(6).vector(n * columns);
+    let mut all = b.clone();
+    chol.solve_columns_in_place(&mut all, columns).unwrap();
+    let a = dense(n, &t) + DMatrix::identity(n, n);
+    let lu = a.lu();
+    for (c, (got, rhs)) in all.chunks_exact(n).zip(b.chunks_exact(n)).enumerate() {
+        let reference = lu.solve(&DVector::from_column_slice(rhs)).unwrap();
+        let mut single = rhs.to_vec();
+        chol.solve_in_place(&mut single).unwrap();
+        let scale = reference.amax();
+        for i in 0..n {
+            assert!((got[i] - reference[i]).abs() <= 1e-10 * scale, "column {c}");
+            assert!((got[i] - single[i]).abs() <= 1e-13 * scale, "column {c}");
+        }
+    }
+    let mut short = vec![0.0; n * columns - 1];
+    assert!(matches!(
+        chol.solve_columns_in_place(&mut short, columns),
+        Err(SolveError::Dimension { .. })
+    ));
+    assert!(matches!(
+        chol.solve_columns_in_place(&mut all, 0),
+        Err(SolveError::Dimension { .. })
+    ));
+}
+
+/// The kept-factor solver with two low-rank terms (Woodbury in the preconditioner, whose
+/// solves share one pass over the factor with the first residual's), from zero and from a
+/// guess (no batch then), matches a dense solve of the whole matrix.
+#[test]
+fn factorized_pcg_with_two_low_rank_terms_from_zero_and_from_a_guess_matches_dense() {
+    let n = 40;
+    let t = spd_triplets(n, 31);
+    let masses = vec![2.0; n];
+    let mut rng = Rng::new(12);
+    let low_rank = [
+        LowRankTerm {
+            coefficient: 30.0,
+            vector: rng.vector(n),
+        },
+        LowRankTerm {
+            coefficient: 4.0,
+            vector: rng.vector(n),
+        },
+    ];
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&masses, 1.0, &t, 0.5).unwrap();
+    let problem =
+        LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 0.5, &low_rank);
+    let mut a = dense(n, &t) * 0.5 + DMatrix::identity(n, n) * 2.0;
+    for term in &low_rank {
+        let u = DVector::from_column_slice(&term.vector);
+        a += &u * u.transpose() * (0.5 * term.coefficient);
+    }
+    let b = rng.vector(n);
+    let reference = a.lu().solve(&DVector::from_column_slice(&b)).unwrap();
+    let mut solver = FactorizedPcg::new(FactorizedPcgParams {
+        cg: CgParams {
+            max_iterations: 100,
+            relative_tolerance: 1e-12,
+        },
+        ..FactorizedPcgParams::default()
+    });
+    for guess in [0.0, 0.3, 0.0] {
+        let mut x = vec![guess; n];
+        let info = solver.solve(&problem, &b, &mut x).unwrap();
+        assert!(info.converged && info.iterations <= 2, "{info:?}");
+        for i in 0..n {
+            approx::assert_abs_diff_eq!(x[i], reference[i], epsilon = 1e-9 * reference.amax());
+        }
+    }
+    // New terms with the same factor: the kept `(L L^T)^-1 U` must not be reused (the
+    // preconditioner would then be off and CG would need more iterations).
+    let mut moved = low_rank.clone();
+    moved[1].vector[3] += 1.0;
+    moved[0].vector[7] -= 0.5;
+    let problem = LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 0.5, &moved);
+    let mut a = dense(n, &t) * 0.5 + DMatrix::identity(n, n) * 2.0;
+    for term in &moved {
+        let u = DVector::from_column_slice(&term.vector);
+        a += &u * u.transpose() * (0.5 * term.coefficient);
+    }
+    let reference = a.lu().solve(&DVector::from_column_slice(&b)).unwrap();
+    let mut x = vec![0.0; n];
+    let info = solver.solve(&problem, &b, &mut x).unwrap();
+    assert!(info.converged && info.iterations <= 2, "{info:?}");
+    for i in 0..n {
+        approx::assert_abs_diff_eq!(x[i], reference[i], epsilon = 1e-9 * reference.amax());
+    }
+    assert_eq!(solver.factorizations(), 1);
+}

@@ -492,3 +492,56 @@ fn a_json_scenario_runs_like_its_toml_twin_and_names_its_lines() {
         assert!(err.contains(want), "{want} not in: {err}");
     }
 }
+
+#[test]
+fn the_follower_term_is_on_by_default_off_in_the_papers_mode_and_either_on_request() {
+    // `--follower-term` is a switch with a default of its own: left out, the converged solver
+    // includes the follower term and the paper's mode (`--newton-tol 0`) does not; given, it
+    // wins either way (`--follower-term`, `=true`, `=false`), and a scenario's
+    // `follower_term = false` turns it off (not "leave it out"), recorded as such.
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = small_sphere(dir.path());
+    let mesh = mesh.to_str().unwrap();
+    let summary = |extra: &[&str]| {
+        let mut args = vec!["inflate", mesh, "--steps", "2", "--json"];
+        args.extend_from_slice(extra);
+        let out = run_balloon(&args);
+        ok(&out);
+        last_json_line(&out)["follower_term"].clone()
+    };
+    assert_eq!(summary(&[]), true);
+    assert_eq!(
+        summary(&["--newton-tol", "0", "--newton-iters", "3"]),
+        false
+    );
+    assert_eq!(summary(&["--follower-term"]), true);
+    assert_eq!(summary(&["--follower-term=false"]), false);
+    assert_eq!(
+        summary(&[
+            "--newton-tol",
+            "0",
+            "--newton-iters",
+            "3",
+            "--follower-term=true"
+        ]),
+        true
+    );
+    let scenario = dir.path().join("s.toml");
+    let out_dir = dir.path().join("run");
+    std::fs::write(
+        &scenario,
+        "[mesh]\npath = \"sphere.obj\"\n[run]\nsteps = 2\nfollower_term = false\n",
+    )
+    .unwrap();
+    let out = run_balloon(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--json",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    ok(&out);
+    assert_eq!(last_json_line(&out)["follower_term"], false);
+    let recorded = std::fs::read_to_string(out_dir.join("scenario.toml")).unwrap();
+    assert!(recorded.contains("follower_term = false"), "{recorded}");
+}

@@ -8,6 +8,9 @@ use crate::cholesky::SparseCholesky;
 use crate::csr::CsrMatrix;
 use crate::krylov::{CgWorkspace, cg, dot};
 
+/// The LU factorisation of the Woodbury capacitance matrix `S = I + C U^T Z`.
+type Capacitance = nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>;
+
 /// Parameters of [`FactorizedPcg`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -86,6 +89,16 @@ pub struct FactorizedPcg {
     low_rank_c: Vec<f64>,
     /// Indices (into the problem's terms) of those terms.
     low_rank_terms: Vec<usize>,
+    /// `(L L^T)^-1 b` for a solve from zero, solved together with the `low_rank_z` (one pass
+    /// over the factor for all of them), handed to CG as its first preconditioned residual.
+    first_y: Vec<f64>,
+    /// The right-hand sides of that batched solve, column after column.
+    batch: Vec<f64>,
+    /// The vectors `U` the kept `low_rank_z` were solved for, and the factorisation (count)
+    /// they were solved with: a solve with the same terms and factor (a chord step of the
+    /// integrator, which reuses the last matrix and its terms) keeps `Z`.
+    z_vectors: Vec<Vec<f64>>,
+    z_factorization: Option<u64>,
     /// CG iterations of the first solve with the current factor.
     fresh_iterations: usize,
     /// CG iterations beyond `fresh_iterations` summed over the solves with a kept factor since
@@ -118,11 +131,14 @@ impl FactorizedPcg {
 
     /// Prepares the Sherman-Morrison / Woodbury part of the preconditioner for the problem's
     /// low-rank terms with the current factor; returns the LU of the capacitance matrix
-    /// `S = I + C U^T Z`, or `None` when no term is used.
+    /// `S = I + C U^T Z`, or `None` when no term is used. With `first = Some(b)` (a solve from
+    /// zero, whose first CG residual is `b`) it also solves `(L L^T) y = b` into
+    /// `self.first_y`, in the same pass over the factor as the `Z` (returns whether it did).
     fn prepare_low_rank(
         &mut self,
         problem: &LinearProblem<'_>,
-    ) -> Result<Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>, SolveError> {
+        first: Option<&[f64]>,
+    ) -> Result<(Option<Capacitance>, bool), SolveError> {
         self.low_rank_terms.clear();
         self.low_rank_c.clear();
         for (i, t) in problem.low_rank.iter().enumerate() {
@@ -134,14 +150,68 @@ impl FactorizedPcg {
         }
         let r = self.low_rank_terms.len();
         if r == 0 {
-            return Ok(None);
+            return Ok((None, false));
         }
+        let n = problem.low_rank[self.low_rank_terms[0]].vector.len();
+        let same_z = self.z_factorization == Some(self.factorizations)
+            && self.z_vectors.len() == r
+            && self
+                .low_rank_terms
+                .iter()
+                .zip(&self.z_vectors)
+                .all(|(&i, kept)| problem.low_rank[i].vector == kept.as_slice());
+        if same_z {
+            if let Some(b) = first {
+                self.first_y.clear();
+                self.first_y.extend_from_slice(b);
+                self.cholesky.solve_in_place(&mut self.first_y)?;
+            }
+            return Ok(self.capacitance(problem, first.is_some()));
+        }
+        // Z = (L L^T)^-1 U, and y = (L L^T)^-1 b after them: one batched solve.
+        let columns = r + usize::from(first.is_some());
+        self.batch.clear();
+        for &i in &self.low_rank_terms {
+            self.batch.extend_from_slice(&problem.low_rank[i].vector);
+        }
+        if let Some(b) = first {
+            self.batch.extend_from_slice(b);
+        }
+        if self.batch.len() != columns * n {
+            return Err(SolveError::Dimension {
+                what: "low-rank vector",
+                len: self.batch.len(),
+                expected: columns * n,
+            });
+        }
+        self.cholesky
+            .solve_columns_in_place(&mut self.batch, columns)?;
         self.low_rank_z.resize_with(r, Vec::new);
-        for (z, &i) in self.low_rank_z.iter_mut().zip(&self.low_rank_terms) {
+        for (z, column) in self.low_rank_z.iter_mut().zip(self.batch.chunks_exact(n)) {
             z.clear();
-            z.extend_from_slice(&problem.low_rank[i].vector);
-            self.cholesky.solve_in_place(z)?;
+            z.extend_from_slice(column);
         }
+        if first.is_some() {
+            self.first_y.clear();
+            self.first_y.extend_from_slice(&self.batch[r * n..]);
+        }
+        self.z_vectors.resize_with(r, Vec::new);
+        for (kept, &i) in self.z_vectors.iter_mut().zip(&self.low_rank_terms) {
+            kept.clear();
+            kept.extend_from_slice(&problem.low_rank[i].vector);
+        }
+        self.z_factorization = Some(self.factorizations);
+        Ok(self.capacitance(problem, first.is_some()))
+    }
+
+    /// The LU of the capacitance matrix `S = I + C U^T Z` of the prepared terms (`None` when
+    /// it is not finite or singular), with the `batched` flag passed through.
+    fn capacitance(
+        &self,
+        problem: &LinearProblem<'_>,
+        batched: bool,
+    ) -> (Option<Capacitance>, bool) {
+        let r = self.low_rank_terms.len();
         let mut s = DMatrix::<f64>::identity(r, r);
         for (a, &i) in self.low_rank_terms.iter().enumerate() {
             let u = &problem.low_rank[i].vector;
@@ -150,10 +220,10 @@ impl FactorizedPcg {
             }
         }
         if !s.iter().all(|v| v.is_finite()) {
-            return Ok(None);
+            return (None, batched);
         }
         let lu = s.lu();
-        Ok(lu.is_invertible().then_some(lu))
+        (lu.is_invertible().then_some(lu), batched)
     }
 }
 
@@ -209,17 +279,27 @@ impl LinearSolver for FactorizedPcg {
             } else {
                 max_iterations.min(2 * threshold)
             };
-            let capacitance = self.prepare_low_rank(problem)?;
+            // From zero, CG's first residual is `b`: its preconditioned form is solved with the
+            // low-rank terms' (one pass over the factor for both).
+            let from_zero = x.iter().all(|&v| v == 0.0);
+            let (capacitance, batched) = self.prepare_low_rank(problem, from_zero.then_some(b))?;
             let chol = &mut self.cholesky;
             let (terms, cs, zs) = (&self.low_rank_terms, &self.low_rank_c, &self.low_rank_z);
+            let mut first_y = batched.then_some(self.first_y.as_slice());
             let mut w = DVector::<f64>::zeros(terms.len());
             let res = cg(
                 |p, out| problem.apply(p, out),
                 |r, z| {
-                    z.copy_from_slice(r);
-                    // Cannot fail: factorised above for this size.
-                    let solved = chol.solve_in_place(z);
-                    debug_assert!(solved.is_ok(), "{solved:?}");
+                    match first_y.take() {
+                        // The first residual of a solve from zero is `b` itself.
+                        Some(y) if r == b => z.copy_from_slice(y),
+                        _ => {
+                            z.copy_from_slice(r);
+                            // Cannot fail: factorised above for this size.
+                            let solved = chol.solve_in_place(z);
+                            debug_assert!(solved.is_ok(), "{solved:?}");
+                        }
+                    }
                     if let Some(lu) = &capacitance {
                         for (a, &i) in terms.iter().enumerate() {
                             w[a] = cs[a] * dot(&problem.low_rank[i].vector, z);

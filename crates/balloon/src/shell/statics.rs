@@ -75,6 +75,7 @@ use balloon_integrate::statics::{
     LoadScaling, PhaseTimes, StaticError, StaticInfo, StaticParams, StaticSolver,
 };
 use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::{ShellError, ShellSimulation, ShellSystem};
@@ -239,11 +240,22 @@ pub(crate) struct StaticShell<'a, M: ShellMaterial, G: GasModel> {
     /// `blocks` wait for [`ForceSystem::refresh_stiffness`] (the last evaluation was
     /// [`ForceSystem::residual_forces`]).
     blocks_stale: bool,
+    /// The inner system's [`ShellSystem::follower_blocks`] before this wrapper turned it off
+    /// (this wrapper adds its own gas term's follower blocks), restored on drop.
+    inner_follower_blocks: bool,
+}
+
+impl<M: ShellMaterial, G: GasModel> Drop for StaticShell<'_, M, G> {
+    fn drop(&mut self) {
+        self.inner.follower_blocks = self.inner_follower_blocks;
+    }
 }
 
 impl<'a, M: ShellMaterial, G: GasModel> StaticShell<'a, M, G> {
     pub(crate) fn new(inner: &'a mut ShellSystem<M, G>, gas: GasTerm, follower: bool) -> Self {
+        let inner_follower_blocks = std::mem::replace(&mut inner.follower_blocks, false);
         Self {
+            inner_follower_blocks,
             inner,
             gas,
             factor: 1.0,
@@ -270,22 +282,11 @@ impl<'a, M: ShellMaterial, G: GasModel> StaticShell<'a, M, G> {
         };
         self.blocks.clear();
         self.blocks.extend_from_slice(inner.values);
-        let s = -self.gauge / 6.0;
+        let gauge = self.gauge;
         let triangles = &self.inner.triangles;
         let add = |(block, t): (&mut [f64], &[usize; 3])| {
-            let p = |v: usize| [x[3 * v], x[3 * v + 1], x[3 * v + 2]];
-            for a in 0..3 {
-                let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-                for (col_corner, v, sign) in [(b, p(t[c]), -s), (c, p(t[b]), s)] {
-                    // sign * [v]_x: rows (3a + r), columns (3 col_corner + q).
-                    let m = [[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]];
-                    for (r, row) in m.iter().enumerate() {
-                        for (q, value) in row.iter().enumerate() {
-                            block[(3 * col_corner + q) * 9 + 3 * a + r] += sign * value;
-                        }
-                    }
-                }
-            }
+            let corners = t.map(|v| Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]));
+            balloon_gas::add_volume_hessian_block(&corners, -gauge, block);
         };
         if triangles.len() >= PARALLEL_BLOCKS {
             self.blocks
@@ -1046,10 +1047,12 @@ mod tests {
         let mut h_plain = plain.system.thickness.clone();
         let mut x_plain = plain.x.clone();
         for _ in 0..60 {
-            let mut shell = StaticShell::new(&mut plain.system, GasTerm::Own, true);
-            StaticSolver::new(options.solver)
-                .solve(&mut shell, 0.0, &mut x_plain, None)
-                .unwrap();
+            {
+                let mut shell = StaticShell::new(&mut plain.system, GasTerm::Own, true);
+                StaticSolver::new(options.solver)
+                    .solve(&mut shell, 0.0, &mut x_plain, None)
+                    .unwrap();
+            }
             let input = ShellProjectionInput {
                 triangles: &plain.system.triangles,
                 vertex_inverse_mass: &plain.vertex_inv_mass,

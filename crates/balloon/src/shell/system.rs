@@ -47,6 +47,11 @@ pub struct ShellSystem<M: ShellMaterial, G: GasModel> {
     tangent: TangentKind,
     /// `|f_elastic| + |f_gas|` at the last evaluation, N ([`ForceSystem::force_scale`]).
     force_scale: f64,
+    /// When the gas includes the pressure follower term, it goes into `elem_stiffness` (each
+    /// triangle's block of `-(p - p_ambient) d^2V/dx^2`), so that the Newton matrix is assembled
+    /// from blocks alone (default `true`; the static solver, which has a gas term of its own,
+    /// turns it off while it runs).
+    pub(crate) follower_blocks: bool,
     /// The last evaluation was [`ForceSystem::residual_forces`]: `elem_stiffness` is still that
     /// of an earlier point until [`ForceSystem::refresh_stiffness`] recomputes it at `x_lin`.
     stiffness_stale: bool,
@@ -94,6 +99,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             elem_forces: vec![[Vector3::zeros(); 3]; ne],
             elem_stiffness: vec![[0.0; 81]; ne],
             x_lin: Vec::new(),
+            follower_blocks: true,
             stiffness_stale: false,
             tangent: TangentKind::Exact,
             force_scale: 0.0,
@@ -161,6 +167,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             elem_forces: self.elem_forces.clone(),
             elem_stiffness: self.elem_stiffness.clone(),
             x_lin: self.x_lin.clone(),
+            follower_blocks: self.follower_blocks,
             stiffness_stale: self.stiffness_stale,
             tangent: self.tangent,
             force_scale: self.force_scale,
@@ -251,8 +258,26 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
         &self.material
     }
 
-    /// Element forces and stiffness blocks at `x` into the caches (seed 000, Eq. 8 and 11).
-    fn element_forces_and_stiffness(&mut self, x: &[f64]) {
+    /// Whether the element blocks carry the gas's follower term ([`ShellSystem::follower_blocks`]).
+    fn follower_in_blocks(&self) -> bool {
+        self.follower_blocks && self.gas.follower_term()
+    }
+
+    /// The gauge pressure at `x` and `time` for the follower blocks (`None` when they are not
+    /// wanted, or the volume is not positive: the gas evaluation reports that).
+    fn follower_gauge(&self, time: f64, x: &[f64]) -> Option<f64> {
+        if !self.follower_in_blocks() {
+            return None;
+        }
+        let volume = balloon_gas::enclosed_volume(x, &self.triangles).ok()?;
+        (volume.is_finite() && volume > 0.0)
+            .then(|| self.gas.gas().absolute_pressure(volume, time) - self.gas.ambient_pressure())
+    }
+
+    /// Element forces and stiffness blocks at `x` into the caches (seed 000, Eq. 8 and 11),
+    /// with the pressure follower term at gauge pressure `follower` added to each block when
+    /// given (`balloon_gas::add_volume_hessian_block`).
+    fn element_forces_and_stiffness(&mut self, x: &[f64], follower: Option<f64>) {
         let material = &self.material;
         let triangles = &self.triangles;
         let projected = self.tangent == TangentKind::Projected;
@@ -261,6 +286,9 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             let (forces, stiffness) = material.forces_and_stiffness(el, &xs, h, projected);
             *fe = forces;
             ke.copy_from_slice(stiffness.as_slice());
+            if let Some(gauge) = follower {
+                balloon_gas::add_volume_hessian_block(&xs, -gauge, ke);
+            }
         };
         let it = self
             .elements
@@ -360,7 +388,8 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
     }
 
     fn forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
-        self.element_forces_and_stiffness(x);
+        let follower = self.follower_gauge(time, x);
+        self.element_forces_and_stiffness(x, follower);
         self.stiffness_stale = false;
         self.finish_forces(time, x, f)
     }
@@ -398,7 +427,11 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
     fn refresh_stiffness(&mut self) -> Result<(), SystemError> {
         if self.stiffness_stale {
             let x = std::mem::take(&mut self.x_lin);
-            self.element_forces_and_stiffness(&x);
+            // The gas was evaluated at `x_lin` by `residual_forces`.
+            let follower = self
+                .follower_in_blocks()
+                .then(|| self.gas.state().gauge_pressure);
+            self.element_forces_and_stiffness(&x, follower);
             self.x_lin = x;
             self.stiffness_stale = false;
         }
@@ -407,6 +440,11 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
 
     fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
         self.add_elastic_differential(dx, df);
+        if self.follower_in_blocks() {
+            // The follower term is in the element blocks (so in the elastic differential).
+            self.gas.add_rank1_differential(dx, df);
+            return;
+        }
         // Lengths and indices were checked by the evaluation at `x_lin`, so this cannot fail.
         let checked = self
             .gas
@@ -431,9 +469,7 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
                 }
             }
         }
-        self.gas
-            .add_follower_triplets(&self.x_lin, &self.triangles, triplets)
-            .map_err(|e| SystemError::component("gas", e))
+        self.add_remaining_stiffness_triplets(triplets)
     }
 
     fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
@@ -453,11 +489,15 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
         })
     }
 
-    /// The pressure follower term (when enabled); the elastic part is in the blocks.
+    /// The pressure follower term when enabled and not in the element blocks
+    /// ([`ShellSystem::follower_blocks`]); nothing otherwise.
     fn add_remaining_stiffness_triplets(
         &self,
         triplets: &mut Vec<(usize, usize, f64)>,
     ) -> Result<(), SystemError> {
+        if self.follower_in_blocks() {
+            return Ok(());
+        }
         self.gas
             .add_follower_triplets(&self.x_lin, &self.triangles, triplets)
             .map_err(|e| SystemError::component("gas", e))
@@ -638,45 +678,85 @@ mod tests {
         );
     }
 
-    /// The element blocks plus the remaining (follower) triplets are the full stiffness.
+    /// The element blocks plus the remaining triplets are the full stiffness; with the follower
+    /// term in the blocks (the default) there are no remaining triplets, and the matrix equals
+    /// the elastic blocks plus the gas's own follower triplets
+    /// (`balloon_gas::add_volume_hessian_triplets`, written independently of the block form).
     #[test]
     fn stiffness_blocks_and_remaining_triplets_equal_the_triplets() {
         use balloon_integrate::linear::SparseAssembler;
         let mesh = icosphere(0.1, 2).unwrap();
         let mut sim = ShellBalloon::new(mesh)
             .with_follower_term(true)
+            .with_gauge_pressure(900.0)
             .with_linear_solver(LinearSolverKind::Cholesky)
             .build()
             .unwrap();
         let x: Vec<f64> = sim.positions().iter().map(|v| 1.2 * v).collect();
         let n = x.len();
+        let d = vec![1.0; n];
         let sys = &mut sim.system;
         let mut f = vec![0.0; n];
-        sys.forces(0.0, &x, &mut f).unwrap();
-        let mut all = Vec::new();
-        sys.add_stiffness_triplets(&mut all).unwrap();
-        let mut rest = Vec::new();
-        sys.add_remaining_stiffness_triplets(&mut rest).unwrap();
-        assert!(!rest.is_empty(), "the follower term gives extra triplets");
-        let blocks = sys.stiffness_blocks().unwrap();
-        let d = vec![1.0; n];
-        let (mut a, mut b) = (SparseAssembler::new(), SparseAssembler::new());
-        a.assemble(&d, 2.0, &all, 0.5).unwrap();
-        b.assemble_blocks(&d, 2.0, &blocks, &rest, 0.5).unwrap();
-        assert_eq!(a.matrix().col_idx, b.matrix().col_idx);
-        let scale = a.matrix().values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        for (u, v) in a.matrix().values.iter().zip(&b.matrix().values) {
-            assert!((u - v).abs() <= 1e-12 * scale);
+        let mut matrices = Vec::new();
+        for in_blocks in [true, false] {
+            sys.follower_blocks = in_blocks;
+            sys.forces(0.0, &x, &mut f).unwrap();
+            let mut all = Vec::new();
+            sys.add_stiffness_triplets(&mut all).unwrap();
+            let mut rest = Vec::new();
+            sys.add_remaining_stiffness_triplets(&mut rest).unwrap();
+            assert_eq!(
+                rest.is_empty(),
+                in_blocks,
+                "follower triplets unless in the blocks"
+            );
+            let blocks = sys.stiffness_blocks().unwrap();
+            let (mut a, mut b) = (SparseAssembler::new(), SparseAssembler::new());
+            a.assemble(&d, 2.0, &all, 0.5).unwrap();
+            b.assemble_blocks(&d, 2.0, &blocks, &rest, 0.5).unwrap();
+            assert_eq!(a.matrix().col_idx, b.matrix().col_idx);
+            let scale = a.matrix().values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (u, v) in a.matrix().values.iter().zip(&b.matrix().values) {
+                assert!((u - v).abs() <= 1e-12 * scale);
+            }
+            matrices.push(a.matrix().clone());
         }
+        // Same matrix either way: the block form of the follower term is the triplet form.
+        let (with_blocks, with_triplets) = (&matrices[0], &matrices[1]);
+        assert_eq!(with_blocks.col_idx, with_triplets.col_idx);
+        let scale = with_triplets
+            .values
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let most = with_blocks
+            .values
+            .iter()
+            .zip(&with_triplets.values)
+            .fold(0.0f64, |m, (u, v)| m.max((u - v).abs()));
+        assert!(most <= 1e-12 * scale, "{most:e} of {scale:e}");
+        // And the follower term is there: the matrix differs from the elastic one.
+        sys.follower_blocks = false;
+        sys.gas = sys.gas.clone().with_follower_term(false);
+        sys.forces(0.0, &x, &mut f).unwrap();
+        let mut elastic = Vec::new();
+        sys.add_stiffness_triplets(&mut elastic).unwrap();
+        let mut e = SparseAssembler::new();
+        e.assemble(&d, 2.0, &elastic, 0.5).unwrap();
+        let sum = |m: &balloon_integrate::linear::CsrMatrix| {
+            m.values.iter().map(|v| v.abs()).sum::<f64>()
+        };
+        assert!((sum(e.matrix()) - sum(with_blocks)).abs() > 1e-6 * sum(with_blocks));
     }
 
     /// The projected tangent reaches the element stiffness the integrator sees: on a state with
     /// compressed elements the exact assembled matrix is indefinite and the projected one is not
-    /// (checked with the quadratic form along the eigenvector directions of a dense copy).
+    /// (checked with the quadratic form along the eigenvector directions of a dense copy). The
+    /// pressure follower term, which is not projected, is left out here.
     #[test]
     fn projected_tangent_makes_the_assembled_stiffness_psd() {
         let mesh = icosphere(0.1, 1).unwrap();
         let mut sim = ShellBalloon::new(mesh)
+            .with_follower_term(false)
             .with_linear_solver(LinearSolverKind::Cholesky)
             .build()
             .unwrap();
@@ -803,6 +883,95 @@ mod tests {
                     check_gradient(energy, grad, &x, 1e-7, 1e-6);
                 }
             }
+        }
+    }
+
+    /// With the follower term in the element blocks (the default when it is on), the shell's
+    /// force differential is the derivative of its forces (central differences, every gas,
+    /// both tangents' exact path), and the assembled Newton matrix applied to a direction is
+    /// minus that differential (blocks and differential agree); without the follower term the
+    /// differential misses it and the check fails by far more (the test would catch a lost
+    /// follower block).
+    #[test]
+    fn force_differential_with_the_follower_in_the_blocks_matches_finite_differences() {
+        use balloon_integrate::linear::SparseAssembler;
+        use balloon_test_support::{Rng, check_jacobian};
+        let mesh = icosphere(0.1, 1).unwrap();
+        for kind in [GasKind::Ideal, GasKind::Constant] {
+            let sim = ShellBalloon::new(mesh.clone())
+                .with_gas(kind)
+                .with_ambient_pressure(0.0)
+                .with_gauge_pressure(3000.0)
+                .build()
+                .unwrap();
+            assert!(
+                sim.system.follower_in_blocks(),
+                "on by default with a residual test"
+            );
+            let mut rng = Rng::new(11);
+            let x: Vec<f64> = sim
+                .positions()
+                .iter()
+                .map(|v| 1.2 * v + 0.003 * rng.next_f64())
+                .collect();
+            let forces = |x: &[f64]| {
+                let mut sys = sim.system.clone_for_tests();
+                let mut f = vec![0.0; x.len()];
+                sys.forces(0.0, x, &mut f).unwrap();
+                f
+            };
+            let differential = |x: &[f64], dx: &[f64]| {
+                let mut sys = sim.system.clone_for_tests();
+                let mut f = vec![0.0; x.len()];
+                sys.forces(0.0, x, &mut f).unwrap();
+                let mut df = vec![0.0; x.len()];
+                sys.add_force_differential(dx, &mut df);
+                df
+            };
+            check_jacobian(forces, differential, &x, 1e-7, 1e-5, 3);
+            // The assembled sparse part plus the rank-1 term is minus the differential.
+            let mut sys = sim.system.clone_for_tests();
+            let n = x.len();
+            let mut f = vec![0.0; n];
+            sys.forces(0.0, &x, &mut f).unwrap();
+            let blocks = sys.stiffness_blocks().unwrap();
+            let mut rest = Vec::new();
+            sys.add_remaining_stiffness_triplets(&mut rest).unwrap();
+            assert!(rest.is_empty());
+            let mut a = SparseAssembler::new();
+            a.assemble_blocks(&vec![0.0; n], 0.0, &blocks, &rest, 1.0)
+                .unwrap();
+            let dx = rng.vector(n);
+            let mut kdx = vec![0.0; n];
+            a.matrix().mul_into(&dx, &mut kdx);
+            balloon_integrate::linear::add_low_rank_product(
+                sys.low_rank_terms(),
+                1.0,
+                &dx,
+                &mut kdx,
+            );
+            let mut df = vec![0.0; n];
+            sys.add_force_differential(&dx, &mut df);
+            let scale = df.iter().map(|v| v.abs()).fold(0.0, f64::max);
+            for (k, d) in kdx.iter().zip(&df) {
+                assert!((k + d).abs() <= 1e-10 * scale, "{k} vs {d}");
+            }
+            // Without the follower term the differential is off by the follower term.
+            let mut without = sim.system.clone_for_tests();
+            without.gas = without.gas.clone().with_follower_term(false);
+            let mut f = vec![0.0; n];
+            without.forces(0.0, &x, &mut f).unwrap();
+            let mut df0 = vec![0.0; n];
+            without.add_force_differential(&dx, &mut df0);
+            let gap = df0
+                .iter()
+                .zip(&df)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                gap > 1e-3 * scale,
+                "the follower term matters here: {gap:e}"
+            );
         }
     }
 }
