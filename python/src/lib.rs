@@ -211,7 +211,9 @@ fn option_args(cmd: &clap::Command, options: Option<&Bound<'_, PyDict>>) -> PyRe
             continue;
         }
         // A switch with a default of its own (`--flag[=true|false]`): the value spelled out.
-        if let Ok(on) = v.cast::<PyBool>() {
+        if let Ok(on) = v.cast::<PyBool>()
+            && arg.get_num_args().is_some_and(|r| r.min_values() == 0)
+        {
             out.push(format!("--{long}={}", on.is_true()));
             continue;
         }

@@ -190,3 +190,12 @@ def test_out_writes_the_cli_output_folder(tmp_path):
     balloon.inflate(SPHERE, steps=2, gas="constant", out=out, frame_every=1)
     names = {p.name for p in out.iterdir()}
     assert {"summary.json", "stats.jsonl", "final.obj", "scenario.toml", "frame_00002.obj"} <= names
+
+
+def test_follower_term_switch_has_a_default_and_both_values():
+    # Left out: on with the residual test; False turns it off (not "leave it out").
+    assert balloon.inflate(SPHERE, steps=1)["summary"]["follower_term"] is True
+    assert balloon.inflate(SPHERE, steps=1, follower_term=False)["summary"]["follower_term"] is False
+    assert balloon.inflate(SPHERE, steps=1, follower_term=True)["summary"]["follower_term"] is True
+    paper = balloon.inflate(SPHERE, steps=1, newton_tol=0, newton_iters=3)
+    assert paper["summary"]["follower_term"] is False
