@@ -46,9 +46,6 @@ fn main() {
     if arg(5).as_deref() == Some("seq") {
         builder = builder.configure_integrator(|p| p.parallel_factorization = false);
     }
-    if std::env::var_os("FOLLOWER").is_some() {
-        builder = builder.with_follower_term(true);
-    }
     let mut sim = builder.build().expect("balloon");
     let v0 = sim.rest_gas_volume();
     let t = Instant::now();

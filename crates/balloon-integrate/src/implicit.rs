@@ -867,7 +867,9 @@ impl BackwardEuler {
         let times_before = self.times;
         // Whether the first Newton iteration reuses the last step's matrix (a chord step).
         let reusable = self.reusable_matrix.take();
+        // (At least two iterations allowed: a dropped chord step uses one up.)
         let mut chord = !paper_mode
+            && p.newton_iterations >= 2
             && beta == 0.0
             && self.reused_steps < p.tangent_reuse_steps
             && self.solver.needs_assembled_matrix()
@@ -1058,12 +1060,6 @@ impl BackwardEuler {
         // step would add iterations rather than save linearisations.
         if self.assembled_last && self.last_shift == 0.0 && info.newton_iterations == 1 {
             self.reusable_matrix = Some((m_coef, k_coef));
-        }
-        if std::env::var_os("RES_LOG").is_some() {
-            eprintln!(
-                "RES {:?} reused {}",
-                info.relative_residuals, last_solve_reused
-            );
         }
         Ok(info)
     }
@@ -1301,8 +1297,8 @@ impl BackwardEuler {
         }
     }
     /// Solves for the direction `dv` of a chord step: with the matrix still in the assembler
-    /// (the last step's, `(m_coef, k_coef)` checked by the caller) and the current low-rank
-    /// terms, without the stiffness at the current iterate.
+    /// (the last step's, `(m_coef, k_coef)` checked by the caller) and the low-rank terms kept
+    /// with it, without the stiffness at the current iterate.
     fn reused_direction<S: ForceSystem>(
         &mut self,
         system: &S,
