@@ -490,7 +490,7 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
     }
 
     /// The pressure follower term when enabled and not in the element blocks
-    /// ([`ShellSystem::follower_blocks`]); nothing otherwise.
+    /// (the `follower_blocks` switch); nothing otherwise.
     fn add_remaining_stiffness_triplets(
         &self,
         triplets: &mut Vec<(usize, usize, f64)>,
