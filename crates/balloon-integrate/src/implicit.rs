@@ -137,8 +137,9 @@ pub struct BackwardEulerParams {
     /// [`crate::linear::LinearSolverKind::FactorizedPcg`] only: when a solve with the lagged Cholesky
     /// preconditioner takes more than this many CG iterations (default 8), the next 6 solves
     /// refactorise first, then the lagged factor is tried again. A solve with a lagged factor
-    /// that does not converge within `2 x refactor_iterations` iterations (or breaks down) is
-    /// continued with a fresh factorisation of the current matrix.
+    /// that does not converge within `2 x refactor_iterations` iterations (or breaks down
+    /// numerically) is continued with a fresh factorisation of the current matrix; one that
+    /// meets non-positive curvature reports the matrix indefinite.
     pub refactor_iterations: usize,
     /// Run the numeric sparse Cholesky factorisation (Cholesky and factorized PCG) on the rayon
     /// thread pool (default `false`: sequential).

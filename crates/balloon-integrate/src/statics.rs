@@ -39,7 +39,10 @@
 //! below `1e-4 mu_ref` (where the shift no longer changes the preconditioner's quality: a
 //! factor at `6e-5 mu_ref` preconditions the peer sphere's matrix at a fourfold smaller shift
 //! in 3 CG iterations). Near the solution the shift stays small and the factor is kept; a
-//! stale solve that stalls anyway is finished with a fresh factor by the linear solver.
+//! stale solve that stalls anyway is finished with a fresh factor by the linear solver. A stale
+//! solve that meets non-positive curvature (the current matrix is indefinite: a thickness
+//! update of the shell's outer loop can make it so) is retried with a tenfold shift on the same
+//! kept factor, without the factorisation that would fail at a non-positive pivot.
 //! [`LinearSolverKind::Cholesky`] (refactorise every iteration) remains an option.
 //!
 //! The line search halves the step from 1 until Armijo's condition

@@ -36,6 +36,10 @@ pub struct SparseAssembler {
     /// pattern was built from triplets).
     gather_ptr: Vec<u32>,
     gather_src: Vec<u32>,
+    /// Whether the pattern was built by the node-level path of
+    /// [`SparseAssembler::assemble_blocks`] (blocks only, no extra triplets), which keeps no
+    /// per-triplet `keys` and `slots`: the triplet path then rebuilds.
+    node_pattern: bool,
     matrix: CsrMatrix,
     pattern_version: u64,
 }
@@ -73,6 +77,7 @@ impl SparseAssembler {
     ) -> Result<bool, SolveError> {
         let n = diagonal.len();
         let same = self.matrix.n == n
+            && !self.node_pattern
             && self.keys.len() == triplets.len()
             && self
                 .keys
@@ -81,6 +86,7 @@ impl SparseAssembler {
                 .all(|(k, t)| k.0 == t.0 && k.1 == t.1);
         if !same {
             self.rebuild_pattern(n, triplets)?;
+            self.node_pattern = false;
             self.block_k = 0;
             self.block_nodes.clear();
             self.gather_ptr.clear();
@@ -127,12 +133,20 @@ impl SparseAssembler {
         let same = self.matrix.n == n
             && self.block_k == k
             && self.block_nodes == blocks.nodes
-            && self.keys.len() == nb + extra.len()
-            && self.keys[nb..]
-                .iter()
-                .zip(extra)
-                .all(|(k, t)| k.0 == t.0 && k.1 == t.1);
-        if !same {
+            && if self.node_pattern {
+                extra.is_empty()
+            } else {
+                self.keys.len() == nb + extra.len()
+                    && self.keys[nb..]
+                        .iter()
+                        .zip(extra)
+                        .all(|(k, t)| k.0 == t.0 && k.1 == t.1)
+            };
+        if !same && extra.is_empty() && self.rebuild_node_pattern(n, k, blocks.nodes)? {
+            self.block_k = k;
+            self.block_nodes.clear();
+            self.block_nodes.extend_from_slice(blocks.nodes);
+        } else if !same {
             let d = 3 * k;
             let mut keys = Vec::with_capacity(nb + extra.len());
             for nodes in blocks.nodes.chunks_exact(k) {
@@ -144,6 +158,7 @@ impl SparseAssembler {
             }
             keys.extend_from_slice(extra);
             self.rebuild_pattern(n, &keys)?;
+            self.node_pattern = false;
             self.build_gather(nb)?;
             self.block_k = k;
             self.block_nodes.clear();
@@ -164,13 +179,150 @@ impl SparseAssembler {
         };
         let out = &mut self.matrix.values;
         fill_entries(out, entry);
-        for (t, &s) in extra.iter().zip(&self.slots[nb..]) {
+        let extra_slots = if self.node_pattern {
+            &[][..]
+        } else {
+            &self.slots[nb..]
+        };
+        for (t, &s) in extra.iter().zip(extra_slots) {
             out[s] += scale * t.2;
         }
         for (i, &s) in self.diag_slots.iter().enumerate() {
             out[s] += diag_scale * diagonal[i];
         }
         Ok(!same)
+    }
+
+    /// The pattern and gather lists of [`SparseAssembler::assemble_blocks`] from the blocks'
+    /// node couplings alone (no extra triplets), in `O(blocks k^2)` node pairs instead of
+    /// `O(blocks (3k)^2)` scalar entries: every coupled node pair is a dense 3x3 block of the
+    /// matrix, so each scalar row `3a + c` holds the columns `3v, 3v + 1, 3v + 2` of the sorted
+    /// node neighbours `v` of `a`. The result (row pointers, columns, diagonal slots and
+    /// per-entry sources in increasing order) is the one the scalar path builds, so the
+    /// assembled values are bit-identical. Returns `false` (nothing changed) when `n` is not a
+    /// multiple of 3 or a node is in no block (its rows would hold the diagonal alone in the
+    /// scalar pattern): the caller takes the scalar path.
+    fn rebuild_node_pattern(
+        &mut self,
+        n: usize,
+        k: usize,
+        nodes: &[usize],
+    ) -> Result<bool, SolveError> {
+        if !n.is_multiple_of(3) {
+            return Ok(false);
+        }
+        let nv = n / 3;
+        if let Some(&bad) = nodes.iter().find(|&&a| a >= nv) {
+            return Err(SolveError::TripletOutOfRange {
+                row: 3 * bad,
+                col: 3 * bad,
+                n,
+            });
+        }
+        let blocks = nodes.len() / k;
+        let d = 3 * k;
+        let bs = d * d;
+        u32::try_from(blocks * bs).map_err(|_| SolveError::Dimension {
+            what: "stiffness block values (at most u32::MAX)",
+            len: blocks * bs,
+            expected: u32::MAX as usize,
+        })?;
+        // Node-pair entries `(block, q, p)` (row node `nodes[p]`, column node `nodes[q]`),
+        // enumerated block by block, `q` before `p`: for a fixed scalar offset `(ci, cj)` their
+        // value indices `block bs + (3q + cj) d + 3p + ci` increase with the enumeration.
+        let pairs = blocks * k * k;
+        let entry = |e: usize| {
+            let (b, r) = (e / (k * k), e % (k * k));
+            let (q, p) = (r / k, r % k);
+            (b, p, q)
+        };
+        let mut row_start = vec![0usize; nv + 1];
+        for &a in nodes {
+            row_start[a + 1] += k;
+        }
+        if row_start[1..].contains(&0) {
+            return Ok(false);
+        }
+        for a in 0..nv {
+            row_start[a + 1] += row_start[a];
+        }
+        // Stable bucketing by row node, then a stable sort by column node within each row:
+        // the entries of one node pair stay in enumeration order.
+        let mut next = row_start.clone();
+        let mut order = vec![0u32; pairs];
+        for e in 0..pairs {
+            let (b, p, _) = entry(e);
+            let a = nodes[b * k + p];
+            order[next[a]] = e as u32;
+            next[a] += 1;
+        }
+        let col_node = |e: u32| {
+            let (b, _, q) = entry(e as usize);
+            nodes[b * k + q]
+        };
+        for a in 0..nv {
+            order[row_start[a]..row_start[a + 1]].sort_by_key(|&e| col_node(e));
+        }
+        // Distinct neighbours per row node, and where each one's entries start in `order`.
+        let mut nbr_ptr = vec![0usize; nv + 1];
+        let mut nbr_node = Vec::new();
+        let mut nbr_first = Vec::new();
+        for a in 0..nv {
+            let mut last = usize::MAX;
+            for (i, &e) in order[row_start[a]..row_start[a + 1]].iter().enumerate() {
+                let v = col_node(e);
+                if v != last {
+                    nbr_node.push(v);
+                    nbr_first.push(row_start[a] + i);
+                    last = v;
+                }
+            }
+            nbr_ptr[a + 1] = nbr_node.len();
+        }
+        nbr_first.push(pairs);
+        // Scalar rows, columns, diagonal slots and gather lists.
+        let nnz = 9 * nbr_node.len();
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        let mut col_idx = Vec::with_capacity(nnz);
+        let mut diag_slots = vec![0usize; n];
+        let mut gather_ptr = Vec::with_capacity(nnz + 1);
+        let mut gather_src = Vec::with_capacity(blocks * bs);
+        gather_ptr.push(0u32);
+        for a in 0..nv {
+            let neighbours = nbr_ptr[a]..nbr_ptr[a + 1];
+            for ci in 0..3 {
+                row_ptr.push(col_idx.len());
+                for u in neighbours.clone() {
+                    let v = nbr_node[u];
+                    for cj in 0..3 {
+                        if v == a && cj == ci {
+                            diag_slots[3 * a + ci] = col_idx.len();
+                        }
+                        col_idx.push(3 * v + cj);
+                        for &e in &order[nbr_first[u]..nbr_first[u + 1]] {
+                            let (b, p, q) = entry(e as usize);
+                            gather_src.push((b * bs + (3 * q + cj) * d + 3 * p + ci) as u32);
+                        }
+                        gather_ptr.push(gather_src.len() as u32);
+                    }
+                }
+            }
+        }
+        row_ptr.push(col_idx.len());
+        self.slots.clear();
+        self.keys.clear();
+        self.diag_slots = diag_slots;
+        self.gather_ptr = gather_ptr;
+        self.gather_src = gather_src;
+        self.matrix = CsrMatrix {
+            n,
+            row_ptr,
+            values: vec![0.0; col_idx.len()],
+            col_idx,
+        };
+        self.node_pattern = true;
+        self.pattern_version += 1;
+        Ok(true)
     }
 
     /// Inverts the block part of `slots` (the first `nb`) into the per-entry source lists of

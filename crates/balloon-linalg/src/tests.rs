@@ -183,6 +183,90 @@ fn block_assembly_is_bit_identical_to_scatter_and_across_thread_counts() {
     assert_eq!(bits(&four), bits(&one));
 }
 
+/// Triplets equivalent to `blocks` (3 nodes per block).
+fn block_triplets(tris: &[usize], values: &[f64]) -> Vec<(usize, usize, f64)> {
+    let mut triplets = Vec::new();
+    for (e, tri) in tris.chunks(3).enumerate() {
+        for j in 0..9 {
+            for i in 0..9 {
+                let v = values[81 * e + 9 * j + i];
+                triplets.push((3 * tri[i / 3] + i % 3, 3 * tri[j / 3] + j % 3, v));
+            }
+        }
+    }
+    triplets
+}
+
+/// Blocks without extra triplets take the node-level pattern build: the same rows, columns and
+/// value bits as the scalar triplet path, including a degenerate block (a repeated node) and
+/// on the parallel gather path; a node in no block falls back to the scalar pattern (its rows
+/// hold the diagonal alone); switching between the paths rebuilds and stays equal.
+#[test]
+fn node_level_block_pattern_equals_the_scalar_pattern_bit_for_bit() {
+    let check = |tris: &[usize], nodes: usize, seed: u64| {
+        let values = Rng::new(seed).vector(tris.len() / 3 * 81);
+        let blocks = StiffnessBlocks {
+            nodes_per_block: 3,
+            nodes: tris,
+            values: &values,
+        };
+        let n = 3 * nodes;
+        let d = Rng::new(seed + 1).vector(n);
+        let triplets = block_triplets(tris, &values);
+        let mut reference = SparseAssembler::new();
+        reference.assemble(&d, 0.7, &triplets, 1.3).unwrap();
+        let mut asm = SparseAssembler::new();
+        assert!(asm.assemble_blocks(&d, 0.7, &blocks, &[], 1.3).unwrap());
+        let bits = |m: &CsrMatrix| m.values.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(asm.matrix().row_ptr, reference.matrix().row_ptr);
+        assert_eq!(asm.matrix().col_idx, reference.matrix().col_idx);
+        assert_eq!(bits(asm.matrix()), bits(reference.matrix()));
+        // Kept pattern, new values.
+        let v0 = asm.pattern_version();
+        let doubled: Vec<f64> = values.iter().map(|v| -2.0 * v).collect();
+        let blocks2 = StiffnessBlocks {
+            values: &doubled,
+            ..blocks
+        };
+        assert!(!asm.assemble_blocks(&d, 0.3, &blocks2, &[], 1.3).unwrap());
+        assert_eq!(asm.pattern_version(), v0);
+        let mut reference2 = SparseAssembler::new();
+        reference2
+            .assemble(&d, 0.3, &block_triplets(tris, &doubled), 1.3)
+            .unwrap();
+        assert_eq!(bits(asm.matrix()), bits(reference2.matrix()));
+        // The triplet path and extra triplets rebuild, and give the reference's matrices.
+        asm.assemble(&d, 0.7, &triplets, 1.3).unwrap();
+        assert_eq!(asm.matrix(), reference.matrix());
+        let extra = [(0usize, n - 1, 0.5), (n - 1, 0, 0.5)];
+        asm.assemble_blocks(&d, 0.7, &blocks, &[], 1.3).unwrap();
+        assert!(asm.assemble_blocks(&d, 0.7, &blocks, &extra, 1.3).unwrap());
+        let mut with_extra = triplets.clone();
+        with_extra.extend_from_slice(&extra);
+        reference.assemble(&d, 0.7, &with_extra, 1.3).unwrap();
+        assert_eq!(asm.matrix().col_idx, reference.matrix().col_idx);
+        assert_eq!(bits(asm.matrix()), bits(reference.matrix()));
+    };
+    // Shared nodes and a degenerate block (node 2 twice).
+    check(&[0, 1, 2, 2, 3, 4, 4, 0, 2, 2, 2, 3], 5, 21);
+    // Node 5 in no block: the scalar pattern.
+    check(&[0, 1, 2, 2, 3, 4], 6, 23);
+    // Large enough for the parallel gather.
+    let (tris, _) = random_blocks(2000, 5);
+    check(&tris, 2000, 25);
+    // A node out of range: an error naming it, not a panic.
+    let values = vec![0.0; 81];
+    let bad = StiffnessBlocks {
+        nodes_per_block: 3,
+        nodes: &[0, 1, 7],
+        values: &values,
+    };
+    let err = SparseAssembler::new()
+        .assemble_blocks(&[0.0; 9], 1.0, &bad, &[], 1.0)
+        .unwrap_err();
+    assert!(err.to_string().contains("21"), "{err}");
+}
+
 /// With a dominant rank-1 term in the problem, the kept factor of the sparse part plus the
 /// Sherman-Morrison update converges in one CG iteration; the amortised refresh refactorises
 /// once the extra iterations of stale solves add up to the cost.
@@ -230,6 +314,42 @@ fn factorized_pcg_preconditions_the_low_rank_term_and_amortises_refreshes() {
     assert!(iterations[0] <= 1, "{iterations:?}");
     let f = solver.factorizations();
     assert!((2..8).contains(&f), "{f} factorisations, {iterations:?}");
+}
+
+/// A stale solve on an indefinite matrix reports the non-positive curvature without a
+/// factorisation (which would fail at a non-positive pivot) and keeps the factor: the next
+/// positive definite solve is preconditioned by it without refactorising.
+#[test]
+fn factorized_pcg_reports_an_indefinite_matrix_from_a_stale_solve_and_keeps_its_factor() {
+    let n = 60;
+    let t = spd_triplets(n, 19);
+    let masses = vec![1.0; n];
+    let b = Rng::new(4).vector(n);
+    let mut asm = SparseAssembler::new();
+    let mut solver = FactorizedPcg::new(FactorizedPcgParams::default());
+    let mut solve = |diag_scale: f64, asm: &mut SparseAssembler| {
+        asm.assemble(&masses, diag_scale, &t, 1.0).unwrap();
+        let problem =
+            LinearProblem::assembled(asm.matrix(), asm.pattern_version(), diag_scale, 1.0, &[]);
+        let mut x = vec![0.0; n];
+        let result = solver.solve(&problem, &b, &mut x);
+        (result, solver.factorizations())
+    };
+    let (first, f1) = solve(0.0, &mut asm);
+    assert!(first.unwrap().converged);
+    assert_eq!(f1, 1);
+    // Shifted far below zero: indefinite (the diagonal of `t` is 4-5).
+    let (indefinite, f2) = solve(-20.0, &mut asm);
+    let err = indefinite.unwrap_err();
+    assert!(
+        matches!(err, SolveError::NonPositiveCurvature { .. }),
+        "{err}"
+    );
+    assert_eq!(f2, 1, "no factorisation for an indefinite stale solve");
+    // Positive definite again, close to the factorised matrix: the kept factor serves.
+    let (again, f3) = solve(0.1, &mut asm);
+    assert!(again.unwrap().converged);
+    assert_eq!(f3, 1, "the factor was kept");
 }
 
 #[test]

@@ -20,8 +20,9 @@ pub struct FactorizedPcgParams {
     /// When a solve with the lagged factor takes more than this many CG iterations (default
     /// 8), the next [`FactorizedPcgParams::fresh_solves_after_slow`] solves refactorise first,
     /// then the lagged factor is tried again. A solve with a lagged factor that does not
-    /// converge within `2 x refactor_iterations` iterations (or breaks down) is continued with
-    /// a fresh factorisation of the current matrix.
+    /// converge within `2 x refactor_iterations` iterations (or breaks down numerically) is
+    /// continued with a fresh factorisation of the current matrix; one that meets non-positive
+    /// curvature returns it (the matrix is indefinite).
     pub refactor_iterations: usize,
     /// Solves that refactorise first after a slow one (default 6: two steps of three Newton
     /// iterations).
@@ -57,8 +58,11 @@ impl Default for FactorizedPcgParams {
 /// 1. If there is no factor for the current pattern, or a refresh is pending, factorise the
 ///    current matrix (a *fresh* solve); otherwise keep the lagged factor (a *stale* solve).
 /// 2. Run CG; a stale solve gets at most `2 x refactor_iterations` iterations.
-/// 3. A stale solve that does not converge in that budget, or breaks down, refactorises the
-///    current matrix and continues CG from where it was (from zero after a breakdown).
+/// 3. A stale solve that does not converge in that budget, or breaks down numerically,
+///    refactorises the current matrix and continues CG from where it was (from zero after a
+///    breakdown). A stale solve that meets non-positive curvature returns that error at once
+///    and keeps the factor: `p^T A p <= 0` proves the current matrix indefinite, so a fresh
+///    factorisation would fail too (the caller's shifted retry may reuse the kept factor).
 /// 4. A solve that started stale and needed more than `refactor_iterations` iterations (or a
 ///    refactorisation) means the matrix changes fast: the next `fresh_solves_after_slow` solves
 ///    refactorise first.
@@ -341,6 +345,11 @@ impl LinearSolver for FactorizedPcg {
                     return Ok(info);
                 }
                 Err(e) if fresh => return Err(e),
+                // Non-positive curvature `p^T A p <= 0` shows that the matrix itself is not
+                // positive definite (the preconditioner does not enter `p^T A p`): a fresh
+                // factorisation would meet a non-positive pivot. The kept factor stays for the
+                // caller's shifted retry.
+                Err(e @ SolveError::NonPositiveCurvature { .. }) => return Err(e),
                 other => {
                     // The stale factor is no longer a good preconditioner (or the matrix moved
                     // too far): refactorise the current matrix and continue from the iterate

@@ -75,12 +75,11 @@ use balloon_integrate::statics::{
     LoadScaling, PhaseTimes, StaticError, StaticInfo, StaticParams, StaticSolver,
 };
 use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
-use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+use super::system::FollowerGauge;
 use super::{ShellError, ShellSimulation, ShellSystem};
 use balloon_constraint::projector::ShellProjectionInput;
-use balloon_mesh::parallel::prelude::*;
 
 /// How the gas is held in a static solve.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -233,27 +232,22 @@ pub(crate) struct StaticShell<'a, M: ShellMaterial, G: GasModel> {
     volume: f64,
     rank1: LowRankTerm,
     scale: f64,
-    /// With the follower term: the element stiffness blocks plus each triangle's block of
-    /// `-(p - p_ambient) d^2V/dx^2` (column-major 9x9 per triangle, as the inner blocks), so
-    /// that the Newton matrix is assembled from blocks alone.
-    blocks: Vec<f64>,
-    /// `blocks` wait for [`ForceSystem::refresh_stiffness`] (the last evaluation was
-    /// [`ForceSystem::residual_forces`]).
-    blocks_stale: bool,
-    /// The inner system's [`ShellSystem::follower_blocks`] before this wrapper turned it off
-    /// (this wrapper adds its own gas term's follower blocks), restored on drop.
+    /// The inner system's [`ShellSystem::follower_blocks`] before this wrapper set it (to
+    /// `follower`: the inner element pass adds this gas term's follower blocks, at the gauge
+    /// pressure of [`StaticShell::follower_gauge`]), restored on drop with the override cleared.
     inner_follower_blocks: bool,
 }
 
 impl<M: ShellMaterial, G: GasModel> Drop for StaticShell<'_, M, G> {
     fn drop(&mut self) {
         self.inner.follower_blocks = self.inner_follower_blocks;
+        self.inner.follower_gauge_override = None;
     }
 }
 
 impl<'a, M: ShellMaterial, G: GasModel> StaticShell<'a, M, G> {
     pub(crate) fn new(inner: &'a mut ShellSystem<M, G>, gas: GasTerm, follower: bool) -> Self {
-        let inner_follower_blocks = std::mem::replace(&mut inner.follower_blocks, false);
+        let inner_follower_blocks = std::mem::replace(&mut inner.follower_blocks, follower);
         Self {
             inner_follower_blocks,
             inner,
@@ -265,40 +259,37 @@ impl<'a, M: ShellMaterial, G: GasModel> StaticShell<'a, M, G> {
             volume: 0.0,
             rank1: LowRankTerm::default(),
             scale: 0.0,
-            blocks: Vec::new(),
-            blocks_stale: false,
         }
     }
 
-    /// Fills [`StaticShell::blocks`]: the inner element blocks plus the follower term's
-    /// per-triangle blocks at `x` and the gauge pressure `self.gauge`. The volume Hessian
-    /// `d^2V/dx^2 = 1/6 sum_t` of the triangle's skew blocks: for corners `(a, b, c)` in cyclic
-    /// order, block `(a, b)` is `-[x_c]_x / 6` and block `(a, c)` is `[x_b]_x / 6` (Eq. 15
-    /// differentiated; the triplet form is `balloon_gas::add_volume_hessian_triplets`).
-    fn fill_follower_blocks(&mut self, x: &[f64]) {
-        let Some(inner) = self.inner.stiffness_blocks() else {
-            self.blocks.clear();
-            return;
-        };
-        self.blocks.clear();
-        self.blocks.extend_from_slice(inner.values);
-        let gauge = self.gauge;
-        let triangles = &self.inner.triangles;
-        let add = |(block, t): (&mut [f64], &[usize; 3])| {
-            let corners = t.map(|v| Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]));
-            balloon_gas::add_volume_hessian_block(&corners, -gauge, block);
-        };
-        if triangles.len() >= PARALLEL_BLOCKS {
-            self.blocks
-                .par_chunks_mut(81)
-                .zip(triangles.par_iter())
-                .for_each(add);
-        } else {
-            self.blocks
-                .chunks_mut(81)
-                .zip(triangles.iter())
-                .for_each(add);
+    /// The gauge pressure of this gas term as the inner element pass needs it for the follower
+    /// blocks ([`StaticShell::pressure`] as a function of the volume).
+    fn follower_gauge(&self) -> FollowerGauge {
+        match self.gas {
+            GasTerm::Own => FollowerGauge {
+                scale: self.factor,
+                lambda: 0.0,
+                rho: 0.0,
+                volume: 0.0,
+            },
+            GasTerm::Volume {
+                lambda,
+                rho,
+                start,
+                target,
+            } => FollowerGauge {
+                scale: 0.0,
+                lambda,
+                rho,
+                volume: start + self.factor * (target - start),
+            },
         }
+    }
+
+    /// Hands the current gas term and load factor to the inner element pass (with the
+    /// follower term).
+    fn sync_follower(&mut self) {
+        self.inner.follower_gauge_override = self.follower.then(|| self.follower_gauge());
     }
 
     /// The gauge pressure (Pa) and `dp/dV` (Pa/m^3) of the gas term at volume `v`, from the
@@ -362,38 +353,30 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
         self.inner.masses()
     }
 
+    /// The forces, and the element blocks with this gas term's follower blocks (computed in
+    /// the inner element pass).
     fn forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+        self.sync_follower();
         self.inner.forces(time, x, f)?;
         self.gas_forces(x, f);
-        if self.follower {
-            self.fill_follower_blocks(x);
-        }
-        self.blocks_stale = false;
         Ok(())
     }
 
     /// The forces alone (the inner shell's [`ForceSystem::residual_forces`]); the element and
     /// follower blocks wait for [`ForceSystem::refresh_stiffness`].
     fn residual_forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+        self.sync_follower();
         self.inner.residual_forces(time, x, f)?;
         self.gas_forces(x, f);
-        self.blocks_stale = true;
         Ok(())
     }
 
     fn refresh_stiffness(&mut self) -> Result<(), SystemError> {
-        self.inner.refresh_stiffness()?;
-        if self.blocks_stale {
-            if self.follower {
-                let x = std::mem::take(&mut self.x);
-                self.fill_follower_blocks(&x);
-                self.x = x;
-            }
-            self.blocks_stale = false;
-        }
-        Ok(())
+        self.inner.refresh_stiffness()
     }
 
+    /// The elastic differential (with the follower term, which is in the element blocks) plus
+    /// this gas term's rank-1 part.
     fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
         self.inner.add_elastic_differential(dx, df);
         let g = &self.rank1.vector;
@@ -401,15 +384,6 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
         let s = -self.rank1.coefficient * gdx;
         for (d, gi) in df.iter_mut().zip(g) {
             *d += s * gi;
-        }
-        if self.follower {
-            balloon_gas::add_volume_hessian_product(
-                &self.x,
-                &self.inner.triangles,
-                self.gauge,
-                dx,
-                df,
-            );
         }
     }
 
@@ -443,17 +417,9 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
     }
 
     /// The element blocks, with the follower term `-(p - p_ambient) d^2V/dx^2` added per
-    /// triangle when enabled.
+    /// triangle when enabled (by the inner element pass).
     fn stiffness_blocks(&self) -> Option<StiffnessBlocks<'_>> {
-        let inner = self.inner.stiffness_blocks()?;
-        if self.follower && self.blocks.len() == inner.values.len() {
-            Some(StiffnessBlocks {
-                values: &self.blocks,
-                ..inner
-            })
-        } else {
-            Some(inner)
-        }
+        self.inner.stiffness_blocks()
     }
 
     /// Nothing: the follower term is in the blocks.
@@ -518,9 +484,6 @@ impl<M: ShellMaterial, G: GasModel> LoadScaling for StaticShell<'_, M, G> {
         self.factor = factor;
     }
 }
-
-/// Triangles from which the follower blocks are filled on the thread pool.
-const PARALLEL_BLOCKS: usize = 2048;
 
 /// The loosest relative residual an outer solve is asked for (the first one, and any while the
 /// thickness changes by more than `LOOSE_TOLERANCE / INEXACT_FACTOR`).
@@ -978,6 +941,11 @@ mod tests {
     /// term: the energy's gradient is minus the forces, the force differential is the forces'
     /// derivative (the exact Hessian), and the assembled stiffness plus the rank-1 term is the
     /// same matrix as the differential (the system the linear solver sees).
+    /// `x` moved a little (another linearisation point).
+    fn x_other(x: &[f64]) -> Vec<f64> {
+        x.iter().map(|v| 1.01 * v).collect()
+    }
+
     fn scaled<'a, M: ShellMaterial, G: GasModel>(
         sys: &'a mut ShellSystem<M, G>,
         term: GasTerm,
@@ -1162,7 +1130,25 @@ mod tests {
             }
             let mut df = vec![0.0; n];
             s.add_force_differential(&dx, &mut df);
+            // The lazy path (forces alone, then the stiffness refreshed at the same point, the
+            // follower blocks with it) linearises the same way.
+            let mut lazy_sys = sim.system.clone_for_tests();
+            let mut lazy = scaled(&mut lazy_sys, term);
+            let mut f_lazy = vec![0.0; n];
+            lazy.forces(time, &x_other(&x), &mut f_lazy).unwrap();
+            lazy.residual_forces(time, &x, &mut f_lazy).unwrap();
+            lazy.refresh_stiffness().unwrap();
+            let mut df_lazy = vec![0.0; n];
+            lazy.add_force_differential(&dx, &mut df_lazy);
             let scale = kdx.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for i in 0..n {
+                assert!(
+                    (df_lazy[i] - df[i]).abs() <= 1e-12 * scale,
+                    "{kind} volume={volume}: lazy dof {i}: {} vs {}",
+                    df_lazy[i],
+                    df[i]
+                );
+            }
             for i in 0..n {
                 assert!(
                     (kdx[i] + df[i]).abs() <= 1e-10 * scale,

@@ -23,6 +23,35 @@ type ElementForceWork<'a, E> = (
     &'a mut [Vector3<f64>; 3],
 );
 
+/// The gauge pressure of the follower blocks as a function of the enclosed volume `V`:
+/// `scale p_gas(V) + lambda - rho (V - volume)`, `p_gas` the gas's own gauge pressure (the
+/// static solver's gas term: `scale` the load factor for the own gas, or the augmented
+/// Lagrangian's `lambda - rho (V - V_t)` of the volume control with `scale = 0`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct FollowerGauge {
+    /// Factor on the gas's own gauge pressure.
+    pub(crate) scale: f64,
+    /// Constant part, Pa.
+    pub(crate) lambda: f64,
+    /// Slope `-dp/dV` of the volume penalty, Pa/m^3.
+    pub(crate) rho: f64,
+    /// Volume at which the penalty vanishes, m^3.
+    pub(crate) volume: f64,
+}
+
+impl FollowerGauge {
+    /// The gauge pressure at volume `v`, `own` giving the gas's own (called only when
+    /// `scale != 0`).
+    fn at(&self, v: f64, own: impl Fn(f64) -> f64) -> f64 {
+        let gas = if self.scale != 0.0 {
+            self.scale * own(v)
+        } else {
+            0.0
+        };
+        gas + self.lambda - self.rho * (v - self.volume)
+    }
+}
+
 /// Elastic shell + gas, with per-element force and stiffness caches filled at each linearisation.
 #[derive(Debug)]
 pub struct ShellSystem<M: ShellMaterial, G: GasModel> {
@@ -49,9 +78,12 @@ pub struct ShellSystem<M: ShellMaterial, G: GasModel> {
     force_scale: f64,
     /// When the gas includes the pressure follower term, it goes into `elem_stiffness` (each
     /// triangle's block of `-(p - p_ambient) d^2V/dx^2`), so that the Newton matrix is assembled
-    /// from blocks alone (default `true`; the static solver, which has a gas term of its own,
-    /// turns it off while it runs).
+    /// from blocks alone (default `true`).
     pub(crate) follower_blocks: bool,
+    /// The gauge pressure of the follower blocks in place of the gas's own (then they are in
+    /// the blocks whether or not the gas's follower term is on): the static solver's gas term
+    /// while it runs (`None` otherwise).
+    pub(crate) follower_gauge_override: Option<FollowerGauge>,
     /// The last evaluation was [`ForceSystem::residual_forces`]: `elem_stiffness` is still that
     /// of an earlier point until [`ForceSystem::refresh_stiffness`] recomputes it at `x_lin`.
     stiffness_stale: bool,
@@ -100,6 +132,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             elem_stiffness: vec![[0.0; 81]; ne],
             x_lin: Vec::new(),
             follower_blocks: true,
+            follower_gauge_override: None,
             stiffness_stale: false,
             tangent: TangentKind::Exact,
             force_scale: 0.0,
@@ -168,6 +201,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             elem_stiffness: self.elem_stiffness.clone(),
             x_lin: self.x_lin.clone(),
             follower_blocks: self.follower_blocks,
+            follower_gauge_override: self.follower_gauge_override,
             stiffness_stale: self.stiffness_stale,
             tangent: self.tangent,
             force_scale: self.force_scale,
@@ -258,9 +292,10 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
         &self.material
     }
 
-    /// Whether the element blocks carry the gas's follower term ([`ShellSystem::follower_blocks`]).
+    /// Whether the element blocks carry a follower term (the `follower_blocks` switch, and
+    /// the gas's follower term or an override of its gauge pressure).
     fn follower_in_blocks(&self) -> bool {
-        self.follower_blocks && self.gas.follower_term()
+        self.follower_blocks && (self.follower_gauge_override.is_some() || self.gas.follower_term())
     }
 
     /// The gauge pressure at `x` and `time` for the follower blocks (`None` when they are not
@@ -270,8 +305,14 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             return None;
         }
         let volume = balloon_gas::enclosed_volume(x, &self.triangles).ok()?;
-        (volume.is_finite() && volume > 0.0)
-            .then(|| self.gas.gas().absolute_pressure(volume, time) - self.gas.ambient_pressure())
+        if !(volume.is_finite() && volume > 0.0) {
+            return None;
+        }
+        let own = |v: f64| self.gas.gas().absolute_pressure(v, time) - self.gas.ambient_pressure();
+        Some(match self.follower_gauge_override {
+            Some(o) => o.at(volume, own),
+            None => own(volume),
+        })
     }
 
     /// Element forces and stiffness blocks at `x` into the caches (seed 000, Eq. 8 and 11),
@@ -428,9 +469,14 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
         if self.stiffness_stale {
             let x = std::mem::take(&mut self.x_lin);
             // The gas was evaluated at `x_lin` by `residual_forces`.
-            let follower = self
-                .follower_in_blocks()
-                .then(|| self.gas.state().gauge_pressure);
+            let state = self.gas.state();
+            let follower = self.follower_in_blocks().then(|| {
+                let own = |_: f64| state.gauge_pressure;
+                match self.follower_gauge_override {
+                    Some(o) => o.at(state.volume, own),
+                    None => state.gauge_pressure,
+                }
+            });
             self.element_forces_and_stiffness(&x, follower);
             self.x_lin = x;
             self.stiffness_stale = false;
