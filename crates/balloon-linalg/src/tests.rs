@@ -64,15 +64,7 @@ fn block_assembly_equals_triplet_assembly() {
     let mut rng = Rng::new(12);
     let values = rng.vector(3 * 81);
     let extra = vec![(0, 14, 0.5), (14, 0, 0.5), (7, 7, -0.25)];
-    let mut triplets = Vec::new();
-    for (e, tri) in nodes.chunks(3).enumerate() {
-        for j in 0..9 {
-            for i in 0..9 {
-                let v = values[81 * e + 9 * j + i];
-                triplets.push((3 * tri[i / 3] + i % 3, 3 * tri[j / 3] + j % 3, v));
-            }
-        }
-    }
+    let mut triplets = block_triplets(&nodes, &values);
     triplets.extend_from_slice(&extra);
     let n = 15;
     let d = rng.vector(n);
