@@ -137,15 +137,7 @@ fn block_assembly_is_bit_identical_to_scatter_and_across_thread_counts() {
     let extra = vec![(0, 7, 0.5), (7, 0, 0.5)];
     let n = 3 * nodes;
     let d = Rng::new(6).vector(n);
-    let mut triplets = Vec::new();
-    for (e, tri) in tris.chunks(3).enumerate() {
-        for j in 0..9 {
-            for i in 0..9 {
-                let v = values[81 * e + 9 * j + i];
-                triplets.push((3 * tri[i / 3] + i % 3, 3 * tri[j / 3] + j % 3, v));
-            }
-        }
-    }
+    let mut triplets = block_triplets(&tris, &values);
     triplets.extend_from_slice(&extra);
     let mut reference = SparseAssembler::new();
     reference.assemble(&d, 0.7, &triplets, 1.3).unwrap();
