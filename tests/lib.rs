@@ -108,6 +108,27 @@ pub fn shell_material_volume(x: &[f64], triangles: &[[usize; 3]], thickness: &[f
         .sum()
 }
 
+/// Length of the bounding-box diagonal of the points `x` (`[x0, y0, z0, x1, ...]`).
+pub fn bbox_diagonal(x: &[f64]) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in x.chunks_exact(3) {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// Largest distance between corresponding points of `a` and `b`.
+pub fn max_vertex_distance(a: &[f64], b: &[f64]) -> f64 {
+    a.chunks_exact(3)
+        .zip(b.chunks_exact(3))
+        .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0, f64::max)
+}
+
 /// The sphere of the peer comparison (issue 12; `cargo xtask bench --converged sphere`, the
 /// `static_profile` example): an icosphere of `level` (5: 10242 vertices) with radius 1 m,
 /// StVK with E t = 1155 N/m at t = 1 mm and nu = 1/3, 1 kg of wall in all, the ideal gas at

@@ -6,6 +6,13 @@
 //! `cargo run --release -p balloon-benches --example static_profile -- [LEVEL] [SOLVER]
 //! [REPEATS]` (defaults: 5, the static default linear solver, 1; `-` keeps a default). Prints
 //! the report's counts and its per-phase times.
+//!
+//! Environment: `OUTER_LOG=1` prints every outer (thickness) iteration; `STATIC_TOL` and
+//! `THICK_TOL` set the solver's and the thickness tolerance; `NO_PROJECTION=1` keeps the
+//! thickness at its rest value (no shell-volume projection: one outer solve);
+//! `WRITE_REF=FILE` writes the rest shape's coordinates and `REF=FILE` reports the largest
+//! vertex distance from such a file over the bounding-box diagonal (the accuracy of a looser
+//! setting against a tight solve).
 
 use balloon::integrate::linear::LinearSolverKind;
 use balloon::shell::statics::StaticOptions;
@@ -20,12 +27,29 @@ fn main() {
         let kind: LinearSolverKind = kind.parse().expect("SOLVER is a linear solver kind");
         options.solver.solver.linear.kind = kind;
     }
+    if let Some(t) = std::env::var("STATIC_TOL")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        options.solver.tolerance = t;
+    }
+    if let Some(t) = std::env::var("THICK_TOL").ok().and_then(|s| s.parse().ok()) {
+        options.thickness_tolerance = t;
+    }
+    let reference: Option<Vec<f64>> = std::env::var("REF").ok().map(|p| {
+        std::fs::read_to_string(&p)
+            .unwrap_or_else(|e| panic!("REF={p}: {e}"))
+            .split_whitespace()
+            .map(|x| x.parse().expect("REF holds numbers"))
+            .collect()
+    });
     let repeats: usize = arg(2).map_or(1, |s| s.parse().expect("REPEATS is a number"));
     for _ in 0..repeats {
-        let mut sim = balloon_tests::peer_sphere(level)
-            .expect("peer sphere")
-            .build()
-            .expect("balloon");
+        let mut builder = balloon_tests::peer_sphere(level).expect("peer sphere");
+        if std::env::var_os("NO_PROJECTION").is_some() {
+            builder = builder.with_projection(None);
+        }
+        let mut sim = builder.build().expect("balloon");
         let t = Instant::now();
         let r = sim.solve_static(&options).expect("static solve");
         let secs = t.elapsed().as_secs_f64();
@@ -44,6 +68,22 @@ fn main() {
             sim.gas_volume() / sim.rest_gas_volume()
         );
         println!("    phases (ms): {}", r.times);
+        if let Ok(p) = std::env::var("WRITE_REF") {
+            let t: Vec<String> = sim
+                .positions()
+                .iter()
+                .map(|x| format!("{x:.17e}"))
+                .collect();
+            std::fs::write(&p, t.join(" ")).unwrap_or_else(|e| panic!("WRITE_REF={p}: {e}"));
+        }
+        if let Some(r) = &reference {
+            assert_eq!(r.len(), sim.positions().len(), "REF is of another mesh");
+            println!(
+                "    shape difference from REF: {:.2e} of the bounding-box diagonal",
+                balloon_tests::max_vertex_distance(sim.positions(), r)
+                    / balloon_tests::bbox_diagonal(r)
+            );
+        }
         if std::env::var_os("OUTER_LOG").is_some() {
             for (k, o) in r.outer.iter().enumerate() {
                 println!(

@@ -9,6 +9,7 @@ use balloon::mesh::{TriMesh, geometry};
 use balloon::shell::analytic::sphere_stretch;
 use balloon::shell::statics::{StaticControl, StaticOptions};
 use balloon::shell::{ShellBalloon, ShellError, ShellSimulation};
+use balloon_tests::{bbox_diagonal, max_vertex_distance};
 
 fn material() -> StVenantKirchhoff {
     StVenantKirchhoff::new(Lame::try_from_young_poisson(1.0e6, 0.45).unwrap())
@@ -16,18 +17,6 @@ fn material() -> StVenantKirchhoff {
 
 fn effective_radius(mesh: &TriMesh) -> f64 {
     3.0 * geometry::enclosed_volume(mesh) / geometry::surface_area(mesh)
-}
-
-fn bbox_diagonal(x: &[f64]) -> f64 {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in x.chunks_exact(3) {
-        for c in 0..3 {
-            lo[c] = lo[c].min(p[c]);
-            hi[c] = hi[c].max(p[c]);
-        }
-    }
-    (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt()
 }
 
 fn build(mesh: TriMesh, gas: GasKind, pressure: f64) -> ShellSimulation<StVenantKirchhoff> {
@@ -57,13 +46,6 @@ fn settle_dynamic(sim: &mut ShellSimulation<StVenantKirchhoff>, max_steps: usize
         last.copy_from_slice(sim.positions());
     }
     panic!("the dynamic run did not settle in {max_steps} steps");
-}
-
-fn max_distance(a: &[f64], b: &[f64]) -> f64 {
-    a.chunks_exact(3)
-        .zip(b.chunks_exact(3))
-        .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>().sqrt())
-        .fold(0.0, f64::max)
 }
 
 #[test]
@@ -108,7 +90,7 @@ fn static_and_dynamic_rest_shapes_agree_on_the_sphere() {
     let mut stat = build(mesh, GasKind::Ideal, 2000.0);
     let report = stat.solve_static(&StaticOptions::default()).unwrap();
     let l = bbox_diagonal(dynamic.positions());
-    let d = max_distance(dynamic.positions(), stat.positions());
+    let d = max_vertex_distance(dynamic.positions(), stat.positions());
     assert!(
         d <= 1e-4 * l,
         "static vs dynamic: {d:e} m of {l} m ({report:?})"
@@ -130,7 +112,7 @@ fn static_and_dynamic_rest_shapes_agree_on_the_coarse_teddy() {
     let report = stat.solve_static(&StaticOptions::default()).unwrap();
     assert!(report.converged, "{report:?}");
     let l = bbox_diagonal(dynamic.positions());
-    let d = max_distance(dynamic.positions(), stat.positions());
+    let d = max_vertex_distance(dynamic.positions(), stat.positions());
     assert!(
         d <= 1e-4 * l,
         "static vs dynamic: {d:e} m of {l} m ({report:?})"
@@ -158,7 +140,7 @@ fn volume_control_reports_the_pressure_that_holds_that_volume() {
         (report.gauge_pressure - 2500.0).abs() < 1e-4 * 2500.0,
         "{report:?}"
     );
-    let d = max_distance(by_pressure.positions(), by_volume.positions());
+    let d = max_vertex_distance(by_pressure.positions(), by_volume.positions());
     assert!(d < 1e-6 * bbox_diagonal(by_volume.positions()), "{d:e}");
 }
 
@@ -210,4 +192,51 @@ fn static_solve_refuses_anchor_springs_and_bad_targets() {
     }])
     .unwrap();
     assert!(sim.solve_static(&StaticOptions::default()).is_err());
+}
+
+/// Any pair of solver and thickness tolerances converges, to a shape as close to the tight
+/// solution as the looser of the two asks: a thickness tolerance above ten times the solver's
+/// once kept the outer loop from ever asking for the solver's tolerance (60 outer iterations,
+/// then `StaticNotConverged` with both tests met), and one above 1e-2 panicked in `clamp`.
+#[test]
+fn static_solve_converges_for_any_pair_of_tolerances() {
+    let mesh = icosphere(0.1, 2).unwrap();
+    let solve = |solver_tolerance: f64, thickness_tolerance: f64| {
+        let mut sim = build(mesh.clone(), GasKind::Ideal, 3000.0);
+        let mut options = StaticOptions {
+            thickness_tolerance,
+            ..Default::default()
+        };
+        options.solver.tolerance = solver_tolerance;
+        let report = sim.solve_static(&options).unwrap_or_else(|e| {
+            panic!("tolerances {solver_tolerance:e}/{thickness_tolerance:e}: {e}")
+        });
+        (report, sim.positions().to_vec())
+    };
+    let (tight, x_tight) = solve(1e-10, 1e-11);
+    let l = bbox_diagonal(&x_tight);
+    for (solver_tolerance, thickness_tolerance, shape) in [
+        (1e-6, 1e-5, 1e-5),
+        (1e-6, 1e-4, 1e-4),
+        (1e-3, 1e-2, 1e-2),
+        (1e-2, 0.5, 0.1),
+    ] {
+        let (report, x) = solve(solver_tolerance, thickness_tolerance);
+        let d = max_vertex_distance(&x, &x_tight) / l;
+        eprintln!(
+            "tolerances {solver_tolerance:e}/{thickness_tolerance:e}: outer {}, Newton {}, shape {d:.2e}",
+            report.outer_iterations, report.newton_iterations
+        );
+        assert!(report.converged);
+        assert!(
+            report.outer_iterations <= tight.outer_iterations,
+            "looser tolerances took {} outer iterations, the tight ones {}",
+            report.outer_iterations,
+            tight.outer_iterations
+        );
+        assert!(
+            d < shape,
+            "shape {d:e} of the diagonal from the tight solution"
+        );
+    }
 }

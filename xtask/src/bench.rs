@@ -635,6 +635,76 @@ struct SphereToRest {
     shape_difference: f64,
     /// Gas volume ratio of the static rest shape.
     volume_ratio: f64,
+    /// Building the sphere and solving for its rest shape (mesh, simulation, `solve_static`),
+    /// s: the in-process counterpart of MuJoCo's `compile_s + rest_s`.
+    static_whole_s: f64,
+    /// The same sphere in MuJoCo (`benches/peer/mujoco_sphere.py`), when `python3` imports
+    /// `mujoco`; else why not.
+    mujoco: std::result::Result<MujocoPeer, String>,
+}
+
+/// What `benches/peer/mujoco_sphere.py` reported, plus the wall time of its whole process.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+struct MujocoPeer {
+    mujoco: String,
+    vertices: usize,
+    dt: f64,
+    compile_s: f64,
+    steps_to_rest: usize,
+    rest_s: f64,
+    callback_s: f64,
+    volume_ratio: f64,
+    radius_min: f64,
+    radius_max: f64,
+    last_change: f64,
+    analytic_volume_ratio: f64,
+    /// Wall time of the whole `python3` process (start-up, import, compile, steps), s.
+    #[serde(default)]
+    process_s: f64,
+}
+
+/// Runs the MuJoCo peer on `mesh` (written to `target/bench/peer_sphere.obj`).
+fn mujoco_peer(mesh: &TriMesh) -> std::result::Result<MujocoPeer, String> {
+    let root = crate::workspace_root();
+    let probe = std::process::Command::new("python3")
+        .args(["-c", "import mujoco, numpy"])
+        .output();
+    match probe {
+        Ok(o) if o.status.success() => {}
+        _ => return Err("python3 with mujoco and numpy not found (pip install mujoco)".into()),
+    }
+    let dir = root.join("target").join("bench");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let obj = dir.join("peer_sphere.obj");
+    balloon::mesh::io::write_obj(&obj, mesh).map_err(|e| e.to_string())?;
+    let script = root.join("benches").join("peer").join("mujoco_sphere.py");
+    eprintln!("xtask bench: peer sphere in MuJoCo ({})", script.display());
+    let t = Instant::now();
+    let out = std::process::Command::new("python3")
+        .arg(&script)
+        .arg(&obj)
+        // MuJoCo appends its warnings to MUJOCO_LOG.TXT in the working directory.
+        .current_dir(&dir)
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", script.display()))?;
+    let process_s = t.elapsed().as_secs_f64();
+    if !out.status.success() {
+        return Err(format!(
+            "{} failed: {}",
+            script.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        ));
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let line = stdout.lines().last().unwrap_or_default();
+    let mut peer: MujocoPeer = serde_json::from_str(line)
+        .map_err(|e| format!("{}: unreadable report {line:?}: {e}", script.display()))?;
+    peer.process_s = process_s;
+    eprintln!(
+        "    {} steps to rest {:.2} s, compile {:.2} s, whole process {process_s:.2} s",
+        peer.steps_to_rest, peer.rest_s, peer.compile_s
+    );
+    Ok(peer)
 }
 
 /// 300 steps of the resolution-40 teddy, default solver against the reference.
@@ -665,30 +735,18 @@ pub fn peer_sphere() -> Result<balloon::shell::ShellSimulation> {
 
 /// Largest vertex distance between `a` and `b` over the bounding-box diagonal of `a`.
 fn shape_difference(a: &[f64], b: &[f64]) -> f64 {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in a.chunks_exact(3) {
-        for c in 0..3 {
-            lo[c] = lo[c].min(p[c]);
-            hi[c] = hi[c].max(p[c]);
-        }
-    }
-    let diag = (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt();
-    let worst = a
-        .chunks_exact(3)
-        .zip(b.chunks_exact(3))
-        .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>().sqrt())
-        .fold(0.0, f64::max);
-    worst / diag
+    balloon_tests::max_vertex_distance(a, b) / balloon_tests::bbox_diagonal(a)
 }
 
 fn sphere_to_rest() -> Result<SphereToRest> {
     use balloon::shell::statics::StaticOptions;
+    let whole = Instant::now();
     let mut sim = peer_sphere()?;
     let vertices = sim.positions().len() / 3;
     eprintln!("xtask bench: peer sphere ({vertices} v), static");
     let t = Instant::now();
     let report = sim.solve_static(&StaticOptions::default())?;
+    let static_whole_s = whole.elapsed().as_secs_f64();
     eprintln!(
         "    outer iterations {}, load steps {}, cuts {}, factorisations {}\n    phases (ms): {}",
         report.outer_iterations,
@@ -733,6 +791,8 @@ fn sphere_to_rest() -> Result<SphereToRest> {
         dynamic_newton: newton,
         shape_difference: shape_difference(&static_x, sim.positions()),
         volume_ratio,
+        static_whole_s,
+        mujoco: mujoco_peer(&icosphere(1.0, 5)?),
     })
 }
 
@@ -901,6 +961,36 @@ pub fn run_converged(opts: &Options, parts: ConvergedParts) -> Result<String> {
             s.shape_difference,
             s.volume_ratio
         );
+        match &s.mujoco {
+            Ok(m) => {
+                let _ = writeln!(
+                    md,
+                    "The same sphere in MuJoCo {} (`benches/peer/mujoco_sphere.py`: 2D flex, \
+                     StVK membrane at constant thickness, `discrete` integrator, dt {} s, the \
+                     gas as a passive-force callback): at rest (within 1e-4 of the diagonal of \
+                     its final shape) after {} steps, {:.2} s of stepping ({:.2} s of it the \
+                     Python callback); compile {:.2} s; whole process {:.2} s. Ours, build and \
+                     static solve: {:.2} s (whole process / ours: {:.1}x; stepping alone / \
+                     static solve: {:.2}x). MuJoCo V/V0 = {:.4} (plane-stress StVK sphere at \
+                     constant thickness, analytic: {:.4}).\n",
+                    m.mujoco,
+                    m.dt,
+                    m.steps_to_rest,
+                    m.rest_s,
+                    m.callback_s,
+                    m.compile_s,
+                    m.process_s,
+                    s.static_whole_s,
+                    m.process_s / s.static_whole_s,
+                    m.rest_s / s.static_s,
+                    m.volume_ratio,
+                    m.analytic_volume_ratio
+                );
+            }
+            Err(why) => {
+                let _ = writeln!(md, "MuJoCo peer not run: {why}.\n");
+            }
+        }
         let t = &s.static_times;
         let _ = writeln!(
             md,

@@ -498,7 +498,8 @@ const LOOSE_TOLERANCE: f64 = 1e-3;
 
 /// An outer solve is asked for the relative residual `INEXACT_FACTOR` times the relative
 /// thickness change of the previous projection (no tighter than `INEXACT_FACTOR` times the
-/// thickness tolerance, no looser than [`LOOSE_TOLERANCE`]).
+/// thickness tolerance or the final tolerance, whichever is smaller; no looser than
+/// [`LOOSE_TOLERANCE`] or the final tolerance, whichever is larger).
 const INEXACT_FACTOR: f64 = 0.1;
 
 /// Depth (previous iterates kept) of the Anderson acceleration of the thickness fixed point.
@@ -885,11 +886,13 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                     }
                 }
                 // The next solve need not be much more accurate than the thickness it is
-                // solved at (module docs).
-                tolerance = (INEXACT_FACTOR * report.thickness_change).clamp(
-                    INEXACT_FACTOR * options.thickness_tolerance,
-                    LOOSE_TOLERANCE,
-                );
+                // solved at (module docs), but it must reach the final tolerance once the
+                // thickness has settled (else a thickness tolerance above
+                // `final_tolerance / INEXACT_FACTOR` could never converge), and a final
+                // tolerance above `LOOSE_TOLERANCE` is never tightened.
+                let ceiling = LOOSE_TOLERANCE.max(final_tolerance);
+                let floor = (INEXACT_FACTOR * options.thickness_tolerance).min(final_tolerance);
+                tolerance = (INEXACT_FACTOR * report.thickness_change).clamp(floor, ceiling);
             }
             report.outer.push(record);
             if volume_met
