@@ -8,7 +8,8 @@
 //! the report's counts and its per-phase times.
 //!
 //! Environment: `OUTER_LOG=1` prints every outer (thickness) iteration; `STATIC_TOL` and
-//! `THICK_TOL` set the solver's and the thickness tolerance; `NO_PROJECTION=1` keeps the
+//! `THICK_TOL` set the solver's and the thickness tolerance, `INITIAL_SHIFT` the first
+//! Levenberg-Marquardt shift; `NO_PROJECTION=1` keeps the
 //! thickness at its rest value (no shell-volume projection: one outer solve);
 //! `WRITE_REF=FILE` writes the rest shape's coordinates and `REF=FILE` reports the largest
 //! vertex distance from such a file over the bounding-box diagonal (the accuracy of a looser
@@ -32,6 +33,12 @@ fn main() {
         .and_then(|s| s.parse().ok())
     {
         options.solver.tolerance = t;
+    }
+    if let Some(t) = std::env::var("INITIAL_SHIFT")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        options.solver.initial_shift = t;
     }
     if let Some(t) = std::env::var("THICK_TOL").ok().and_then(|s| s.parse().ok()) {
         options.thickness_tolerance = t;

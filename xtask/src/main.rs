@@ -83,6 +83,8 @@ enum Task {
         update_docs: bool,
         /// Run only the converged default solver's studies named here (comma-separated:
         /// sphere, teddy, scaling; `all` for the three) and write target/bench/converged.md.
+        /// `sphere` also runs the same sphere in MuJoCo (`benches/peer/mujoco_sphere.py`)
+        /// when `python3` imports `mujoco` (`pip install mujoco`), and says so when not.
         #[arg(long)]
         converged: Option<String>,
     },

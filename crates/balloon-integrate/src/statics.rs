@@ -45,6 +45,15 @@
 //! kept factor, without the factorisation that would fail at a non-positive pivot.
 //! [`LinearSolverKind::Cholesky`] (refactorise every iteration) remains an option.
 //!
+//! The linear solves are inexact (inexact Newton, with a forcing term tied to the target
+//! rather than Eisenstat and Walker's): an iterative solver is asked for the relative residual
+//! `0.1 tol / |r|_rel` (between its own tolerance and `0.1`), i.e. a linearised residual of a
+//! tenth of the stage's tolerance, which is all one Newton step can use. Near the solution a
+//! step then costs one CG iteration on the kept factor instead of the three to five that
+//! reach `1e-8` (the peer sphere: 12 CG iterations for 11 Newton iterations instead of 32,
+//! same Newton iterations, the same rest shape to `1e-9` of its diagonal). The convergence
+//! test stays on the nonlinear residual.
+//!
 //! The line search halves the step from 1 until Armijo's condition
 //! `E(x + s dx) <= E(x) - 1e-4 s r . dx` holds, an undefined energy (an inverted element, a
 //! non-positive gas volume) counting as infinite; within the round-off of `E` a trial that
@@ -176,6 +185,14 @@ fn build_solver(settings: &SolverSettings) -> Box<dyn LinearSolver> {
         _ => settings.build(),
     }
 }
+
+/// An inexact Newton step asks the linear solver for a linearised residual of `FORCING` times
+/// the stage's tolerance (relative to the force scale).
+const FORCING: f64 = 0.1;
+
+/// The loosest relative tolerance a Newton step's linear solve is given (at least a tenfold
+/// reduction of the linearised residual per Newton iteration).
+const MAX_FORCING: f64 = 0.1;
 
 /// The largest shift relative to `mu_ref` before a stage is declared stuck.
 const MAX_SHIFT: f64 = 1e12;
@@ -729,6 +746,17 @@ impl StaticSolver {
                 return Ok(());
             }
             info.iterations += 1;
+            // Inexact Newton: the linear solve need only bring the linearised residual to a
+            // tenth of the stage's tolerance, `FORCING tol / |r|` relative to `|r|` (never
+            // looser than `MAX_FORCING`, never tighter than the solver's own tolerance): a
+            // step from near the solution then costs one or two CG iterations on a kept
+            // factor instead of the four to five that reach `1e-8`. The stopping test stays
+            // on the nonlinear residual.
+            let forcing = (FORCING * tol / res.relative()).clamp(
+                p.solver.linear.relative_tolerance.min(MAX_FORCING),
+                MAX_FORCING,
+            );
+            self.solver.set_relative_tolerance(forcing);
             let slope = self.direction(system, k, info)?;
             if !(slope > 0.0 && slope.is_finite()) {
                 // Not a descent direction: more shift, same iterate.

@@ -236,6 +236,10 @@ impl LinearSolver for FactorizedPcg {
         "factorized-pcg"
     }
 
+    fn set_relative_tolerance(&mut self, tolerance: f64) {
+        self.params.cg.relative_tolerance = tolerance;
+    }
+
     fn needs_assembled_matrix(&self) -> bool {
         true
     }

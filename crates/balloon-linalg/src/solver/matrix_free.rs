@@ -83,6 +83,10 @@ impl LinearSolver for MatrixFreeCg {
         "matrix-free-cg"
     }
 
+    fn set_relative_tolerance(&mut self, tolerance: f64) {
+        self.params.relative_tolerance = tolerance;
+    }
+
     fn needs_assembled_matrix(&self) -> bool {
         false
     }

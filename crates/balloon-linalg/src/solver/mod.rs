@@ -476,4 +476,10 @@ pub trait LinearSolver: std::fmt::Debug + Send {
     /// Levenberg-Marquardt shift that moved, can spare the solver the iterations that would
     /// tell it). Default: nothing kept, nothing to do.
     fn invalidate_factorization(&mut self) {}
+
+    /// Sets the relative residual `||b - A x|| <= tolerance ||b||` at which the following
+    /// solves stop (an inexact Newton's forcing term: a solve need not be more accurate than
+    /// the Newton step it serves). Iterative solvers take it; the default does nothing (a
+    /// direct solver solves to round-off).
+    fn set_relative_tolerance(&mut self, _tolerance: f64) {}
 }

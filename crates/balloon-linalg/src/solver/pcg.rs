@@ -41,6 +41,10 @@ impl LinearSolver for AssembledPcg {
         "pcg"
     }
 
+    fn set_relative_tolerance(&mut self, tolerance: f64) {
+        self.params.relative_tolerance = tolerance;
+    }
+
     fn needs_assembled_matrix(&self) -> bool {
         true
     }
