@@ -160,6 +160,32 @@ pub struct BackwardEulerParams {
     /// Near rest, where one Newton iteration per step is all the tolerance asks for, it saves
     /// the stiffness evaluation and the assembly of most steps (module docs, "Reused tangent").
     pub tangent_reuse_steps: usize,
+    /// Inexact Newton: each linear solve is asked for a linearised residual of this fraction
+    /// of `newton_tolerance` (the relative CG tolerance `inexact_forcing * newton_tolerance /
+    /// |r|_rel`, at most `0.1`, at least `linear.relative_tolerance`; default
+    /// [`DEFAULT_INEXACT_FORCING`]). `0` solves every step to `linear.relative_tolerance`.
+    /// Iterative linear solvers only (a direct solve is exact); not in the paper's mode. The
+    /// convergence test stays on the nonlinear residual, so the result is unchanged to the
+    /// Newton tolerance.
+    pub inexact_forcing: f64,
+}
+
+/// Default [`BackwardEulerParams::inexact_forcing`] (and the static solver's): a linear solve
+/// brings the linearised residual to a tenth of the Newton tolerance.
+pub const DEFAULT_INEXACT_FORCING: f64 = 0.1;
+
+/// The relative tolerance an inexact Newton step asks of its linear solve: `forcing * tol /
+/// relative_residual`, clamped to `[floor, 0.1]` (`floor`: the solver's own tolerance; a
+/// `forcing` of 0 gives `floor`).
+pub(crate) fn forcing_tolerance(forcing: f64, tol: f64, relative_residual: f64, floor: f64) -> f64 {
+    const LOOSEST: f64 = 0.1;
+    let floor = floor.min(LOOSEST);
+    let eta = forcing * tol / relative_residual;
+    if eta.is_finite() {
+        eta.clamp(floor, LOOSEST)
+    } else {
+        floor
+    }
 }
 
 /// Default [`BackwardEulerParams::tangent_reuse_steps`].
@@ -194,6 +220,7 @@ impl Default for BackwardEulerParams {
             parallel_factorization: false,
             refactor_cost: 0,
             tangent_reuse_steps: DEFAULT_TANGENT_REUSE_STEPS,
+            inexact_forcing: DEFAULT_INEXACT_FORCING,
         }
     }
 }
@@ -763,6 +790,12 @@ impl BackwardEuler {
             "finite and non-negative (1/s)",
         )?;
         param(
+            "inexact_forcing",
+            p.inexact_forcing,
+            p.inexact_forcing.is_finite() && (0.0..=1.0).contains(&p.inexact_forcing),
+            "in [0, 1] (0: every linear solve to its own tolerance)",
+        )?;
+        param(
             "stiffness_damping",
             p.stiffness_damping,
             p.stiffness_damping.is_finite() && p.stiffness_damping >= 0.0,
@@ -902,6 +935,16 @@ impl BackwardEuler {
             if res.norm == 0.0 {
                 newton_converged = true;
                 break;
+            }
+            if !paper_mode {
+                // Inexact Newton (`inexact_forcing`); the paper's mode keeps the configured
+                // tolerance.
+                self.solver.set_relative_tolerance(forcing_tolerance(
+                    p.inexact_forcing,
+                    p.newton_tolerance,
+                    res.relative(),
+                    p.linear.relative_tolerance,
+                ));
             }
             let lin = if chord {
                 match self.reused_direction(system, m_coef, k_coef) {
@@ -1665,6 +1708,24 @@ mod tests {
             "{err}"
         );
         be.params.mass_damping = 0.0;
+        for bad in [-0.1, 1.5, f64::NAN] {
+            be.params.inexact_forcing = bad;
+            let err = be
+                .step(&mut sys, 0.0, 1e-3, &mut x, &mut v, None)
+                .unwrap_err();
+            assert!(
+                matches!(
+                    err,
+                    IntegrateError::InvalidParameter {
+                        name: "inexact_forcing",
+                        ..
+                    }
+                ),
+                "{err}"
+            );
+        }
+        be.params.inexact_forcing = DEFAULT_INEXACT_FORCING;
+        be.params.mass_damping = 0.0;
         let mut short = vec![0.0; 5];
         let err = be
             .step(&mut sys, 0.0, 1e-3, &mut x, &mut short, None)
@@ -1690,6 +1751,22 @@ mod tests {
             }
         );
         assert!(err.to_string().contains("dof 4 (vertex 1)"), "{err}");
+    }
+
+    #[test]
+    fn forcing_tolerance_asks_for_a_tenth_of_the_target_within_bounds() {
+        // Residual 1e-3, target 1e-6: a linearised residual of 1e-7, i.e. 1e-4 relative.
+        assert!((forcing_tolerance(0.1, 1e-6, 1e-3, 1e-8) - 1e-4).abs() < 1e-18);
+        // Near the target the solve may stop at 0.1, never looser.
+        assert!((forcing_tolerance(0.1, 1e-6, 2e-6, 1e-8) - 0.05).abs() < 1e-15);
+        assert_eq!(forcing_tolerance(0.1, 1e-6, 5e-7, 1e-8), 0.1);
+        // Far from it, or with forcing 0, the solver's own tolerance.
+        assert_eq!(forcing_tolerance(0.1, 1e-6, 1e3, 1e-8), 1e-8);
+        assert_eq!(forcing_tolerance(0.0, 1e-6, 1e-3, 1e-8), 1e-8);
+        // A zero residual (nothing to solve) gives the floor, not a NaN.
+        assert_eq!(forcing_tolerance(0.1, 1e-6, 0.0, 1e-8), 1e-8);
+        // A configured tolerance looser than 0.1 is capped.
+        assert_eq!(forcing_tolerance(0.1, 1e-6, 1e-3, 0.5), 0.1);
     }
 
     #[test]

@@ -46,9 +46,10 @@
 //! [`LinearSolverKind::Cholesky`] (refactorise every iteration) remains an option.
 //!
 //! The linear solves are inexact (inexact Newton, with a forcing term tied to the target
-//! rather than Eisenstat and Walker's): an iterative solver is asked for the relative residual
-//! `0.1 tol / |r|_rel` (between its own tolerance and `0.1`), i.e. a linearised residual of a
-//! tenth of the stage's tolerance, which is all one Newton step can use. Near the solution a
+//! rather than Eisenstat and Walker's; [`StaticParams::inexact_forcing`]): an iterative solver
+//! is asked for the relative residual `0.1 tol / |r|_rel` (between its own tolerance and
+//! `0.1`), i.e. a linearised residual of a tenth of the stage's tolerance, which is all one
+//! Newton step can use. Near the solution a
 //! step then costs one CG iteration on the kept factor instead of the three to five that
 //! reach `1e-8` (the peer sphere: 12 CG iterations for 11 Newton iterations instead of 32,
 //! same Newton iterations, the same rest shape to `1e-9` of its diagonal). The convergence
@@ -186,14 +187,6 @@ fn build_solver(settings: &SolverSettings) -> Box<dyn LinearSolver> {
     }
 }
 
-/// An inexact Newton step asks the linear solver for a linearised residual of `FORCING` times
-/// the stage's tolerance (relative to the force scale).
-const FORCING: f64 = 0.1;
-
-/// The loosest relative tolerance a Newton step's linear solve is given (at least a tenfold
-/// reduction of the linearised residual per Newton iteration).
-const MAX_FORCING: f64 = 0.1;
-
 /// The largest shift relative to `mu_ref` before a stage is declared stuck.
 const MAX_SHIFT: f64 = 1e12;
 
@@ -225,6 +218,11 @@ pub struct StaticParams {
     pub min_shift: f64,
     /// Halvings of the continuation increment before the solve gives up (default 12).
     pub max_load_halvings: usize,
+    /// Inexact Newton: each linear solve is asked for a linearised residual of this fraction
+    /// of the stage's tolerance (as [`crate::implicit::BackwardEulerParams::inexact_forcing`];
+    /// default [`crate::implicit::DEFAULT_INEXACT_FORCING`], `0`: every solve to the linear
+    /// solver's own tolerance).
+    pub inexact_forcing: f64,
 }
 
 impl Default for StaticParams {
@@ -241,6 +239,7 @@ impl Default for StaticParams {
             initial_shift: 1e-2,
             min_shift: 1e-9,
             max_load_halvings: 12,
+            inexact_forcing: crate::implicit::DEFAULT_INEXACT_FORCING,
         }
     }
 }
@@ -470,6 +469,13 @@ impl StaticSolver {
             if !(v.is_finite() && v > 0.0) {
                 return bad(format!("{name} = {v:e} must be positive and finite"));
             }
+        }
+        if !(p.inexact_forcing.is_finite() && (0.0..=1.0).contains(&p.inexact_forcing)) {
+            return bad(format!(
+                "inexact_forcing = {:e} must be in [0, 1] (0: every linear solve to its own \
+                 tolerance)",
+                p.inexact_forcing
+            ));
         }
         if !(1..=MAX_NEWTON_ITERATIONS).contains(&p.max_iterations) {
             return bad(format!(
@@ -746,17 +752,14 @@ impl StaticSolver {
                 return Ok(());
             }
             info.iterations += 1;
-            // Inexact Newton: the linear solve need only bring the linearised residual to a
-            // tenth of the stage's tolerance, `FORCING tol / |r|` relative to `|r|` (never
-            // looser than `MAX_FORCING`, never tighter than the solver's own tolerance): a
-            // step from near the solution then costs one or two CG iterations on a kept
-            // factor instead of the four to five that reach `1e-8`. The stopping test stays
-            // on the nonlinear residual.
-            let forcing = (FORCING * tol / res.relative()).clamp(
-                p.solver.linear.relative_tolerance.min(MAX_FORCING),
-                MAX_FORCING,
-            );
-            self.solver.set_relative_tolerance(forcing);
+            // Inexact Newton (module docs, `StaticParams::inexact_forcing`).
+            self.solver
+                .set_relative_tolerance(crate::implicit::forcing_tolerance(
+                    p.inexact_forcing,
+                    tol,
+                    res.relative(),
+                    p.solver.linear.relative_tolerance,
+                ));
             let slope = self.direction(system, k, info)?;
             if !(slope > 0.0 && slope.is_finite()) {
                 // Not a descent direction: more shift, same iterate.
