@@ -9,7 +9,8 @@
 //!
 //! Environment: `OUTER_LOG=1` prints every outer (thickness) iteration; `STATIC_TOL` and
 //! `THICK_TOL` set the solver's and the thickness tolerance, `INITIAL_SHIFT` the first
-//! Levenberg-Marquardt shift; `NO_PROJECTION=1` keeps the
+//! Levenberg-Marquardt shift, `FORCING` the inexact Newton's forcing (0: every linear solve to
+//! the CG tolerance); `NO_PROJECTION=1` keeps the
 //! thickness at its rest value (no shell-volume projection: one outer solve);
 //! `WRITE_REF=FILE` writes the rest shape's coordinates and `REF=FILE` reports the largest
 //! vertex distance from such a file over the bounding-box diagonal (the accuracy of a looser
@@ -33,6 +34,9 @@ fn main() {
         .and_then(|s| s.parse().ok())
     {
         options.solver.tolerance = t;
+    }
+    if let Some(t) = std::env::var("FORCING").ok().and_then(|s| s.parse().ok()) {
+        options.solver.inexact_forcing = t;
     }
     if let Some(t) = std::env::var("INITIAL_SHIFT")
         .ok()
