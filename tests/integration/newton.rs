@@ -11,6 +11,11 @@ use balloon::shell::{ShellBalloon, ShellError, ShellSimulation};
 /// The teddy of the issue (`--tangent exact --gas ideal --ambient 0`, the rest defaults),
 /// coarse (about 1.4k vertices) so that the default test profile stays fast.
 fn paper_gas_teddy(resolution: usize) -> ShellSimulation {
+    paper_gas_teddy_at(resolution, balloon::shell::DEFAULT_DT)
+}
+
+/// [`paper_gas_teddy`] with time step `dt` (s).
+fn paper_gas_teddy_at(resolution: usize, dt: f64) -> ShellSimulation {
     let mesh = teddy(&TeddyParams {
         resolution,
         ..Default::default()
@@ -20,6 +25,7 @@ fn paper_gas_teddy(resolution: usize) -> ShellSimulation {
         .with_gas(GasKind::Ideal)
         .with_ambient_pressure(0.0)
         .with_linear_solver(LinearSolverKind::Cholesky)
+        .with_dt(dt)
         .build()
         .unwrap();
     sim.integrator_params_mut().tangent = TangentKind::Exact;
@@ -85,19 +91,7 @@ fn hard_steps_are_split_and_grow_back_to_the_requested_dt() {
     // the first 10 ms): at 20 ms the second one fails whole and needs sub-steps (at the
     // default 10 ms every step converges whole since Newton keeps its mass shift between
     // iterations).
-    let mesh = teddy(&TeddyParams {
-        resolution: 10,
-        ..Default::default()
-    })
-    .unwrap();
-    let mut sim = ShellBalloon::new(mesh)
-        .with_gas(GasKind::Ideal)
-        .with_ambient_pressure(0.0)
-        .with_linear_solver(LinearSolverKind::Cholesky)
-        .with_dt(0.02)
-        .build()
-        .unwrap();
-    sim.integrator_params_mut().tangent = TangentKind::Exact;
+    let mut sim = paper_gas_teddy_at(10, 0.02);
     let dt = sim.dt();
     let mut split = false;
     let mut last = None;
