@@ -102,7 +102,7 @@ fn hard_steps_are_split_and_grow_back_to_the_requested_dt() {
             "step {k} ends at {}",
             s.time
         );
-        split |= s.halvings > 0 && s.substeps > 1;
+        split |= s.halvings > 0;
         last = Some(s);
     }
     let last = last.unwrap();

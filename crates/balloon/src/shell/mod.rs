@@ -934,8 +934,9 @@ impl Default for SubstepGrowth {
 }
 
 impl SubstepGrowth {
-    /// After an accepted sub-step: whether the size may double now.
-    fn accepted(&mut self, easy: bool) -> bool {
+    /// After an accepted sub-step: whether the size doubles now. `can_grow` is false when the
+    /// size already is the whole step (a later failure then is not one of a doubled size).
+    fn accepted(&mut self, easy: bool, can_grow: bool) -> bool {
         if self.just_grew {
             self.wait = (self.wait / 2).max(1);
             self.just_grew = false;
@@ -945,7 +946,7 @@ impl SubstepGrowth {
             return false;
         }
         self.streak += 1;
-        if self.streak >= self.wait {
+        if can_grow && self.streak >= self.wait {
             self.streak = 0;
             self.just_grew = true;
             true
@@ -1075,8 +1076,8 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// `max_step_halvings` halvings below `dt` (the remedy of seed 003, Sec. 4, applied to the
     /// shell); after easy sub-steps (Newton converged in at most [`EASY_NEWTON_ITERATIONS`]
     /// iterations without line-search cuts) the size doubles again, up to `dt`, as
-    /// [`SubstepGrowth`] says when. The size reached is where the next step starts. A physical runaway of the gas volume is not
-    /// retried.
+    /// [`SubstepGrowth`] says when. The size reached is where the next step starts. A physical
+    /// runaway of the gas volume is not retried.
     fn advance(
         &mut self,
         step: usize,
@@ -1131,7 +1132,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                     };
                     let easy = info.newton_iterations <= EASY_NEWTON_ITERATIONS
                         && info.line_search_cuts == 0;
-                    if h < dt && self.growth.accepted(easy) {
+                    if self.growth.accepted(easy, h < dt) {
                         h = (2.0 * h).min(dt);
                     }
                 }
@@ -1852,7 +1853,7 @@ mod viewer_api_tests {
         while accepted < 400 {
             if h <= limit {
                 accepted += 1;
-                if h < dt && growth.accepted(true) {
+                if growth.accepted(true, h < dt) {
                     h = (2.0 * h).min(dt);
                 }
             } else {
@@ -1871,7 +1872,7 @@ mod viewer_api_tests {
         let mut to_dt = 0;
         while h < dt {
             to_dt += 1;
-            if growth.accepted(true) {
+            if growth.accepted(true, true) {
                 h = (2.0 * h).min(dt);
             }
             assert!(
@@ -1883,10 +1884,22 @@ mod viewer_api_tests {
         // size converging) doubles after every one again.
         let mut growth = SubstepGrowth::default();
         growth.failed();
-        let grows: Vec<bool> = (0..4).map(|_| growth.accepted(true)).collect();
+        let grows: Vec<bool> = (0..4).map(|_| growth.accepted(true, true)).collect();
         assert_eq!(grows, [false, true, true, true]);
         // A hard (not easy) sub-step never lets the size grow.
-        assert!(!SubstepGrowth::default().accepted(false));
+        assert!(!SubstepGrowth::default().accepted(false, true));
+        // A failure, the size doubles back to the whole step and converges there many times,
+        // then fails again: that size did not just double, so it waits for 2 easy sub-steps,
+        // not 4 (the caller used to skip the controller at the whole step, leaving it
+        // believing the size had just doubled).
+        let mut growth = SubstepGrowth::default();
+        growth.failed();
+        assert!(!growth.accepted(true, true));
+        assert!(growth.accepted(true, true));
+        (0..50).for_each(|_| assert!(!growth.accepted(true, false)));
+        growth.failed();
+        let grows: Vec<bool> = (0..2).map(|_| growth.accepted(true, true)).collect();
+        assert_eq!(grows, [false, true]);
     }
 
     #[test]
