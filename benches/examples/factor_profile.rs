@@ -1,8 +1,8 @@
 //! Times the pieces of one sparse linear solve on the Newton matrix of the teddy (resolution
 //! 40 by default, the paper's gas: `--gas ideal --ambient 0`): the numeric Cholesky
 //! factorisation (sequential and on the rayon pool), one triangular solve pair (and two
-//! right-hand sides in one pass), and one product
-//! with the matrix, and reports the factor's fill. Optionally writes the matrix in Matrix
+//! right-hand sides in one pass, and with a single-precision copy of the factor), and one
+//! product with the matrix, and reports the factor's fill. Optionally writes the matrix in Matrix
 //! Market format (for ordering studies with other tools).
 //!
 //! `cargo run --release -p balloon-benches --example factor_profile -- [RESOLUTION] [STEPS]
@@ -126,6 +126,22 @@ fn main() {
         .all(|(p, q)| p.to_bits() == q.to_bits());
     let mut y = vec![0.0; n];
     let matvec = time_ms(21, || a.mul_into(&b, &mut y));
+    // The same solve with the single-precision copy of the factor (the kept-factor solver's
+    // preconditioner), and how far its answer is from the double-precision one.
+    chol.set_single_precision_solves(true);
+    let mut x_single = b.clone();
+    let solve_single = time_ms(21, || {
+        x_single.copy_from_slice(&b);
+        chol.solve_in_place(&mut x_single).expect("solve");
+    });
+    chol.set_single_precision_solves(false);
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let gap: Vec<f64> = x_single.iter().zip(&x_seq).map(|(s, d)| s - d).collect();
+    let single_error = norm(&gap) / norm(&x_seq);
+    println!(
+        "single-precision factor: triangular solve pair {solve_single:.2} ms, relative \
+         difference from the double-precision solve {single_error:.1e}"
+    );
     println!(
         "{} vertices, n = {n}, nnz(A) = {}, nnz(L) = {}: factorisation {factor_seq:.1} ms \
          sequential, {factor_par:.1} ms on the rayon pool; triangular solve pair {solve:.2} ms \

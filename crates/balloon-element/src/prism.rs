@@ -289,6 +289,23 @@ impl ThreePrism {
         [g12 + g13, -g12, -g13]
     }
 
+    /// The elastic forces (Eq. 8) and energy (Eq. 5, 8) in one evaluation of the kinematics
+    /// and the strain: the forces bit for bit those of [`ThreePrism::forces`], the energy that
+    /// of [`ThreePrism::energy`] (through [`Material::energy_and_piola`]). For a line search
+    /// whose trials need both.
+    pub fn forces_and_energy<M: Material>(
+        &self,
+        mat: &M,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+    ) -> ([Vector3<f64>; 3], f64) {
+        let k = self.kinematics(x, h);
+        let (psi, p) = mat.energy_and_piola(&k.f);
+        let s = self.stress(&k, &p);
+        let (g12, g13) = Self::edge_gradient(&k, &s);
+        ([g12 + g13, -g12, -g13], self.rest_volume() * psi)
+    }
+
     /// Force differential `df = -K dx` (N) along vertex displacements `dx` (m), seed 000 Eq. 11,
     /// including the variation of the unit normal `d` (both through `dF` and through the
     /// geometric term `P : d^2F`). The thickness `h` is held fixed.

@@ -930,9 +930,13 @@ impl BackwardEuler {
         let mut accepted_steps = 0;
 
         // The first iterate, v_(0) = v^n (its stiffness only when it is needed).
-        let mut res = self.evaluate(system, t1, dt, v, x, 0, !chord)?;
-        let mut energy = None;
-        if !paper_mode && beta == 0.0 {
+        let wants_energy = !paper_mode && beta == 0.0;
+        let (mut res, mut energy) = if wants_energy && chord && self.fused_energy(system) {
+            self.evaluate_with_energy(system, (t1, dt, 0), v, x)?
+        } else {
+            (self.evaluate(system, t1, dt, v, x, 0, !chord)?, None)
+        };
+        if wants_energy && energy.is_none() {
             energy = self.incremental_potential(system, t1, dt, v, x)?;
         }
         if let Some(e) = energy {
@@ -1146,27 +1150,37 @@ impl BackwardEuler {
         match (mode, energy) {
             (LineSearch::Energy, Some(e0)) => {
                 // An undefined energy (inverted element, non-positive volume) counts as
-                // infinite: cut.
-                let e1 = match self.incremental_potential(system, t1, dt, trial_v, x) {
-                    Ok(Some(e)) if e.is_finite() => e,
-                    _ => return Ok(None),
+                // infinite: cut. With a fused evaluation the trial's forces come with its
+                // energy, and a failure of either is a cut.
+                let (e1, fused) = if self.fused_energy(system) {
+                    match self.evaluate_with_energy(system, (t1, dt, iteration), trial_v, x) {
+                        Ok((r, Some(e))) if e.is_finite() => (e, Some(r)),
+                        _ => return Ok(None),
+                    }
+                } else {
+                    match self.incremental_potential(system, t1, dt, trial_v, x) {
+                        Ok(Some(e)) if e.is_finite() => (e, None),
+                        _ => return Ok(None),
+                    }
                 };
-                if e1 <= e0 - ARMIJO * step_length * slope {
-                    return self
-                        .evaluate(system, t1, dt, trial_v, x, iteration, false)
-                        .map(|r| Some((Some(e1), r)));
-                }
+                let armijo = e1 <= e0 - ARMIJO * step_length * slope;
                 // Within round-off of the energy (close to convergence the decrease is below
                 // what f64 resolves in E): accept if the residual falls instead.
-                if e1 <= e0 + ENERGY_ROUNDOFF * self.energy_magnitude {
-                    return Ok(
-                        match self.evaluate(system, t1, dt, trial_v, x, iteration, false) {
-                            Ok(r) if r.norm < current.norm => Some((Some(e1), r)),
-                            _ => None,
-                        },
-                    );
+                let roundoff = !armijo && e1 <= e0 + ENERGY_ROUNDOFF * self.energy_magnitude;
+                if !(armijo || roundoff) {
+                    return Ok(None);
                 }
-                Ok(None)
+                let r = match fused {
+                    Some(r) => Ok(r),
+                    None => self.evaluate(system, t1, dt, trial_v, x, iteration, false),
+                };
+                if armijo {
+                    return r.map(|r| Some((Some(e1), r)));
+                }
+                Ok(match r {
+                    Ok(r) if r.norm < current.norm => Some((Some(e1), r)),
+                    _ => None,
+                })
             }
             (LineSearch::Off, _) => self
                 .evaluate(system, t1, dt, trial_v, x, iteration, false)
@@ -1202,6 +1216,41 @@ impl BackwardEuler {
         iteration: usize,
         linearize: bool,
     ) -> Result<Residual, IntegrateError> {
+        self.evaluate_full(system, (t1, dt, iteration), v, x, linearize, false)
+            .map(|(r, _)| r)
+    }
+
+    /// [`BackwardEuler::evaluate`] without the linearisation, and the incremental potential at
+    /// the same point from the same pass over the system
+    /// ([`ForceSystem::residual_forces_and_energy`]; `None` without a potential). For a system
+    /// that fuses the two ([`ForceSystem::fuses_forces_and_energy`]) and no stiffness damping.
+    fn evaluate_with_energy<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        ctx: (f64, f64, usize),
+        v: &[f64],
+        x: &mut [f64],
+    ) -> Result<(Residual, Option<f64>), IntegrateError> {
+        self.evaluate_full(system, ctx, v, x, false, true)
+    }
+
+    /// Whether this step's line search evaluates a trial's energy and forces together.
+    fn fused_energy<S: ForceSystem>(&self, system: &S) -> bool {
+        self.params.stiffness_damping == 0.0 && system.fuses_forces_and_energy()
+    }
+
+    /// The body of [`BackwardEuler::evaluate`] and [`BackwardEuler::evaluate_with_energy`]
+    /// (`ctx = (t1, dt, iteration)`; the energy only with `with_energy`, which needs
+    /// `linearize` false and no stiffness damping).
+    fn evaluate_full<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        (t1, dt, iteration): (f64, f64, usize),
+        v: &[f64],
+        x: &mut [f64],
+        linearize: bool,
+        with_energy: bool,
+    ) -> Result<(Residual, Option<f64>), IntegrateError> {
         let n = v.len();
         let (alpha, beta) = (self.params.mass_damping, self.params.stiffness_damping);
         for i in 0..n {
@@ -1216,7 +1265,12 @@ impl BackwardEuler {
             });
         }
         let started = Instant::now();
-        let evaluated = if linearize || beta != 0.0 {
+        let mut potential = None;
+        let evaluated = if with_energy && !linearize && beta == 0.0 {
+            system
+                .residual_forces_and_energy(t1, x, &mut self.f)
+                .map(|w| potential = w)
+        } else if linearize || beta != 0.0 {
             system.forces(t1, x, &mut self.f)
         } else {
             system.residual_forces(t1, x, &mut self.f)
@@ -1256,11 +1310,13 @@ impl BackwardEuler {
         }
         let internal = system.force_scale().unwrap_or(f2.sqrt());
         let terms = inertia2.sqrt() / dt + internal + ext2.sqrt() + damp2.sqrt();
-        Ok(Residual {
+        let residual = Residual {
             norm: b2.sqrt(),
             scale: terms.max(self.scale_floor),
             dt,
-        })
+        };
+        let energy = potential.map(|w| self.incremental_from_potential(system.masses(), w, dt, v));
+        Ok((residual, energy))
     }
 
     /// The incremental potential of the step at `x = x^n + dt v` (written to `x`), in the
@@ -1289,10 +1345,21 @@ impl BackwardEuler {
         let Some(w) = w else {
             return Ok(None);
         };
+        Ok(Some(self.incremental_from_potential(
+            system.masses(),
+            w,
+            dt,
+            v,
+        )))
+    }
+
+    /// The incremental potential at velocity `v` given the system's potential energy `w` there
+    /// (the kinetic and external terms of [`BackwardEuler::incremental_potential`]); records
+    /// the energy's magnitude for the round-off test of the line search.
+    fn incremental_from_potential(&mut self, m: &[f64], w: f64, dt: f64, v: &[f64]) -> f64 {
         let m_coef = 1.0 + dt * self.params.mass_damping;
-        let m = system.masses();
         let (mut kinetic, mut external) = (0.0, 0.0);
-        for i in 0..n {
+        for i in 0..v.len() {
             let d = v[i] - self.v_n[i] / m_coef;
             kinetic += m[i] * d * d;
             external += self.f_ext[i] * v[i];
@@ -1300,7 +1367,7 @@ impl BackwardEuler {
         let kinetic = 0.5 * m_coef * kinetic;
         let external = dt * external;
         self.energy_magnitude = kinetic + w.abs() + external.abs();
-        Ok(Some(kinetic + w - external))
+        kinetic + w - external
     }
 
     /// Solves for the Newton direction `dv` (into `self.dv`) at the current iterate, assembling
@@ -2149,6 +2216,11 @@ mod tests {
         refreshes: usize,
         /// Calls of `forces` (each linearises).
         linearizations: usize,
+        /// Whether it offers `residual_forces_and_energy` as one fused evaluation.
+        fuse: bool,
+        /// Calls of `residual_forces_and_energy` and of `potential_energy` alone.
+        fused_calls: usize,
+        energy_calls: usize,
     }
 
     impl LazyChain {
@@ -2207,7 +2279,21 @@ mod tests {
             self.inner.low_rank_terms()
         }
         fn potential_energy(&mut self, t: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+            self.energy_calls += 1;
             self.inner.potential_energy(t, x)
+        }
+        fn residual_forces_and_energy(
+            &mut self,
+            t: f64,
+            x: &[f64],
+            f: &mut [f64],
+        ) -> Result<Option<f64>, SystemError> {
+            self.fused_calls += 1;
+            self.residual_forces(t, x, f)?;
+            self.inner.potential_energy(t, x)
+        }
+        fn fuses_forces_and_energy(&self) -> bool {
+            self.fuse
         }
     }
 
@@ -2220,6 +2306,9 @@ mod tests {
             residual_calls: 0,
             refreshes: 0,
             linearizations: 0,
+            fuse: false,
+            fused_calls: 0,
+            energy_calls: 0,
         }
     }
 
@@ -2349,6 +2438,66 @@ mod tests {
             !info.reused_tangent,
             "the Newton matrix of dt = 0.005 differs"
         );
+    }
+
+    #[test]
+    fn fused_trial_energies_and_forces_give_the_same_steps_in_fewer_passes() {
+        // A system that evaluates a trial's forces and energy together
+        // (`fuses_forces_and_energy`) takes the same Newton iterates, bit for bit, as one whose
+        // line search asks for the energy first and the forces of an accepted trial after it;
+        // the energy alone is then asked for only where Newton linearises (the first iterate
+        // of a step that is not a chord step), never for a trial. With and without chord
+        // steps, for every linear solver.
+        let nv = 10;
+        let x0 = Chain::positions(nv, 5);
+        let v0: Vec<f64> = Rng::new(4).vector(3 * nv);
+        for kind in [
+            LinearSolverKind::Cholesky,
+            LinearSolverKind::FactorizedPcg,
+            LinearSolverKind::Pcg,
+            LinearSolverKind::MatrixFreeCg,
+        ] {
+            for reuse in [0, 3] {
+                let mut p = converging(kind, 30, 1e-10);
+                p.tangent_reuse_steps = reuse;
+                let run = |fuse: bool| {
+                    let mut be = BackwardEuler::new(p);
+                    let mut sys = lazy_chain(nv);
+                    sys.fuse = fuse;
+                    let (mut x, mut v) = (x0.clone(), v0.clone());
+                    let (mut newton, mut cuts, mut linearized_starts) = (0, 0, 0);
+                    for s in 0..8 {
+                        let info = be
+                            .step(&mut sys, s as f64 * 0.01, 0.01, &mut x, &mut v, None)
+                            .unwrap();
+                        newton += info.newton_iterations;
+                        cuts += info.line_search_cuts;
+                        linearized_starts += usize::from(!info.reused_tangent);
+                    }
+                    (x, v, newton, cuts, linearized_starts, sys)
+                };
+                let (xf, vf, nf, cf, starts, fused) = run(true);
+                let (xs, vs, ns, cs, _, split) = run(false);
+                assert_eq!((nf, cf), (ns, cs), "{kind}, reuse {reuse}");
+                assert!(
+                    xf.iter().zip(&xs).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{kind}, reuse {reuse}"
+                );
+                assert!(
+                    vf.iter().zip(&vs).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{kind}, reuse {reuse}"
+                );
+                // Every trial is fused: at least one per Newton iteration.
+                assert!(fused.fused_calls >= nf, "{kind}: {}", fused.fused_calls);
+                assert_eq!(split.fused_calls, 0, "{kind}");
+                assert_eq!(fused.energy_calls, starts, "{kind}, reuse {reuse}");
+                assert!(
+                    split.energy_calls >= nf + 8,
+                    "{kind}: {} energies",
+                    split.energy_calls
+                );
+            }
+        }
     }
 
     #[test]

@@ -182,6 +182,7 @@ fn build_solver(settings: &SolverSettings) -> Box<dyn LinearSolver> {
             fresh_solves_after_slow: 0,
             parallel: settings.parallel_factorization,
             refactor_cost: settings.refactor_cost,
+            ..FactorizedPcgParams::default()
         })),
         _ => settings.build(),
     }

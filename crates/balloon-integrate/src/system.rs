@@ -187,6 +187,31 @@ pub trait ForceSystem {
         self.forces(time, x, f)
     }
 
+    /// [`ForceSystem::residual_forces`] and [`ForceSystem::potential_energy`] at the same `x`
+    /// and `time` in one call: the forces into `f`, the energy returned (`Ok(None)` for a
+    /// system without a potential). The default calls the two; a system that computes both in
+    /// one pass over its elements overrides it and says so with
+    /// [`ForceSystem::fuses_forces_and_energy`]. The energy must be that of
+    /// `potential_energy` up to round-off, the forces bit for bit those of `residual_forces`.
+    fn residual_forces_and_energy(
+        &mut self,
+        time: f64,
+        x: &[f64],
+        f: &mut [f64],
+    ) -> Result<Option<f64>, SystemError> {
+        self.residual_forces(time, x, f)?;
+        self.potential_energy(time, x)
+    }
+
+    /// Whether [`ForceSystem::residual_forces_and_energy`] costs about as much as the forces
+    /// alone (default `false`). When it does, the line search of
+    /// [`crate::implicit::BackwardEuler`] evaluates each trial's energy and forces together
+    /// (one pass instead of two when the trial is accepted, as most are); otherwise it
+    /// evaluates the energy first and the forces only for an accepted trial.
+    fn fuses_forces_and_energy(&self) -> bool {
+        false
+    }
+
     /// Makes the linearisation (differential, stiffness, low-rank terms) refer to the positions
     /// of the last force evaluation when that was [`ForceSystem::residual_forces`]: callers
     /// call it before any of those after `residual_forces`. A no-op after

@@ -52,6 +52,12 @@ pub const PARALLEL_FACTORIZATION_ROWS: usize = 20_000;
 pub struct SparseCholesky {
     symbolic: Option<(u64, SymbolicCholesky<usize>)>,
     values: Vec<f64>,
+    /// A single-precision copy of `values` for [`SparseCholesky::set_single_precision_solves`]
+    /// (made at the first such solve after a factorisation; empty otherwise).
+    values_f32: Vec<f32>,
+    /// The right-hand sides of a single-precision solve.
+    rhs_f32: Vec<f32>,
+    single_precision_solves: bool,
     workspace: Option<MemBuffer>,
     factorized: bool,
     n: usize,
@@ -117,7 +123,8 @@ impl SparseCholesky {
             })?;
             let req = s
                 .factorize_numeric_llt_scratch::<f64>(max_par(), Default::default())
-                .or(s.solve_in_place_scratch::<f64>(SOLVE_BATCH_COLUMNS, max_par()));
+                .or(s.solve_in_place_scratch::<f64>(SOLVE_BATCH_COLUMNS, max_par()))
+                .or(s.solve_in_place_scratch::<f32>(SOLVE_BATCH_COLUMNS, max_par()));
             self.workspace =
                 Some(
                     MemBuffer::try_new(req).map_err(|_| SolveError::FactorResources {
@@ -155,6 +162,7 @@ impl SparseCholesky {
                 },
             )?;
         self.factorized = true;
+        self.values_f32.clear();
         self.n = a.n;
         Ok(())
     }
@@ -176,6 +184,17 @@ impl SparseCholesky {
         } else {
             Par::Seq
         }
+    }
+
+    /// Makes the triangular solves read a single-precision copy of the factor (`true`) or the
+    /// factor itself (`false`, the default). The solves are bound by reading the factor from
+    /// memory, so the copy halves their cost (on the teddy's Newton matrix, nnz(L) = 3.8M:
+    /// `benches/examples/factor_profile.rs`); the answer is then that of a factor rounded to
+    /// about 7 digits, good for a preconditioner whose CG is asked for a few digits, not for a
+    /// direct solve. The factorisation itself stays in double precision; the copy is made at
+    /// the first such solve after each factorisation.
+    pub fn set_single_precision_solves(&mut self, single: bool) {
+        self.single_precision_solves = single;
     }
 
     /// Stored entries of the factor `L` (its fill, from the symbolic analysis; 0 before the
@@ -255,6 +274,26 @@ impl SparseCholesky {
             });
         }
         let columns = rhs.len() / n;
+        if self.single_precision_solves {
+            if self.values_f32.len() != self.values.len() {
+                self.values_f32.clear();
+                self.values_f32
+                    .extend(self.values.iter().map(|&v| v as f32));
+            }
+            self.rhs_f32.clear();
+            self.rhs_f32.extend(rhs.iter().map(|&v| v as f32));
+            let m = faer::MatMut::from_column_major_slice_mut(&mut self.rhs_f32[..], n, columns);
+            LltRef::new(symbolic, &self.values_f32).solve_in_place_with_conj(
+                faer::Conj::No,
+                m,
+                Par::Seq,
+                MemStack::new(work),
+            );
+            for (out, &v) in rhs.iter_mut().zip(&self.rhs_f32) {
+                *out = f64::from(v);
+            }
+            return Ok(());
+        }
         let m = faer::MatMut::from_column_major_slice_mut(rhs, n, columns);
         LltRef::new(symbolic, &self.values).solve_in_place_with_conj(
             faer::Conj::No,

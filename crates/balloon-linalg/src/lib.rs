@@ -89,7 +89,8 @@ pub use precond::{IncompleteCholesky, jacobi};
 pub use solver::{
     AssembledPcg, CgParams, CholeskyParams, CholeskySolver, FactorizedPcg, FactorizedPcgParams,
     LinearProblem, LinearSolver, LinearSolverKind, LinearSolverParams, MatrixFreeCg,
-    PcgPreconditioner, Preconditioner, ProblemForm, SolveInfo, SolverSettings, StiffnessOperator,
+    PcgPreconditioner, Preconditioner, ProblemForm, SINGLE_PRECISION_MIN_TOLERANCE, SolveInfo,
+    SolverSettings, StiffnessOperator,
 };
 pub use sprs;
 

@@ -872,9 +872,119 @@ fn sparse_cholesky_solves_several_columns_at_once() {
     ));
 }
 
+/// Solves with the single-precision copy of the factor: within single-precision round-off of
+/// the exact answer (but not equal to it), for one column and a batch; the copy follows a
+/// refactorisation with new values (a stale copy would solve the old matrix); switching back
+/// gives the double-precision solve bit for bit.
+#[test]
+fn sparse_cholesky_single_precision_solves_follow_the_factor() {
+    let n = 50;
+    let t = spd_triplets(n, 29);
+    let b = Rng::new(8).vector(n);
+    let mut asm = SparseAssembler::new();
+    let mut chol = SparseCholesky::new();
+    for (round, diagonal) in [1.0, 7.0].into_iter().enumerate() {
+        asm.assemble(&vec![diagonal; n], 1.0, &t, 1.0).unwrap();
+        chol.factorize(asm.matrix(), asm.pattern_version()).unwrap();
+        let mut double = b.clone();
+        chol.solve_in_place(&mut double).unwrap();
+        let reference = (dense(n, &t) + DMatrix::identity(n, n) * diagonal)
+            .lu()
+            .solve(&DVector::from_column_slice(&b))
+            .unwrap();
+        chol.set_single_precision_solves(true);
+        let mut single = b.clone();
+        chol.solve_in_place(&mut single).unwrap();
+        let mut batch = [b.clone(), b.clone()].concat();
+        chol.solve_columns_in_place(&mut batch, 2).unwrap();
+        chol.set_single_precision_solves(false);
+        let scale = reference.amax();
+        let gap = (0..n).fold(0.0f64, |m, i| m.max((single[i] - reference[i]).abs()));
+        assert!(gap <= 1e-5 * scale, "round {round}: {gap:e}");
+        assert!(
+            gap > 1e-12 * scale,
+            "round {round}: not a single-precision solve"
+        );
+        for column in batch.chunks_exact(n) {
+            for i in 0..n {
+                assert!(
+                    (column[i] - reference[i]).abs() <= 1e-5 * scale,
+                    "round {round}"
+                );
+            }
+        }
+        let mut again = b.clone();
+        chol.solve_in_place(&mut again).unwrap();
+        assert!(
+            again
+                .iter()
+                .zip(&double)
+                .all(|(p, q)| p.to_bits() == q.to_bits()),
+            "round {round}"
+        );
+    }
+}
+
+/// The kept-factor solver applies the single-precision factor only to solves asked for at
+/// most [`SINGLE_PRECISION_MIN_TOLERANCE`]: such a solve still meets its tolerance against a
+/// dense solve, and differs from the double-precision one; a tighter solve is the
+/// double-precision solve bit for bit.
+#[test]
+fn factorized_pcg_uses_the_single_precision_factor_for_loose_solves_only() {
+    let n = 60;
+    let t = spd_triplets(n, 37);
+    let masses = vec![1.0; n];
+    let low_rank = [LowRankTerm {
+        coefficient: 20.0,
+        vector: Rng::new(3).vector(n),
+    }];
+    let b = Rng::new(10).vector(n);
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&masses, 1.0, &t, 1.0).unwrap();
+    let problem =
+        LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 1.0, &low_rank);
+    let u = DVector::from_column_slice(&low_rank[0].vector);
+    let a = dense(n, &t) + DMatrix::identity(n, n) + &u * u.transpose() * 20.0;
+    let bv = DVector::from_column_slice(&b);
+    let solve = |single: bool, tolerance: f64| {
+        let mut solver = FactorizedPcg::new(FactorizedPcgParams {
+            cg: CgParams {
+                max_iterations: 50,
+                relative_tolerance: tolerance,
+            },
+            single_precision_solves: single,
+            ..FactorizedPcgParams::default()
+        });
+        let mut x = vec![0.0; n];
+        let info = solver.solve(&problem, &b, &mut x).unwrap();
+        assert!(info.converged, "{info:?}");
+        let residual = (&bv - &a * DVector::from_column_slice(&x)).norm() / bv.norm();
+        assert!(residual <= tolerance, "{residual:e} > {tolerance:e}");
+        x
+    };
+    let loose = 10.0 * SINGLE_PRECISION_MIN_TOLERANCE;
+    let (single, double) = (solve(true, loose), solve(false, loose));
+    assert!(
+        single != double,
+        "the loose solve did not use the single-precision factor"
+    );
+    let tight = 1e-10;
+    let (single, double) = (solve(true, tight), solve(false, tight));
+    assert!(
+        single
+            .iter()
+            .zip(&double)
+            .all(|(p, q)| p.to_bits() == q.to_bits())
+    );
+}
+
 /// The kept-factor solver with two low-rank terms (Woodbury in the preconditioner, whose
 /// solves share one pass over the factor with the first residual's), from zero and from a
-/// guess (no batch then), matches a dense solve of the whole matrix.
+/// guess (no batch then), matches a dense solve of the whole matrix. When the terms move and
+/// the factor is kept, the answer is the new matrix's either way: with the low-rank part
+/// prepared afresh (`lag_low_rank` false) in as few CG iterations as with a fresh factor, with
+/// the kept one (the default) in a few more (the preconditioner is then off by a low-rank
+/// update of rank at most four), and without a factorisation in both.
 #[test]
 fn factorized_pcg_with_two_low_rank_terms_from_zero_and_from_a_guess_matches_dense() {
     let n = 40;
@@ -893,47 +1003,63 @@ fn factorized_pcg_with_two_low_rank_terms_from_zero_and_from_a_guess_matches_den
     ];
     let mut asm = SparseAssembler::new();
     asm.assemble(&masses, 1.0, &t, 0.5).unwrap();
-    let problem =
-        LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 0.5, &low_rank);
-    let mut a = dense(n, &t) * 0.5 + DMatrix::identity(n, n) * 2.0;
-    for term in &low_rank {
-        let u = DVector::from_column_slice(&term.vector);
-        a += &u * u.transpose() * (0.5 * term.coefficient);
-    }
-    let b = rng.vector(n);
-    let reference = a.lu().solve(&DVector::from_column_slice(&b)).unwrap();
-    let mut solver = FactorizedPcg::new(FactorizedPcgParams {
-        cg: CgParams {
-            max_iterations: 100,
-            relative_tolerance: 1e-12,
-        },
-        ..FactorizedPcgParams::default()
-    });
-    for guess in [0.0, 0.3, 0.0] {
-        let mut x = vec![guess; n];
-        let info = solver.solve(&problem, &b, &mut x).unwrap();
-        assert!(info.converged && info.iterations <= 2, "{info:?}");
-        for i in 0..n {
-            approx::assert_abs_diff_eq!(x[i], reference[i], epsilon = 1e-9 * reference.amax());
+    let dense_solve = |terms: &[LowRankTerm], b: &[f64]| {
+        let mut a = dense(n, &t) * 0.5 + DMatrix::identity(n, n) * 2.0;
+        for term in terms {
+            let u = DVector::from_column_slice(&term.vector);
+            a += &u * u.transpose() * (0.5 * term.coefficient);
         }
-    }
-    // New terms with the same factor: the kept `(L L^T)^-1 U` must not be reused (the
-    // preconditioner would then be off and CG would need more iterations).
+        a.lu().solve(&DVector::from_column_slice(b)).unwrap()
+    };
+    let b = rng.vector(n);
+    let reference = dense_solve(&low_rank, &b);
     let mut moved = low_rank.clone();
     moved[1].vector[3] += 1.0;
     moved[0].vector[7] -= 0.5;
-    let problem = LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 0.5, &moved);
-    let mut a = dense(n, &t) * 0.5 + DMatrix::identity(n, n) * 2.0;
-    for term in &moved {
-        let u = DVector::from_column_slice(&term.vector);
-        a += &u * u.transpose() * (0.5 * term.coefficient);
+    moved[0].coefficient *= 1.5;
+    let moved_reference = dense_solve(&moved, &b);
+    let mut moved_iterations = Vec::new();
+    for lag_low_rank in [false, true] {
+        let mut solver = FactorizedPcg::new(FactorizedPcgParams {
+            cg: CgParams {
+                max_iterations: 100,
+                relative_tolerance: 1e-12,
+            },
+            lag_low_rank,
+            ..FactorizedPcgParams::default()
+        });
+        let problem =
+            LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 0.5, &low_rank);
+        for guess in [0.0, 0.3, 0.0] {
+            let mut x = vec![guess; n];
+            let info = solver.solve(&problem, &b, &mut x).unwrap();
+            assert!(info.converged && info.iterations <= 2, "{info:?}");
+            for i in 0..n {
+                approx::assert_abs_diff_eq!(x[i], reference[i], epsilon = 1e-9 * reference.amax());
+            }
+        }
+        // New terms with the same factor.
+        let problem =
+            LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 0.5, &moved);
+        let mut x = vec![0.0; n];
+        let info = solver.solve(&problem, &b, &mut x).unwrap();
+        assert!(
+            info.converged && info.iterations <= 6,
+            "lag {lag_low_rank}: {info:?}"
+        );
+        for i in 0..n {
+            approx::assert_abs_diff_eq!(
+                x[i],
+                moved_reference[i],
+                epsilon = 1e-9 * moved_reference.amax()
+            );
+        }
+        assert_eq!(solver.factorizations(), 1);
+        moved_iterations.push(info.iterations);
     }
-    let reference = a.lu().solve(&DVector::from_column_slice(&b)).unwrap();
-    let mut x = vec![0.0; n];
-    let info = solver.solve(&problem, &b, &mut x).unwrap();
-    assert!(info.converged && info.iterations <= 2, "{info:?}");
-    for i in 0..n {
-        approx::assert_abs_diff_eq!(x[i], reference[i], epsilon = 1e-9 * reference.amax());
-    }
-    assert_eq!(solver.factorizations(), 1);
+    assert!(moved_iterations[0] <= 2, "{moved_iterations:?}");
+    assert!(
+        moved_iterations[1] > moved_iterations[0],
+        "the kept low-rank part was not used: {moved_iterations:?}"
+    );
 }

@@ -38,7 +38,35 @@ pub struct FactorizedPcgParams {
     /// repeat exactly).
     #[serde(default)]
     pub refactor_cost: usize,
+    /// Keep the low-rank part of the preconditioner with the factor (default `true`): a
+    /// solve with a kept factor uses the `U`, `Z = (L L^T)^-1 U` and coefficients prepared
+    /// when the factor was made (or last refreshed) instead of solving for the current terms'
+    /// `Z` (one pass over the factor fewer per solve). CG still solves the current problem,
+    /// whose terms differ from the kept ones by a low-rank update; a solve with a fresh factor
+    /// prepares `Z` for its own terms. With `false` every solve prepares `Z` for its terms.
+    #[serde(default = "default_true")]
+    pub lag_low_rank: bool,
+    /// Apply the preconditioner with a single-precision copy of the factor when CG is asked
+    /// for a relative residual of at least [`SINGLE_PRECISION_MIN_TOLERANCE`] (default
+    /// `true`): the triangular solves, bound by reading the factor from memory, take about
+    /// half the time, and a factor rounded to 7 digits preconditions a solve to a few digits as
+    /// well as the exact one. Tighter solves use the factor itself.
+    #[serde(default = "default_true")]
+    pub single_precision_solves: bool,
 }
+
+fn default_true() -> bool {
+    true
+}
+
+/// The smallest CG tolerance a solve of [`FactorizedPcg`] applies a single-precision factor
+/// for ([`FactorizedPcgParams::single_precision_solves`]). CG corrects the rounding of the
+/// factor as it corrects a lagged one, but a solve asked for nearly as many digits as the
+/// rounded factor carries (about 7, less the growth of the triangular solves) would pay extra
+/// iterations for them: tighter solves use the factor itself. (On the teddy's Newton matrix,
+/// nnz(L) = 3.8M, a solve with the rounded factor is 6.6e-7 from the exact one, relative:
+/// `benches/examples/factor_profile.rs`.)
+pub const SINGLE_PRECISION_MIN_TOLERANCE: f64 = 1e-5;
 
 impl Default for FactorizedPcgParams {
     fn default() -> Self {
@@ -48,6 +76,8 @@ impl Default for FactorizedPcgParams {
             fresh_solves_after_slow: 6,
             parallel: false,
             refactor_cost: 0,
+            lag_low_rank: true,
+            single_precision_solves: true,
         }
     }
 }
@@ -68,11 +98,15 @@ impl Default for FactorizedPcgParams {
 ///    refactorise first.
 ///
 /// The preconditioner is `P = L L^T + k_coef sum_i c_i u_i u_i^T`: the kept factor of the
-/// sparse part plus the problem's current low-rank terms (the gas coupling, Eq. 16-17), applied
-/// by Sherman-Morrison / Woodbury (`P^-1 r = y - Z S^-1 C U^T y`, `y = (L L^T)^-1 r`,
-/// `Z = (L L^T)^-1 U`, `S = I + C U^T Z`: one extra pair of triangular solves per term and
-/// solve, none per CG iteration), so that a dominant gas term costs no CG iterations. Terms
-/// with a negative coefficient (which could make `P` indefinite) are left to CG.
+/// sparse part plus low-rank terms (the gas coupling, Eq. 16-17), applied by Sherman-Morrison /
+/// Woodbury (`P^-1 r = y - Z S^-1 C U^T y`, `y = (L L^T)^-1 r`, `Z = (L L^T)^-1 U`,
+/// `S = I + C U^T Z`: no extra triangular solves per CG iteration), so that a dominant gas term
+/// costs no CG iterations. A fresh factor gets the problem's current terms (their `Z` solved
+/// in the same pass over the factor as the first preconditioned residual); a kept factor keeps
+/// the terms it was made with, like the sparse part it factorises
+/// ([`FactorizedPcgParams::lag_low_rank`]; a term that moves with the shape is then off by a
+/// low-rank update, which CG absorbs in an iteration or two, and no solve for the new `Z` is
+/// paid). Terms with a negative coefficient (which could make `P` indefinite) are left to CG.
 ///
 /// The sparse part must be positive definite for the factorisation. With the exact tangent an
 /// indefinite matrix is met as non-positive curvature in CG or a non-positive pivot, returned
@@ -102,7 +136,12 @@ pub struct FactorizedPcg {
     /// they were solved with: a solve with the same terms and factor (a chord step of the
     /// integrator, which reuses the last matrix and its terms) keeps `Z`.
     z_vectors: Vec<Vec<f64>>,
+    /// The coefficients `k_coef c_i` the kept `low_rank_z` were prepared with.
+    z_coefficients: Vec<f64>,
     z_factorization: Option<u64>,
+    /// Whether the preconditioner of the current solve uses the kept `U`, `Z` and
+    /// coefficients (a lagged low-rank part) instead of the problem's current terms.
+    lagged_low_rank: bool,
     /// CG iterations of the first solve with the current factor.
     fresh_iterations: usize,
     /// CG iterations beyond `fresh_iterations` summed over the solves with a kept factor since
@@ -142,7 +181,9 @@ impl FactorizedPcg {
         &mut self,
         problem: &LinearProblem<'_>,
         first: Option<&[f64]>,
+        lagged: bool,
     ) -> Result<(Option<Capacitance>, bool), SolveError> {
+        self.lagged_low_rank = false;
         self.low_rank_terms.clear();
         self.low_rank_c.clear();
         for (i, t) in problem.low_rank.iter().enumerate() {
@@ -164,7 +205,15 @@ impl FactorizedPcg {
                 .iter()
                 .zip(&self.z_vectors)
                 .all(|(&i, kept)| problem.low_rank[i].vector == kept.as_slice());
-        if same_z {
+        let lag = !same_z
+            && lagged
+            && self.params.lag_low_rank
+            && self.z_factorization == Some(self.factorizations)
+            && self.z_vectors.len() == r;
+        if lag {
+            self.lagged_low_rank = true;
+        }
+        if same_z || lag {
             if let Some(b) = first {
                 self.first_y.clear();
                 self.first_y.extend_from_slice(b);
@@ -204,6 +253,8 @@ impl FactorizedPcg {
             kept.clear();
             kept.extend_from_slice(&problem.low_rank[i].vector);
         }
+        self.z_coefficients.clear();
+        self.z_coefficients.extend_from_slice(&self.low_rank_c);
         self.z_factorization = Some(self.factorizations);
         Ok(self.capacitance(problem, first.is_some()))
     }
@@ -218,9 +269,13 @@ impl FactorizedPcg {
         let r = self.low_rank_terms.len();
         let mut s = DMatrix::<f64>::identity(r, r);
         for (a, &i) in self.low_rank_terms.iter().enumerate() {
-            let u = &problem.low_rank[i].vector;
+            let (u, c) = if self.lagged_low_rank {
+                (&self.z_vectors[a][..], self.z_coefficients[a])
+            } else {
+                (&problem.low_rank[i].vector[..], self.low_rank_c[a])
+            };
             for (b, z) in self.low_rank_z.iter().enumerate() {
-                s[(a, b)] += self.low_rank_c[a] * dot(u, z);
+                s[(a, b)] += c * dot(u, z);
             }
         }
         if !s.iter().all(|v| v.is_finite()) {
@@ -268,6 +323,10 @@ impl LinearSolver for FactorizedPcg {
         })?;
         problem.check_dimensions(b, x)?;
         self.cholesky.set_parallel(self.params.parallel);
+        self.cholesky.set_single_precision_solves(
+            self.params.single_precision_solves
+                && self.params.cg.relative_tolerance >= SINGLE_PRECISION_MIN_TOLERANCE,
+        );
         let mut fresh = false;
         if self.fresh_solves_left > 0
             || !self.cholesky.is_factorized()
@@ -290,9 +349,12 @@ impl LinearSolver for FactorizedPcg {
             // From zero, CG's first residual is `b`: its preconditioned form is solved with the
             // low-rank terms' (one pass over the factor for both).
             let from_zero = x.iter().all(|&v| v == 0.0);
-            let (capacitance, batched) = self.prepare_low_rank(problem, from_zero.then_some(b))?;
+            let (capacitance, batched) =
+                self.prepare_low_rank(problem, from_zero.then_some(b), !fresh)?;
             let chol = &mut self.cholesky;
-            let (terms, cs, zs) = (&self.low_rank_terms, &self.low_rank_c, &self.low_rank_z);
+            let lagged = self.lagged_low_rank;
+            let (terms, zs) = (&self.low_rank_terms, &self.low_rank_z);
+            let (kept_u, kept_c, cs) = (&self.z_vectors, &self.z_coefficients, &self.low_rank_c);
             let mut first_y = batched.then_some(self.first_y.as_slice());
             let mut w = DVector::<f64>::zeros(terms.len());
             let res = cg(
@@ -310,7 +372,11 @@ impl LinearSolver for FactorizedPcg {
                     }
                     if let Some(lu) = &capacitance {
                         for (a, &i) in terms.iter().enumerate() {
-                            w[a] = cs[a] * dot(&problem.low_rank[i].vector, z);
+                            w[a] = if lagged {
+                                kept_c[a] * dot(&kept_u[a], z)
+                            } else {
+                                cs[a] * dot(&problem.low_rank[i].vector, z)
+                            };
                         }
                         if lu.solve_mut(&mut w) {
                             for (coef, zj) in w.iter().zip(zs) {

@@ -35,7 +35,7 @@ mod matrix_free;
 mod pcg;
 
 pub use direct::{CholeskyParams, CholeskySolver};
-pub use factorized::{FactorizedPcg, FactorizedPcgParams};
+pub use factorized::{FactorizedPcg, FactorizedPcgParams, SINGLE_PRECISION_MIN_TOLERANCE};
 pub use matrix_free::MatrixFreeCg;
 pub use pcg::AssembledPcg;
 

@@ -78,6 +78,20 @@ pub trait ShellMaterial: Clone + Send + Sync + std::fmt::Debug {
         self.forces_and_stiffness(element, x, h, false).0
     }
 
+    /// The elastic forces and energy of `element` together, `(forces, energy)`: the forces bit
+    /// for bit those of [`ShellMaterial::forces`], the energy that of
+    /// [`ShellMaterial::energy`] (to round-off), for line-search trials that need both
+    /// ([`balloon_integrate::ForceSystem::residual_forces_and_energy`]). The default calls
+    /// the two; the built-in elements share the kinematics and the strain.
+    fn forces_and_energy(
+        &self,
+        element: &Self::Element,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+    ) -> ([Vector3<f64>; 3], f64) {
+        (self.forces(element, x, h), self.energy(element, x, h))
+    }
+
     /// Checks the state of `element` (finite, not degenerate, inside the model's admissible
     /// set). Used to explain a non-finite force or energy.
     ///
@@ -138,6 +152,16 @@ impl<M: Material> ShellMaterial for M {
     #[inline]
     fn forces(&self, element: &ThreePrism, x: &[Vector3<f64>; 3], h: f64) -> [Vector3<f64>; 3] {
         element.forces(self, x, h)
+    }
+
+    #[inline]
+    fn forces_and_energy(
+        &self,
+        element: &ThreePrism,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+    ) -> ([Vector3<f64>; 3], f64) {
+        element.forces_and_energy(self, x, h)
     }
 
     #[inline]
@@ -205,6 +229,17 @@ impl<W: MembraneMaterial> ShellMaterial for Membrane<W> {
     #[inline]
     fn forces(&self, element: &HyperMembrane, x: &[Vector3<f64>; 3], _h: f64) -> [Vector3<f64>; 3] {
         element.forces(&self.0, x)
+    }
+
+    #[inline]
+    fn forces_and_energy(
+        &self,
+        element: &HyperMembrane,
+        x: &[Vector3<f64>; 3],
+        _h: f64,
+    ) -> ([Vector3<f64>; 3], f64) {
+        let (w, f) = element.energy_and_forces(&self.0, x);
+        (f, w)
     }
 
     #[inline]
@@ -382,6 +417,23 @@ impl ShellMaterial for ShellMaterialModel {
             (Self::Solid(m), ShellElement::Prism(e)) => ShellMaterial::forces(m, e, x, h),
             (Self::Membrane(m), ShellElement::Membrane(e)) => e.forces(m, x),
             _ => mismatch().0,
+        }
+    }
+
+    #[inline]
+    fn forces_and_energy(
+        &self,
+        element: &ShellElement,
+        x: &[Vector3<f64>; 3],
+        h: f64,
+    ) -> ([Vector3<f64>; 3], f64) {
+        match (self, element) {
+            (Self::Solid(m), ShellElement::Prism(e)) => e.forces_and_energy(m, x, h),
+            (Self::Membrane(m), ShellElement::Membrane(e)) => {
+                let (w, f) = e.energy_and_forces(m, x);
+                (f, w)
+            }
+            _ => (mismatch().0, f64::NAN),
         }
     }
 

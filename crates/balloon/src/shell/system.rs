@@ -462,6 +462,55 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
         self.finish_forces(time, x, f)
     }
 
+    /// The forces of [`ForceSystem::residual_forces`] and the energy of
+    /// [`ForceSystem::potential_energy`] in one pass over the elements
+    /// ([`ShellMaterial::forces_and_energy`]); the gas energy from the enclosed volume.
+    fn residual_forces_and_energy(
+        &mut self,
+        time: f64,
+        x: &[f64],
+        f: &mut [f64],
+    ) -> Result<Option<f64>, SystemError> {
+        let material = &self.material;
+        let triangles = &self.triangles;
+        let work = |(((el, t), &h), fe): ElementForceWork<'_, M::Element>| {
+            let (forces, energy) = material.forces_and_energy(el, &Self::corner_positions(x, t), h);
+            *fe = forces;
+            energy
+        };
+        let elastic: f64 = if self.elements.len() >= PARALLEL_THRESHOLD {
+            self.elements
+                .par_iter()
+                .zip(triangles.par_iter())
+                .zip(self.thickness.par_iter())
+                .zip(self.elem_forces.par_iter_mut())
+                .map(work)
+                .sum()
+        } else {
+            self.elements
+                .iter()
+                .zip(triangles.iter())
+                .zip(self.thickness.iter())
+                .zip(self.elem_forces.iter_mut())
+                .map(work)
+                .sum()
+        };
+        self.stiffness_stale = true;
+        self.finish_forces(time, x, f)?;
+        let Some(gas) = self.gas_energy(time, x)? else {
+            return Ok(None);
+        };
+        if !elastic.is_finite() {
+            return Err(self.non_finite_energy_error(x));
+        }
+        Ok(Some(elastic + gas))
+    }
+
+    /// One pass over the elements gives both (see `residual_forces_and_energy`).
+    fn fuses_forces_and_energy(&self) -> bool {
+        true
+    }
+
     /// Recomputes the element forces and stiffness at `x_lin` after
     /// [`ForceSystem::residual_forces`] (the forces come out the same; the gas terms were
     /// already evaluated there).
@@ -689,6 +738,33 @@ mod tests {
             // A second refresh changes nothing (it is a no-op once fresh).
             sys.refresh_stiffness().unwrap();
             assert_eq!(sys.stiffness_blocks().unwrap().values, &eager[..]);
+            // The fused evaluation of a line-search trial: the same forces bit for bit, the
+            // energy of `potential_energy`, the stiffness left stale as `residual_forces` does.
+            assert!(sys.fuses_forces_and_energy());
+            sys.forces(0.0, &rest, &mut f_full).unwrap();
+            let mut f_fused = vec![0.0; n];
+            let fused = sys
+                .residual_forces_and_energy(0.0, &x, &mut f_fused)
+                .unwrap()
+                .unwrap();
+            assert_eq!(
+                sys.stiffness_blocks().unwrap().values,
+                &at_rest[..],
+                "{name}: fused evaluation left the stiffness stale"
+            );
+            assert!(
+                f_fused
+                    .iter()
+                    .zip(&f_res)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{name}: fused forces differ"
+            );
+            let energy = sys.potential_energy(0.0, &x).unwrap().unwrap();
+            assert!(
+                (fused - energy).abs() <= 1e-12 * energy.abs().max(1e-30),
+                "{name}: fused energy {fused} against {energy}"
+            );
+            assert!(energy.abs() > 0.0, "{name}");
         }
 
         let mesh = icosphere(0.1, 2).unwrap();
@@ -719,6 +795,17 @@ mod tests {
             "enum membrane",
             base()
                 .with_material(ShellMaterialModel::from(MembraneModel::from(membrane)))
+                .build()
+                .unwrap(),
+        );
+        // Above the parallel threshold (5120 elements: the element passes run on rayon).
+        let fine = icosphere(0.1, 4).unwrap();
+        assert!(fine.num_triangles() >= super::PARALLEL_THRESHOLD);
+        check(
+            "stvk, parallel",
+            ShellBalloon::new(fine)
+                .with_gas(GasKind::Ideal)
+                .with_gauge_pressure(800.0)
                 .build()
                 .unwrap(),
         );
