@@ -381,6 +381,7 @@ pub fn build(args: &mut ConnectArgs) -> Result<(ConnectSim, &'static str)> {
         options.solver.tolerance = args.shell.newton_tol;
     }
     options.solver.tangent = args.shell.tangent;
+    options.solver.inexact_forcing = args.shell.inexact_forcing;
     options.solver.solver.linear.kind = args.shell.linear_solver;
     options.solver.solver.linear.max_iterations = args.shell.cg_max_iters;
     options.solver.solver.pcg_preconditioner = args.shell.pcg_preconditioner;

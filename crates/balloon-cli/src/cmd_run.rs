@@ -196,6 +196,7 @@ pub const SHELL_KEYS: &[ScenarioKey] = &[
     k("run", "tangent", "tangent", Text),
     k("run", "pcg_preconditioner", "pcg_preconditioner", Text),
     k("run", "cg_tol", "cg_tol", Number),
+    k("run", "inexact_forcing", "inexact_forcing", Number),
     k("run", "cg_max_iters", "cg_max_iters", Number),
     k("run", "follower_term", "follower_term", Switch),
     unrecorded("output", "out", "out", PathKind),

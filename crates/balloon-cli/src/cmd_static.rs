@@ -308,6 +308,7 @@ pub fn run<M: ShellMaterial>(
         options.solver.tolerance = args.newton_tol;
     }
     options.solver.tangent = args.tangent;
+    options.solver.inexact_forcing = args.inexact_forcing;
     options.solver.solver.linear.kind = args.linear_solver;
     options.solver.solver.linear.max_iterations = args.cg_max_iters;
     options.solver.solver.pcg_preconditioner = args.pcg_preconditioner;
