@@ -357,6 +357,43 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
         }
     }
 
+    /// The element forces at `x` alone into the cache (the stiffness left stale for
+    /// [`ForceSystem::refresh_stiffness`]); with `energy` also the elastic energy of the same
+    /// pass ([`ShellMaterial::forces_and_energy`]), returned summed (0 without).
+    fn element_forces(&mut self, x: &[f64], energy: bool) -> f64 {
+        let material = &self.material;
+        let triangles = &self.triangles;
+        let work = |(((el, t), &h), fe): ElementForceWork<'_, M::Element>| {
+            let xs = Self::corner_positions(x, t);
+            if energy {
+                let (forces, e) = material.forces_and_energy(el, &xs, h);
+                *fe = forces;
+                e
+            } else {
+                *fe = material.forces(el, &xs, h);
+                0.0
+            }
+        };
+        self.stiffness_stale = true;
+        if self.elements.len() >= PARALLEL_THRESHOLD {
+            self.elements
+                .par_iter()
+                .zip(triangles.par_iter())
+                .zip(self.thickness.par_iter())
+                .zip(self.elem_forces.par_iter_mut())
+                .map(work)
+                .sum()
+        } else {
+            self.elements
+                .iter()
+                .zip(triangles.iter())
+                .zip(self.thickness.iter())
+                .zip(self.elem_forces.iter_mut())
+                .map(work)
+                .sum()
+        }
+    }
+
     /// The rest of a force evaluation once the element forces are cached: their check, the
     /// gather into `f`, the gas forces (Eq. 15) and the force scale; keeps `x` as the
     /// linearisation point.
@@ -438,27 +475,7 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
     /// The forces alone (`ShellMaterial::forces`, bit for bit those of [`ForceSystem::forces`]);
     /// the element stiffness waits for [`ForceSystem::refresh_stiffness`].
     fn residual_forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
-        let material = &self.material;
-        let triangles = &self.triangles;
-        let work = |(((el, t), &h), fe): ElementForceWork<'_, M::Element>| {
-            *fe = material.forces(el, &Self::corner_positions(x, t), h);
-        };
-        if self.elements.len() >= PARALLEL_THRESHOLD {
-            self.elements
-                .par_iter()
-                .zip(triangles.par_iter())
-                .zip(self.thickness.par_iter())
-                .zip(self.elem_forces.par_iter_mut())
-                .for_each(work);
-        } else {
-            self.elements
-                .iter()
-                .zip(triangles.iter())
-                .zip(self.thickness.iter())
-                .zip(self.elem_forces.iter_mut())
-                .for_each(work);
-        }
-        self.stiffness_stale = true;
+        self.element_forces(x, false);
         self.finish_forces(time, x, f)
     }
 
@@ -471,31 +488,7 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
         x: &[f64],
         f: &mut [f64],
     ) -> Result<Option<f64>, SystemError> {
-        let material = &self.material;
-        let triangles = &self.triangles;
-        let work = |(((el, t), &h), fe): ElementForceWork<'_, M::Element>| {
-            let (forces, energy) = material.forces_and_energy(el, &Self::corner_positions(x, t), h);
-            *fe = forces;
-            energy
-        };
-        let elastic: f64 = if self.elements.len() >= PARALLEL_THRESHOLD {
-            self.elements
-                .par_iter()
-                .zip(triangles.par_iter())
-                .zip(self.thickness.par_iter())
-                .zip(self.elem_forces.par_iter_mut())
-                .map(work)
-                .sum()
-        } else {
-            self.elements
-                .iter()
-                .zip(triangles.iter())
-                .zip(self.thickness.iter())
-                .zip(self.elem_forces.iter_mut())
-                .map(work)
-                .sum()
-        };
-        self.stiffness_stale = true;
+        let elastic = self.element_forces(x, true);
         self.finish_forces(time, x, f)?;
         let Some(gas) = self.gas_energy(time, x)? else {
             return Ok(None);
