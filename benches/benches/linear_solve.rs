@@ -152,7 +152,8 @@ fn bench_linear(c: &mut Criterion) {
                     relative_tolerance: 1e-8,
                 },
                 ..Default::default()
-            });
+            })
+            .expect("valid parameters");
             let name = match (kind, pre) {
                 (LinearSolverKind::Pcg, PcgPreconditioner::IncompleteCholesky) => {
                     "backward_euler_step_pcg_ic0".to_string()

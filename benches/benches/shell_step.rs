@@ -33,7 +33,7 @@ fn shell_step(c: &mut Criterion) {
             .with_linear_solver(kind)
             .build()
             .expect("valid balloon");
-        sim.integrator_params_mut().tangent = tangent;
+        sim.configure_integrator(|p| p.tangent = tangent).unwrap();
         // A few steps first so the balloon is inflating (not at the trivial rest state).
         for _ in 0..3 {
             sim.step().expect("step");

@@ -30,7 +30,7 @@ fn balloon_at(
         .with_gas(GasKind::Ideal)
         .build()
         .unwrap();
-    sim.integrator_params_mut().mass_damping = 5.0;
+    sim.configure_integrator(|p| p.mass_damping = 5.0).unwrap();
     let target = sim.rest_gas_volume() * l * l * l;
     sim.inflate_to_volume(target, &StaticOptions::default())
         .unwrap();

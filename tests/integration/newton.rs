@@ -28,7 +28,8 @@ fn paper_gas_teddy_at(resolution: usize, dt: f64) -> ShellSimulation {
         .with_dt(dt)
         .build()
         .unwrap();
-    sim.integrator_params_mut().tangent = TangentKind::Exact;
+    sim.configure_integrator(|p| p.tangent = TangentKind::Exact)
+        .unwrap();
     sim
 }
 
@@ -44,7 +45,7 @@ fn teddy_with_the_papers_gas_and_the_exact_tangent_inflates_and_converges() {
     for _ in 0..30 {
         let s = sim.step().unwrap();
         assert!(
-            s.newton_residual <= sim.integrator_params_mut().newton_tolerance,
+            s.newton_residual <= sim.integrator_params().newton_tolerance,
             "step {}: relative residual {:e}",
             s.step,
             s.newton_residual
@@ -67,11 +68,11 @@ fn teddy_with_the_papers_gas_and_the_exact_tangent_inflates_and_converges() {
 #[test]
 fn a_run_that_cannot_converge_stops_with_advice() {
     let mut sim = paper_gas_teddy(10);
-    {
-        let p = sim.integrator_params_mut();
+    sim.configure_integrator(|p| {
         p.newton_iterations = 1;
         p.newton_tolerance = 1e-14;
-    }
+    })
+    .unwrap();
     let before = sim.positions().to_vec();
     let e = sim.step().unwrap_err();
     assert!(matches!(e, ShellError::NotConverged { step: 1, .. }), "{e}");
@@ -116,11 +117,11 @@ fn hard_steps_are_split_and_grow_back_to_the_requested_dt() {
 #[test]
 fn papers_mode_takes_three_full_newton_steps() {
     let mut sim = paper_gas_teddy(10);
-    {
-        let p = sim.integrator_params_mut();
+    sim.configure_integrator(|p| {
         p.newton_iterations = 3;
         p.newton_tolerance = 0.0;
-    }
+    })
+    .unwrap();
     for _ in 0..3 {
         let s = sim.step().unwrap();
         // Sub-steps only where a sub-step failed outright (as before the rework).
@@ -152,10 +153,12 @@ fn measure_teddy_inflation() {
         ShellBalloon::new(mesh).build().unwrap()
     };
     if let Some(t) = env("ITERS") {
-        sim.integrator_params_mut().newton_iterations = t.parse().unwrap();
+        sim.configure_integrator(|p| p.newton_iterations = t.parse().unwrap())
+            .unwrap();
     }
     if let Some(t) = env("TOL") {
-        sim.integrator_params_mut().newton_tolerance = t.parse().unwrap();
+        sim.configure_integrator(|p| p.newton_tolerance = t.parse().unwrap())
+            .unwrap();
     }
     let steps: usize = env("STEPS").map_or(300, |s| s.parse().unwrap());
     let every: usize = env("EVERY").map_or(30, |s| s.parse().unwrap());
@@ -207,8 +210,11 @@ fn measure_teddy_inflation() {
 fn inexact_dynamic_newton_follows_the_trajectory_of_exact_solves() {
     let run = |kind: LinearSolverKind, forcing: f64| {
         let mut sim = paper_gas_teddy(14);
-        sim.integrator_params_mut().linear.kind = kind;
-        sim.integrator_params_mut().inexact_forcing = forcing;
+        sim.configure_integrator(|p| {
+            p.linear.kind = kind;
+            p.inexact_forcing = forcing;
+        })
+        .unwrap();
         let (mut newton, mut linear, mut volumes) = (0, 0, Vec::new());
         for _ in 0..30 {
             let s = sim.step().unwrap();

@@ -1,11 +1,14 @@
 //! Time integrators over generic systems for the `balloon` toolkit.
 //!
 //! **For:** advancing any mechanical system that can report masses, forces and force
-//! differentials ([`ForceSystem`]) with backward Euler + Newton (seed 000, Eq. 18-23) using a
-//! run-time choice of linear solver (any [`linear::LinearSolver`], from `balloon-linalg`), and any first-order ODE with explicit Euler, symplectic
-//! Euler, midpoint or RK4 (seed 004, Ch. 5); and solving for the static equilibrium of such a
-//! system directly ([`statics::StaticSolver`]: the same energy without the inertia term, Newton
-//! with a Levenberg-Marquardt shift, line search and load continuation).
+//! differentials ([`ForceSystem`]) with backward Euler + Newton (Wang et al. 2015, Eq. 18-23)
+//! using a run-time choice of linear solver (any [`linear::LinearSolver`], from
+//! `balloon-linalg`), and any first-order ODE with explicit Euler, symplectic Euler, midpoint or
+//! RK4 (Song 2009, Ch. 5); and solving for the static equilibrium of such a system directly
+//! ([`statics::StaticSolver`]: the same energy without the inertia term, Newton with a
+//! Levenberg-Marquardt shift, line search and load continuation). Both run on **one Newton
+//! core** ([`newton`]: line search, regularisation, convergence test, the Newton matrix handed
+//! to the linear solver, one error type).
 //!
 //! **Not for:** knowing what the forces are. Nothing here knows about balloons, meshes or gas.
 //!
@@ -42,7 +45,7 @@
 //! }
 //!
 //! let mut system = Anchor { k: 100.0, m: [1.0; 3] };
-//! let mut integrator = BackwardEuler::new(BackwardEulerParams::default());
+//! let mut integrator = BackwardEuler::new(BackwardEulerParams::default())?;
 //! let (mut x, mut v) = (vec![0.1, 0.0, 0.0], vec![0.0; 3]);
 //! let mut energy = f64::INFINITY;
 //! for n in 0..50 {
@@ -62,7 +65,9 @@
 
 pub mod explicit;
 pub mod implicit;
+pub mod newton;
 pub mod statics;
+pub mod substep;
 pub mod system;
 pub mod timing;
 

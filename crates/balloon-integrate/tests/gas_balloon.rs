@@ -138,7 +138,8 @@ fn run(
             relative_tolerance: 1e-12,
         },
         ..Default::default()
-    });
+    })
+    .expect("valid parameters");
     let mut residuals = Vec::new();
     for s in 0..steps {
         let info = be

@@ -360,16 +360,18 @@ impl ShellView {
             .with_dt(s.dt)
             .with_linear_solver(s.solver)
             .build()
-            .map(|mut sim| {
-                let p = sim.integrator_params_mut();
-                p.tangent = s.tangent;
-                // The live view runs the paper's fixed three Newton iterations per step for its
-                // frame rate: with the converged default (residual 1e-6) a drag that pinches
-                // the membrane stalled Newton on the exact tangent (relative residual 2.6e-2
-                // after 30 iterations at dt / 4, in the e2e test). The CLI runs converged.
-                p.newton_iterations = VIEWER_NEWTON_ITERATIONS;
-                p.newton_tolerance = 0.0;
-                sim
+            .and_then(|mut sim| {
+                sim.configure_integrator(|p| {
+                    p.tangent = s.tangent;
+                    // The live view runs the paper's fixed three Newton iterations per step for
+                    // its frame rate: with the converged default (residual 1e-6) a drag that
+                    // pinches the membrane stalled Newton on the exact tangent (relative
+                    // residual 2.6e-2 after 30 iterations at dt / 4, in the e2e test). The CLI
+                    // runs converged.
+                    p.newton_iterations = VIEWER_NEWTON_ITERATIONS;
+                    p.newton_tolerance = 0.0;
+                })?;
+                Ok(sim)
             })
             .map_err(ViewerError::from)
     }
@@ -402,12 +404,16 @@ impl ShellView {
                 return Ok(false);
             }
             ShellControl::Solver(kind) => {
-                self.sim.integrator_params_mut().linear.kind = kind;
+                self.sim
+                    .configure_integrator(|p| p.linear.kind = kind)
+                    .map_err(ViewerError::from)?;
                 s.solver = kind;
                 return Ok(false);
             }
             ShellControl::Tangent(kind) => {
-                self.sim.integrator_params_mut().tangent = kind;
+                self.sim
+                    .configure_integrator(|p| p.tangent = kind)
+                    .map_err(ViewerError::from)?;
                 s.tangent = kind;
                 return Ok(false);
             }

@@ -34,7 +34,7 @@ fn balloon_at(l: f64, offset: f64) -> Result<Rubber> {
         .with_thickness(H)
         .with_gas(GasKind::Ideal)
         .build()?;
-    sim.integrator_params_mut().mass_damping = 5.0;
+    sim.configure_integrator(|p| p.mass_damping = 5.0)?;
     let target = sim.rest_gas_volume() * l * l * l;
     sim.inflate_to_volume(target, &StaticOptions::default())
         .with_context(|| format!("inflating to the stretch {l}"))?;

@@ -179,7 +179,7 @@ mod tests {
                 .with_dt(0.05)
                 .build()
                 .unwrap();
-            sim.integrator_params_mut().tangent = tangent;
+            sim.configure_integrator(|p| p.tangent = tangent).unwrap();
             let steps = settle(&mut sim, 200, 1e-9);
             assert!(steps.is_some(), "{tangent}: did not settle");
             let lambda = (sim.gas_volume() / sim.rest_gas_volume()).cbrt();

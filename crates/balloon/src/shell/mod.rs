@@ -131,6 +131,7 @@ use balloon_gas::{
 };
 use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
 use balloon_integrate::linear::{LinearSolverKind, PcgPreconditioner};
+use balloon_integrate::substep::{AdaptiveSubsteps, Attempt, Substepper};
 use balloon_integrate::{ForceSystem, PhaseTimes, TangentKind};
 use balloon_material::{Lame, MaterialKind, MaterialModel};
 use balloon_mesh::TriMesh;
@@ -412,6 +413,27 @@ fn check_dt(dt: f64) -> Result<f64, ShellError> {
         value: dt.to_string(),
         reason: "must be a positive finite number".into(),
     })
+}
+
+/// A parameter of the integrator refused by its own check
+/// ([`BackwardEulerParams::validate`]) as the shell's [`ShellError::InvalidParameter`].
+fn integrator_error(e: balloon_integrate::implicit::IntegrateError) -> ShellError {
+    match e {
+        balloon_integrate::implicit::IntegrateError::InvalidParameter {
+            name,
+            value,
+            allowed,
+        } => ShellError::InvalidParameter {
+            name,
+            value: value.to_string(),
+            reason: format!("must be {allowed}"),
+        },
+        other => ShellError::Integrate {
+            step: 0,
+            time: 0.0,
+            source: other,
+        },
+    }
 }
 
 fn positive(name: &'static str, value: f64) -> Result<(), ShellError> {
@@ -788,12 +810,13 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             load,
             &vertex_mass,
         );
+        let integrator = BackwardEuler::new(self.integrator).map_err(integrator_error)?;
         Ok(ShellSimulation {
             v: vec![0.0; x.len()],
             x_prev: x.clone(),
             x,
             system,
-            integrator: BackwardEuler::new(self.integrator),
+            integrator,
             projection: self.projector,
             rest_element_volumes,
             vertex_inv_mass: vertex_proj_mass.iter().map(|m| 1.0 / m).collect(),
@@ -805,9 +828,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             time: 0.0,
             step: 0,
             dt: self.dt,
-            max_step_halvings: self.max_step_halvings,
-            substep_dt: self.dt,
-            growth: SubstepGrowth::default(),
+            substeps: AdaptiveSubsteps::new(self.max_step_halvings).with_size(self.dt),
             external_forces: Vec::new(),
             anchor_springs: Vec::new(),
             pins: pins::Pins::default(),
@@ -893,78 +914,7 @@ struct StepTotals {
     min_dt: f64,
 }
 
-/// A sub-step whose Newton converged in at most this many iterations, without line-search
-/// cuts, counts as easy: easy sub-steps in a row let a sub-step size that a failure halved
-/// double again (one after a single failure; more, up to [`MAX_EASY_BEFORE_GROWTH`], while the
-/// doubled size keeps failing).
-pub const EASY_NEWTON_ITERATIONS: usize = 6;
-
-/// Most easy sub-steps in a row the sub-step size waits for before it doubles again, after
-/// repeated failures of the doubled size (see [`EASY_NEWTON_ITERATIONS`]).
-pub const MAX_EASY_BEFORE_GROWTH: usize = 16;
-
-/// When the sub-step size of [`ShellSimulation`] doubles again after a failure halved it.
-///
-/// A failed sub-step costs a whole Newton solve that is thrown away, several times an easy one
-/// (on a 0.1 m armadillo under the default pump, about 1.8 s against 0.7 s at half the
-/// size), so doubling after every easy sub-step, only to fail and halve again, spent more
-/// than half the run on rejected attempts. Instead the size doubles after `wait` easy
-/// sub-steps in a row; a failure of the size just doubled doubles `wait` (up to
-/// [`MAX_EASY_BEFORE_GROWTH`]), a doubled size that converges halves it again (down to 1,
-/// the rule before: once the doubled sizes converge again the size grows back after every
-/// easy sub-step). After any failure `wait` is at least 2.
-#[derive(Clone, Copy, Debug)]
-struct SubstepGrowth {
-    /// Easy sub-steps in a row so far.
-    streak: usize,
-    /// Easy sub-steps in a row needed before the size doubles.
-    wait: usize,
-    /// The last sub-step size was just doubled (its outcome adjusts `wait`).
-    just_grew: bool,
-}
-
-impl Default for SubstepGrowth {
-    fn default() -> Self {
-        Self {
-            streak: 0,
-            wait: 1,
-            just_grew: false,
-        }
-    }
-}
-
-impl SubstepGrowth {
-    /// After an accepted sub-step: whether the size doubles now. `can_grow` is false when the
-    /// size already is the whole step (a later failure then is not one of a doubled size).
-    fn accepted(&mut self, easy: bool, can_grow: bool) -> bool {
-        if self.just_grew {
-            self.wait = (self.wait / 2).max(1);
-            self.just_grew = false;
-        }
-        if !easy {
-            self.streak = 0;
-            return false;
-        }
-        self.streak += 1;
-        if can_grow && self.streak >= self.wait {
-            self.streak = 0;
-            self.just_grew = true;
-            true
-        } else {
-            false
-        }
-    }
-
-    /// After a sub-step that failed and is retried at half the size.
-    fn failed(&mut self) {
-        if self.just_grew {
-            self.wait = (2 * self.wait).min(MAX_EASY_BEFORE_GROWTH);
-        }
-        self.wait = self.wait.max(2);
-        self.just_grew = false;
-        self.streak = 0;
-    }
-}
+pub use balloon_integrate::substep::{EASY_NEWTON_ITERATIONS, MAX_EASY_BEFORE_GROWTH};
 
 /// A running shell balloon simulation.
 #[derive(Debug)]
@@ -988,11 +938,8 @@ pub struct ShellSimulation<M: ShellMaterial = MaterialModel, G: GasModel = Gas> 
     time: f64,
     step: usize,
     dt: f64,
-    max_step_halvings: usize,
-    /// Sub-step size the next step starts with, s (`dt` until a step had to be split).
-    substep_dt: f64,
-    /// When the sub-step size may double again (kept across steps, like `substep_dt`).
-    growth: SubstepGrowth,
+    /// The sub-step controller: halvings allowed, the sub-step size reached, when it grows.
+    substeps: AdaptiveSubsteps,
     /// External forces per degree of freedom (N), held constant over each step; empty = none.
     external_forces: Vec<f64>,
     /// Zero-length springs to fixed anchors, part of the implicit solve; empty = none.
@@ -1003,6 +950,45 @@ pub struct ShellSimulation<M: ShellMaterial = MaterialModel, G: GasModel = Gas> 
     /// back), ms: with [`BackwardEuler::phase_times`] the running total of
     /// [`ShellStepStats::times`].
     projection_ms: f64,
+}
+
+/// One shell simulation as the sub-step controller drives it (`step`: the step number for
+/// the errors).
+struct ShellSubsteps<'a, M: ShellMaterial, G: GasModel> {
+    sim: &'a mut ShellSimulation<M, G>,
+    step: usize,
+}
+
+impl<M: ShellMaterial, G: GasModel> Substepper for ShellSubsteps<'_, M, G> {
+    type State = (Vec<f64>, Vec<f64>, Vec<f64>);
+    type Info = (balloon_integrate::implicit::StepInfo, usize);
+    type Error = ShellError;
+
+    fn save(&self) -> Self::State {
+        (
+            self.sim.x.clone(),
+            self.sim.v.clone(),
+            self.sim.system.thickness.clone(),
+        )
+    }
+
+    fn restore(&mut self, (x, v, thickness): Self::State) {
+        (self.sim.x, self.sim.v, self.sim.system.thickness) = (x, v, thickness);
+    }
+
+    fn substep(&mut self, time: f64, dt: f64) -> Result<Self::Info, ShellError> {
+        self.sim.x_prev.copy_from_slice(&self.sim.x);
+        self.sim.step_inner(self.step, time, dt)
+    }
+
+    fn is_easy((info, _): &Self::Info) -> bool {
+        info.newton_iterations <= EASY_NEWTON_ITERATIONS && info.line_search_cuts == 0
+    }
+
+    /// A physical runaway of the gas volume is not retried.
+    fn may_retry(error: &ShellError) -> bool {
+        !matches!(error, ShellError::RunawayVolume { .. })
+    }
 }
 
 /// Gas volume growth beyond this factor of the rest volume is reported as a runaway.
@@ -1085,33 +1071,17 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         dt: f64,
         totals: &mut StepTotals,
     ) -> Result<(), ShellError> {
-        let min_h = dt / f64::powi(2.0, self.max_step_halvings.min(60) as i32);
-        let mut h = if self.substep_dt > 0.0 {
-            self.substep_dt.min(dt)
-        } else {
-            dt
-        };
-        let mut elapsed = 0.0;
-        let mut halvings = 0;
-        let start = (
-            self.x.clone(),
-            self.v.clone(),
-            self.system.thickness.clone(),
-        );
-        while elapsed < dt {
-            let remaining = dt - elapsed;
-            // Never leave a sliver: take the rest when it is (nearly) within reach.
-            let this = if h >= remaining * (1.0 - 1e-9) {
-                remaining
-            } else {
-                h
-            };
-            let x_old = self.x.clone();
-            let v_old = self.v.clone();
-            let thickness_old = self.system.thickness.clone();
-            self.x_prev.copy_from_slice(&self.x);
-            match self.step_inner(step, time + elapsed, this) {
-                Ok((info, proj_iters)) => {
+        let mut substeps = self.substeps;
+        let max_halvings = substeps.max_halvings();
+        let advanced = substeps.advance(
+            &mut ShellSubsteps { sim: self, step },
+            time,
+            dt,
+            |attempt| match attempt {
+                Attempt::Accepted {
+                    info: (info, proj_iters),
+                    ..
+                } => {
                     totals.newton_iterations += info.newton_iterations;
                     totals.linear_iterations += info.total_linear_iterations();
                     totals.factorizations += info.factorizations;
@@ -1119,52 +1089,37 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                     totals.line_search_cuts += info.line_search_cuts;
                     totals.regularized_solves += info.regularized_solves;
                     totals.projection_iterations += proj_iters;
-                    totals.substeps += 1;
-                    totals.min_dt = if totals.substeps == 1 {
-                        this
-                    } else {
-                        totals.min_dt.min(this)
-                    };
-                    elapsed = if this == remaining {
-                        dt
-                    } else {
-                        elapsed + this
-                    };
-                    let easy = info.newton_iterations <= EASY_NEWTON_ITERATIONS
-                        && info.line_search_cuts == 0;
-                    if self.growth.accepted(easy, h < dt) {
-                        h = (2.0 * h).min(dt);
-                    }
                 }
-                Err(e) => {
-                    self.x = x_old;
-                    self.v = v_old;
-                    self.system.thickness = thickness_old;
-                    if let ShellError::Integrate {
-                        source:
-                            balloon_integrate::implicit::IntegrateError::NotConverged {
-                                iterations, ..
-                            },
-                        ..
-                    } = &e
-                    {
-                        totals.newton_iterations += iterations;
-                    }
-                    let runaway = matches!(e, ShellError::RunawayVolume { .. });
-                    if runaway || 0.5 * this < min_h * (1.0 - 1e-9) {
-                        // Back to the start of the whole step, not only of this sub-step.
-                        (self.x, self.v, self.system.thickness) = start;
-                        return Err(Self::explain(e, halvings, self.max_step_halvings, this));
-                    }
-                    h = 0.5 * this;
-                    self.growth.failed();
-                    halvings += 1;
-                    totals.halvings += 1;
-                }
+                Attempt::Failed {
+                    error:
+                        ShellError::Integrate {
+                            source:
+                                balloon_integrate::implicit::IntegrateError::NotConverged {
+                                    iterations,
+                                    ..
+                                },
+                            ..
+                        },
+                    ..
+                } => totals.newton_iterations += iterations,
+                Attempt::Failed { .. } => {}
+            },
+        );
+        self.substeps = substeps;
+        match advanced {
+            Ok(report) => {
+                totals.substeps = report.substeps;
+                totals.halvings = report.halvings;
+                totals.min_dt = report.min_dt;
+                Ok(())
             }
+            Err(failure) => Err(Self::explain(
+                failure.error,
+                failure.halvings,
+                max_halvings,
+                failure.dt,
+            )),
         }
-        self.substep_dt = h;
-        Ok(())
     }
 
     /// A Newton solve that still does not converge at the smallest sub-step becomes
@@ -1179,6 +1134,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                         iterations,
                         residual,
                         tolerance,
+                        ..
                     },
             } => ShellError::NotConverged {
                 step,
@@ -1200,7 +1156,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         time: f64,
         dt: f64,
     ) -> Result<(balloon_integrate::implicit::StepInfo, usize), ShellError> {
-        let gravity = self.integrator.params.gravity;
+        let gravity = self.integrator.params().gravity;
         let integrator = &mut self.integrator;
         let (x, v) = (&mut self.x, &mut self.v);
         let info = if self.pins.active() {
@@ -1388,9 +1344,21 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     pub fn system(&self) -> &ShellSystem<M, G> {
         &self.system
     }
-    /// Mutable access to the integrator parameters (e.g. to change the linear solver mid-run).
-    pub fn integrator_params_mut(&mut self) -> &mut BackwardEulerParams {
-        &mut self.integrator.params
+    /// The integrator's parameters (change them with [`ShellSimulation::configure_integrator`]).
+    pub fn integrator_params(&self) -> &BackwardEulerParams {
+        self.integrator.params()
+    }
+
+    /// Edits the integrator's parameters from the next step on (`edit` gets a copy); refused,
+    /// with nothing changed, when an edited parameter is out of range
+    /// ([`BackwardEulerParams::validate`]).
+    pub fn configure_integrator(
+        &mut self,
+        edit: impl FnOnce(&mut BackwardEulerParams),
+    ) -> Result<(), ShellError> {
+        let mut params = *self.integrator.params();
+        edit(&mut params);
+        self.integrator.set_params(params).map_err(integrator_error)
     }
     /// Solves Newton's linear systems with `solver` from the next step on: any
     /// [`balloon_linalg::LinearSolver`], the library's own (`CholeskySolver`, `FactorizedPcg`,
@@ -1813,7 +1781,7 @@ mod viewer_api_tests {
     #[test]
     fn constant_external_force_accelerates_a_free_shell_by_f_over_m() {
         let mut sim = small();
-        sim.integrator_params_mut().mass_damping = 0.0;
+        sim.configure_integrator(|p| p.mass_damping = 0.0).unwrap();
         let n = sim.positions().len();
         let total_mass: f64 = sim.masses().iter().step_by(3).sum();
         // 1 N in total along +x, shared by mass so every vertex gets the same acceleration.
@@ -1837,69 +1805,6 @@ mod viewer_api_tests {
         );
         sim.set_external_forces(None).unwrap();
         assert!(sim.external_forces().is_empty());
-    }
-
-    /// The sub-step controller against a model of a hard phase: sizes up to `limit` converge
-    /// easily, larger ones fail. Doubling after every easy sub-step failed once per accepted
-    /// sub-step; now the doubled size is tried ever more rarely while it keeps failing, and once
-    /// the hard phase ends the size grows back to `dt` within a bounded number of sub-steps.
-    #[test]
-    fn a_sub_step_size_that_keeps_failing_is_tried_ever_more_rarely() {
-        let dt = 1.0_f64;
-        let limit = dt / 8.0;
-        let mut growth = SubstepGrowth::default();
-        let mut h = dt;
-        let (mut accepted, mut failed) = (0, 0);
-        while accepted < 400 {
-            if h <= limit {
-                accepted += 1;
-                if growth.accepted(true, h < dt) {
-                    h = (2.0 * h).min(dt);
-                }
-            } else {
-                failed += 1;
-                growth.failed();
-                h *= 0.5;
-            }
-        }
-        // 3 failures to get down from dt, then one per MAX_EASY_BEFORE_GROWTH accepted
-        // sub-steps at most.
-        assert!(
-            failed <= 3 + 2 + accepted / MAX_EASY_BEFORE_GROWTH,
-            "{failed} failures in {accepted} accepted sub-steps"
-        );
-        // The hard phase ends: every size converges.
-        let mut to_dt = 0;
-        while h < dt {
-            to_dt += 1;
-            if growth.accepted(true, true) {
-                h = (2.0 * h).min(dt);
-            }
-            assert!(
-                to_dt <= MAX_EASY_BEFORE_GROWTH + 3 * 4,
-                "size {h} after {to_dt}"
-            );
-        }
-        // After a single failure the size waits for two easy sub-steps, then (the doubled
-        // size converging) doubles after every one again.
-        let mut growth = SubstepGrowth::default();
-        growth.failed();
-        let grows: Vec<bool> = (0..4).map(|_| growth.accepted(true, true)).collect();
-        assert_eq!(grows, [false, true, true, true]);
-        // A hard (not easy) sub-step never lets the size grow.
-        assert!(!SubstepGrowth::default().accepted(false, true));
-        // A failure, the size doubles back to the whole step and converges there many times,
-        // then fails again: that size did not just double, so it waits for 2 easy sub-steps,
-        // not 4 (the caller used to skip the controller at the whole step, leaving it
-        // believing the size had just doubled).
-        let mut growth = SubstepGrowth::default();
-        growth.failed();
-        assert!(!growth.accepted(true, true));
-        assert!(growth.accepted(true, true));
-        (0..50).for_each(|_| assert!(!growth.accepted(true, false)));
-        growth.failed();
-        let grows: Vec<bool> = (0..2).map(|_| growth.accepted(true, true)).collect();
-        assert_eq!(grows, [false, true]);
     }
 
     #[test]

@@ -722,7 +722,8 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         } else {
             (!self.external_forces.is_empty()).then(|| self.external_forces.clone())
         };
-        let mut solver = StaticSolver::new(options.solver);
+        let mut solver = StaticSolver::new(options.solver)
+            .map_err(|source| ShellError::Static { outer: 0, source })?;
         // Each outer solve starts from the last one's equilibrium and shift.
         solver.set_warm_start(true);
         let mut x = self.x.clone();
@@ -762,7 +763,12 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             if volume_control {
                 tolerance = tolerance.min(final_tolerance);
             }
-            solver.params.tolerance = tolerance;
+            solver
+                .set_params(StaticParams {
+                    tolerance,
+                    ..*solver.params()
+                })
+                .map_err(|source| ShellError::Static { outer, source })?;
             let (info, gauge, volume) = {
                 let mut shell = StaticShell::new(&mut self.system, gas, options.follower_term);
                 let info = if pinned {
@@ -1102,6 +1108,7 @@ mod tests {
             {
                 let mut shell = StaticShell::new(&mut plain.system, GasTerm::Own, true);
                 StaticSolver::new(options.solver)
+                    .unwrap()
                     .solve(&mut shell, 0.0, &mut x_plain, None)
                     .unwrap();
             }

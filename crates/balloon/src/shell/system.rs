@@ -660,7 +660,8 @@ mod tests {
                 .with_dt(1.0)
                 .build()
                 .unwrap();
-            sim.integrator_params_mut().tangent = TangentKind::Projected;
+            sim.configure_integrator(|p| p.tangent = TangentKind::Projected)
+                .unwrap();
             let mut last = 0.0;
             let mut settled = false;
             for _ in 0..60 {
