@@ -47,6 +47,9 @@
 //! assert!((x.0 - 0.75f64.powi(4)).abs() < 1e-15);
 //! ```
 
+use crate::ForceSystem;
+use crate::implicit::{BackwardEuler, IntegrateError, StepInfo};
+
 /// A sub-step whose Newton converged in at most this many iterations, without line-search
 /// cuts, counts as easy: easy sub-steps in a row let a sub-step size that a failure halved
 /// double again (one after a single failure; more, up to [`MAX_EASY_BEFORE_GROWTH`], while the
@@ -77,6 +80,99 @@ pub trait Substepper {
     /// Whether a failure may go away at a smaller size (a numerical failure, not a physical
     /// runaway or bad input).
     fn may_retry(error: &Self::Error) -> bool;
+}
+
+/// A [`ForceSystem`] stepped by [`BackwardEuler`] as a [`Substepper`]: any force system gets
+/// adaptive sub-steps this way. The state is the positions and velocities; a sub-step is
+/// easy when Newton converged in at most [`EASY_NEWTON_ITERATIONS`] iterations without
+/// line-search cuts; every failure but bad input ([`IntegrateError::is_recoverable`]) is
+/// retried at half the size.
+///
+/// ```
+/// use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
+/// use balloon_integrate::substep::{AdaptiveSubsteps, ImplicitSteps};
+/// use balloon_integrate::{ForceSystem, SystemError};
+///
+/// /// A stiff spring to the origin.
+/// struct Spring([f64; 3]);
+/// impl ForceSystem for Spring {
+///     fn num_dofs(&self) -> usize {
+///         3
+///     }
+///     fn masses(&self) -> &[f64] {
+///         &self.0
+///     }
+///     fn forces(&mut self, _t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+///         f.iter_mut().zip(x).for_each(|(f, x)| *f = -1e4 * x);
+///         Ok(())
+///     }
+///     fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+///         df.iter_mut().zip(dx).for_each(|(df, dx)| *df -= 1e4 * dx);
+///     }
+/// }
+///
+/// let mut steps = ImplicitSteps {
+///     integrator: BackwardEuler::new(BackwardEulerParams::default())?,
+///     system: Spring([1.0; 3]),
+///     x: vec![0.1, 0.0, 0.0],
+///     v: vec![0.0; 3],
+///     external_forces: None,
+/// };
+/// let mut control = AdaptiveSubsteps::new(10);
+/// for n in 0..10 {
+///     control
+///         .advance(&mut steps, n as f64 * 0.01, 0.01, |_| {})
+///         .map_err(|failure| failure.error)?;
+/// }
+/// // Backward Euler damps the oscillation.
+/// assert!(steps.x[0].abs() < 0.1);
+/// # Ok::<(), balloon_integrate::implicit::IntegrateError>(())
+/// ```
+#[derive(Debug)]
+pub struct ImplicitSteps<S> {
+    /// The integrator.
+    pub integrator: BackwardEuler,
+    /// The force system.
+    pub system: S,
+    /// Positions, m (flat, one entry per degree of freedom).
+    pub x: Vec<f64>,
+    /// Velocities, m/s.
+    pub v: Vec<f64>,
+    /// External forces per degree of freedom, N (held over each step).
+    pub external_forces: Option<Vec<f64>>,
+}
+
+impl<S: ForceSystem> Substepper for ImplicitSteps<S> {
+    type State = (Vec<f64>, Vec<f64>);
+    type Info = StepInfo;
+    type Error = IntegrateError;
+
+    fn save(&self) -> Self::State {
+        (self.x.clone(), self.v.clone())
+    }
+
+    fn restore(&mut self, (x, v): Self::State) {
+        (self.x, self.v) = (x, v);
+    }
+
+    fn substep(&mut self, time: f64, dt: f64) -> Result<StepInfo, IntegrateError> {
+        self.integrator.step(
+            &mut self.system,
+            time,
+            dt,
+            &mut self.x,
+            &mut self.v,
+            self.external_forces.as_deref(),
+        )
+    }
+
+    fn is_easy(info: &StepInfo) -> bool {
+        info.newton_iterations <= EASY_NEWTON_ITERATIONS && info.line_search_cuts == 0
+    }
+
+    fn may_retry(error: &IntegrateError) -> bool {
+        error.is_recoverable()
+    }
 }
 
 /// One attempt of a sub-step, as [`AdaptiveSubsteps::advance`] hands it to its observer.
