@@ -63,6 +63,7 @@
 //! `BackwardEulerParams::parallel_factorization` can run the sparse Cholesky factorisation on
 //! the rayon pool; without it the factorisation always runs on the calling thread.
 
+pub mod decorators;
 pub mod explicit;
 pub mod implicit;
 pub mod newton;

@@ -43,6 +43,7 @@
 //! ```
 
 use crate::shell::ShellMaterial;
+use crate::shell::connected_error::ConnectedError;
 use crate::shell::{ShellError, ShellSimulation, ShellStepStats};
 use crate::two_layer::{TwoLayerError, TwoLayerSimulation, TwoLayerStats};
 use crate::volumetric::{StepStats, VolumetricError, VolumetricSimulation};
@@ -67,7 +68,7 @@ pub enum SimulationError {
     TwoLayer(#[from] TwoLayerError),
     /// A set of connected balloons failed ([`crate::shell::connected::ConnectedBalloons`]).
     #[error(transparent)]
-    Connected(#[from] crate::shell::connected::ConnectedError),
+    Connected(#[from] ConnectedError),
 }
 
 /// What one step did: the numbers every system has, and the system's own statistics in

@@ -41,8 +41,8 @@
 use balloon_gas::Gas;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
-use thiserror::Error;
 
+pub use super::connected_error::ConnectedError;
 use super::statics::{StaticControl, StaticOptions, StaticReport};
 use super::{ShellError, ShellMaterial, ShellSimulation, ShellStepStats};
 use crate::simulation::{DrawnSurface, Simulation, SimulationError, SimulationStats};
@@ -90,7 +90,7 @@ impl<M: ShellMaterial> ShellSimulation<M, Gas> {
                 name: "gas",
                 value: format!("{:?}", self.gas().kind()).to_lowercase(),
                 reason: "inflating to a volume and holding the gas needs the isothermal ideal \
-                         gas (--gas ideal)"
+                         gas (`gas` = ideal)"
                     .into(),
             });
         }
@@ -136,60 +136,6 @@ pub struct Tube {
     pub b: usize,
     /// How freely gas flows.
     pub conductance: Conductance,
-}
-
-/// Errors of [`ConnectedBalloons`].
-#[derive(Debug, Error)]
-pub enum ConnectedError {
-    /// No balloons were given.
-    #[error("connected balloons: no balloons")]
-    Empty,
-    /// A balloon does not hold an isothermal ideal gas (the flow moves amounts of gas).
-    #[error("balloon {balloon}: connected balloons need the isothermal ideal gas (--gas ideal)")]
-    NotIdealGas {
-        /// The balloon's index.
-        balloon: usize,
-    },
-    /// The balloons do not share the time step or the ambient pressure.
-    #[error("balloon {balloon}: {what} {value} differs from balloon 0's {expected}")]
-    Mismatch {
-        /// The balloon's index.
-        balloon: usize,
-        /// `"dt"` or `"ambient pressure"`.
-        what: &'static str,
-        /// Its value.
-        value: f64,
-        /// Balloon 0's value.
-        expected: f64,
-    },
-    /// A tube is invalid.
-    #[error("tube {tube}: {reason}")]
-    InvalidTube {
-        /// The tube's index.
-        tube: usize,
-        /// What is wrong.
-        reason: String,
-    },
-    /// A balloon's step failed. That balloon is rolled back to the start of the step, but the
-    /// balloons before it have taken theirs: do not step the set further.
-    #[error("balloon {balloon}: {source}")]
-    Shell {
-        /// The balloon's index.
-        balloon: usize,
-        /// What failed.
-        #[source]
-        source: ShellError,
-    },
-    /// The flow update produced an amount that is not positive and finite.
-    #[error("step {step}: the gas flow left balloon {balloon} with amount {amount:e} J")]
-    Flow {
-        /// Step number (1-based).
-        step: usize,
-        /// The balloon's index.
-        balloon: usize,
-        /// Its amount `nRT`, J.
-        amount: f64,
-    },
 }
 
 /// What one step of [`ConnectedBalloons`] did.
@@ -289,7 +235,7 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
             }
             for (what, value, expected) in [
                 ("dt", b.dt(), dt),
-                ("ambient pressure", b.ambient_pressure(), ambient),
+                ("ambient_pressure", b.ambient_pressure(), ambient),
             ] {
                 if value != expected {
                     return Err(ConnectedError::Mismatch {

@@ -1,54 +1,19 @@
-//! Incompressible rubber membranes in the shell (issue 14, item 1): the [`Membrane`] material
-//! wrapper, [`ShellBalloon::with_membrane`] and the analytic sphere stretch for a pressure.
+//! Incompressible rubber membranes in the shell: [`ShellBalloon::with_membrane`] (the
+//! [`Membrane`] material wrapper and the analytic sphere stretch for a pressure,
+//! [`membrane_sphere_stretch`], live in `balloon-shell`).
 //!
 //! A membrane shell runs through the same system, Newton solver (exact and projected tangents),
 //! gas models, anchors, statistics and `Simulation` trait as the three-prism shell; only the
 //! element differs ([`balloon_element::HyperMembrane`], `docs/membranes.md` M22-M25), and the
 //! thickness is not a state but `h = H / (l1 l2)` (M2), refreshed after every solve.
 
+#[cfg(doc)]
 use balloon_material::MembraneModel;
-use balloon_material::membrane::{MembraneMaterial, ThinSphere};
+use balloon_material::membrane::MembraneMaterial;
 
-use super::{ShellBalloon, ShellGas};
-
-/// An incompressible hyperelastic membrane model (any [`MembraneMaterial`]: neo-Hookean,
-/// Mooney-Rivlin, Gent, Ogden, Yeoh or the run-time [`MembraneModel`]) used as a shell
-/// material: every triangle becomes a [`balloon_element::HyperMembrane`] with energy
-/// `A0 H W(C)` (`docs/membranes.md` M23) and thickness `H / sqrt(det C)` (M2).
-///
-/// Build one with [`ShellBalloon::with_membrane`] (which also switches the shell-volume
-/// projection off) or pass it to [`ShellBalloon::with_material`].
-///
-/// ```
-/// use balloon::gas::GasKind;
-/// use balloon::material::membrane::MembraneNeoHookean;
-/// use balloon::shell::ShellBalloon;
-///
-/// let mesh = balloon::mesh::generate::icosphere(0.1, 2)?;
-/// let rubber = MembraneNeoHookean::try_new(4.0e5)?;
-/// let mut sim = ShellBalloon::new(mesh)
-///     .with_membrane(rubber)
-///     .with_thickness(1.0e-3)
-///     .with_gas(GasKind::Constant)
-///     .with_gauge_pressure(3000.0)
-///     .build()?;
-/// let stats = sim.step()?;
-/// assert!(stats.gas_volume > sim.rest_gas_volume());
-/// // Incompressible: every element keeps its material volume, thickness = H / (l1 l2).
-/// assert!((stats.shell_volume_ratio - 1.0).abs() < 1e-12);
-/// assert!(stats.thickness_max < 1.0e-3);
-/// assert_eq!(stats.projection_iterations, 0);
-/// # Ok::<(), Box<dyn std::error::Error>>(())
-/// ```
-#[derive(Clone, Debug, PartialEq)]
-pub struct Membrane<W: MembraneMaterial = MembraneModel>(pub W);
-
-impl<W: MembraneMaterial> Membrane<W> {
-    /// The membrane model.
-    pub fn model(&self) -> &W {
-        &self.0
-    }
-}
+#[cfg(doc)]
+use super::membrane_sphere_stretch;
+use super::{Membrane, ShellBalloon, ShellGas};
 
 impl<M: super::ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
     /// Makes the shell an incompressible rubber membrane of `model` (any [`MembraneMaterial`],
@@ -59,61 +24,35 @@ impl<M: super::ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
     ///
     /// It also switches the shell-volume projection off. For a membrane it is redundant: the
     /// thickness follows incompressibility, `h = H / (l1 l2)`, so every element keeps its
-    /// material volume `A h = A0 H` exactly and the projection of seed 000 (Alg. 1, line 10;
+    /// material volume `A h = A0 H` exactly and the projection of Wang et al. 2015 (Alg. 1, line 10;
     /// Eq. 24-28) has nothing to correct. A projector set again after this call is consistent
     /// with it: the shell refreshes the thickness before the projector runs, so the constraint
     /// holds and the projection moves nothing (and the thickness is refreshed again after it).
+    ///
+    /// ```
+    /// use balloon::gas::GasKind;
+    /// use balloon::material::membrane::MembraneNeoHookean;
+    /// use balloon::shell::ShellBalloon;
+    ///
+    /// let mesh = balloon::mesh::generate::icosphere(0.1, 2)?;
+    /// let rubber = MembraneNeoHookean::try_new(4.0e5)?;
+    /// let mut sim = ShellBalloon::new(mesh)
+    ///     .with_membrane(rubber)
+    ///     .with_thickness(1.0e-3)
+    ///     .with_gas(GasKind::Constant)
+    ///     .with_gauge_pressure(3000.0)
+    ///     .build()?;
+    /// let stats = sim.step()?;
+    /// assert!(stats.gas_volume > sim.rest_gas_volume());
+    /// // Incompressible: every element keeps its material volume, thickness = H / (l1 l2).
+    /// assert!((stats.shell_volume_ratio - 1.0).abs() < 1e-12);
+    /// assert!(stats.thickness_max < 1.0e-3);
+    /// assert_eq!(stats.projection_iterations, 0);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn with_membrane<W: MembraneMaterial>(self, model: W) -> ShellBalloon<Membrane<W>, G> {
         self.with_material(Membrane(model)).with_projection(None)
     }
-}
-
-/// The stretch `l >= 1` at which a thin membrane sphere (`sphere`: rest radius `R`, rest
-/// thickness `H`) of `material` is in equilibrium under the gauge pressure `pressure` (Pa), on the
-/// rising branch from the rest state: the root of `P(l) = H / (R l^2) w'(l)`
-/// (`docs/membranes.md` M18) below the first pressure maximum, by bisection. `None` when
-/// `pressure` is negative or not finite, above the first maximum (no equilibrium on this branch:
-/// the balloon snaps through), or when no root is found up to `l = 100`.
-pub fn membrane_sphere_stretch<W: MembraneMaterial>(
-    sphere: &ThinSphere,
-    material: &W,
-    pressure: f64,
-) -> Option<f64> {
-    if !(pressure.is_finite() && pressure >= 0.0) {
-        return None;
-    }
-    if pressure == 0.0 {
-        return Some(1.0);
-    }
-    let p = |l: f64| sphere.pressure(material, l);
-    // March up the curve until it passes `pressure` (or turns down before it).
-    let mut lo;
-    let mut hi = 1.0;
-    let mut p_prev = 0.0;
-    loop {
-        let next = hi * 1.005;
-        let pn = p(next);
-        if !pn.is_finite() || pn < p_prev || next > 100.0 {
-            return None;
-        }
-        (lo, hi) = (hi, next);
-        p_prev = pn;
-        if pn >= pressure {
-            break;
-        }
-    }
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if mid <= lo || mid >= hi {
-            break;
-        }
-        if p(mid) < pressure {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    Some(0.5 * (lo + hi))
 }
 
 #[cfg(test)]
@@ -127,7 +66,9 @@ mod tests {
     };
     use crate::mesh::generate::icosphere;
     use crate::mesh::geometry;
-    use crate::shell::{ShellMaterial, ShellMaterialModel};
+    use crate::shell::{ShellMaterial, ShellMaterialModel, membrane_sphere_stretch};
+    use balloon_material::MembraneModel;
+    use balloon_material::membrane::ThinSphere;
 
     fn neo_hookean() -> MembraneNeoHookean {
         MembraneNeoHookean::try_new(4.0e5).unwrap()
@@ -389,51 +330,5 @@ mod tests {
         for (u, v) in off.thickness().iter().zip(on.thickness()) {
             assert!((u - v).abs() <= 1e-9 * u, "{u} vs {v}");
         }
-    }
-
-    /// A state beyond Gent's limit (`I1 - 3 >= jm`) is reported as an invalid element naming
-    /// the membrane and its area stretch, not as a silent NaN.
-    #[test]
-    fn a_state_beyond_the_gent_limit_is_an_element_error() {
-        use balloon_integrate::{ForceSystem, SystemError};
-        let mesh = icosphere(0.1, 1).unwrap();
-        let mut sim = ShellBalloon::new(mesh)
-            .with_membrane(MembraneGent::try_new(4e5, 2.0).unwrap())
-            .with_gas(GasKind::Constant)
-            .build()
-            .unwrap();
-        // Stretch 1.6: I1 - 3 = 2 l^2 + l^-4 - 3 = 2.27 > jm = 2.
-        let x: Vec<f64> = sim.positions().iter().map(|v| 1.6 * v).collect();
-        let mut f = vec![0.0; x.len()];
-        let err = sim.system.forces(0.0, &x, &mut f).unwrap_err();
-        match &err {
-            SystemError::InvertedElement { source, .. } => {
-                let detail = source.to_string();
-                assert!(
-                    detail.contains("hyper membrane") && detail.contains("area stretch"),
-                    "{detail}"
-                );
-            }
-            other => panic!("expected an invalid element, got {other:?}"),
-        }
-        assert!(sim.system.potential_energy(0.0, &x).is_err());
-        // Below the limit the same sphere is fine.
-        let x: Vec<f64> = sim.positions().iter().map(|v| 1.3 * v).collect();
-        sim.system.forces(0.0, &x, &mut f).unwrap();
-    }
-
-    /// The analytic helper inverts `ThinSphere::pressure` on the rising branch.
-    #[test]
-    fn sphere_stretch_inverts_the_pressure_curve() {
-        let sphere = ThinSphere::try_new(0.1, 1e-3).unwrap();
-        let m = neo_hookean();
-        for l in [1.01, 1.2, 1.35] {
-            let p = sphere.pressure(&m, l);
-            let back = membrane_sphere_stretch(&sphere, &m, p).unwrap();
-            assert!((back - l).abs() < 1e-10, "{l} -> {back}");
-        }
-        assert_eq!(membrane_sphere_stretch(&sphere, &m, 0.0), Some(1.0));
-        assert_eq!(membrane_sphere_stretch(&sphere, &m, -1.0), None);
-        assert_eq!(membrane_sphere_stretch(&sphere, &m, f64::NAN), None);
     }
 }

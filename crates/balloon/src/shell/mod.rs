@@ -113,15 +113,17 @@
 
 pub mod analytic;
 pub mod connected;
+pub(crate) mod connected_error;
 mod membrane;
 mod pins;
-mod shell_material;
 pub mod statics;
-mod system;
+#[cfg(test)]
+mod tests;
 
-pub use membrane::{Membrane, membrane_sphere_stretch};
-pub use shell_material::{ShellElement, ShellMaterial, ShellMaterialModel};
-pub use system::ShellSystem;
+pub use balloon_integrate::decorators::AnchorSpring;
+pub use balloon_shell::{
+    Membrane, ShellElement, ShellMaterial, ShellMaterialModel, ShellSystem, membrane_sphere_stretch,
+};
 
 use balloon_constraint::projector::{ShellProjectionInput, ShellProjector};
 use balloon_constraint::shell_volume::{ShellVolumeParams, ShellVolumeProjection, shell_volume};
@@ -129,6 +131,7 @@ use balloon_gas::{
     ConstantPressure, Gas, GasKind, GasLawParams, GasModel, IdealGas, PressureLoad,
     STANDARD_ATMOSPHERE,
 };
+use balloon_integrate::decorators::{Anchored, Anchors, Pinned};
 use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
 use balloon_integrate::linear::{LinearSolverKind, PcgPreconditioner};
 use balloon_integrate::substep::{AdaptiveSubsteps, Attempt, Substepper};
@@ -801,7 +804,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
                     * h
             })
             .collect();
-        let system = ShellSystem::new(
+        let system = ShellSystem::try_new(
             nv,
             self.mesh.triangles.clone(),
             elements,
@@ -809,7 +812,12 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             self.material,
             load,
             &vertex_mass,
-        );
+        )
+        .map_err(|e| ShellError::InvalidParameter {
+            name: "mesh",
+            value: format!("{nv} vertices, {nt} triangles"),
+            reason: e.to_string(),
+        })?;
         let integrator = BackwardEuler::new(self.integrator).map_err(integrator_error)?;
         Ok(ShellSimulation {
             v: vec![0.0; x.len()],
@@ -830,7 +838,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             dt: self.dt,
             substeps: AdaptiveSubsteps::new(self.max_step_halvings).with_size(self.dt),
             external_forces: Vec::new(),
-            anchor_springs: Vec::new(),
+            anchor_springs: Anchors::default(),
             pins: pins::Pins::default(),
             projection_ms: 0.0,
         })
@@ -943,7 +951,7 @@ pub struct ShellSimulation<M: ShellMaterial = MaterialModel, G: GasModel = Gas> 
     /// External forces per degree of freedom (N), held constant over each step; empty = none.
     external_forces: Vec<f64>,
     /// Zero-length springs to fixed anchors, part of the implicit solve; empty = none.
-    anchor_springs: Vec<AnchorSpring>,
+    anchor_springs: Anchors,
     /// Hard pins: vertices removed from the solve (`pins.rs`); none by default.
     pins: pins::Pins,
     /// Wall-clock time of every shell-volume projection so far (also of sub-steps rolled
@@ -1162,36 +1170,21 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         let info = if self.pins.active() {
             let pins = &mut self.pins;
             pins.prepare(v, &self.external_forces, gravity);
-            let masked = std::mem::take(&mut pins.external);
-            let external = (!masked.is_empty()).then_some(&masked[..]);
-            let info = if self.anchor_springs.is_empty() {
-                let mut system = pins::WithPins {
-                    inner: &mut self.system,
-                    pins,
-                };
+            let external = (!pins.external.is_empty()).then_some(&pins.external[..]);
+            if self.anchor_springs.is_empty() {
+                let mut system = Pinned::new(&mut self.system, &mut pins.dofs)?;
                 integrator.step(&mut system, time, dt, x, v, external)
             } else {
-                let mut anchored = WithAnchors {
-                    inner: &mut self.system,
-                    springs: &self.anchor_springs,
-                };
-                let mut system = pins::WithPins {
-                    inner: &mut anchored,
-                    pins,
-                };
+                let mut anchored = Anchored::new(&mut self.system, &self.anchor_springs)?;
+                let mut system = Pinned::new(&mut anchored, &mut pins.dofs)?;
                 integrator.step(&mut system, time, dt, x, v, external)
-            };
-            self.pins.external = masked;
-            info
+            }
         } else {
             let external = (!self.external_forces.is_empty()).then_some(&self.external_forces[..]);
             if self.anchor_springs.is_empty() {
                 integrator.step(&mut self.system, time, dt, x, v, external)
             } else {
-                let mut system = WithAnchors {
-                    inner: &mut self.system,
-                    springs: &self.anchor_springs,
-                };
+                let mut system = Anchored::new(&mut self.system, &self.anchor_springs)?;
                 integrator.step(&mut system, time, dt, x, v, external)
             }
         }
@@ -1201,8 +1194,9 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         self.system.refresh_thickness(&self.x);
         let mut proj_iters = 0;
         if let Some(proj) = &mut self.projection {
+            let (triangles, thickness) = self.system.triangles_and_thickness_mut();
             let input = ShellProjectionInput {
-                triangles: &self.system.triangles,
+                triangles,
                 vertex_inverse_mass: if self.pins.active() {
                     &self.pins.vertex_inverse_mass
                 } else {
@@ -1213,7 +1207,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 rest_element_volumes: &self.rest_element_volumes,
             };
             let started = std::time::Instant::now();
-            let projected = proj.project(&input, &mut self.x, &mut self.system.thickness);
+            let projected = proj.project(&input, &mut self.x, thickness);
             self.projection_ms += started.elapsed().as_secs_f64() * 1e3;
             let pi = projected.map_err(|source| ShellError::Projection { step, source })?;
             proj_iters = pi.iterations;
@@ -1253,7 +1247,8 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 ),
             });
         }
-        let vol = balloon_gas::enclosed_volume(&self.x, &self.system.triangles).unwrap_or(f64::NAN);
+        let vol =
+            balloon_gas::enclosed_volume(&self.x, self.system.triangles()).unwrap_or(f64::NAN);
         if !(vol.is_finite() && vol > 0.0 && vol < RUNAWAY_VOLUME_FACTOR * self.rest_gas_volume) {
             return Err(ShellError::RunawayVolume {
                 step,
@@ -1283,7 +1278,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     }
     /// Triangles.
     pub fn triangles(&self) -> &[[usize; 3]] {
-        &self.system.triangles
+        self.system.triangles()
     }
     /// The current surface as a mesh.
     pub fn mesh(&self) -> TriMesh {
@@ -1292,7 +1287,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 .chunks_exact(3)
                 .map(|c| Point3::new(c[0], c[1], c[2]))
                 .collect(),
-            self.system.triangles.clone(),
+            self.system.triangles().to_vec(),
         )
     }
     /// Simulation time, s.
@@ -1330,7 +1325,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     }
     /// Current shell material volume `sum_e A_e h_e` (Eq. 26), m^3.
     pub fn shell_volume(&self) -> f64 {
-        shell_volume(&self.system.triangles, &self.x, &self.system.thickness)
+        shell_volume(self.system.triangles(), &self.x, &self.system.thickness)
     }
     /// Rest shell material volume, m^3.
     pub fn rest_shell_volume(&self) -> f64 {
@@ -1530,58 +1525,30 @@ impl<M: ShellMaterial> ShellSimulation<M, Gas> {
     }
 }
 
-/// A zero-length spring from a vertex to a fixed anchor point: force `k (anchor - x_v)`,
-/// stiffness `k I` on the vertex, integrated implicitly with the shell (backward Euler, Eq. 18-23)
-/// so stiff springs stay stable. The live viewer grabs and pinches the shell with them.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct AnchorSpring {
-    /// The pulled vertex.
-    pub vertex: usize,
-    /// Anchor position, m.
-    pub anchor: [f64; 3],
-    /// Stiffness, N/m (>= 0).
-    pub stiffness: f64,
-}
-
 impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
-    /// Replaces the anchor springs acting in the following steps (an empty list removes them).
-    /// Every vertex must exist, every anchor be finite and every stiffness finite and >= 0.
+    /// Replaces the anchor springs acting in the following steps (an empty list removes them):
+    /// zero-length springs from vertices to fixed points, integrated implicitly with the shell
+    /// (backward Euler, Eq. 18-23) so stiff springs stay stable
+    /// ([`balloon_integrate::decorators::Anchored`]). The live viewer grabs and pinches the
+    /// shell with them. Every vertex must exist, every anchor be finite and every stiffness
+    /// finite and >= 0.
     pub fn set_anchor_springs(&mut self, springs: Vec<AnchorSpring>) -> Result<(), ShellError> {
-        let nv = self.x.len() / 3;
-        for s in &springs {
-            if s.vertex >= nv {
-                return Err(ShellError::InvalidParameter {
-                    name: "anchor spring vertex",
-                    value: s.vertex.to_string(),
-                    reason: format!("the shell has {nv} vertices"),
-                });
-            }
-            let ok = s.stiffness.is_finite()
-                && s.stiffness >= 0.0
-                && s.anchor.iter().all(|c| c.is_finite());
-            if !ok {
-                return Err(ShellError::InvalidParameter {
-                    name: "anchor spring",
-                    value: format!("{s:?}"),
-                    reason: "the anchor must be finite and the stiffness finite and >= 0".into(),
-                });
-            }
-        }
-        self.anchor_springs = springs;
+        self.anchor_springs = Anchors::new(self.x.len() / 3, springs)?;
         Ok(())
     }
 
     /// The anchor springs set by [`ShellSimulation::set_anchor_springs`].
     pub fn anchor_springs(&self) -> &[AnchorSpring] {
-        &self.anchor_springs
+        self.anchor_springs.springs()
     }
 
     /// Pins `vertices` hard from the next step on (an empty list frees them): a pinned vertex
     /// does not move at all. Its degrees of freedom are removed from the backward Euler solve
     /// (Eq. 18-23: zero residual, identity rows and columns of the Newton matrix, zero
-    /// velocity) and from the shell-volume projection (Algorithm 2: zero inverse mass), so its
-    /// position stays bit for bit what it was. Duplicates are ignored; every vertex must exist.
-    /// The static solve ([`ShellSimulation::solve_static`]) keeps them in place too.
+    /// velocity; [`balloon_integrate::decorators::Pinned`]) and from the shell-volume
+    /// projection (Algorithm 2: zero inverse mass), so its position stays bit for bit what it
+    /// was. Duplicates are ignored; every vertex must exist. The static solve
+    /// ([`ShellSimulation::solve_static`]) keeps them in place too.
     ///
     /// ```
     /// use balloon::shell::ShellBalloon;
@@ -1601,16 +1568,8 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn set_pinned_vertices(&mut self, vertices: Vec<usize>) -> Result<(), ShellError> {
-        let nv = self.x.len() / 3;
-        if let Some(&bad) = vertices.iter().find(|&&v| v >= nv) {
-            return Err(ShellError::InvalidParameter {
-                name: "pinned vertex",
-                value: bad.to_string(),
-                reason: format!("the shell has {nv} vertices"),
-            });
-        }
-        self.pins = pins::Pins::new(vertices, &self.vertex_inv_mass);
-        for &p in &self.pins.vertices {
+        self.pins = pins::Pins::new(vertices, &self.vertex_inv_mass)?;
+        for &p in self.pins.dofs.vertices() {
             self.v[3 * p..3 * p + 3].fill(0.0);
         }
         Ok(())
@@ -1618,149 +1577,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
 
     /// The hard-pinned vertices ([`ShellSimulation::set_pinned_vertices`]), sorted.
     pub fn pinned_vertices(&self) -> &[usize] {
-        &self.pins.vertices
-    }
-}
-
-/// A force system plus anchor springs (their force, differential and stiffness entries added to
-/// the inner system's).
-pub(crate) struct WithAnchors<'a, S> {
-    pub(crate) inner: &'a mut S,
-    pub(crate) springs: &'a [AnchorSpring],
-}
-
-impl<S: ForceSystem> ForceSystem for WithAnchors<'_, S> {
-    fn num_dofs(&self) -> usize {
-        self.inner.num_dofs()
-    }
-
-    fn masses(&self) -> &[f64] {
-        self.inner.masses()
-    }
-
-    fn forces(
-        &mut self,
-        time: f64,
-        x: &[f64],
-        f: &mut [f64],
-    ) -> Result<(), balloon_integrate::SystemError> {
-        self.inner.forces(time, x, f)?;
-        self.add_spring_forces(x, f);
-        Ok(())
-    }
-
-    fn residual_forces(
-        &mut self,
-        time: f64,
-        x: &[f64],
-        f: &mut [f64],
-    ) -> Result<(), balloon_integrate::SystemError> {
-        self.inner.residual_forces(time, x, f)?;
-        self.add_spring_forces(x, f);
-        Ok(())
-    }
-
-    fn refresh_stiffness(&mut self) -> Result<(), balloon_integrate::SystemError> {
-        self.inner.refresh_stiffness()
-    }
-
-    fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
-        self.inner.add_force_differential(dx, df);
-        for s in self.springs {
-            for d in 0..3 {
-                df[3 * s.vertex + d] -= s.stiffness * dx[3 * s.vertex + d];
-            }
-        }
-    }
-
-    fn add_stiffness_triplets(
-        &self,
-        triplets: &mut Vec<(usize, usize, f64)>,
-    ) -> Result<(), balloon_integrate::SystemError> {
-        self.inner.add_stiffness_triplets(triplets)?;
-        self.add_spring_triplets(triplets);
-        Ok(())
-    }
-
-    fn stiffness_blocks(&self) -> Option<balloon_integrate::StiffnessBlocks<'_>> {
-        self.inner.stiffness_blocks()
-    }
-
-    fn add_remaining_stiffness_triplets(
-        &self,
-        triplets: &mut Vec<(usize, usize, f64)>,
-    ) -> Result<(), balloon_integrate::SystemError> {
-        self.inner.add_remaining_stiffness_triplets(triplets)?;
-        self.add_spring_triplets(triplets);
-        Ok(())
-    }
-
-    fn add_stiffness_diagonal(
-        &self,
-        diagonal: &mut [f64],
-    ) -> Result<(), balloon_integrate::SystemError> {
-        self.inner.add_stiffness_diagonal(diagonal)?;
-        for s in self.springs {
-            for d in 0..3 {
-                diagonal[3 * s.vertex + d] += s.stiffness;
-            }
-        }
-        Ok(())
-    }
-
-    fn set_tangent(
-        &mut self,
-        kind: balloon_integrate::TangentKind,
-    ) -> Result<(), balloon_integrate::SystemError> {
-        self.inner.set_tangent(kind)
-    }
-
-    fn low_rank_terms(&self) -> &[balloon_integrate::LowRankTerm] {
-        self.inner.low_rank_terms()
-    }
-
-    /// The inner system's energy plus `k/2 |x_v - anchor|^2` per spring.
-    fn potential_energy(
-        &mut self,
-        time: f64,
-        x: &[f64],
-    ) -> Result<Option<f64>, balloon_integrate::SystemError> {
-        Ok(self.inner.potential_energy(time, x)?.map(|inner| {
-            inner
-                + self
-                    .springs
-                    .iter()
-                    .map(|s| {
-                        let d2: f64 = (0..3)
-                            .map(|d| (x[3 * s.vertex + d] - s.anchor[d]).powi(2))
-                            .sum();
-                        0.5 * s.stiffness * d2
-                    })
-                    .sum::<f64>()
-        }))
-    }
-
-    fn force_scale(&self) -> Option<f64> {
-        self.inner.force_scale()
-    }
-}
-
-impl<S> WithAnchors<'_, S> {
-    /// The springs' forces `k (anchor - x)` added to `f`.
-    fn add_spring_forces(&self, x: &[f64], f: &mut [f64]) {
-        for s in self.springs {
-            for d in 0..3 {
-                f[3 * s.vertex + d] += s.stiffness * (s.anchor[d] - x[3 * s.vertex + d]);
-            }
-        }
-    }
-
-    fn add_spring_triplets(&self, triplets: &mut Vec<(usize, usize, f64)>) {
-        for s in self.springs {
-            for d in 0..3 {
-                triplets.push((3 * s.vertex + d, 3 * s.vertex + d, s.stiffness));
-            }
-        }
+        self.pins.dofs.vertices()
     }
 }
 

@@ -78,14 +78,13 @@ use std::time::Instant;
 
 use super::ShellMaterial;
 use balloon_gas::GasModel;
-use balloon_integrate::statics::{
-    LoadScaling, PhaseTimes, StaticError, StaticInfo, StaticParams, StaticSolver,
-};
-use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, TangentKind};
+use balloon_integrate::ForceSystem;
+use balloon_integrate::decorators::Pinned;
+use balloon_integrate::statics::{PhaseTimes, StaticError, StaticInfo, StaticParams, StaticSolver};
+use balloon_shell::statics::{GasTerm, StaticShell};
 use serde::{Deserialize, Serialize};
 
-use super::system::FollowerGauge;
-use super::{ShellError, ShellSimulation, ShellSystem};
+use super::{ShellError, ShellSimulation};
 use balloon_constraint::projector::ShellProjectionInput;
 
 /// How the gas is held in a static solve.
@@ -210,286 +209,6 @@ pub struct OuterRecord {
     pub thickness_change: f64,
     /// Whether the next thickness was extrapolated (Anderson) rather than the projection's.
     pub accelerated: bool,
-}
-
-/// How the gas acts in the static energy.
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum GasTerm {
-    /// The shell's own gas model, scaled by the load factor.
-    Own,
-    /// `p_gauge(V) = lambda - rho (V - V_t(s))`, `V_t(s) = V_start + s (V_target - V_start)`.
-    Volume {
-        lambda: f64,
-        rho: f64,
-        start: f64,
-        target: f64,
-    },
-}
-
-/// The shell as seen by the static solver: its elastic part plus a [`GasTerm`] with a load
-/// factor, and optionally the follower term of the pressure tangent.
-pub(crate) struct StaticShell<'a, M: ShellMaterial, G: GasModel> {
-    pub(crate) inner: &'a mut ShellSystem<M, G>,
-    pub(crate) gas: GasTerm,
-    pub(crate) factor: f64,
-    pub(crate) follower: bool,
-    /// Positions, gauge pressure and volume of the last evaluation.
-    x: Vec<f64>,
-    gauge: f64,
-    volume: f64,
-    rank1: LowRankTerm,
-    scale: f64,
-    /// The inner system's [`ShellSystem::follower_blocks`] before this wrapper set it (to
-    /// `follower`: the inner element pass adds this gas term's follower blocks, at the gauge
-    /// pressure of [`StaticShell::follower_gauge`]), restored on drop with the override cleared.
-    inner_follower_blocks: bool,
-}
-
-impl<M: ShellMaterial, G: GasModel> Drop for StaticShell<'_, M, G> {
-    fn drop(&mut self) {
-        self.inner.follower_blocks = self.inner_follower_blocks;
-        self.inner.follower_gauge_override = None;
-    }
-}
-
-impl<'a, M: ShellMaterial, G: GasModel> StaticShell<'a, M, G> {
-    pub(crate) fn new(inner: &'a mut ShellSystem<M, G>, gas: GasTerm, follower: bool) -> Self {
-        let inner_follower_blocks = std::mem::replace(&mut inner.follower_blocks, follower);
-        Self {
-            inner_follower_blocks,
-            inner,
-            gas,
-            factor: 1.0,
-            follower,
-            x: Vec::new(),
-            gauge: 0.0,
-            volume: 0.0,
-            rank1: LowRankTerm::default(),
-            scale: 0.0,
-        }
-    }
-
-    /// The gauge pressure of this gas term as the inner element pass needs it for the follower
-    /// blocks ([`StaticShell::pressure`] as a function of the volume).
-    fn follower_gauge(&self) -> FollowerGauge {
-        match self.gas {
-            GasTerm::Own => FollowerGauge {
-                scale: self.factor,
-                lambda: 0.0,
-                rho: 0.0,
-                volume: 0.0,
-            },
-            GasTerm::Volume {
-                lambda,
-                rho,
-                start,
-                target,
-            } => FollowerGauge {
-                scale: 0.0,
-                lambda,
-                rho,
-                volume: start + self.factor * (target - start),
-            },
-        }
-    }
-
-    /// Hands the current gas term and load factor to the inner element pass (with the
-    /// follower term).
-    fn sync_follower(&mut self) {
-        self.inner.follower_gauge_override = self.follower.then(|| self.follower_gauge());
-    }
-
-    /// The gauge pressure (Pa) and `dp/dV` (Pa/m^3) of the gas term at volume `v`, from the
-    /// inner gas state of the same evaluation for [`GasTerm::Own`].
-    fn pressure(&self, v: f64) -> (f64, f64) {
-        match self.gas {
-            GasTerm::Own => (
-                self.factor * self.inner.gas.state().gauge_pressure,
-                self.factor * self.inner.gas.dpressure_dvolume(),
-            ),
-            GasTerm::Volume {
-                lambda,
-                rho,
-                start,
-                target,
-            } => {
-                let vt = start + self.factor * (target - start);
-                (lambda - rho * (v - vt), -rho)
-            }
-        }
-    }
-
-    /// Replaces the inner gas force in `f` (elastic plus inner gas, at `x`) by this solve's gas
-    /// term (Eq. 15 with [`StaticShell::pressure`]), and keeps what its linearisation needs.
-    fn gas_forces(&mut self, x: &[f64], f: &mut [f64]) {
-        // Remove the inner gas force (gauge * dV/dx, Eq. 15): `f` is then elastic only.
-        let inner_gauge = self.inner.gas.state().gauge_pressure;
-        let g = &self.inner.gas.low_rank_term().vector;
-        for (fi, gi) in f.iter_mut().zip(g) {
-            *fi -= inner_gauge * gi;
-        }
-        let elastic = f.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let volume = self.inner.gas.state().volume;
-        let (gauge, dpdv) = self.pressure(volume);
-        for (fi, gi) in f.iter_mut().zip(g) {
-            *fi += gauge * gi;
-        }
-        let gnorm = g.iter().map(|v| v * v).sum::<f64>().sqrt();
-        self.scale = elastic + gauge.abs() * gnorm;
-        self.rank1.coefficient = -dpdv;
-        self.rank1.vector.clear();
-        self.rank1.vector.extend_from_slice(g);
-        self.gauge = gauge;
-        self.volume = volume;
-        self.x.clear();
-        self.x.extend_from_slice(x);
-    }
-
-    /// The gauge pressure of the last evaluation, Pa.
-    pub(crate) fn gauge_pressure(&self) -> f64 {
-        self.gauge
-    }
-}
-
-impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
-    fn num_dofs(&self) -> usize {
-        self.inner.num_dofs()
-    }
-
-    fn masses(&self) -> &[f64] {
-        self.inner.masses()
-    }
-
-    /// The forces, and the element blocks with this gas term's follower blocks (computed in
-    /// the inner element pass).
-    fn forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
-        self.sync_follower();
-        self.inner.forces(time, x, f)?;
-        self.gas_forces(x, f);
-        Ok(())
-    }
-
-    /// The forces alone (the inner shell's [`ForceSystem::residual_forces`]); the element and
-    /// follower blocks wait for [`ForceSystem::refresh_stiffness`].
-    fn residual_forces(&mut self, time: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
-        self.sync_follower();
-        self.inner.residual_forces(time, x, f)?;
-        self.gas_forces(x, f);
-        Ok(())
-    }
-
-    fn refresh_stiffness(&mut self) -> Result<(), SystemError> {
-        self.inner.refresh_stiffness()
-    }
-
-    /// The elastic differential (with the follower term, which is in the element blocks) plus
-    /// this gas term's rank-1 part.
-    fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
-        self.inner.add_elastic_differential(dx, df);
-        let g = &self.rank1.vector;
-        let gdx: f64 = g.iter().zip(dx).map(|(a, b)| a * b).sum();
-        let s = -self.rank1.coefficient * gdx;
-        for (d, gi) in df.iter_mut().zip(g) {
-            *d += s * gi;
-        }
-    }
-
-    fn add_stiffness_triplets(
-        &self,
-        triplets: &mut Vec<(usize, usize, f64)>,
-    ) -> Result<(), SystemError> {
-        let blocks = self
-            .stiffness_blocks()
-            .ok_or(SystemError::AssemblyUnsupported)?;
-        let k = blocks.nodes_per_block;
-        let size = 3 * k;
-        for (nodes, values) in blocks
-            .nodes
-            .chunks_exact(k)
-            .zip(blocks.values.chunks_exact(size * size))
-        {
-            for a in 0..k {
-                for b in 0..k {
-                    for i in 0..3 {
-                        for j in 0..3 {
-                            // Column-major: entry (row, col) at col * size + row.
-                            let v = values[(3 * b + j) * size + 3 * a + i];
-                            triplets.push((3 * nodes[a] + i, 3 * nodes[b] + j, v));
-                        }
-                    }
-                }
-            }
-        }
-        self.add_remaining_stiffness_triplets(triplets)
-    }
-
-    /// The element blocks, with the follower term `-(p - p_ambient) d^2V/dx^2` added per
-    /// triangle when enabled (by the inner element pass).
-    fn stiffness_blocks(&self) -> Option<StiffnessBlocks<'_>> {
-        self.inner.stiffness_blocks()
-    }
-
-    /// Nothing: the follower term is in the blocks.
-    fn add_remaining_stiffness_triplets(
-        &self,
-        _triplets: &mut Vec<(usize, usize, f64)>,
-    ) -> Result<(), SystemError> {
-        Ok(())
-    }
-
-    fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
-        self.inner.add_stiffness_diagonal(diagonal)
-    }
-
-    fn set_tangent(&mut self, kind: TangentKind) -> Result<(), SystemError> {
-        self.inner.set_tangent(kind)
-    }
-
-    fn low_rank_terms(&self) -> &[LowRankTerm] {
-        std::slice::from_ref(&self.rank1)
-    }
-
-    /// `W_elastic + s W_gas` (own gas) or `W_elastic - lambda V + rho/2 (V - V_t(s))^2`.
-    fn potential_energy(&mut self, time: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
-        let elastic = self.inner.elastic_energy(x);
-        if !elastic.is_finite() {
-            return Err(self.inner.non_finite_energy_error(x));
-        }
-        let gas = match self.gas {
-            GasTerm::Own => match self.inner.gas_energy(time, x)? {
-                Some(w) => self.factor * w,
-                None => return Ok(None),
-            },
-            GasTerm::Volume {
-                lambda,
-                rho,
-                start,
-                target,
-            } => {
-                let v = balloon_gas::enclosed_volume(x, &self.inner.triangles)
-                    .map_err(|e| SystemError::component("gas", e))?;
-                if !(v.is_finite() && v > 0.0) {
-                    return Err(SystemError::component(
-                        "gas",
-                        balloon_gas::GasError::InvalidVolume { volume: v },
-                    ));
-                }
-                let vt = start + self.factor * (target - start);
-                -lambda * v + 0.5 * rho * (v - vt) * (v - vt)
-            }
-        };
-        Ok(Some(elastic + gas))
-    }
-
-    fn force_scale(&self) -> Option<f64> {
-        Some(self.scale)
-    }
-}
-
-impl<M: ShellMaterial, G: GasModel> LoadScaling for StaticShell<'_, M, G> {
-    fn set_load_factor(&mut self, factor: f64) {
-        self.factor = factor;
-    }
 }
 
 /// The loosest relative residual an outer solve is asked for (the first one, and any while the
@@ -728,7 +447,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         solver.set_warm_start(true);
         let mut x = self.x.clone();
         let mut report = StaticReport::default();
-        let start_volume = balloon_gas::enclosed_volume(&x, &self.system.triangles)?;
+        let start_volume = balloon_gas::enclosed_volume(&x, self.system.triangles())?;
         let mut gas = match options.control {
             StaticControl::Gas => GasTerm::Own,
             StaticControl::Volume { target } => {
@@ -772,16 +491,13 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             let (info, gauge, volume) = {
                 let mut shell = StaticShell::new(&mut self.system, gas, options.follower_term);
                 let info = if pinned {
-                    let mut held = super::pins::WithPins {
-                        inner: &mut shell,
-                        pins: &mut self.pins,
-                    };
+                    let mut held = Pinned::new(&mut shell, &mut self.pins.dofs)?;
                     solver.solve_with_continuation(&mut held, time, &mut x, external.as_deref())
                 } else {
                     solver.solve_with_continuation(&mut shell, time, &mut x, external.as_deref())
                 }
                 .map_err(|source| ShellError::Static { outer, source })?;
-                (info, shell.gauge_pressure(), shell.volume)
+                (info, shell.gauge_pressure(), shell.volume())
             };
             report.outer_iterations = outer + 1;
             report.newton_iterations += info.iterations;
@@ -839,7 +555,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             report.thickness_change = 0.0;
             if let Some(proj) = &mut self.projection {
                 let input = ShellProjectionInput {
-                    triangles: &self.system.triangles,
+                    triangles: self.system.triangles(),
                     vertex_inverse_mass: if pinned {
                         &self.pins.vertex_inverse_mass
                     } else {
@@ -885,7 +601,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                     // The predicted start must be a state the shell can be evaluated at (no
                     // inverted element, a positive volume); else the last equilibrium.
                     let valid = self.system.elastic_energy(&x).is_finite()
-                        && balloon_gas::enclosed_volume(&x, &self.system.triangles)
+                        && balloon_gas::enclosed_volume(&x, self.system.triangles())
                             .is_ok_and(|v| v.is_finite() && v > 0.0);
                     if !valid {
                         x = equilibrium;
@@ -964,7 +680,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         report.thickness_max = th.iter().copied().fold(0.0, f64::max);
         report.thickness_mean = th.iter().sum::<f64>() / th.len().max(1) as f64;
         let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-        for t in &self.system.triangles {
+        for t in self.system.triangles() {
             let r = triangle_area(&self.x, t) / triangle_area(&self.rest_positions, t);
             lo = lo.min(r);
             hi = hi.max(r);
@@ -982,7 +698,6 @@ mod tests {
     use super::*;
     use crate::gas::GasKind;
     use crate::shell::ShellBalloon;
-    use balloon_test_support::{Rng, check_gradient, check_jacobian};
 
     /// On an affine fixed point `h = A h + b` of two thicknesses with an affine equilibrium
     /// `x(h) = C h + d`, Anderson with two differences is exact: the extrapolated thickness is
@@ -1026,25 +741,6 @@ mod tests {
         assert!((h[0] - fixed[0]).abs() <= 1e-12 && (h[1] - fixed[1]).abs() <= 1e-12);
     }
 
-    /// Every gas term of the static energy (the sim's ideal, constant and pump gases, and the
-    /// augmented Lagrangian of the volume control) at a load factor below 1, with the follower
-    /// term: the energy's gradient is minus the forces, the force differential is the forces'
-    /// derivative (the exact Hessian), and the assembled stiffness plus the rank-1 term is the
-    /// same matrix as the differential (the system the linear solver sees).
-    /// `x` moved a little (another linearisation point).
-    fn x_other(x: &[f64]) -> Vec<f64> {
-        x.iter().map(|v| 1.01 * v).collect()
-    }
-
-    fn scaled<'a, M: ShellMaterial, G: GasModel>(
-        sys: &'a mut ShellSystem<M, G>,
-        term: GasTerm,
-    ) -> StaticShell<'a, M, G> {
-        let mut s = StaticShell::new(sys, term, true);
-        s.set_load_factor(0.7);
-        s
-    }
-
     /// The thickness rule at rest, checked independently of the loop that reached it: the
     /// returned shape is an equilibrium of the shell's own forces at the returned thickness,
     /// and projecting the returned state again moves the thickness by less than the tolerance;
@@ -1085,7 +781,7 @@ mod tests {
         );
         // Project the returned state again.
         let input = ShellProjectionInput {
-            triangles: &sim.system.triangles,
+            triangles: sim.system.triangles(),
             vertex_inverse_mass: &sim.vertex_inv_mass,
             element_inverse_mass: &sim.element_inv_mass,
             rest_shell_volume: sim.rest_shell_volume,
@@ -1113,7 +809,7 @@ mod tests {
                     .unwrap();
             }
             let input = ShellProjectionInput {
-                triangles: &plain.system.triangles,
+                triangles: plain.system.triangles(),
                 vertex_inverse_mass: &plain.vertex_inv_mass,
                 element_inverse_mass: &plain.element_inv_mass,
                 rest_shell_volume: plain.rest_shell_volume,
@@ -1135,119 +831,5 @@ mod tests {
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
         assert!(d <= 1e-7, "shape difference {d:e} m");
-    }
-
-    #[test]
-    fn static_energy_gradient_and_hessian_match_finite_differences_for_every_gas_control() {
-        let mesh = balloon_mesh::generate::icosphere(0.1, 1).unwrap();
-        let time = 0.2;
-        for (kind, volume) in [
-            (GasKind::Ideal, false),
-            (GasKind::Constant, false),
-            (GasKind::Pump, false),
-            (GasKind::Constant, true),
-        ] {
-            let sim = ShellBalloon::new(mesh.clone())
-                .with_gas(kind)
-                .with_gauge_pressure(1500.0)
-                .build()
-                .unwrap();
-            let v0 = sim.rest_gas_volume();
-            let term = if volume {
-                GasTerm::Volume {
-                    lambda: 800.0,
-                    rho: 3e7,
-                    start: v0,
-                    target: 1.4 * v0,
-                }
-            } else {
-                GasTerm::Own
-            };
-            let mut rng = Rng::new(11);
-            let x: Vec<f64> = sim
-                .positions()
-                .iter()
-                .map(|v| 1.12 * v + 0.003 * rng.next_f64())
-                .collect();
-            let n = x.len();
-            let forces = |x: &[f64]| {
-                let mut sys = sim.system.clone_for_tests();
-                let mut s = scaled(&mut sys, term);
-                let mut f = vec![0.0; n];
-                s.forces(time, x, &mut f).unwrap();
-                f
-            };
-            let energy = |x: &[f64]| {
-                let mut sys = sim.system.clone_for_tests();
-                scaled(&mut sys, term)
-                    .potential_energy(time, x)
-                    .unwrap()
-                    .unwrap()
-            };
-            check_gradient(
-                energy,
-                |x| forces(x).iter().map(|f| -f).collect(),
-                &x,
-                1e-7,
-                1e-6,
-            );
-            let differential = |x: &[f64], dx: &[f64]| {
-                let mut sys = sim.system.clone_for_tests();
-                let mut s = scaled(&mut sys, term);
-                let mut f = vec![0.0; n];
-                s.forces(time, x, &mut f).unwrap();
-                let mut df = vec![0.0; n];
-                s.add_force_differential(dx, &mut df);
-                df
-            };
-            check_jacobian(forces, differential, &x, 1e-7, 1e-5, 3);
-            // The assembled form: triplets (blocks + follower) plus the low-rank term.
-            let mut sys = sim.system.clone_for_tests();
-            let mut s = scaled(&mut sys, term);
-            let mut f = vec![0.0; n];
-            s.forces(time, &x, &mut f).unwrap();
-            let mut t = Vec::new();
-            s.add_stiffness_triplets(&mut t).unwrap();
-            let dx = rng.vector(n);
-            let mut kdx = vec![0.0; n];
-            for (r, c, v) in t {
-                kdx[r] += v * dx[c];
-            }
-            for lr in s.low_rank_terms() {
-                let gd: f64 = lr.vector.iter().zip(&dx).map(|(a, b)| a * b).sum();
-                for i in 0..n {
-                    kdx[i] += lr.coefficient * gd * lr.vector[i];
-                }
-            }
-            let mut df = vec![0.0; n];
-            s.add_force_differential(&dx, &mut df);
-            // The lazy path (forces alone, then the stiffness refreshed at the same point, the
-            // follower blocks with it) linearises the same way.
-            let mut lazy_sys = sim.system.clone_for_tests();
-            let mut lazy = scaled(&mut lazy_sys, term);
-            let mut f_lazy = vec![0.0; n];
-            lazy.forces(time, &x_other(&x), &mut f_lazy).unwrap();
-            lazy.residual_forces(time, &x, &mut f_lazy).unwrap();
-            lazy.refresh_stiffness().unwrap();
-            let mut df_lazy = vec![0.0; n];
-            lazy.add_force_differential(&dx, &mut df_lazy);
-            let scale = kdx.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            for i in 0..n {
-                assert!(
-                    (df_lazy[i] - df[i]).abs() <= 1e-12 * scale,
-                    "{kind} volume={volume}: lazy dof {i}: {} vs {}",
-                    df_lazy[i],
-                    df[i]
-                );
-            }
-            for i in 0..n {
-                assert!(
-                    (kdx[i] + df[i]).abs() <= 1e-10 * scale,
-                    "{kind} volume={volume}: dof {i}: {} vs {}",
-                    kdx[i],
-                    -df[i]
-                );
-            }
-        }
     }
 }

@@ -1,14 +1,13 @@
 //! The material seam of the shell: a material together with the element every triangle becomes.
 //!
-//! [`ShellSystem`](super::ShellSystem) and [`ShellSimulation`](super::ShellSimulation) are
+//! [`ShellSystem`](crate::ShellSystem) (and the `balloon` facade's shell simulation) are
 //! generic over a [`ShellMaterial`]. Every 3D [`Material`] (St. Venant-Kirchhoff, neo-Hookean,
 //! [`MaterialModel`], a user's own) is one through a blanket implementation and runs on the
-//! three-prism element of seed 000 (Eq. 1-11) with a thickness state that the shell-volume
-//! projection (Eq. 24-28) moves; [`Membrane`](super::Membrane) wraps an incompressible membrane
+//! three-prism element of Wang et al. 2015 (Eq. 1-11) with a thickness state that the shell-volume
+//! projection (Eq. 24-28) moves; [`Membrane`](crate::Membrane) wraps an incompressible membrane
 //! model (`balloon_material::membrane`) and runs on the constant-strain
 //! [`HyperMembrane`] triangle, whose thickness follows the stretch (`docs/membranes.md`, M2).
-//! [`ShellMaterialModel`] chooses between the two at run time (the command line's
-//! `--material`).
+//! [`ShellMaterialModel`] chooses between the two at run time (from a scenario's material).
 //!
 //! The element kind is chosen with the material, so the force loop, Newton (exact and projected
 //! tangents), the gas models, anchors, statistics and the `Simulation` trait are shared and
@@ -20,12 +19,12 @@ use balloon_material::{Material, MaterialModel, MembraneModel};
 use nalgebra::{SMatrix, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::Membrane;
+use crate::Membrane;
 
 /// A shell material: the constitutive model plus the element kind it is evaluated on.
 ///
-/// Implemented for every [`Material`] (three-prism elements, seed 000 Eq. 4-11), for
-/// [`Membrane`](super::Membrane) (incompressible [`HyperMembrane`] triangles,
+/// Implemented for every [`Material`] (three-prism elements, Wang et al. 2015, Eq. 4-11), for
+/// [`Membrane`](crate::Membrane) (incompressible [`HyperMembrane`] triangles,
 /// `docs/membranes.md` M22-M25) and for the run-time choice [`ShellMaterialModel`]. The methods
 /// are called once per element in the shell's hot loops; they must not allocate.
 ///
@@ -48,11 +47,11 @@ pub trait ShellMaterial: Clone + Send + Sync + std::fmt::Debug {
         thickness: f64,
     ) -> Result<Self::Element, ElementError>;
 
-    /// Lumped vertex masses (kg) of `element` for a density `density` (kg/m^3), seed 000 Eq. 19.
+    /// Lumped vertex masses (kg) of `element` for a density `density` (kg/m^3), Wang et al. 2015, Eq. 19.
     fn lumped_masses(&self, element: &Self::Element, density: f64) -> [f64; 3];
 
     /// Masses of the three vertices and of the virtual thickness vertex used by the
-    /// shell-volume projection (seed 000 Sec. 7, Eq. 27), kg.
+    /// shell-volume projection (Wang et al. 2015, Sec. 7, Eq. 27), kg.
     fn projection_masses(&self, element: &Self::Element, density: f64) -> ([f64; 3], f64);
 
     /// Elastic energy of `element` at corners `x` and thickness `h` (J); `+infinity` outside
@@ -111,7 +110,7 @@ pub trait ShellMaterial: Clone + Send + Sync + std::fmt::Debug {
     /// (l1 l2)`) rather than a state of its own that the shell-volume projection moves. When
     /// `true` the shell refreshes its thickness from
     /// [`ShellMaterial::current_thickness`] after every solve, every element keeps its material
-    /// volume `A h = A0 H` exactly and the projection of seed 000 (Alg. 1, line 10) has nothing
+    /// volume `A h = A0 H` exactly and the projection of Wang et al. 2015 (Alg. 1, line 10) has nothing
     /// to correct.
     fn thickness_follows_stretch(&self) -> bool {
         false
@@ -124,7 +123,7 @@ pub trait ShellMaterial: Clone + Send + Sync + std::fmt::Debug {
     }
 }
 
-/// Every 3D material runs on the three-prism element of seed 000, with the thickness a state of
+/// Every 3D material runs on the three-prism element of Wang et al. 2015, with the thickness a state of
 /// the shell (Eq. 4) moved by the volume projection (Eq. 24-28).
 impl<M: Material> ShellMaterial for M {
     type Element = ThreePrism;
@@ -214,7 +213,7 @@ impl<W: MembraneMaterial> ShellMaterial for Membrane<W> {
     }
 
     /// The same split as the three-prism (1/6 of `rho A0 H` per vertex, 1/2 on the virtual
-    /// vertex), so a projector the user switches on sees the masses of seed 000 Eq. 27.
+    /// vertex), so a projector the user switches on sees the masses of Wang et al. 2015, Eq. 27.
     #[inline]
     fn projection_masses(&self, element: &HyperMembrane, density: f64) -> ([f64; 3], f64) {
         let m = density * element.rest_volume();
@@ -304,19 +303,19 @@ fn membrane_check_state<W: MembraneMaterial>(
     Ok(())
 }
 
-/// A shell material chosen at run time (the command line's `--material`): a 3D material on
+/// A shell material chosen at run time (a scenario's material): a 3D material on
 /// three-prism elements, or an incompressible membrane on [`HyperMembrane`] triangles.
 ///
 /// Serialises as the inner model, with its `model` tag (`"st-venant-kirchhoff"`,
 /// `"neo-hookean"`, `"membrane-gent"`, ...), e.g.
 /// `{"model": "membrane-gent", "mu": 400000.0, "jm": 60.0}`; deserialisation tries the 3D
 /// models first, then the membranes, validating the parameters either way. Code that knows the
-/// material at compile time should use it directly (`ShellBalloon::with_material`,
-/// `ShellBalloon::with_membrane`): the `match` here is one branch per element call.
+/// material at compile time should use it directly (a [`Material`] or a [`Membrane`] as the
+/// shell material): the `match` here is one branch per element call.
 ///
 /// ```
-/// use balloon::material::membrane::{MembraneNeoHookean, MembraneModel};
-/// use balloon::shell::{ShellMaterial, ShellMaterialModel};
+/// use balloon_material::membrane::{MembraneNeoHookean, MembraneModel};
+/// use balloon_shell::{ShellMaterial, ShellMaterialModel};
 ///
 /// let rubber = ShellMaterialModel::from(MembraneModel::from(MembraneNeoHookean::try_new(4e5)?));
 /// assert!(rubber.thickness_follows_stretch());
@@ -324,12 +323,12 @@ fn membrane_check_state<W: MembraneMaterial>(
 /// assert_eq!(json, r#"{"model":"membrane-neo-hookean","mu":400000.0}"#);
 /// let back: ShellMaterialModel = serde_json::from_str(&json).unwrap();
 /// assert_eq!(back, rubber);
-/// # Ok::<(), balloon::material::MaterialError>(())
+/// # Ok::<(), balloon_material::MaterialError>(())
 /// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum ShellMaterialModel {
-    /// A 3D material on three-prism elements (seed 000).
+    /// A 3D material on three-prism elements (Wang et al. 2015).
     Solid(MaterialModel),
     /// An incompressible membrane model on [`HyperMembrane`] triangles.
     Membrane(MembraneModel),
@@ -360,7 +359,7 @@ impl ShellMaterialModel {
 /// The element of a [`ShellMaterialModel`]: the kind follows the material's variant.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ShellElement {
-    /// A three-prism element (seed 000 Eq. 1-4).
+    /// A three-prism element (Wang et al. 2015, Eq. 1-4).
     Prism(ThreePrism),
     /// A membrane triangle (`docs/membranes.md` M22).
     Membrane(HyperMembrane),
