@@ -3,19 +3,17 @@
 
 use balloon::gas::GasModel;
 use balloon::mesh::lattice::Lattice;
-use balloon::mesh::{TriMesh, geometry};
+use balloon::mesh::geometry;
 use balloon::shell::{ShellMaterial, ShellSimulation};
 use nalgebra::Point3;
 use std::path::PathBuf;
 
 /// The volume the surface `x` (flat positions) over `triangles` encloses, by the divergence
-/// theorem on the mesh (seed 000, Eq. 13): not the gas model's own volume.
+/// theorem on the mesh (Wang et al. 2015, Eq. 13; the one kernel,
+/// `balloon_mesh::geometry::enclosed_volume_flat`), measured from the positions: not the volume
+/// a gas model keeps in its state.
 pub fn mesh_volume(x: &[f64], triangles: &[[usize; 3]]) -> f64 {
-    let points = x
-        .chunks_exact(3)
-        .map(|c| Point3::new(c[0], c[1], c[2]))
-        .collect();
-    geometry::enclosed_volume(&TriMesh::new(points, triangles.to_vec()))
+    geometry::enclosed_volume_flat(x, triangles)
 }
 
 /// The gas pressure the simulation's pressure forces imply at its current shape, Pa (absolute
