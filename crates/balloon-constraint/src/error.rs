@@ -103,9 +103,10 @@ pub enum ConstraintError {
         /// Its signed volume.
         volume: f64,
     },
-    /// The sweeps did not bring every cell below the tolerance.
+    /// The sweeps did not bring every cell below the tolerance. The message names the
+    /// [`crate::cell_volume::CellVolumeParams`] fields to change.
     #[error(
-        "volume projection did not converge in {sweeps} sweeps: max relative error {max_error:.3e} in cell {cell} (Gauss-Seidel sweeps slow down as the lattice grows: try adaptive over-relaxation (balloon volumetric --over-relaxation adaptive), the global cell-volume solver (--volume-solver global), more sweeps or a looser tolerance (--tolerance))"
+        "volume projection did not converge in {sweeps} sweeps: max relative error {max_error:.3e} in cell {cell} (Gauss-Seidel sweeps slow down as the lattice grows: try adaptive over-relaxation (`adaptive_relaxation` = true), the global cell-volume solver (`solver` = global), more sweeps (a larger `max_sweeps`) or a looser `tolerance`)"
     )]
     CellVolumeNotConverged {
         /// Sweeps done.
