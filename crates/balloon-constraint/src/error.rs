@@ -150,6 +150,32 @@ pub enum ConstraintError {
         dt: f64,
     },
 
+    // --- Impulse-stepped bodies (seed 003, Sec. 4) ---
+    /// The rigid sphere's mass or radius is not positive and finite.
+    #[error("invalid sphere: {what} {value} must be > 0")]
+    InvalidSphere {
+        /// `mass` or `radius`.
+        what: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// A particle index (a fixed particle, an anchor, ...) is not a particle of the body.
+    #[error("{what} {particle} does not exist: the body has {particles} particles")]
+    ParticleOutOfRange {
+        /// What the index was given for (e.g. `fixed particle`).
+        what: &'static str,
+        /// The index.
+        particle: usize,
+        /// The number of particles.
+        particles: usize,
+    },
+    /// A particle's position or velocity became NaN or infinite in a step.
+    #[error("particle {particle} has a non-finite position or velocity")]
+    NonFiniteState {
+        /// The first such particle.
+        particle: usize,
+    },
+
     // --- Two-layer collisions (seed 004) ---
     /// The box has a non-finite corner or zero or negative extent along an axis. Pass
     /// `min < max` componentwise.

@@ -138,6 +138,16 @@ impl CellVolumeConstraints {
         self.cells.is_empty()
     }
 
+    /// Total volume of the cells at `positions` (m^3): the sum of [`cell_volume`] in cell order.
+    pub fn total_volume(&self, positions: &[Point3<f64>]) -> f64 {
+        self.tets.iter().map(|t| cell_volume(positions, t)).sum()
+    }
+
+    /// Total rest volume of the cells (m^3): the sum of `rest_volumes`.
+    pub fn rest_volume(&self) -> f64 {
+        self.rest_volumes.iter().sum()
+    }
+
     /// Largest relative volume error `|V - V0| / V0` over the cells, and the cell.
     pub fn max_relative_error(&self, positions: &[Point3<f64>]) -> (f64, usize) {
         let mut worst = (0.0, 0);

@@ -64,6 +64,21 @@ impl Default for SpringParams {
 }
 
 impl SpringParams {
+    /// Springs scaled to the particle mass `mass` (kg) and time step `dt` (s): stiffness
+    /// `stiffness * m / h^2` and damping `damping * m / h` on edges and diagonals alike. The
+    /// springs act explicitly (Eq. 1), so the relative `stiffness` must stay well below 1 for
+    /// stability; a fixed stiffness in N/m turns unstable when a finer lattice makes the
+    /// particles lighter.
+    pub fn mass_scaled(stiffness: f64, damping: f64, mass: f64, dt: f64) -> Self {
+        let (k, c) = (stiffness * mass / (dt * dt), damping * mass / dt);
+        Self {
+            edge_stiffness: k,
+            edge_damping: c,
+            diagonal_stiffness: k,
+            diagonal_damping: c,
+        }
+    }
+
     /// Checks that all values are finite and non-negative; the error names the parameter.
     pub fn validate(&self) -> Result<(), ConstraintError> {
         for (name, value) in [
@@ -121,6 +136,17 @@ impl CellSprings {
             }
         }
         Self { springs }
+    }
+
+    /// Largest spring strain `|l / L0 - 1|` at positions `x` (0 without springs).
+    pub fn max_strain(&self, x: &[Point3<f64>]) -> f64 {
+        self.springs
+            .iter()
+            .map(|s| {
+                let l = (x[s.ends[1]] - x[s.ends[0]]).norm();
+                (l / s.rest_length - 1.0).abs()
+            })
+            .fold(0.0, f64::max)
     }
 
     /// Elastic energy `sum k/2 (|x_b - x_a| - L0)^2` (J).
