@@ -188,6 +188,20 @@ pub enum ConstraintError {
         /// Upper corner.
         max: [f64; 3],
     },
+    /// The outer layer given to [`crate::two_layer::LayerContainment::surface`] is not a closed,
+    /// consistently oriented triangle surface over its vertices (never the case for the
+    /// layers of the sphere generators).
+    #[error(
+        "the outer layer ({triangles} triangles on {vertices} vertices) cannot contain the inner one: {reason}"
+    )]
+    InvalidLayerSurface {
+        /// Number of triangles.
+        triangles: usize,
+        /// Number of vertices.
+        vertices: usize,
+        /// The first fault found (an edge, face or vertex).
+        reason: String,
+    },
     /// The restitution is outside `[0, 1]`.
     #[error("restitution {0} must be in [0, 1] (0: no bounce, 1: perfectly elastic)")]
     InvalidRestitution(f64),

@@ -24,6 +24,12 @@ use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 
+mod containment;
+mod winding;
+
+pub use containment::LayerContainment;
+pub use winding::{polygon_winding_number, winding_number};
+
 /// An axis-aligned box whose six faces (walls, floor, ceiling) the particles stay inside.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AxisBox {
@@ -176,8 +182,8 @@ pub fn polygon_vertex_normals_into(
 /// This is the seed's per-pair test, kept for comparison: it only looks at one tangent plane
 /// per inner particle, so on a deforming body some inner particles end up outside the outer
 /// surface (4 to 44 of 258 on the level-3 sphere, by winding number). `TwoLayerSimulation`
-/// uses the closest-point test over the whole outer layer instead
-/// (`balloon::two_layer::containment`), which keeps every inner particle inside.
+/// uses the closest-point test over the whole outer layer instead ([`LayerContainment`]),
+/// which keeps every inner particle inside.
 pub fn contain_inner_layer(
     positions: &mut [f64],
     velocities: &mut [f64],
@@ -214,47 +220,6 @@ pub fn contain_inner_layer(
         }
     }
     corrected
-}
-
-/// Generalised winding number of `p` with respect to the closed triangle layer whose vertex `j`
-/// is particle `offset + j`: the sum of the signed solid angles of its triangles divided by
-/// `4 pi` (Van Oosterom and Strackee). About 1 inside an outward-oriented closed surface, 0
-/// outside.
-pub fn winding_number(
-    p: &Point3<f64>,
-    positions: &[f64],
-    offset: usize,
-    triangles: &[[usize; 3]],
-) -> f64 {
-    let mut omega = 0.0;
-    for t in triangles {
-        let a = point(positions, offset + t[0]) - p.coords;
-        let b = point(positions, offset + t[1]) - p.coords;
-        let c = point(positions, offset + t[2]) - p.coords;
-        let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
-        let num = a.dot(&b.cross(&c));
-        let den = la * lb * lc + a.dot(&b) * lc + a.dot(&c) * lb + b.dot(&c) * la;
-        omega += 2.0 * num.atan2(den);
-    }
-    omega / (4.0 * std::f64::consts::PI)
-}
-
-/// Winding number of `p` (its `x`, `y`) with respect to the closed polygon in the `xy` plane
-/// whose vertex `j` is particle `offset + j`, `j < count`: the sum of the signed angles its
-/// edges subtend divided by `2 pi`. About 1 inside a counter-clockwise polygon, 0 outside.
-pub fn polygon_winding_number(
-    p: &Point3<f64>,
-    positions: &[f64],
-    offset: usize,
-    count: usize,
-) -> f64 {
-    let mut angle = 0.0;
-    for j in 0..count {
-        let a = point(positions, offset + j) - p.coords;
-        let b = point(positions, offset + (j + 1) % count) - p.coords;
-        angle += (a.x * b.y - a.y * b.x).atan2(a.x * b.x + a.y * b.y);
-    }
-    angle / (2.0 * std::f64::consts::PI)
 }
 
 #[cfg(test)]
