@@ -2,8 +2,8 @@
 //! measurements that do not go through the quantity under test.
 
 use balloon::gas::GasModel;
-use balloon::mesh::lattice::Lattice;
 use balloon::mesh::geometry;
+use balloon::mesh::lattice::Lattice;
 use balloon::shell::{ShellMaterial, ShellSimulation};
 use nalgebra::Point3;
 use std::path::PathBuf;
