@@ -91,9 +91,9 @@ pub fn max_relative_change(v: &[f64], v0: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// The shell's material volume `sum_e h_e A_e` (seed 000, Eq. 26) for flat positions `x`, per-face
-/// thickness `thickness` (m), computed here from the triangle areas (not the projection's own
-/// measure).
+/// The shell's material volume `sum_e h_e A_e` (Wang et al. 2015, Eq. 26) for flat positions `x`,
+/// per-face thickness `thickness` (m), computed here from the triangle areas (not the projection's
+/// own measure).
 pub fn shell_material_volume(x: &[f64], triangles: &[[usize; 3]], thickness: &[f64]) -> f64 {
     let p = |v: usize| nalgebra::Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
     triangles

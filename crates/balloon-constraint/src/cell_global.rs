@@ -1,10 +1,12 @@
-//! Global (all cells at once) solve of the cell volume constraints of seed 003.
+//! Global (all cells at once) solve of the cell volume constraints of Diziol, Bender and Bayer
+//! 2011.
 //!
-//! The Gauss-Seidel sweeps of [`CellVolumeConstraints::project`] fix one cell at a time; a
-//! volume error spreads through the lattice like diffusion, so the number of sweeps grows with
-//! the lattice size (measured: cost ~ particles^3 at a 1e-10 tolerance). [`CellSolver::Global`](crate::cell_volume::CellSolver::Global)
-//! instead takes Newton steps on all constraints `C_c(x) = V_c(x) - V0_c = 0` together, each the
-//! minimal mass-weighted correction of the linearised constraints:
+//! The Gauss-Seidel sweeps of [`CellVolumeConstraints::project`] fix one cell at a time; a volume
+//! error spreads through the lattice like diffusion, so the number of sweeps grows with the lattice
+//! size (measured: cost ~ particles^3 at a 1e-10 tolerance).
+//! [`CellSolver::Global`](crate::cell_volume::CellSolver::Global) instead takes Newton steps on all
+//! constraints `C_c(x) = V_c(x) - V0_c = 0` together, each the minimal mass-weighted correction of
+//! the linearised constraints:
 //!
 //! ```text
 //! (J W J^T) lambda = C,     dx = -W J^T lambda,     J = dC/dx (one row of 8 gradients per cell),

@@ -3,12 +3,13 @@
 use thiserror::Error;
 
 /// Everything that can go wrong in a projector or a constraint of this crate: the shell-volume
-/// projection (seed 000, Alg. 2), the cell-volume impulses and their time stepping (seed 003,
-/// Sec. 4) and the two-layer box collisions (seed 004). Variants carry the numbers that explain
-/// them; the state a failing call was given is left as it was unless a variant says otherwise.
+/// projection (Wang et al. 2015, Alg. 2), the cell-volume impulses and their time stepping (Diziol,
+/// Bender and Bayer 2011, Sec. 4) and the two-layer box collisions (Song 2009). Variants carry the
+/// numbers that explain them; the state a failing call was given is left as it was unless a variant
+/// says otherwise.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum ConstraintError {
-    // --- Shell-volume projection (seed 000, Eq. 24-28, Alg. 2) ---
+    // --- Shell-volume projection (Wang et al. 2015, Eq. 24-28, Alg. 2) ---
     /// The projection did not reach the tolerance within `max_iterations`; positions and
     /// thicknesses are left unchanged. Raise `max_iterations` or check for degenerate elements.
     #[error(
@@ -91,7 +92,7 @@ pub enum ConstraintError {
         requirement: &'static str,
     },
 
-    // --- Cell-volume impulses (seed 003, Sec. 4) ---
+    // --- Cell-volume impulses (Diziol, Bender and Bayer 2011, Sec. 4) ---
     /// A tetrahedron of the preview has non-positive volume; the caller should halve the time
     /// step and retry (Sec. 4).
     #[error("tetrahedron {tet} of cell {cell} inverted in the preview (volume {volume:.3e} m^3)")]
@@ -150,7 +151,7 @@ pub enum ConstraintError {
         dt: f64,
     },
 
-    // --- Impulse-stepped bodies (seed 003, Sec. 4) ---
+    // --- Impulse-stepped bodies (Diziol, Bender and Bayer 2011, Sec. 4) ---
     /// The rigid sphere's mass or radius is not positive and finite.
     #[error("invalid sphere: {what} {value} must be > 0")]
     InvalidSphere {
@@ -176,7 +177,7 @@ pub enum ConstraintError {
         particle: usize,
     },
 
-    // --- Two-layer collisions (seed 004) ---
+    // --- Two-layer collisions (Song 2009) ---
     /// The box has a non-finite corner or zero or negative extent along an axis. Pass
     /// `min < max` componentwise.
     #[error(

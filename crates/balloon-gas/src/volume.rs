@@ -1,7 +1,7 @@
 //! Enclosed volume of a closed triangle surface and its exact first and second derivatives.
 //!
-//! `V(x) = (1/6) sum_e x_1 . (x_2 x x_3)` (the divergence theorem, seed 000 Eq. 13 written with
-//! the origin as apex of each tetrahedron). Its gradient with respect to the corners of one
+//! `V(x) = (1/6) sum_e x_1 . (x_2 x x_3)` (the divergence theorem, Wang et al. 2015, Eq. 13 written
+//! with the origin as apex of each tetrahedron). Its gradient with respect to the corners of one
 //! triangle is `dV/dx_1 = (1/6) x_2 x x_3` (and cyclic).
 //!
 //! On a *closed* surface this gradient equals the area-normal form of Eq. 15,

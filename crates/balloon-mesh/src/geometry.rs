@@ -1,5 +1,5 @@
-//! Mesh geometry: areas, normals, enclosed volume (seed 000, Eq. 13) and its gradient, bounding
-//! box, angles and centroids.
+//! Mesh geometry: areas, normals, enclosed volume (Wang et al. 2015, Eq. 13) and its gradient,
+//! bounding box, angles and centroids.
 //!
 //! Functions come in two flavours: on a [`TriMesh`], and slice-based (`*_flat`) on
 //! `positions: &[f64]` (length `3 N`, `[x0, y0, z0, x1, ...]`, metres) plus
@@ -111,7 +111,7 @@ pub fn surface_area_flat(positions: &[f64], triangles: &[[usize; 3]]) -> f64 {
         .sum()
 }
 
-/// Enclosed volume (m^3) by the divergence theorem (seed 000, Eq. 13):
+/// Enclosed volume (m^3) by the divergence theorem (Wang et al. 2015, Eq. 13):
 /// `V = (1/6) sum_t x_a . (x_b x x_c)` over triangles `t = (a, b, c)`.
 ///
 /// Positive for a closed outward-oriented surface; independent of the origin only when the
@@ -121,7 +121,7 @@ pub fn enclosed_volume(mesh: &TriMesh) -> f64 {
     enclosed_volume_of(mesh.triangles.iter().copied(), |i| v[i].coords)
 }
 
-/// [`enclosed_volume`] on flat positions (seed 000, Eq. 13).
+/// [`enclosed_volume`] on flat positions (Wang et al. 2015, Eq. 13).
 pub fn enclosed_volume_flat(positions: &[f64], triangles: &[[usize; 3]]) -> f64 {
     enclosed_volume_of(triangles.iter().copied(), |i| p3(positions, i))
 }

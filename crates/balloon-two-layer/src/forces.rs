@@ -1,4 +1,4 @@
-//! Forces on a two-layer object (seed 004, Ch. 4) and its energies.
+//! Forces on a two-layer object (Song 2009, Ch. 4) and its energies.
 
 use crate::model::{Dimension, SpringParams, TwoLayerModel};
 use crate::params::TwoLayerParams;
@@ -9,7 +9,7 @@ use balloon_mesh::geometry::enclosed_volume_of;
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
-/// The drag ("mouse") spring of seed Sec. 4.4 (Eq. 4.7): from a target point to the particle
+/// The drag ("mouse") spring of Song 2009, Sec. 4.4 (Eq. 4.7): from a target point to the particle
 /// nearest to it, with its own stiffness and damping. The target is at rest.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DragTarget {
@@ -54,7 +54,7 @@ impl EnergyBreakdown {
     }
 }
 
-/// All forces on a two-layer object (seed Sec. 4.7, Steps 1-10): gravity (Eq. 4.1), Hooke
+/// All forces on a two-layer object (Song 2009, Sec. 4.7, Steps 1-10): gravity (Eq. 4.1), Hooke
 /// (Eq. 4.2-4.4) and damping (Eq. 4.5-4.6) per spring type ([`balloon_element::Spring`]), gas
 /// pressure on each closed layer (Eq. 4.10-4.16, [`balloon_gas::layer`]), the drag spring
 /// (Eq. 4.7, [`balloon_element::TargetSpring`]). This type only lays the model's springs and
@@ -92,7 +92,7 @@ struct SpringArrays {
     damping: Vec<f64>,
 }
 
-/// The force on end `a` of a spring (seed Eq. 4.2-4.6), `None` at zero length: the arithmetic
+/// The force on end `a` of a spring (Song 2009, Eq. 4.2-4.6), `None` at zero length: the arithmetic
 /// of [`Spring::force`] (so the same bits). `e = x_b - x_a`, `l = |e|`,
 /// `F_a = e (k (l - L) + d (v_b - v_a) . e / l) / l`.
 #[inline(always)]
@@ -132,7 +132,7 @@ impl SpringArrays {
         s
     }
 
-    /// Adds the Hooke and damping forces of every spring (seed Eq. 4.2-4.6) to `f`, in spring
+    /// Adds the Hooke and damping forces of every spring (Song 2009, Eq. 4.2-4.6) to `f`, in spring
     /// order. The same arithmetic as [`Spring::force`] (so the same bits): `e = x_b - x_a`,
     /// `l = |e|`, `F_a = e (k (l - L) + d (v_b - v_a) . e / l) / l`, `F_b = -F_a`.
     ///
@@ -185,8 +185,8 @@ impl GasLayer {
     }
 
     /// [`GasLayer::volume`] for a 3D layer from the compact triangles (the mesh crate's kernel,
-    /// [`enclosed_volume_of`]), then `P = nRT / V` (seed Eq. 4.10), then each face's
-    /// `P/6 (b - a) x (c - a)` added to its three corners (seed Eq. 4.11-4.16; the arithmetic
+    /// [`enclosed_volume_of`]), then `P = nRT / V` (Song 2009, Eq. 4.10), then each face's
+    /// `P/6 (b - a) x (c - a)` added to its three corners (Song 2009, Eq. 4.11-4.16; the arithmetic
     /// of [`ClosedLayer::add_pressure_forces`], so the same bits). Falls back to those for 2D.
     fn add_pressure_forces(&self, x: &[f64], f: &mut [f64]) {
         let r = self.range.clone();
@@ -382,7 +382,7 @@ impl TwoLayerForces {
         &self.model
     }
 
-    /// The valence normalisation factors `mean valence / valence` per particle (seed Sec.
+    /// The valence normalisation factors `mean valence / valence` per particle (Song 2009, Sec.
     /// 3.5.3), or `None` when the normalisation is off.
     pub fn valence_factors(&self) -> Option<&[f64]> {
         self.valence_factor.as_deref()
@@ -395,7 +395,7 @@ impl TwoLayerForces {
 
     /// Sets the drag target (or removes it with `None`) for positions `x`: the pulled particle
     /// is the outer-layer particle (a free particle in 1D) nearest to the target at this moment
-    /// (seed Sec. 4.4) and stays the same while the target is set. Returns that particle.
+    /// (Song 2009, Sec. 4.4) and stays the same while the target is set. Returns that particle.
     pub fn set_drag(&mut self, target: Option<DragTarget>, x: &[f64]) -> Option<usize> {
         self.drag = target.map(|t| {
             let n = self.model.layer_size;
@@ -430,7 +430,7 @@ impl TwoLayerForces {
     }
 
     /// Current gas pressures `(outer, inner)` (Pa) for positions `x`: `P = nRT / V`
-    /// (seed Eq. 4.10). Zero where there is no gas.
+    /// (Song 2009, Eq. 4.10). Zero where there is no gas.
     pub fn pressures(&self, x: &[f64]) -> (f64, f64) {
         match &self.layers[..] {
             [outer, inner] => (
@@ -456,11 +456,11 @@ impl TwoLayerForces {
         f.fill(0.0);
         let m = &self.model;
         let up = m.dimension.up_axis();
-        // Step 1: gravity (seed Eq. 4.1), F = -m g along the up axis.
+        // Step 1: gravity (Song 2009, Eq. 4.1), F = -m g along the up axis.
         for (i, mass) in m.masses.iter().enumerate() {
             f[3 * i + up] -= mass * self.gravity;
         }
-        // Steps 2-4: Hooke and damping forces of all springs (seed Eq. 4.2-4.6).
+        // Steps 2-4: Hooke and damping forces of all springs (Song 2009, Eq. 4.2-4.6).
         let sf: &mut [f64] = if self.valence_factor.is_some() {
             self.spring_force.fill(0.0);
             &mut self.spring_force
@@ -482,7 +482,7 @@ impl TwoLayerForces {
         for l in &self.layers {
             l.add_pressure_forces(x, f);
         }
-        // Step 10: drag spring (seed Eq. 4.7), the target at rest.
+        // Step 10: drag spring (Song 2009, Eq. 4.7), the target at rest.
         if let Some((t, i)) = self.drag {
             let fd = drag_spring(&t).force(&vec3(x, i), &vec3(v, i), &t.point, &Vector3::zeros());
             add3(f, i, fd);

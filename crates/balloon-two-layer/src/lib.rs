@@ -51,7 +51,8 @@
 //! the undamped model conserves energy. Pressures are given as *initial* pressures at the rest
 //! volume: `(nRT)_k = P_k0 V_k0` ([`TwoLayerModel::with_pressures`]).
 //!
-//! Section and equation numbers ("seed Sec. 4.4", "Eq. 4.7") in this crate refer to Song 2009.
+//! Section and equation numbers without an author in this crate ("Sec. 4.4", "Eq. 4.7") refer
+//! to Song 2009.
 
 pub mod analytic;
 mod error;

@@ -11,11 +11,11 @@ use std::collections::BTreeSet;
 /// Spatial dimension of a two-layer object.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Dimension {
-    /// Two particles on the `x` axis, one spring, motion along `x` only (seed Sec. 3.3).
+    /// Two particles on the `x` axis, one spring, motion along `x` only (Song 2009, Sec. 3.3).
     One,
-    /// Two concentric polygons in the `xy` plane, motion in the plane (seed Sec. 3.4).
+    /// Two concentric polygons in the `xy` plane, motion in the plane (Song 2009, Sec. 3.4).
     Two,
-    /// Two concentric closed triangle meshes (seed Sec. 3.5).
+    /// Two concentric closed triangle meshes (Song 2009, Sec. 3.5).
     Three,
 }
 
@@ -40,7 +40,7 @@ impl Dimension {
     }
 }
 
-/// The type of a spring (seed Sec. 3.4.1, Fig. 3.4); each type has its own constants.
+/// The type of a spring (Song 2009, Sec. 3.4.1, Fig. 3.4); each type has its own constants.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum SpringKind {
     /// Along a layer (mesh edges / polygon sides): keeps the layer's shape.
@@ -74,8 +74,8 @@ impl SpringKind {
     }
 }
 
-/// Constants of one spring type: Hooke stiffness `k_s` (N/m, seed Eq. 4.2) and damping `k_d`
-/// (N s/m, seed Eq. 4.5).
+/// Constants of one spring type: Hooke stiffness `k_s` (N/m, Song 2009, Eq. 4.2) and damping `k_d`
+/// (N s/m, Song 2009, Eq. 4.5).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SpringParams {
     /// Stiffness (N/m), > 0.
@@ -112,7 +112,7 @@ pub struct Layers<'a> {
     pub surface: Vec<[usize; 3]>,
 }
 
-/// A built two-layer object: particles, springs and layers (seed Ch. 3).
+/// A built two-layer object: particles, springs and layers (Song 2009, Ch. 3).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TwoLayerModel {
     /// Dimension.
@@ -141,8 +141,8 @@ pub struct TwoLayerModel {
 }
 
 impl TwoLayerModel {
-    /// 1D object (seed Sec. 3.3): particle 0 fixed at `center`, particle 1 hanging `length` (m)
-    /// below it along `-x`, one structural spring between them; both particles of mass `mass`
+    /// 1D object (Song 2009, Sec. 3.3): particle 0 fixed at `center`, particle 1 hanging `length`
+    /// (m) below it along `-x`, one structural spring between them; both particles of mass `mass`
     /// (kg).
     pub fn line(center: Point3<f64>, length: f64, mass: f64) -> Self {
         let c = center.coords;
@@ -166,7 +166,7 @@ impl TwoLayerModel {
         }
     }
 
-    /// Two 2D layers (seed Sec. 3.4): concentric counter-clockwise polygons of `particles`
+    /// Two 2D layers (Song 2009, Sec. 3.4): concentric counter-clockwise polygons of `particles`
     /// particles each in the `xy` plane about `center`; see [`TwoLayerModel::layered`] for the
     /// springs.
     pub fn circle(
@@ -191,8 +191,8 @@ impl TwoLayerModel {
         Self::layered(layers, center, radii, masses)
     }
 
-    /// Two 3D layers on the vertices of a unit sphere `mesh` (seed Sec. 3.5): its vertices are
-    /// the unit directions and its outward triangles the layers' connectivity; see
+    /// Two 3D layers on the vertices of a unit sphere `mesh` (Song 2009, Sec. 3.5): its vertices
+    /// are the unit directions and its outward triangles the layers' connectivity; see
     /// [`TwoLayerModel::layered`] for the springs.
     pub fn from_unit_sphere(
         mesh: TriMesh,
@@ -218,12 +218,11 @@ impl TwoLayerModel {
         Self::layered(layers, center, radii, masses)
     }
 
-    /// Two layers on the unit directions `layers.unit` about `center`, at `radii = [inner,
-    /// outer]` (m), with particle masses `masses = [inner, outer]` (kg); springs per seed Sec.
-    /// 3.4.2 / 3.5.2: structural springs on `layers.edges` of each layer, one radius spring per
-    /// pair, and for each edge `(a, b)` a left shear spring inner `a` - outer `b` and a right one
-    /// inner `b` - outer `a`. The rest volumes are measured; no gas yet
-    /// ([`TwoLayerModel::with_pressures`]).
+    /// Two layers on the unit directions `layers.unit` about `center`, at `radii = [inner, outer]`
+    /// (m), with particle masses `masses = [inner, outer]` (kg); springs per Song 2009, Sec. 3.4.2
+    /// / 3.5.2: structural springs on `layers.edges` of each layer, one radius spring per pair, and
+    /// for each edge `(a, b)` a left shear spring inner `a` - outer `b` and a right one inner `b` -
+    /// outer `a`. The rest volumes are measured; no gas yet ([`TwoLayerModel::with_pressures`]).
     pub fn layered(
         layers: Layers<'_>,
         center: Point3<f64>,
@@ -306,8 +305,8 @@ impl TwoLayerModel {
 
     /// Checks that the arrays fit together: three coordinates, a mass and a `fixed` flag per
     /// particle, positive finite masses, finite rest positions, springs between particles, two
-    /// layers of `layer_size` particles each, layer triangles within a layer. [`crate::TwoLayerSimulation::new`]
-    /// calls it; the constructors above make models that pass.
+    /// layers of `layer_size` particles each, layer triangles within a layer.
+    /// [`crate::TwoLayerSimulation::new`] calls it; the constructors above make models that pass.
     ///
     /// # Errors
     /// [`TwoLayerError::InvalidParameter`] naming the first array at fault.
@@ -374,7 +373,7 @@ impl TwoLayerModel {
     }
 
     /// Volume enclosed by the outer (`outer = true`) or inner layer for flat positions `x`:
-    /// the divergence theorem in 3D, `V = 1/6 sum_f x_a . (x_b x x_c)` (seed Eq. 4.12-4.16),
+    /// the divergence theorem in 3D, `V = 1/6 sum_f x_a . (x_b x x_c)` (Song 2009, Eq. 4.12-4.16),
     /// Green's theorem in 2D, `A = 1/2 sum_i (x_i y_(i+1) - x_(i+1) y_i)`. 0 in 1D.
     pub fn layer_volume(&self, x: &[f64], outer: bool) -> f64 {
         let n = self.layer_size;
@@ -391,7 +390,7 @@ impl TwoLayerModel {
 
     /// Triangles for drawing, in global particle indices: in 3D the outer and the inner
     /// surface (both outward oriented); in 2D the quads between the layers split into two
-    /// triangles each (seed Fig. 3.5); none in 1D.
+    /// triangles each (Song 2009, Fig. 3.5); none in 1D.
     pub fn draw_triangles(&self) -> Vec<[usize; 3]> {
         let n = self.layer_size;
         match self.dimension {

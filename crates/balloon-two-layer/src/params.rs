@@ -17,8 +17,8 @@ pub struct TwoLayerParams {
     pub springs: [SpringParams; 4],
     /// Gravitational acceleration (m/s^2) along minus the up axis, default 9.81.
     pub gravity: f64,
-    /// Normalise the spring force sum at each particle by `mean valence / valence` (seed
-    /// Sec. 3.5.3), default off. Breaks action = reaction: momentum and energy are then not
+    /// Normalise the spring force sum at each particle by `mean valence / valence` (Song
+    /// 2009, Sec. 3.5.3), default off. Breaks action = reaction: momentum and energy are then not
     /// conserved exactly.
     pub valence_normalization: bool,
     /// Collision box, default none.

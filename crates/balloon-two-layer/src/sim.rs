@@ -1,5 +1,5 @@
-//! Time stepping of a two-layer object: integrate (seed Ch. 5), collide (seed Sec. 4.6), check
-//! for blow-up, report.
+//! Time stepping of a two-layer object: integrate (Song 2009, Ch. 5), collide (Song 2009, Sec.
+//! 4.6), check for blow-up, report.
 
 use crate::error::{BlowUpReason, TwoLayerError};
 use crate::forces::{AnchorSpring, DragTarget, EnergyBreakdown, TwoLayerForces};
@@ -189,7 +189,7 @@ impl TwoLayerSimulation {
     }
 
     /// Sets the drag ("mouse") target while the simulation runs, or removes it with `None`
-    /// (seed Sec. 4.4). The pulled particle is the outer particle nearest to the target now.
+    /// (Song 2009, Sec. 4.4). The pulled particle is the outer particle nearest to the target now.
     /// The energy the drag spring stores at this moment counts as work done on the body.
     /// Returns the pulled particle.
     pub fn set_drag(&mut self, target: Option<DragTarget>) -> Result<Option<usize>, TwoLayerError> {
@@ -325,8 +325,8 @@ impl TwoLayerSimulation {
         }
     }
 
-    /// Advances one step: integrate all forces over `dt` (seed Sec. 4.7, Step 11), resolve box
-    /// collisions and inner-layer containment (Step 12), then check for blow-up.
+    /// Advances one step: integrate all forces over `dt` (Song 2009, Sec. 4.7, Step 11), resolve
+    /// box collisions and inner-layer containment (Step 12), then check for blow-up.
     ///
     /// Errors with [`TwoLayerError::BlowUp`] (naming the step, method and dt) when a coordinate
     /// becomes non-finite, a gas-filled layer inverts, or the total energy exceeds
@@ -382,7 +382,7 @@ impl TwoLayerSimulation {
     }
 
     /// Pins `particles` hard from now on: they become fixed particles of the model (as the top
-    /// of the 1D spring, seed Sec. 3.3), with zero inverse mass and zero velocity, so every
+    /// of the 1D spring, Song 2009, Sec. 3.3), with zero inverse mass and zero velocity, so every
     /// explicit method leaves their positions exactly as they are. Their springs still pull on
     /// their neighbours. Every particle must exist.
     ///
@@ -476,7 +476,7 @@ impl TwoLayerSimulation {
 }
 
 impl TwoLayerSimulation {
-    /// Sets the drag spring (seed Sec. 4.4, Eq. 4.7) on a chosen particle instead of the one
+    /// Sets the drag spring (Song 2009, Sec. 4.4, Eq. 4.7) on a chosen particle instead of the one
     /// nearest to the target (what the live viewer needs: the user picks a vertex, then moves the
     /// target). The particle must be an outer-layer particle (a free particle in 1D) that is not
     /// fixed. The work bookkeeping is that of [`TwoLayerSimulation::set_drag`]. Returns the
@@ -547,7 +547,7 @@ impl TwoLayerSimulation {
         Ok(particle)
     }
 
-    /// Changes the integration method for the following steps (seed Ch. 5).
+    /// Changes the integration method for the following steps (Song 2009, Ch. 5).
     pub fn set_method(&mut self, method: ExplicitMethod) {
         self.integrator.set_method(method);
     }

@@ -8,7 +8,7 @@ fn octahedron(level: u32) -> TwoLayerModel {
     TwoLayerModel::from_unit_sphere(mesh, Point3::origin(), [0.7, 1.0], [0.01, 0.02])
 }
 
-/// The constructors lay out the seed's springs (Sec. 3.4.2, 3.5.2), measure the rest volumes
+/// The constructors lay out the paper's springs (Sec. 3.4.2, 3.5.2), measure the rest volumes
 /// and pass their own check; the gas is `P V0` per layer.
 #[test]
 fn constructors_lay_out_the_springs_and_pass_the_check() {

@@ -42,15 +42,16 @@ pub enum Shape {
         /// Particles per layer.
         particles: usize,
     },
-    /// 3D UV sphere (seed Sec. 3.5.1) with `slices` meridians and `stacks` bands, poles on `z`.
+    /// 3D UV sphere (Song 2009, Sec. 3.5.1) with `slices` meridians and `stacks` bands, poles on
+    /// `z`.
     UvSphere {
         /// Meridians (>= 3).
         slices: usize,
         /// Latitude bands (>= 2).
         stacks: usize,
     },
-    /// 3D octahedron subdivided `level` times (seed Sec. 3.5.2), `4^(level+1) + 2` particles per
-    /// layer.
+    /// 3D octahedron subdivided `level` times (Song 2009, Sec. 3.5.2), `4^(level+1) + 2` particles
+    /// per layer.
     OctahedronSphere {
         /// Subdivision level (<= 7 here).
         level: u32,
@@ -99,8 +100,8 @@ pub struct TwoLayerBody {
     pub collision_box: Option<AxisBox>,
     /// Coefficient of restitution in `[0, 1]` for box and inner-layer collisions, default 0.5.
     pub restitution: f64,
-    /// Normalise the spring force sum at each particle by `mean valence / valence` (seed
-    /// Sec. 3.5.3), default off. Breaks action = reaction: momentum and energy are then not
+    /// Normalise the spring force sum at each particle by `mean valence / valence` (Song
+    /// 2009, Sec. 3.5.3), default off. Breaks action = reaction: momentum and energy are then not
     /// conserved exactly.
     pub valence_normalization: bool,
     /// Blow-up bound: the step fails when the total energy exceeds the initial energy plus the
@@ -130,22 +131,22 @@ impl TwoLayerBody {
         }
     }
 
-    /// 1D object: one spring of rest `length` (m), top end fixed (seed Sec. 3.3).
+    /// 1D object: one spring of rest `length` (m), top end fixed (Song 2009, Sec. 3.3).
     pub fn line(length: f64) -> Self {
         Self::with_shape(Shape::Line { length })
     }
 
-    /// 2D two-layer circle with `particles` per layer (seed Sec. 3.4).
+    /// 2D two-layer circle with `particles` per layer (Song 2009, Sec. 3.4).
     pub fn circle(particles: usize) -> Self {
         Self::with_shape(Shape::Circle { particles })
     }
 
-    /// 3D two-layer UV sphere (seed Sec. 3.5.1).
+    /// 3D two-layer UV sphere (Song 2009, Sec. 3.5.1).
     pub fn uv_sphere(slices: usize, stacks: usize) -> Self {
         Self::with_shape(Shape::UvSphere { slices, stacks })
     }
 
-    /// 3D two-layer subdivided-octahedron sphere (seed Sec. 3.5.2).
+    /// 3D two-layer subdivided-octahedron sphere (Song 2009, Sec. 3.5.2).
     pub fn octahedron_sphere(level: u32) -> Self {
         Self::with_shape(Shape::OctahedronSphere { level })
     }
@@ -209,7 +210,7 @@ impl TwoLayerBody {
         self
     }
 
-    /// Turns valence normalisation of spring forces on or off (seed Sec. 3.5.3).
+    /// Turns valence normalisation of spring forces on or off (Song 2009, Sec. 3.5.3).
     pub fn with_valence_normalization(mut self, on: bool) -> Self {
         self.valence_normalization = on;
         self

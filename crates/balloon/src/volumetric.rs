@@ -1,4 +1,4 @@
-//! Volume-conserving impulse-based deformable bodies (seed 003, Diziol, Bender and Bayer).
+//! Volume-conserving impulse-based deformable bodies (Diziol, Bender and Bayer 2011).
 //!
 //! A [`VolumetricBody`] is built from any triangle soup: the soup is turned into a tetrahedral
 //! lattice (Sec. 3, [`balloon_mesh::lattice`]), each lattice vertex becomes a particle and each
@@ -860,12 +860,12 @@ pub fn drop_speed(height: f64) -> f64 {
 }
 
 impl VolumetricScene {
-    /// Builds the scene. For [`VolumetricScene::DropSphere`], `soup` defaults to a 1 m cube
-    /// and `params` should come from [`drop_sphere_params`] (or be adapted from it). The floor is
+    /// Builds the scene. For [`VolumetricScene::DropSphere`], `soup` defaults to a 1 m cube and
+    /// `params` should come from [`drop_sphere_params`] (or be adapted from it). The floor is
     /// placed at the lowest particle, and a sphere of radius 0.3 x the body height and mass
-    /// [`SPHERE_MASS_FRACTION`] x the body mass starts 0.5 x the height above the body's top, falling at [`drop_speed`] of
-    /// the body height (2.2 m/s for a 1 m body, 0.86 m/s for a 0.15 m bunny): the whole scene
-    /// scales with the body.
+    /// [`SPHERE_MASS_FRACTION`] x the body mass starts 0.5 x the height above the body's top,
+    /// falling at [`drop_speed`] of the body height (2.2 m/s for a 1 m body, 0.86 m/s for a 0.15 m
+    /// bunny): the whole scene scales with the body.
     pub fn build(
         &self,
         soup: Option<&TriMesh>,

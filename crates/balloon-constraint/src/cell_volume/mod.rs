@@ -1,5 +1,5 @@
-//! Cell volume constraints of impulse-based volume-conserving bodies (seed 003, Diziol, Bender
-//! and Bayer, Sec. 4).
+//! Cell volume constraints of impulse-based volume-conserving bodies (Diziol, Bender and Bayer
+//! 2011, Sec. 4).
 //!
 //! A *cell* is a lattice hexahedron: 8 particles, 5 tetrahedra and 16 springs (12 edges and 4
 //! body diagonals, [`CellSprings`]). One simulation step (Eq. 1) first integrates the external

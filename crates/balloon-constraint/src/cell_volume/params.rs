@@ -19,10 +19,10 @@ pub enum CellCentre {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CellCorrection {
-    /// The paper's correction (seed 003, Sec. 4): scale the cell about its centre by
-    /// `lambda = cbrt(V0 / V)`, exact for that cell in one visit. Its direction `x_i - c` is not
-    /// the constraint gradient, so once cells are sheared it can add kinetic energy (measured:
-    /// about 1e-5 relative per step on a free body with random velocities).
+    /// The paper's correction (Diziol, Bender and Bayer 2011, Sec. 4): scale the cell about its
+    /// centre by `lambda = cbrt(V0 / V)`, exact for that cell in one visit. Its direction `x_i - c`
+    /// is not the constraint gradient, so once cells are sheared it can add kinetic energy
+    /// (measured: about 1e-5 relative per step on a free body with random velocities).
     #[default]
     Scaling,
     /// Move along the mass-weighted volume gradient,
@@ -38,8 +38,8 @@ pub enum CellCorrection {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CellSolver {
-    /// The paper's Gauss-Seidel sweeps, one cell at a time (seed 003, Sec. 4). Sweeps needed
-    /// grow with the lattice size.
+    /// The paper's Gauss-Seidel sweeps, one cell at a time (Diziol, Bender and Bayer 2011, Sec. 4).
+    /// Sweeps needed grow with the lattice size.
     #[default]
     GaussSeidel,
     /// Newton iterations on all cells at once with a sparse Cholesky solve of `J W J^T`
@@ -72,22 +72,21 @@ pub struct CellVolumeParams {
     /// Gauss-Seidel sweeps (the paper's) or one global solve. Default
     /// [`CellSolver::GaussSeidel`].
     pub solver: CellSolver,
-    /// Adaptive over-relaxation of the Gauss-Seidel sweeps (not in the paper; default `false`).
-    /// The sweeps keep the paper's per-cell correction (Eq. 2-4, scaled by `lambda^omega`), but
-    /// `omega` is chosen from the observed convergence: the first `2 ADAPT_WINDOW` sweeps run
-    /// at `over_relaxation`; the factor `rho` by which the largest cell error shrank per sweep
-    /// over the second window of them then gives Young's optimum,
-    /// `omega = 2 / (1 + sqrt(1 - rho))` (for a consistently ordered linear system the
-    /// Gauss-Seidel factor is `rho = mu^2`, `mu` the Jacobi one, and SOR at this `omega`
-    /// converges by `omega - 1` per sweep), at most [`MAX_ADAPTIVE_OMEGA`]. If the error then
-    /// stops shrinking over a window, `omega - 1` is halved (see `adaptive_step`). Every cell still ends within
-    /// `tolerance`, and the per-cell impulses still sum to zero (momentum is kept); only the
-    /// number of sweeps (and the point reached on the constraint set) changes. Measured on a
-    /// block of 864 cells with every particle moved by up to 1 mm
-    /// (`adaptive_relaxation_cuts_the_sweeps_of_a_large_block`): 1458 sweeps at `omega = 1`,
-    /// 437 adaptive (it chose 1.51), against 760, 434, 276, 249, 382 and 767 at the fixed
-    /// `omega` 1.3, 1.5, 1.6, 1.7, 1.8 and 1.9: the early estimate of `rho` is low (the slowest
-    /// error components dominate only later), which keeps `omega` on the safe side of the
+    /// Adaptive over-relaxation of the Gauss-Seidel sweeps (not in the paper; default `false`). The
+    /// sweeps keep the paper's per-cell correction (Eq. 2-4, scaled by `lambda^omega`), but `omega`
+    /// is chosen from the observed convergence: the first `2 ADAPT_WINDOW` sweeps run at
+    /// `over_relaxation`; the factor `rho` by which the largest cell error shrank per sweep over
+    /// the second window of them then gives Young's optimum, `omega = 2 / (1 + sqrt(1 - rho))` (for
+    /// a consistently ordered linear system the Gauss-Seidel factor is `rho = mu^2`, `mu` the
+    /// Jacobi one, and SOR at this `omega` converges by `omega - 1` per sweep), at most
+    /// [`MAX_ADAPTIVE_OMEGA`]. If the error then stops shrinking over a window, `omega - 1` is
+    /// halved (see `adaptive_step`). Every cell still ends within `tolerance`, and the per-cell
+    /// impulses still sum to zero (momentum is kept); only the number of sweeps (and the point
+    /// reached on the constraint set) changes. Measured on a block of 864 cells with every particle
+    /// moved by up to 1 mm (`adaptive_relaxation_cuts_the_sweeps_of_a_large_block`): 1458 sweeps at
+    /// `omega = 1`, 437 adaptive (it chose 1.51), against 760, 434, 276, 249, 382 and 767 at the
+    /// fixed `omega` 1.3, 1.5, 1.6, 1.7, 1.8 and 1.9: the early estimate of `rho` is low (the
+    /// slowest error components dominate only later), which keeps `omega` on the safe side of the
     /// optimum, where a too large one costs more than a too small one here.
     pub adaptive_relaxation: bool,
 }
@@ -155,16 +154,16 @@ impl CellVolumeParams {
         }
     }
 
-    /// Gauss-Seidel sweeps set up to converge on lattices of about a thousand cells: the
-    /// gradient correction and [`CellVolumeParams::adaptive_relaxation`], other settings at
-    /// their defaults. The paper's sweeps ([`CellVolumeParams::default`]: scaling correction,
-    /// `omega = 1`) reduce the largest cell error by only about 2 % per sweep there and stop
-    /// at the 500-sweep limit within 6-35 steps of `balloon volumetric`'s drop-sphere scene on
-    /// the teddy, bunny, spot and armadillo (the torus ran its first 400 steps at 157 sweeps
-    /// per step); these settings run 2000 steps on all five (`cargo xtask validate --only
-    /// drop-sphere`, 93-344 sweeps per step); with the scaling correction and adaptive relaxation the impact
-    /// inverts a cell (bunny step 1417, spot step 970), as the scaling adds kinetic energy.
-    /// This is the default of `balloon volumetric --volume-solver gauss-seidel`.
+    /// Gauss-Seidel sweeps set up to converge on lattices of about a thousand cells: the gradient
+    /// correction and [`CellVolumeParams::adaptive_relaxation`], other settings at their defaults.
+    /// The paper's sweeps ([`CellVolumeParams::default`]: scaling correction, `omega = 1`) reduce
+    /// the largest cell error by only about 2 % per sweep there and stop at the 500-sweep limit
+    /// within 6-35 steps of `balloon volumetric`'s drop-sphere scene on the teddy, bunny, spot and
+    /// armadillo (the torus ran its first 400 steps at 157 sweeps per step); these settings run
+    /// 2000 steps on all five (`cargo xtask validate --only drop-sphere`, 93-344 sweeps per step);
+    /// with the scaling correction and adaptive relaxation the impact inverts a cell (bunny step
+    /// 1417, spot step 970), as the scaling adds kinetic energy. This is the default of `balloon
+    /// volumetric --volume-solver gauss-seidel`.
     pub fn gauss_seidel() -> Self {
         Self {
             correction: CellCorrection::Gradient,

@@ -1,4 +1,4 @@
-//! The impulse-based time stepping of seed 003 (Diziol, Bender and Bayer, Sec. 4) for particles
+//! The impulse-based time stepping of Diziol, Bender and Bayer 2011, Sec. 4 for particles
 //! held by cell-volume constraints ([`crate::cell_volume`]), with a rigid sphere and static planes
 //! ([`crate::rigid`]).
 //!

@@ -1,7 +1,7 @@
-//! The inner layer kept inside the closed outer layer (seed 004, Sec. 4.6.2) by a closest-point
+//! The inner layer kept inside the closed outer layer (Song 2009, Sec. 4.6.2) by a closest-point
 //! test against the whole outer surface.
 //!
-//! The seed tests each inner particle against the tangent plane of its outer partner. That
+//! The paper tests each inner particle against the tangent plane of its outer partner. That
 //! plane is only a local approximation: on a bent outer layer an inner particle can be behind
 //! the plane and still outside the surface (or the other way round). Here each inner particle
 //! `p` is tested against the outer surface itself:

@@ -1,4 +1,5 @@
-//! [`MatrixFreeCg`]: CG on `A p` without assembling `A` (seed 000, Eq. 23 solved as in the paper).
+//! [`MatrixFreeCg`]: CG on `A p` without assembling `A` (Wang et al. 2015, Eq. 23 solved as in the
+//! paper).
 
 use super::params::CgParams;
 use super::problem::{LinearProblem, LinearSolver, ProblemForm};

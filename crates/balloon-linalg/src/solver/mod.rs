@@ -3,10 +3,10 @@
 //!
 //! `A = m_coef M + k_coef (K + sum_i c_i u_i u_i^T)`,
 //!
-//! `M` a lumped (diagonal) mass matrix, `K` the sparse part of a stiffness matrix and the
-//! `c_i u_i u_i^T` dense low-rank terms ([`crate::LowRankTerm`]) that are never assembled. This is the
-//! Newton matrix of backward Euler (seed 000, Eq. 23, with `m_coef = 1 + dt alpha`,
-//! `k_coef = dt^2 + dt beta`).
+//! `M` a lumped (diagonal) mass matrix, `K` the sparse part of a stiffness matrix and the `c_i u_i
+//! u_i^T` dense low-rank terms ([`crate::LowRankTerm`]) that are never assembled. This is the
+//! Newton matrix of backward Euler (Wang et al. 2015, Eq. 23, with `m_coef = 1 + dt alpha`, `k_coef
+//! = dt^2 + dt beta`).
 //!
 //! One type per solver, each with its parameters (Params), a [`crate::SolveInfo`] on success and a
 //! [`crate::SolveError`] on failure:

@@ -64,8 +64,8 @@ impl std::fmt::Debug for ProblemForm<'_> {
     }
 }
 
-/// The linear system `A x = b`, `A = m_coef M + k_coef (K + sum_i c_i u_i u_i^T)` (seed 000,
-/// Eq. 23), in matrix-free or assembled form ([`ProblemForm`]).
+/// The linear system `A x = b`, `A = m_coef M + k_coef (K + sum_i c_i u_i u_i^T)` (Wang et al.
+/// 2015, Eq. 23), in matrix-free or assembled form ([`ProblemForm`]).
 #[derive(Clone, Copy, Debug)]
 pub struct LinearProblem<'a> {
     /// Coefficient of the mass matrix (already inside the matrix in the assembled form).

@@ -1,4 +1,4 @@
-//! Triangle soup -> tetrahedral lattice (seed 003, Diziol, Bender and Bayer, Sec. 3, after
+//! Triangle soup -> tetrahedral lattice (Diziol, Bender and Bayer 2011, Sec. 3, after
 //! Spillmann, Wagner and Teschner 2006).
 //!
 //! Pipeline of [`build_lattice`]:
@@ -23,8 +23,8 @@
 //!    corners are shared between cells (welded), all tetrahedra positively oriented.
 //! 5. **Smoothing**: `smoothing_iterations` of the second-order umbrella (bi-Laplacian) filter of
 //!    Desbrun et al. 1999 on the surface vertices, with only the *axis-aligned* surface edges of
-//!    the unsmoothed lattice in the umbrella (Fig. 2), followed each time by a uniform scaling about
-//!    the vertex centroid that restores the tetrahedral volume (volume preservation).
+//!    the unsmoothed lattice in the umbrella (Fig. 2), followed each time by a uniform scaling
+//!    about the vertex centroid that restores the tetrahedral volume (volume preservation).
 //! 6. **Embedding**: each soup vertex gets the tetrahedron that contains it (or, outside the
 //!    lattice, the nearest one) and its (possibly extrapolated) barycentric coordinates, so the
 //!    original surface can be drawn from the deformed lattice ([`Embedding::surface`]).

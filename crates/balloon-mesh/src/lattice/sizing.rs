@@ -1,5 +1,5 @@
 //! Lattice resolution from the model: the resolution is searched for a target cell count
-//! (seed 003's bodies have hundreds to a few thousand cells) with every part of the soup still
+//! (the paper's bodies have hundreds to a few thousand cells) with every part of the soup still
 //! resolved, instead of a fixed number of voxels along the longest side, which gives a handful
 //! of cells on a torus and none on a thin model.
 //!

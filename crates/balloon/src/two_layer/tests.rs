@@ -253,7 +253,7 @@ mod stepping {
             / n
     }
 
-    /// The 1D hanging spring (seed Sec. 3.3) released from its rest length is a harmonic
+    /// The 1D hanging spring (Song 2009, Sec. 3.3) released from its rest length is a harmonic
     /// oscillator about `L + m g / k`: `x(t) = -L - (m g / k)(1 - cos(omega t))`. The global
     /// error at t = 1 s must fall with the method's order (Euler and symplectic 1, midpoint 2,
     /// RK4 4), fitted over four time steps within +-0.3.
@@ -412,7 +412,7 @@ mod stepping {
     /// mesh and minimised by Newton (the 1D radial root find of `docs/two-layer.md`, done for
     /// both layers). The model's energy must agree with it on scaled shapes; the simulated
     /// equilibrium must have a lower energy (it minimises over all shapes) and lie within 2%
-    /// of the predicted radii (the valence-4 kernel points bulge a little, seed Sec. 3.5.3).
+    /// of the predicted radii (the valence-4 kernel points bulge a little, Song 2009, Sec. 3.5.3).
     #[test]
     fn pressurised_sphere_settles_at_radial_force_balance() {
         let (a0, b0, level) = (0.7, 1.0, 2u32);
@@ -737,7 +737,7 @@ mod stepping {
 
     #[test]
     fn builders_make_the_seed_spring_layout() {
-        // 2D (seed Sec. 3.4.2): N structural springs per layer, N radius, N left and N right
+        // 2D (Song 2009, Sec. 3.4.2): N structural springs per layer, N radius, N left and N right
         // shear springs; 2N drawing triangles.
         let m = TwoLayerBody::circle(12).build().unwrap();
         assert_eq!(m.num_particles(), 24);
