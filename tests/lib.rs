@@ -2,20 +2,18 @@
 //! measurements that do not go through the quantity under test.
 
 use balloon::gas::GasModel;
+use balloon::mesh::geometry;
 use balloon::mesh::lattice::Lattice;
-use balloon::mesh::{TriMesh, geometry};
 use balloon::shell::{ShellMaterial, ShellSimulation};
 use nalgebra::Point3;
 use std::path::PathBuf;
 
 /// The volume the surface `x` (flat positions) over `triangles` encloses, by the divergence
-/// theorem on the mesh (seed 000, Eq. 13): not the gas model's own volume.
+/// theorem on the mesh (Wang et al. 2015, Eq. 13; the one kernel,
+/// `balloon_mesh::geometry::enclosed_volume_flat`), measured from the positions: not the volume
+/// a gas model keeps in its state.
 pub fn mesh_volume(x: &[f64], triangles: &[[usize; 3]]) -> f64 {
-    let points = x
-        .chunks_exact(3)
-        .map(|c| Point3::new(c[0], c[1], c[2]))
-        .collect();
-    geometry::enclosed_volume(&TriMesh::new(points, triangles.to_vec()))
+    geometry::enclosed_volume_flat(x, triangles)
 }
 
 /// The gas pressure the simulation's pressure forces imply at its current shape, Pa (absolute
@@ -93,9 +91,9 @@ pub fn max_relative_change(v: &[f64], v0: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// The shell's material volume `sum_e h_e A_e` (seed 000, Eq. 26) for flat positions `x`, per-face
-/// thickness `thickness` (m), computed here from the triangle areas (not the projection's own
-/// measure).
+/// The shell's material volume `sum_e h_e A_e` (Wang et al. 2015, Eq. 26) for flat positions `x`,
+/// per-face thickness `thickness` (m), computed here from the triangle areas (not the projection's
+/// own measure).
 pub fn shell_material_volume(x: &[f64], triangles: &[[usize; 3]], thickness: &[f64]) -> f64 {
     let p = |v: usize| nalgebra::Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
     triangles

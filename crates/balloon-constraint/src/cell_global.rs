@@ -1,10 +1,12 @@
-//! Global (all cells at once) solve of the cell volume constraints of seed 003.
+//! Global (all cells at once) solve of the cell volume constraints of Diziol, Bender and Bayer
+//! 2011.
 //!
-//! The Gauss-Seidel sweeps of [`CellVolumeConstraints::project`] fix one cell at a time; a
-//! volume error spreads through the lattice like diffusion, so the number of sweeps grows with
-//! the lattice size (measured: cost ~ particles^3 at a 1e-10 tolerance). [`CellSolver::Global`]
-//! instead takes Newton steps on all constraints `C_c(x) = V_c(x) - V0_c = 0` together, each the
-//! minimal mass-weighted correction of the linearised constraints:
+//! The Gauss-Seidel sweeps of [`CellVolumeConstraints::project`] fix one cell at a time; a volume
+//! error spreads through the lattice like diffusion, so the number of sweeps grows with the lattice
+//! size (measured: cost ~ particles^3 at a 1e-10 tolerance).
+//! [`CellSolver::Global`](crate::cell_volume::CellSolver::Global) instead takes Newton steps on all
+//! constraints `C_c(x) = V_c(x) - V0_c = 0` together, each the minimal mass-weighted correction of
+//! the linearised constraints:
 //!
 //! ```text
 //! (J W J^T) lambda = C,     dx = -W J^T lambda,     J = dC/dx (one row of 8 gradients per cell),
@@ -21,9 +23,9 @@
 //! invert a tetrahedron is halved (up to 30 times) before it is taken.
 
 use crate::ConstraintError;
-use crate::cell_volume::{CellCorrection, CellSolver, CellVolumeConstraints, ProjectionInfo};
+use crate::cell_volume::cells::{CellVolumeConstraints, volume_and_gradient};
+use crate::cell_volume::params::{CellCorrection, ProjectionInfo};
 use balloon_linalg::{SparseAssembler, SparseCholesky};
-use balloon_mesh::tet::signed_tet_volume;
 use nalgebra::{Point3, Vector3};
 
 /// Reusable state of the global cell-volume solve (see the module docs): particle-to-cell
@@ -87,66 +89,9 @@ impl CellProjectionWorkspace {
     }
 }
 
-/// Volume of cell `c` and its gradient with respect to its eight corners (Eq. 3 summed over
-/// the five tetrahedra: `dV/dx_b = (x_c - x_a) x (x_d - x_a) / 6` and cyclic, `dV/dx_a` minus
-/// their sum).
-pub(crate) fn volume_and_gradient(
-    x: &[Point3<f64>],
-    cell: &[usize; 8],
-    tets: &[[usize; 4]; 5],
-    grad: &mut [Vector3<f64>; 8],
-) -> f64 {
-    *grad = [Vector3::zeros(); 8];
-    let slot = |i: usize| cell.iter().position(|&k| k == i).unwrap_or(0);
-    let mut volume = 0.0;
-    for t in tets {
-        let [a, b, c, d] = t.map(|i| x[i]);
-        volume += signed_tet_volume(&a, &b, &c, &d);
-        let gb = (c - a).cross(&(d - a)) / 6.0;
-        let gc = (d - a).cross(&(b - a)) / 6.0;
-        let gd = (b - a).cross(&(c - a)) / 6.0;
-        grad[slot(t[0])] -= gb + gc + gd;
-        grad[slot(t[1])] += gb;
-        grad[slot(t[2])] += gc;
-        grad[slot(t[3])] += gd;
-    }
-    volume
-}
-
 impl CellVolumeConstraints {
-    /// [`CellVolumeConstraints::project_to_tolerance`] with a caller-owned workspace, which the
-    /// global solver ([`CellSolver::Global`]) reuses across calls (the Gauss-Seidel sweeps need
-    /// none and ignore it). For the global solver, [`ProjectionInfo::sweeps`] counts Newton
-    /// iterations (one sparse factorisation each).
-    pub fn project_with(
-        &self,
-        workspace: &mut CellProjectionWorkspace,
-        preview: &mut [Point3<f64>],
-        velocities: &mut [Vector3<f64>],
-        masses: &[f64],
-        h: f64,
-        tolerance: f64,
-    ) -> Result<ProjectionInfo, ConstraintError> {
-        for (name, len) in [("velocities", velocities.len()), ("masses", masses.len())] {
-            if len != preview.len() {
-                return Err(ConstraintError::LengthMismatch {
-                    name,
-                    len,
-                    expected: preview.len(),
-                });
-            }
-        }
-        match self.params.solver {
-            CellSolver::GaussSeidel => {
-                self.project_gauss_seidel(preview, velocities, masses, h, tolerance)
-            }
-            CellSolver::Global => {
-                self.project_global(workspace, preview, velocities, masses, h, tolerance)
-            }
-        }
-    }
-
-    fn project_global(
+    /// The global solve of [`CellVolumeConstraints::project_with`] (see the module docs).
+    pub(crate) fn project_global(
         &self,
         ws: &mut CellProjectionWorkspace,
         preview: &mut [Point3<f64>],

@@ -3,12 +3,13 @@
 use thiserror::Error;
 
 /// Everything that can go wrong in a projector or a constraint of this crate: the shell-volume
-/// projection (seed 000, Alg. 2), the cell-volume impulses and their time stepping (seed 003,
-/// Sec. 4) and the two-layer box collisions (seed 004). Variants carry the numbers that explain
-/// them; the state a failing call was given is left as it was unless a variant says otherwise.
+/// projection (Wang et al. 2015, Alg. 2), the cell-volume impulses and their time stepping (Diziol,
+/// Bender and Bayer 2011, Sec. 4) and the two-layer box collisions (Song 2009). Variants carry the
+/// numbers that explain them; the state a failing call was given is left as it was unless a variant
+/// says otherwise.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum ConstraintError {
-    // --- Shell-volume projection (seed 000, Eq. 24-28, Alg. 2) ---
+    // --- Shell-volume projection (Wang et al. 2015, Eq. 24-28, Alg. 2) ---
     /// The projection did not reach the tolerance within `max_iterations`; positions and
     /// thicknesses are left unchanged. Raise `max_iterations` or check for degenerate elements.
     #[error(
@@ -91,7 +92,7 @@ pub enum ConstraintError {
         requirement: &'static str,
     },
 
-    // --- Cell-volume impulses (seed 003, Sec. 4) ---
+    // --- Cell-volume impulses (Diziol, Bender and Bayer 2011, Sec. 4) ---
     /// A tetrahedron of the preview has non-positive volume; the caller should halve the time
     /// step and retry (Sec. 4).
     #[error("tetrahedron {tet} of cell {cell} inverted in the preview (volume {volume:.3e} m^3)")]
@@ -103,9 +104,10 @@ pub enum ConstraintError {
         /// Its signed volume.
         volume: f64,
     },
-    /// The sweeps did not bring every cell below the tolerance.
+    /// The sweeps did not bring every cell below the tolerance. The message names the
+    /// [`crate::cell_volume::CellVolumeParams`] fields to change.
     #[error(
-        "volume projection did not converge in {sweeps} sweeps: max relative error {max_error:.3e} in cell {cell} (Gauss-Seidel sweeps slow down as the lattice grows: try adaptive over-relaxation (balloon volumetric --over-relaxation adaptive), the global cell-volume solver (--volume-solver global), more sweeps or a looser tolerance (--tolerance))"
+        "volume projection did not converge in {sweeps} sweeps: max relative error {max_error:.3e} in cell {cell} (Gauss-Seidel sweeps slow down as the lattice grows: try adaptive over-relaxation (`adaptive_relaxation` = true), the global cell-volume solver (`solver` = global), more sweeps (a larger `max_sweeps`) or a looser `tolerance`)"
     )]
     CellVolumeNotConverged {
         /// Sweeps done.
@@ -149,7 +151,33 @@ pub enum ConstraintError {
         dt: f64,
     },
 
-    // --- Two-layer collisions (seed 004) ---
+    // --- Impulse-stepped bodies (Diziol, Bender and Bayer 2011, Sec. 4) ---
+    /// The rigid sphere's mass or radius is not positive and finite.
+    #[error("invalid sphere: {what} {value} must be > 0")]
+    InvalidSphere {
+        /// `mass` or `radius`.
+        what: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// A particle index (a fixed particle, an anchor, ...) is not a particle of the body.
+    #[error("{what} {particle} does not exist: the body has {particles} particles")]
+    ParticleOutOfRange {
+        /// What the index was given for (e.g. `fixed particle`).
+        what: &'static str,
+        /// The index.
+        particle: usize,
+        /// The number of particles.
+        particles: usize,
+    },
+    /// A particle's position or velocity became NaN or infinite in a step.
+    #[error("particle {particle} has a non-finite position or velocity")]
+    NonFiniteState {
+        /// The first such particle.
+        particle: usize,
+    },
+
+    // --- Two-layer collisions (Song 2009) ---
     /// The box has a non-finite corner or zero or negative extent along an axis. Pass
     /// `min < max` componentwise.
     #[error(
@@ -160,6 +188,20 @@ pub enum ConstraintError {
         min: [f64; 3],
         /// Upper corner.
         max: [f64; 3],
+    },
+    /// The outer layer given to [`crate::two_layer::LayerContainment::surface`] is not a closed,
+    /// consistently oriented triangle surface over its vertices (never the case for the
+    /// layers of the sphere generators).
+    #[error(
+        "the outer layer ({triangles} triangles on {vertices} vertices) cannot contain the inner one: {reason}"
+    )]
+    InvalidLayerSurface {
+        /// Number of triangles.
+        triangles: usize,
+        /// Number of vertices.
+        vertices: usize,
+        /// The first fault found (an edge, face or vertex).
+        reason: String,
     },
     /// The restitution is outside `[0, 1]`.
     #[error("restitution {0} must be in [0, 1] (0: no bounce, 1: perfectly elastic)")]

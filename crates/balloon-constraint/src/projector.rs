@@ -1,5 +1,5 @@
-//! The projector seam of the shell balloon: [`ShellProjector`], what runs after each implicit
-//! step to restore the shell's material volume (seed 000, Algorithm 1 line 10 and Algorithm 2).
+//! The projector seam of the shell balloon: [`ShellProjector`], what runs after each implicit step
+//! to restore the shell's material volume (Wang et al. 2015, Algorithm 1 line 10 and Algorithm 2).
 //!
 //! [`ShellVolumeProjection`] (the paper's global projection, Eq. 24-28, or the per-element
 //! closed form, by its [`ShellVolumeParams::scope`](crate::shell_volume::ShellVolumeParams)) and

@@ -1,5 +1,5 @@
-//! Impulse-based contact between particles, a rigid sphere and static planes (seed 003, Sec. 4
-//! and 5, after Bender and Schmitt 2006).
+//! Impulse-based contact between particles, a rigid sphere and static planes (Diziol, Bender and
+//! Bayer 2011, Sec. 4 and 5, after Bender and Schmitt 2006).
 //!
 //! Contacts work on the same *preview* as the volume constraints: with start-of-step positions
 //! `p` and velocities `v` (external forces already applied), the preview is `x = p + h v`. A
@@ -10,12 +10,13 @@
 //! u+ = (u - g / h) + e max(0, -u)      (g = preview gap, negative when penetrating)
 //! ```
 //!
-//! The first term, `-d / h` with `d` the current gap, is the normal velocity that makes the
-//! preview end exactly on the surface (non-penetration, and no hovering for `e = 0`); the second
-//! adds the restitution bounce (restitution `e` in [0, 1]) of the approach speed. For a point on
-//! or outside the surface (`d >= 0`), `u+ <= e |u|`, so a contact never adds normal speed. The impulse `J n` with
-//! `J = (u+ - u) / (1/m_a + 1/m_b)` goes to `a`, `-J n` to `b`: equal and opposite, so the sphere
-//! plus body momentum is conserved; a static plane has `1/m_b = 0`. Contacts are frictionless.
+//! The first term, `-d / h` with `d` the current gap, is the normal velocity that makes the preview
+//! end exactly on the surface (non-penetration, and no hovering for `e = 0`); the second adds the
+//! restitution bounce (restitution `e` in [0, 1]) of the approach speed. For a point on or outside
+//! the surface (`d >= 0`), `u+ <= e |u|`, so a contact never adds normal speed. The impulse `J n`
+//! with `J = (u+ - u) / (1/m_a + 1/m_b)` goes to `a`, `-J n` to `b`: equal and opposite, so the
+//! sphere plus body momentum is conserved; a static plane has `1/m_b = 0`. Contacts are
+//! frictionless.
 
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -45,7 +46,8 @@ impl RigidSphere {
     }
 }
 
-/// A static plane `{x : (x - point) . normal = 0}`; the free side is where `(x - point) . normal > 0`.
+/// A static plane `{x : (x - point) . normal = 0}`; the free side is where `(x - point) . normal >
+/// 0`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Plane {
     /// A point of the plane (m).

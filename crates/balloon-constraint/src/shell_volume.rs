@@ -1,4 +1,4 @@
-//! Global shell-volume projection with one virtual vertex per element (seed 000, Sec. 7,
+//! Global shell-volume projection with one virtual vertex per element (Wang et al. 2015, Sec. 7,
 //! Eq. 24-28, Algorithm 2).
 //!
 //! A balloon's rubber is (nearly) incompressible: when it stretches it gets thinner. Each

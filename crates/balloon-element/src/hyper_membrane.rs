@@ -6,7 +6,8 @@ use nalgebra::{Matrix2, SMatrix, Vector3};
 
 use crate::ElementError;
 use crate::expand::edge_to_vertex_hessian;
-use crate::prism::{DEGENERACY_TOL, project_psd};
+use crate::prism::project_psd;
+use crate::triangle::{check_area, check_positions, rest_triangle};
 
 const NAME: &str = "hyper membrane";
 
@@ -51,46 +52,15 @@ impl HyperMembrane {
     /// * [`ElementError::DegenerateRest`] (quantity `area`) for a (near) zero-area triangle,
     ///   `|E12 x E13| <= 1e-12 (|E12|^2 + |E13|^2)`.
     pub fn try_new(rest: [Vector3<f64>; 3], thickness: f64) -> Result<Self, ElementError> {
-        if rest.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
-            return Err(ElementError::NonFinite {
-                element: NAME,
-                quantity: "rest position",
-            });
-        }
-        if !thickness.is_finite() {
-            return Err(ElementError::NonFinite {
-                element: NAME,
-                quantity: "rest thickness",
-            });
-        }
-        if thickness <= 0.0 {
-            return Err(ElementError::InvalidParameter {
-                element: NAME,
-                name: "thickness",
-                value: thickness,
-                allowed: "> 0 m",
-            });
-        }
-        let e12 = rest[1] - rest[0];
-        let e13 = rest[2] - rest[0];
-        let n = e12.cross(&e13);
-        let nn = n.norm();
-        let area = 0.5 * nn;
-        let degenerate = ElementError::DegenerateRest {
-            element: NAME,
-            quantity: "area",
-            value: area,
-        };
-        if nn <= DEGENERACY_TOL * (e12.norm_squared() + e13.norm_squared()) {
-            return Err(degenerate);
-        }
+        let tri = rest_triangle(NAME, &rest, thickness)?;
+        let (e12, e13) = (tri.e12, tri.e13);
         let t1 = e12 / e12.norm();
-        let t2 = (n / nn).cross(&t1);
+        let t2 = (tri.normal / tri.normal_norm).cross(&t1);
         let dm = Matrix2::new(t1.dot(&e12), t1.dot(&e13), t2.dot(&e12), t2.dot(&e13));
-        let dm_inv = dm.try_inverse().ok_or(degenerate)?;
+        let dm_inv = dm.try_inverse().ok_or(tri.degenerate(NAME))?;
         Ok(Self {
             dm_inv,
-            rest_area: area,
+            rest_area: tri.area,
             rest_thickness: thickness,
         })
     }
@@ -117,23 +87,8 @@ impl HyperMembrane {
     /// # Errors
     /// [`ElementError::NonFinite`] or [`ElementError::Degenerate`] (quantity `area`).
     pub fn check_state(&self, x: &[Vector3<f64>; 3]) -> Result<(), ElementError> {
-        if x.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
-            return Err(ElementError::NonFinite {
-                element: NAME,
-                quantity: "position",
-            });
-        }
-        let e12 = x[1] - x[0];
-        let e13 = x[2] - x[0];
-        let nn = e12.cross(&e13).norm();
-        if nn <= DEGENERACY_TOL * (e12.norm_squared() + e13.norm_squared()) {
-            return Err(ElementError::Degenerate {
-                element: NAME,
-                quantity: "area",
-                value: 0.5 * nn,
-            });
-        }
-        Ok(())
+        check_positions(NAME, x)?;
+        check_area(NAME, x)
     }
 
     /// Whether the model is defined at the current state (for example below Gent's

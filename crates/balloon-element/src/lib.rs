@@ -47,6 +47,7 @@ mod expand;
 mod hyper_membrane;
 mod prism;
 mod spring;
+mod triangle;
 
 pub use error::ElementError;
 pub use hyper_membrane::{HyperMembrane, HyperMembraneLinearization};

@@ -5,12 +5,9 @@ use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use crate::ElementError;
 use crate::expand::edge_to_vertex_hessian;
+use crate::triangle::{check_area, check_positions, rest_triangle};
 
 const NAME: &str = "three-prism";
-
-/// Relative tolerance below which a triangle counts as degenerate:
-/// `|e12 x e13| <= DEGENERACY_TOL * (|e12|^2 + |e13|^2)`.
-pub(crate) const DEGENERACY_TOL: f64 = 1e-12;
 
 /// Rest data of one three-prism element: a triangle extruded along its unit normal by a thickness
 /// (seed 000 Sec. 4, Fig. 1).
@@ -74,47 +71,13 @@ impl ThreePrism {
     /// * [`ElementError::DegenerateRest`] (quantity `area`) for a (near) zero-area triangle,
     ///   `|E12 x E13| <= 1e-12 (|E12|^2 + |E13|^2)`.
     pub fn try_new(rest: [Vector3<f64>; 3], thickness: f64) -> Result<Self, ElementError> {
-        if rest.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
-            return Err(ElementError::NonFinite {
-                element: NAME,
-                quantity: "rest position",
-            });
-        }
-        if !thickness.is_finite() {
-            return Err(ElementError::NonFinite {
-                element: NAME,
-                quantity: "rest thickness",
-            });
-        }
-        if thickness <= 0.0 {
-            return Err(ElementError::InvalidParameter {
-                element: NAME,
-                name: "thickness",
-                value: thickness,
-                allowed: "> 0 m",
-            });
-        }
-        let e12 = rest[1] - rest[0];
-        let e13 = rest[2] - rest[0];
-        let n = e12.cross(&e13);
-        let nn = n.norm();
-        let area = 0.5 * nn;
-        if nn <= DEGENERACY_TOL * (e12.norm_squared() + e13.norm_squared()) {
-            return Err(ElementError::DegenerateRest {
-                element: NAME,
-                quantity: "area",
-                value: area,
-            });
-        }
-        let dm = Matrix3::from_columns(&[e12, e13, n * (thickness / nn)]);
-        let dm_inv = dm.try_inverse().ok_or(ElementError::DegenerateRest {
-            element: NAME,
-            quantity: "area",
-            value: area,
-        })?;
+        let tri = rest_triangle(NAME, &rest, thickness)?;
+        let (n, nn) = (tri.normal, tri.normal_norm);
+        let dm = Matrix3::from_columns(&[tri.e12, tri.e13, n * (thickness / nn)]);
+        let dm_inv = dm.try_inverse().ok_or(tri.degenerate(NAME))?;
         Ok(Self {
             dm_inv,
-            rest_area: area,
+            rest_area: tri.area,
             rest_thickness: thickness,
         })
     }
@@ -147,12 +110,7 @@ impl ThreePrism {
     /// [`ElementError::NonFinite`], [`ElementError::InvalidParameter`] (thickness) or
     /// [`ElementError::Degenerate`] (quantity `area`).
     pub fn check_state(&self, x: &[Vector3<f64>; 3], h: f64) -> Result<(), ElementError> {
-        if x.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
-            return Err(ElementError::NonFinite {
-                element: NAME,
-                quantity: "position",
-            });
-        }
+        check_positions(NAME, x)?;
         if !h.is_finite() {
             return Err(ElementError::NonFinite {
                 element: NAME,
@@ -167,17 +125,7 @@ impl ThreePrism {
                 allowed: "> 0 m",
             });
         }
-        let e12 = x[1] - x[0];
-        let e13 = x[2] - x[0];
-        let nn = e12.cross(&e13).norm();
-        if nn <= DEGENERACY_TOL * (e12.norm_squared() + e13.norm_squared()) {
-            return Err(ElementError::Degenerate {
-                element: NAME,
-                quantity: "area",
-                value: 0.5 * nn,
-            });
-        }
-        Ok(())
+        check_area(NAME, x)
     }
 
     #[inline]

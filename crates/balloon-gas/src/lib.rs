@@ -46,6 +46,7 @@
 //! ```
 
 mod error;
+mod kind;
 pub mod laws;
 pub mod layer;
 mod load;
@@ -54,11 +55,10 @@ mod pressure_field;
 mod volume;
 
 pub use error::GasError;
+pub use kind::{Gas, GasKind, GasLawParams};
 pub use laws::{LeakyGas, Polytropic, SupplyPump};
 pub use load::{GasState, PressureLoad};
-pub use model::{
-    ConstantPressure, Gas, GasKind, GasLawParams, GasModel, IdealGas, Pump, STANDARD_ATMOSPHERE,
-};
+pub use model::{ConstantPressure, GasModel, IdealGas, Pump, STANDARD_ATMOSPHERE};
 pub use pressure_field::vertex_pressure_forces;
 pub use volume::{
     add_volume_hessian_block, add_volume_hessian_product, add_volume_hessian_triplets,

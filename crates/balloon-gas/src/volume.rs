@@ -1,7 +1,7 @@
 //! Enclosed volume of a closed triangle surface and its exact first and second derivatives.
 //!
-//! `V(x) = (1/6) sum_e x_1 . (x_2 x x_3)` (the divergence theorem, seed 000 Eq. 13 written with
-//! the origin as apex of each tetrahedron). Its gradient with respect to the corners of one
+//! `V(x) = (1/6) sum_e x_1 . (x_2 x x_3)` (the divergence theorem, Wang et al. 2015, Eq. 13 written
+//! with the origin as apex of each tetrahedron). Its gradient with respect to the corners of one
 //! triangle is `dV/dx_1 = (1/6) x_2 x x_3` (and cyclic).
 //!
 //! On a *closed* surface this gradient equals the area-normal form of Eq. 15,
@@ -11,6 +11,7 @@
 //! the one used here: forces are then exactly `-dPhi/dx` for every mesh, and finite-difference
 //! tests hold to round-off.
 
+use balloon_mesh::geometry::{enclosed_volume_and_gradient_flat_into, enclosed_volume_flat};
 use nalgebra::{Matrix3, Vector3};
 
 use crate::GasError;
@@ -59,17 +60,15 @@ pub fn enclosed_volume(x: &[f64], triangles: &[[usize; 3]]) -> Result<f64, GasEr
 }
 
 /// [`enclosed_volume`] for indices already checked (see [`check_surface`]); panics on an
-/// out-of-range index.
+/// out-of-range index. The mesh crate's kernel ([`enclosed_volume_flat`]).
 pub(crate) fn enclosed_volume_unchecked(x: &[f64], triangles: &[[usize; 3]]) -> f64 {
-    triangles
-        .iter()
-        .map(|t| vertex(x, t[0]).dot(&vertex(x, t[1]).cross(&vertex(x, t[2]))))
-        .sum::<f64>()
-        / 6.0
+    enclosed_volume_flat(x, triangles)
 }
 
 /// Enclosed volume `V` (m^3) and its exact gradient `dV/dx` written into `gradient` (length
-/// `3N`, m^2, overwritten). See the module docs for why the `(1/6) x_j x x_k` form is used.
+/// `3N`, m^2, overwritten), by the mesh crate's kernel
+/// ([`enclosed_volume_and_gradient_flat_into`]) after checking the sizes and indices. See the
+/// module docs for why the `(1/6) x_j x x_k` form is used.
 pub fn volume_and_gradient(
     x: &[f64],
     triangles: &[[usize; 3]],
@@ -83,17 +82,9 @@ pub fn volume_and_gradient(
             expected: x.len(),
         });
     }
-    gradient.fill(0.0);
-    let mut six_v = 0.0;
-    for t in triangles {
-        let (a, b, c) = (vertex(x, t[0]), vertex(x, t[1]), vertex(x, t[2]));
-        let bc = b.cross(&c);
-        six_v += a.dot(&bc);
-        add_to(gradient, t[0], &(bc / 6.0));
-        add_to(gradient, t[1], &(c.cross(&a) / 6.0));
-        add_to(gradient, t[2], &(a.cross(&b) / 6.0));
-    }
-    Ok(six_v / 6.0)
+    Ok(enclosed_volume_and_gradient_flat_into(
+        x, triangles, gradient,
+    ))
 }
 
 /// Adds `scale * H_V dx` to `out`, where `H_V = d^2V/dx^2` is the (sparse, symmetric) Hessian of

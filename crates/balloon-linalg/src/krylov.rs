@@ -2,7 +2,8 @@
 //! definite operator given as closures, with its scratch vectors in a reusable [`CgWorkspace`].
 
 use crate::error::SolveError;
-use crate::solver::{Preconditioner, SolveInfo};
+use crate::info::{Preconditioner, SolveInfo};
+use crate::vector::dot;
 
 /// Scratch vectors of [`cg`], reused across calls.
 #[derive(Clone, Debug, Default)]
@@ -11,12 +12,6 @@ pub struct CgWorkspace {
     z: Vec<f64>,
     p: Vec<f64>,
     ap: Vec<f64>,
-}
-
-/// `a . b`.
-#[inline]
-pub fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// Preconditioned conjugate gradients for a symmetric positive definite operator.

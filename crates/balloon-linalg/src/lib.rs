@@ -74,25 +74,29 @@ mod assemble;
 mod cholesky;
 mod csr;
 mod error;
+mod info;
 mod krylov;
 mod low_rank;
 mod precond;
 mod solver;
+mod vector;
 
 pub use assemble::{SparseAssembler, StiffnessBlocks};
 pub use cholesky::{PARALLEL_FACTORIZATION_ROWS, SOLVE_BATCH_COLUMNS, SparseCholesky};
 pub use csr::{CsrMatrix, read_matrix_market, write_matrix_market};
 pub use error::SolveError;
-pub use krylov::{CgWorkspace, cg, dot};
+pub use info::{Preconditioner, SolveInfo};
+pub use krylov::{CgWorkspace, cg};
 pub use low_rank::{LowRankTerm, add_low_rank_product, solve_with_low_rank};
 pub use precond::{IncompleteCholesky, jacobi};
 pub use solver::{
     AssembledPcg, CgParams, CholeskyParams, CholeskySolver, FactorizedPcg, FactorizedPcgParams,
     LinearProblem, LinearSolver, LinearSolverKind, LinearSolverParams, MatrixFreeCg,
-    PcgPreconditioner, Preconditioner, ProblemForm, SINGLE_PRECISION_MIN_TOLERANCE, SolveInfo,
-    SolverSettings, StiffnessOperator,
+    PcgPreconditioner, ProblemForm, SINGLE_PRECISION_MIN_TOLERANCE, SolverSettings,
+    StiffnessOperator,
 };
 pub use sprs;
+pub use vector::dot;
 
 #[cfg(test)]
 mod tests;

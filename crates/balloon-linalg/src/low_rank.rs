@@ -5,7 +5,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::SolveError;
-use crate::krylov::dot;
+use crate::vector::dot;
 
 /// A dense symmetric rank-1 term `coefficient * u u^T` of a stiffness matrix that must never be
 /// assembled (the uniform-gas coupling of seed 000, Eq. 16-17).

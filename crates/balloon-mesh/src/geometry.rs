@@ -1,5 +1,5 @@
-//! Mesh geometry: areas, normals, enclosed volume (seed 000, Eq. 13) and its gradient, bounding
-//! box, angles and centroids.
+//! Mesh geometry: areas, normals, enclosed volume (Wang et al. 2015, Eq. 13) and its gradient,
+//! bounding box, angles and centroids.
 //!
 //! Functions come in two flavours: on a [`TriMesh`], and slice-based (`*_flat`) on
 //! `positions: &[f64]` (length `3 N`, `[x0, y0, z0, x1, ...]`, metres) plus
@@ -111,25 +111,44 @@ pub fn surface_area_flat(positions: &[f64], triangles: &[[usize; 3]]) -> f64 {
         .sum()
 }
 
-/// Enclosed volume (m^3) by the divergence theorem (seed 000, Eq. 13):
+/// Enclosed volume (m^3) by the divergence theorem (Wang et al. 2015, Eq. 13):
 /// `V = (1/6) sum_t x_a . (x_b x x_c)` over triangles `t = (a, b, c)`.
 ///
 /// Positive for a closed outward-oriented surface; independent of the origin only when the
 /// surface is closed.
 pub fn enclosed_volume(mesh: &TriMesh) -> f64 {
     let v = &mesh.vertices;
-    mesh.triangles
-        .iter()
-        .map(|&[a, b, c]| v[a].coords.dot(&v[b].coords.cross(&v[c].coords)))
-        .sum::<f64>()
-        / 6.0
+    enclosed_volume_of(mesh.triangles.iter().copied(), |i| v[i].coords)
 }
 
-/// [`enclosed_volume`] on flat positions (seed 000, Eq. 13).
+/// [`enclosed_volume`] on flat positions (Wang et al. 2015, Eq. 13).
 pub fn enclosed_volume_flat(positions: &[f64], triangles: &[[usize; 3]]) -> f64 {
+    enclosed_volume_of(triangles.iter().copied(), |i| p3(positions, i))
+}
+
+/// The enclosed-volume kernel behind [`enclosed_volume`], [`enclosed_volume_flat`] and the gas
+/// crate's volume: `V = (1/6) sum_t x_a . (x_b x x_c)` over `triangles` with the vertex
+/// positions (m) given by `vertex`, summed in triangle order. For callers that keep positions
+/// or indices in their own layout (e.g. `[f64; 3]` chunks and `u32` indices).
+///
+/// ```
+/// use balloon_mesh::geometry::{enclosed_volume_flat, enclosed_volume_of};
+/// let mesh = balloon_mesh::generate::icosphere(1.0, 1).unwrap();
+/// let x = mesh.positions_flat();
+/// let compact: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.map(|i| i as u32)).collect();
+/// let v = enclosed_volume_of(compact.iter().map(|t| t.map(|i| i as usize)), |i| {
+///     mesh.vertices[i].coords
+/// });
+/// assert_eq!(v, enclosed_volume_flat(&x, &mesh.triangles));
+/// ```
+#[inline]
+pub fn enclosed_volume_of(
+    triangles: impl IntoIterator<Item = [usize; 3]>,
+    vertex: impl Fn(usize) -> Vector3<f64>,
+) -> f64 {
     triangles
-        .iter()
-        .map(|&[a, b, c]| p3(positions, a).dot(&p3(positions, b).cross(&p3(positions, c))))
+        .into_iter()
+        .map(|[a, b, c]| vertex(a).dot(&vertex(b).cross(&vertex(c))))
         .sum::<f64>()
         / 6.0
 }
@@ -146,16 +165,34 @@ pub fn enclosed_volume_gradient_flat_into(
     triangles: &[[usize; 3]],
     out: &mut [f64],
 ) {
+    enclosed_volume_and_gradient_flat_into(positions, triangles, out);
+}
+
+/// [`enclosed_volume_flat`] and its gradient (written into `out`, length `3 N`, m^2,
+/// overwritten; see [`enclosed_volume_gradient_flat_into`]) in one pass over the triangles.
+/// The volume is accumulated as `6 V = 0 + sum_t x_a . (x_b x x_c)` in triangle order.
+///
+/// # Panics
+/// If `out.len() != positions.len()`.
+pub fn enclosed_volume_and_gradient_flat_into(
+    positions: &[f64],
+    triangles: &[[usize; 3]],
+    out: &mut [f64],
+) -> f64 {
     assert_eq!(out.len(), positions.len(), "gradient buffer length");
     out.fill(0.0);
+    let mut six_v = 0.0;
     for &[a, b, c] in triangles {
         let (xa, xb, xc) = (p3(positions, a), p3(positions, b), p3(positions, c));
-        for (i, g) in [(a, xb.cross(&xc)), (b, xc.cross(&xa)), (c, xa.cross(&xb))] {
+        let bc = xb.cross(&xc);
+        six_v += xa.dot(&bc);
+        for (i, g) in [(a, bc), (b, xc.cross(&xa)), (c, xa.cross(&xb))] {
             out[3 * i] += g.x / 6.0;
             out[3 * i + 1] += g.y / 6.0;
             out[3 * i + 2] += g.z / 6.0;
         }
     }
+    six_v / 6.0
 }
 
 /// Gradient of [`enclosed_volume`] as a flat vector of length `3 N` (see

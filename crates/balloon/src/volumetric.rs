@@ -1,4 +1,4 @@
-//! Volume-conserving impulse-based deformable bodies (seed 003, Diziol, Bender and Bayer).
+//! Volume-conserving impulse-based deformable bodies (Diziol, Bender and Bayer 2011).
 //!
 //! A [`VolumetricBody`] is built from any triangle soup: the soup is turned into a tetrahedral
 //! lattice (Sec. 3, [`balloon_mesh::lattice`]), each lattice vertex becomes a particle and each
@@ -37,7 +37,8 @@ use balloon_constraint::ConstraintError;
 use balloon_constraint::cell_volume::{
     CellCorrection, CellSolver, CellSprings, CellVolumeConstraints, CellVolumeParams, SpringParams,
 };
-use balloon_constraint::impulse::{ImpulseModel, ImpulseParams, ImpulseState, ImpulseStepper};
+use balloon_constraint::impulse::{CellBody, ImpulseParams, ImpulseRun};
+pub use balloon_constraint::impulse::{SphereStep, StepStats};
 use balloon_constraint::rigid::{Plane, RigidSphere};
 use balloon_mesh::lattice::{
     Lattice, LatticeError, LatticeParams, Sizing, SizingParams, build_lattice, size_lattice,
@@ -104,6 +105,17 @@ impl Default for VolumetricParams {
 }
 
 impl VolumetricParams {
+    /// The parameters of the impulse stepping ([`balloon_constraint::impulse`]) among these.
+    pub fn impulse_params(&self) -> ImpulseParams {
+        ImpulseParams {
+            gravity: self.gravity,
+            restitution: self.restitution,
+            contact_iterations: self.contact_iterations,
+            tolerance: self.volume.tolerance,
+            max_halvings: self.max_halvings,
+        }
+    }
+
     /// Checks the parameters (the lattice's and the springs' too); errors name the parameter.
     pub fn validate(&self) -> Result<(), VolumetricError> {
         self.lattice.validate()?;
@@ -181,7 +193,7 @@ pub enum VolumetricError {
     /// the same simulated time whatever `dt`), so stiffen the springs, add damping or soften the
     /// impact, or switch to the other solver.
     #[error(
-        "step {step}: tetrahedron {tet} of cell {cell} inverts even after {halvings} step halvings (dt {dt:.3e} s) with the {solver} cell-volume solver; the body deforms too far here: stiffen the springs (--edge-stiffness, or a smaller --dt at the same stiffness), raise the spring damping (--damping), soften the impact (--restitution, a lighter or slower sphere), or try the {other} solver (--volume-solver {other}){advice}"
+        "step {step}: tetrahedron {tet} of cell {cell} inverts even after {halvings} step halvings (dt {dt:.3e} s) with the {solver} cell-volume solver; the body deforms too far here: stiffen the springs (`springs.edge_stiffness`, or a smaller `dt` at the same stiffness), raise the spring damping (`springs.edge_damping`), soften the impact (`restitution`, a lighter or slower sphere), or try the {other} solver (`volume.solver` = {other}){advice}"
     )]
     Inversion {
         /// The step that failed (1-based, as in the CLI's records).
@@ -198,7 +210,7 @@ pub enum VolumetricError {
         solver: &'static str,
         /// The other solver.
         other: &'static str,
-        /// More advice for the settings used (empty, or `; ...` naming the flag to change).
+        /// More advice for the settings used (empty, or `; ...` naming the parameter to change).
         advice: &'static str,
     },
     /// The volume projection did not converge in a step.
@@ -232,6 +244,45 @@ pub enum VolumetricError {
         /// The height of the body's lowest point (m).
         height: f64,
     },
+}
+
+impl VolumetricError {
+    /// The error of step `step` (1-based) run with `params` from what the impulse stepping
+    /// reported: an inversion names the solver and the parameters to change.
+    fn in_step(e: ConstraintError, step: usize, params: &VolumetricParams) -> Self {
+        match e {
+            ConstraintError::Inversion {
+                cell,
+                tet,
+                halvings,
+                dt,
+            } => {
+                let (solver, other) = match params.volume.solver {
+                    CellSolver::GaussSeidel => ("gauss-seidel", "global"),
+                    CellSolver::Global => ("global", "gauss-seidel"),
+                };
+                let advice = match params.volume.correction {
+                    CellCorrection::Scaling => {
+                        "; the scaling correction adds kinetic energy at impacts: the gradient \
+                         correction does not (`volume.correction` = gradient)"
+                    }
+                    CellCorrection::Gradient => "",
+                };
+                Self::Inversion {
+                    advice,
+                    step,
+                    cell,
+                    tet,
+                    halvings,
+                    dt,
+                    solver,
+                    other,
+                }
+            }
+            ConstraintError::NonFiniteState { particle } => Self::NonFinite { step, particle },
+            source => Self::NotConverged { step, source },
+        }
+    }
 }
 
 /// A deformable body ready to simulate: lattice, particle masses, constraints and springs.
@@ -340,14 +391,7 @@ impl VolumetricBody {
     /// a finer lattice makes the particles lighter).
     pub fn mass_scaled_springs(&self, stiffness: f64, damping: f64) -> SpringParams {
         let m = self.mass() / self.masses.len().max(1) as f64;
-        let h = self.params.dt;
-        let (k, c) = (stiffness * m / (h * h), damping * m / h);
-        SpringParams {
-            edge_stiffness: k,
-            edge_damping: c,
-            diagonal_stiffness: k,
-            diagonal_damping: c,
-        }
+        SpringParams::mass_scaled(stiffness, damping, m, self.params.dt)
     }
 
     /// The default springs of `balloon volumetric` and the live viewer at stiffness
@@ -392,7 +436,7 @@ impl VolumetricBody {
 
     /// Rest volume of the body (sum of the cell rest volumes, m^3).
     pub fn rest_volume(&self) -> f64 {
-        self.constraints.rest_volumes.iter().sum()
+        self.constraints.rest_volume()
     }
 }
 
@@ -408,130 +452,42 @@ pub const DEFAULT_SPRING_STIFFNESS: f64 = 0.1;
 /// inverted.
 pub const DEFAULT_SPRING_DAMPING: f64 = 0.02;
 
-/// Numbers reported after each step.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct StepStats {
-    /// Step index (0-based) just completed.
-    pub step: usize,
-    /// Simulated time after the step (s).
-    pub time: f64,
-    /// Step halvings needed in this step.
-    pub halvings: u32,
-    /// Smallest sub-step used (s).
-    pub min_dt: f64,
-    /// Gauss-Seidel sweeps over all cells, or Newton iterations of the global solver (summed
-    /// over sub-steps and contact rounds).
-    pub sweeps: usize,
-    /// Largest relative cell-volume error `|V - V0| / V0` after the step.
-    pub max_cell_volume_error: f64,
-    /// Total volume over rest volume.
-    pub total_volume_ratio: f64,
-    /// Total momentum of particles and sphere (kg m/s).
-    pub momentum: [f64; 3],
-    /// Total angular momentum of particles and sphere about the origin (kg m^2/s).
-    pub angular_momentum: [f64; 3],
-    /// Impulse from outside the body and sphere in this step (N s): gravity, external forces
-    /// and the floor's contacts ([`balloon_constraint::impulse::ImpulseStepInfo::external_impulse`]).
-    pub external_impulse: [f64; 3],
-    /// Kinetic energy of particles and sphere (J).
-    pub kinetic_energy: f64,
-    /// Active contacts (summed over sub-steps and rounds).
-    pub contacts: usize,
-    /// Largest spring strain `|l / L0 - 1|` over all springs.
-    pub max_strain: f64,
-    /// The rigid sphere after the step (`None`, and left out of the JSON, without a sphere).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sphere: Option<SphereStep>,
-}
-
-/// The rigid sphere's state after a step ([`StepStats::sphere`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct SphereStep {
-    /// Centre (m).
-    pub centre: [f64; 3],
-    /// Velocity (m/s).
-    pub velocity: [f64; 3],
-    /// Whether any particle touched the sphere during the step.
-    pub contact: bool,
-    /// Sphere-particle contacts resolved in the step (summed over sub-steps and contact
-    /// rounds).
-    pub contacts: usize,
-    /// Impulse the body gave the sphere through the contacts in the step (N s); the body
-    /// received the opposite.
-    pub contact_impulse: [f64; 3],
-}
-
 /// A running simulation of a volumetric body, optionally with a rigid sphere and static planes:
-/// the body and scene composed with the impulse stepping of
-/// [`balloon_constraint::impulse::ImpulseStepper`].
+/// the body composed with an [`ImpulseRun`] of `balloon-constraint` (state, scene, loads and the
+/// impulse stepping, which checks every input and reports the [`StepStats`]).
 #[derive(Clone, Debug)]
 pub struct VolumetricSimulation {
     body: VolumetricBody,
-    state: ImpulseState,
-    planes: Vec<Plane>,
-    step: usize,
-    total_halvings: u64,
-    /// External forces per particle (N) added in step 1 of every step; empty = none.
-    external: Vec<Vector3<f64>>,
-    /// Fixed (hard-anchored) particles, one flag each; empty = none.
-    fixed: Vec<bool>,
-    stepper: ImpulseStepper,
+    run: ImpulseRun,
 }
 
 impl VolumetricSimulation {
     /// Starts at the rest positions with zero velocities.
     pub fn new(body: VolumetricBody) -> Self {
-        let state = ImpulseState::at_rest(body.lattice.tet_mesh.vertices.clone());
-        Self {
-            body,
-            state,
-            planes: Vec::new(),
-            step: 0,
-            total_halvings: 0,
-            external: Vec::new(),
-            fixed: Vec::new(),
-            stepper: ImpulseStepper::new(),
-        }
+        let run = ImpulseRun::at_rest(body.lattice.tet_mesh.vertices.clone());
+        Self { body, run }
     }
 
     /// Adds a rigid sphere (mass and radius must be positive and finite).
     pub fn with_sphere(mut self, sphere: RigidSphere) -> Result<Self, VolumetricError> {
-        if !(sphere.mass.is_finite() && sphere.mass > 0.0) {
-            return Err(VolumetricError::InvalidSphere {
-                what: "mass",
-                value: sphere.mass,
-            });
-        }
-        if !(sphere.radius.is_finite() && sphere.radius > 0.0) {
-            return Err(VolumetricError::InvalidSphere {
-                what: "radius",
-                value: sphere.radius,
-            });
-        }
-        self.state.sphere = Some(sphere);
+        self.run.set_sphere(sphere).map_err(|e| match e {
+            ConstraintError::InvalidSphere { what, value } => {
+                VolumetricError::InvalidSphere { what, value }
+            }
+            e => e.into(),
+        })?;
         Ok(self)
     }
 
     /// Adds a static plane.
     pub fn with_plane(mut self, plane: Plane) -> Self {
-        self.planes.push(plane);
+        self.run.add_plane(plane);
         self
     }
 
     /// Sets all particle velocities (m/s); `velocities.len()` must equal the particle count.
     pub fn set_velocities(&mut self, velocities: &[Vector3<f64>]) -> Result<(), VolumetricError> {
-        if velocities.len() != self.state.velocities.len() {
-            return Err(VolumetricError::InvalidParameter {
-                name: "velocities",
-                value: velocities.len().to_string(),
-                reason: format!(
-                    "expected {} particle velocities",
-                    self.state.velocities.len()
-                ),
-            });
-        }
-        self.state.velocities.copy_from_slice(velocities);
-        Ok(())
+        Ok(self.run.set_velocities(velocities)?)
     }
 
     /// The body (lattice, masses, constraints, springs).
@@ -546,12 +502,12 @@ impl VolumetricSimulation {
 
     /// Particle positions (m).
     pub fn positions(&self) -> &[Point3<f64>] {
-        &self.state.positions
+        &self.run.state().positions
     }
 
     /// Particle velocities (m/s).
     pub fn velocities(&self) -> &[Vector3<f64>] {
-        &self.state.velocities
+        &self.run.state().velocities
     }
 
     /// Particle masses (kg).
@@ -561,55 +517,45 @@ impl VolumetricSimulation {
 
     /// The rigid sphere, if any.
     pub fn sphere(&self) -> Option<&RigidSphere> {
-        self.state.sphere.as_ref()
+        self.run.state().sphere.as_ref()
     }
 
     /// The static planes.
     pub fn planes(&self) -> &[Plane] {
-        &self.planes
+        self.run.planes()
     }
 
     /// Steps completed.
     pub fn steps(&self) -> usize {
-        self.step
+        self.run.steps()
     }
 
     /// Simulated time (s).
     pub fn time(&self) -> f64 {
-        self.state.time
+        self.run.state().time
     }
 
     /// Step halvings so far.
     pub fn total_halvings(&self) -> u64 {
-        self.total_halvings
+        self.run.total_halvings()
     }
 
     /// The soup deformed with the lattice (free-form deformation, Sec. 3).
     pub fn embedded_surface(&self) -> TriMesh {
-        self.body.lattice.embedding.surface(&self.state.positions)
+        self.body.lattice.embedding.surface(self.positions())
     }
 
     /// The deformed tetrahedral mesh.
     pub fn tet_mesh(&self) -> TetMesh {
         TetMesh::new(
-            self.state.positions.clone(),
+            self.positions().to_vec(),
             self.body.lattice.tet_mesh.tets.clone(),
         )
     }
 
     /// Total momentum of particles and sphere (kg m/s).
     pub fn momentum(&self) -> Vector3<f64> {
-        let mut p: Vector3<f64> = self
-            .state
-            .velocities
-            .iter()
-            .zip(&self.body.masses)
-            .map(|(v, m)| v * *m)
-            .sum();
-        if let Some(s) = &self.state.sphere {
-            p += s.momentum();
-        }
-        p
+        self.run.momentum(&self.body.masses)
     }
 
     /// Total angular momentum `sum m x × v` of particles and sphere about the origin
@@ -618,152 +564,39 @@ impl VolumetricSimulation {
     /// this by a second-order amount even without gravity and planes (measured 3e-5 relative
     /// over 40 steps of a spinning sphere).
     pub fn angular_momentum(&self) -> Vector3<f64> {
-        let mut l: Vector3<f64> = self
-            .state
-            .positions
-            .iter()
-            .zip(&self.state.velocities)
-            .zip(&self.body.masses)
-            .map(|((x, v), m)| x.coords.cross(v) * *m)
-            .sum();
-        if let Some(s) = &self.state.sphere {
-            l += s.position.coords.cross(&s.velocity) * s.mass;
-        }
-        l
+        self.run.angular_momentum(&self.body.masses)
     }
 
     /// Kinetic energy of particles and sphere (J).
     pub fn kinetic_energy(&self) -> f64 {
-        let mut e: f64 = self
-            .state
-            .velocities
-            .iter()
-            .zip(&self.body.masses)
-            .map(|(v, m)| 0.5 * m * v.norm_squared())
-            .sum();
-        if let Some(s) = &self.state.sphere {
-            e += s.kinetic_energy();
-        }
-        e
+        self.run.kinetic_energy(&self.body.masses)
     }
 
     /// Current total volume (sum of the cell volumes, m^3).
     pub fn total_volume(&self) -> f64 {
-        self.body
-            .constraints
-            .tets
-            .iter()
-            .map(|t| balloon_constraint::cell_volume::cell_volume(&self.state.positions, t))
-            .sum()
+        self.body.constraints.total_volume(self.positions())
     }
 
     /// Largest spring strain `|l / L0 - 1|`.
     pub fn max_strain(&self) -> f64 {
-        self.body
-            .springs
-            .springs
-            .iter()
-            .map(|s| {
-                let x = &self.state.positions;
-                let l = (x[s.ends[1]] - x[s.ends[0]]).norm();
-                (l / s.rest_length - 1.0).abs()
-            })
-            .fold(0.0, f64::max)
+        self.body.springs.max_strain(self.positions())
     }
 
     /// Advances one time step of `dt` (halving on inversion, Sec. 4) and reports.
     pub fn step(&mut self) -> Result<StepStats, VolumetricError> {
-        let params = &self.body.params;
-        let model = ImpulseModel {
-            masses: &self.body.masses,
-            constraints: &self.body.constraints,
-            springs: &self.body.springs,
-            planes: &self.planes,
-            external: &self.external,
-            fixed: &self.fixed,
+        let body = &self.body;
+        let cells = CellBody {
+            masses: &body.masses,
+            constraints: &body.constraints,
+            springs: &body.springs,
         };
-        let impulse = ImpulseParams {
-            gravity: params.gravity,
-            restitution: params.restitution,
-            contact_iterations: params.contact_iterations,
-            tolerance: params.volume.tolerance,
-            max_halvings: params.max_halvings,
-        };
-        let info = self
-            .stepper
-            .step(&model, &impulse, &mut self.state, params.dt)
-            .map_err(|e| match e {
-                ConstraintError::Inversion {
-                    cell,
-                    tet,
-                    halvings,
-                    dt,
-                } => {
-                    let (solver, other) = match params.volume.solver {
-                        CellSolver::GaussSeidel => ("gauss-seidel", "global"),
-                        CellSolver::Global => ("global", "gauss-seidel"),
-                    };
-                    let advice = match params.volume.correction {
-                        CellCorrection::Scaling => {
-                            "; the scaling correction adds kinetic energy at impacts: the \
-                             gradient correction does not (--correction gradient)"
-                        }
-                        CellCorrection::Gradient => "",
-                    };
-                    VolumetricError::Inversion {
-                        advice,
-                        step: self.step + 1,
-                        cell,
-                        tet,
-                        halvings,
-                        dt,
-                        solver,
-                        other,
-                    }
-                }
-                source => VolumetricError::NotConverged {
-                    step: self.step + 1,
-                    source,
-                },
-            })?;
-        let x = &self.state.positions;
-        for (i, (p, v)) in x.iter().zip(&self.state.velocities).enumerate() {
-            if !(p.coords.iter().all(|c| c.is_finite()) && v.iter().all(|c| c.is_finite())) {
-                return Err(VolumetricError::NonFinite {
-                    step: self.step + 1,
-                    particle: i,
-                });
-            }
-        }
-        self.total_halvings += info.halvings as u64;
-        let stats = StepStats {
-            step: self.step,
-            time: self.state.time,
-            halvings: info.halvings,
-            min_dt: info.min_dt,
-            sweeps: info.sweeps,
-            max_cell_volume_error: self.body.constraints.max_relative_error(x).0,
-            total_volume_ratio: self.total_volume() / self.body.rest_volume(),
-            momentum: self.momentum().into(),
-            angular_momentum: self.angular_momentum().into(),
-            external_impulse: info.external_impulse,
-            kinetic_energy: self.kinetic_energy(),
-            contacts: info.contacts,
-            max_strain: self.max_strain(),
-            sphere: self.state.sphere.map(|s| SphereStep {
-                centre: s.position.into(),
-                velocity: s.velocity.into(),
-                contact: info.sphere_contacts > 0,
-                contacts: info.sphere_contacts,
-                contact_impulse: info.sphere_contact_impulse,
-            }),
-        };
-        self.step += 1;
-        Ok(stats)
+        let step = self.run.steps() + 1;
+        let p = &body.params;
+        self.run
+            .step(cells, &p.impulse_params(), p.dt)
+            .map_err(|e| VolumetricError::in_step(e, step, p))
     }
-}
 
-impl VolumetricSimulation {
     /// Sets external forces (N), one per particle, added to the cell-spring forces in step 1 of
     /// every following step (Eq. 1: `v += h F / m`, i.e. an impulse `h F` per step) until
     /// changed; `None` removes them. The live viewer drags the body with a spring force computed
@@ -772,33 +605,12 @@ impl VolumetricSimulation {
         &mut self,
         forces: Option<&[Vector3<f64>]>,
     ) -> Result<(), VolumetricError> {
-        match forces {
-            None => self.external.clear(),
-            Some(f) => {
-                if f.len() != self.state.positions.len() {
-                    return Err(VolumetricError::InvalidParameter {
-                        name: "external forces",
-                        value: f.len().to_string(),
-                        reason: format!("expected {} particle forces", self.state.positions.len()),
-                    });
-                }
-                if let Some(i) = f.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
-                    return Err(VolumetricError::InvalidParameter {
-                        name: "external forces",
-                        value: format!("{:?}", f[i]),
-                        reason: format!("the force on particle {i} must be finite"),
-                    });
-                }
-                self.external.clear();
-                self.external.extend_from_slice(f);
-            }
-        }
-        Ok(())
+        Ok(self.run.set_external_forces(forces)?)
     }
 
     /// The external forces set by [`VolumetricSimulation::set_external_forces`] (empty when none).
     pub fn external_forces(&self) -> &[Vector3<f64>] {
-        &self.external
+        self.run.external_forces()
     }
 
     /// Pins `particles` hard from now on (in addition to those pinned before): each keeps its
@@ -828,29 +640,13 @@ impl VolumetricSimulation {
     /// assert!(sim.positions()[1].z < sim.body().lattice.tet_mesh.vertices[1].z); // the rest falls
     /// ```
     pub fn set_fixed_particles(&mut self, particles: &[usize]) -> Result<(), VolumetricError> {
-        let n = self.state.positions.len();
-        if let Some(&bad) = particles.iter().find(|&&i| i >= n) {
-            return Err(VolumetricError::InvalidParameter {
-                name: "fixed particle",
-                value: bad.to_string(),
-                reason: format!("the body has {n} particles"),
-            });
-        }
-        if particles.is_empty() {
-            return Ok(());
-        }
-        self.fixed.resize(n, false);
-        for &i in particles {
-            self.fixed[i] = true;
-            self.state.velocities[i] = Vector3::zeros();
-        }
-        Ok(())
+        Ok(self.run.set_fixed_particles(particles)?)
     }
 
     /// Which particles are pinned hard ([`VolumetricSimulation::set_fixed_particles`]): one
     /// flag per particle, or empty when none is.
     pub fn fixed_particles(&self) -> &[bool] {
-        &self.fixed
+        self.run.fixed_particles()
     }
 
     /// Changes gravity (m/s^2, finite) for the following steps.
@@ -1064,12 +860,12 @@ pub fn drop_speed(height: f64) -> f64 {
 }
 
 impl VolumetricScene {
-    /// Builds the scene. For [`VolumetricScene::DropSphere`], `soup` defaults to a 1 m cube
-    /// and `params` should come from [`drop_sphere_params`] (or be adapted from it). The floor is
+    /// Builds the scene. For [`VolumetricScene::DropSphere`], `soup` defaults to a 1 m cube and
+    /// `params` should come from [`drop_sphere_params`] (or be adapted from it). The floor is
     /// placed at the lowest particle, and a sphere of radius 0.3 x the body height and mass
-    /// [`SPHERE_MASS_FRACTION`] x the body mass starts 0.5 x the height above the body's top, falling at [`drop_speed`] of
-    /// the body height (2.2 m/s for a 1 m body, 0.86 m/s for a 0.15 m bunny): the whole scene
-    /// scales with the body.
+    /// [`SPHERE_MASS_FRACTION`] x the body mass starts 0.5 x the height above the body's top,
+    /// falling at [`drop_speed`] of the body height (2.2 m/s for a 1 m body, 0.86 m/s for a 0.15 m
+    /// bunny): the whole scene scales with the body.
     pub fn build(
         &self,
         soup: Option<&TriMesh>,
@@ -1365,10 +1161,13 @@ mod tests {
                 .contains("with the gauss-seidel cell-volume solver"),
             "{e}"
         );
-        assert!(e.to_string().contains("--volume-solver global"), "{e}");
+        assert!(e.to_string().contains("`volume.solver` = global"), "{e}");
         // With the paper's scaling correction (the library default) it names the gradient one.
         assert_eq!(sim.body().params.volume.correction, CellCorrection::Scaling);
-        assert!(e.to_string().contains("--correction gradient"), "{e}");
+        assert!(
+            e.to_string().contains("`volume.correction` = gradient"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -3,10 +3,12 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{LinearProblem, LinearSolver, Preconditioner, SolveError, SolveInfo};
+use super::problem::{LinearProblem, LinearSolver};
 use crate::cholesky::SparseCholesky;
-use crate::krylov::dot;
+use crate::error::SolveError;
+use crate::info::{Preconditioner, SolveInfo};
 use crate::low_rank::solve_with_low_rank;
+use crate::vector::dot;
 
 /// Parameters of [`CholeskySolver`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

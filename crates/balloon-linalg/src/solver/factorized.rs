@@ -3,10 +3,14 @@
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use super::{CgParams, LinearProblem, LinearSolver, Preconditioner, SolveError, SolveInfo};
+use super::params::CgParams;
+use super::problem::{LinearProblem, LinearSolver};
 use crate::cholesky::SparseCholesky;
 use crate::csr::CsrMatrix;
-use crate::krylov::{CgWorkspace, cg, dot};
+use crate::error::SolveError;
+use crate::info::{Preconditioner, SolveInfo};
+use crate::krylov::{CgWorkspace, cg};
+use crate::vector::dot;
 
 /// The LU factorisation of the Woodbury capacitance matrix `S = I + C U^T Z`.
 type Capacitance = nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>;

@@ -1,8 +1,10 @@
-//! [`MatrixFreeCg`]: CG on `A p` without assembling `A` (seed 000, Eq. 23 solved as in the paper).
+//! [`MatrixFreeCg`]: CG on `A p` without assembling `A` (Wang et al. 2015, Eq. 23 solved as in the
+//! paper).
 
-use super::{
-    CgParams, LinearProblem, LinearSolver, Preconditioner, ProblemForm, SolveError, SolveInfo,
-};
+use super::params::CgParams;
+use super::problem::{LinearProblem, LinearSolver, ProblemForm};
+use crate::error::SolveError;
+use crate::info::{Preconditioner, SolveInfo};
 use crate::krylov::{CgWorkspace, cg};
 use crate::precond::jacobi;
 

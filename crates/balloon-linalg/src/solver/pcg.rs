@@ -1,8 +1,9 @@
 //! [`AssembledPcg`]: preconditioned CG on the assembled matrix.
 
-use super::{
-    CgParams, LinearProblem, LinearSolver, PcgPreconditioner, Preconditioner, SolveError, SolveInfo,
-};
+use super::params::{CgParams, PcgPreconditioner};
+use super::problem::{LinearProblem, LinearSolver};
+use crate::error::SolveError;
+use crate::info::{Preconditioner, SolveInfo};
 use crate::krylov::{CgWorkspace, cg};
 use crate::precond::{IncompleteCholesky, jacobi};
 

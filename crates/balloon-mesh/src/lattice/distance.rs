@@ -1,5 +1,5 @@
-//! Narrow-band unsigned distance field of a triangle soup on a voxel grid (seed 003, Sec. 3,
-//! after Baerentzen 2005) and the surface "probability" `P(x) = 1 - c |d_min(x)|`.
+//! Narrow-band unsigned distance field of a triangle soup on a voxel grid (Diziol, Bender and Bayer
+//! 2011, Sec. 3, after Baerentzen 2005) and the surface "probability" `P(x) = 1 - c |d_min(x)|`.
 //!
 //! Exact point-triangle distances are evaluated only for voxels within `band` voxel sizes of a
 //! triangle's bounding box (each z-slab of the grid knows the triangles that reach it), so the cost

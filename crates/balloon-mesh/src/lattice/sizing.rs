@@ -1,5 +1,5 @@
 //! Lattice resolution from the model: the resolution is searched for a target cell count
-//! (seed 003's bodies have hundreds to a few thousand cells) with every part of the soup still
+//! (the paper's bodies have hundreds to a few thousand cells) with every part of the soup still
 //! resolved, instead of a fixed number of voxels along the longest side, which gives a handful
 //! of cells on a torus and none on a thin model.
 //!
@@ -11,7 +11,9 @@
 //! than [`SizingParams::max_gap_cells`] cell sizes from every cell ([`part_gap`]): a small or
 //! thin part would otherwise have no cell and be drawn by extrapolation from a distant one.
 
-use super::{Lattice, LatticeError, LatticeParams, MAX_VOXELS, build_lattice};
+use super::build::{build_lattice, check_soup};
+use super::params::{LatticeError, LatticeParams, MAX_VOXELS};
+use super::types::Lattice;
 use crate::TriMesh;
 use crate::lattice::distance::point_triangle_distance;
 use crate::parallel::prelude::*;
@@ -205,7 +207,7 @@ pub fn size_lattice(
         ..params.clone()
     }
     .validate()?;
-    super::check_soup(soup)?;
+    check_soup(soup)?;
     let (lo, hi) = soup
         .vertices
         .iter()

@@ -1,5 +1,5 @@
 //! Volume-preserving second-order Laplacian smoothing of the lattice surface with axis-aligned
-//! umbrellas (seed 003, Sec. 3 and Fig. 2; Desbrun et al. 1999).
+//! umbrellas (Diziol, Bender and Bayer 2011, Sec. 3 and Fig. 2; Desbrun et al. 1999).
 
 use crate::TetMesh;
 use nalgebra::{Point3, Vector3};

@@ -3,7 +3,7 @@
 //! With inner radius `a` and outer radius `b` of regular N-gons (rest `a0`, `b0`): structural
 //! sides `2 r sin(pi/N)`, radius springs `b - a`, shear springs
 //! `sqrt(a^2 + b^2 - 2ab cos(2 pi / N))`, and per-layer gas energy `-c ln A` with `A ~ r^2`
-//! (`c = p A0`, seed 004, P = nRT/V). The equilibrium solves `dU/da = dU/db = 0`; a damped
+//! (`c = p A0`, Song 2009, P = nRT/V). The equilibrium solves `dU/da = dU/db = 0`; a damped
 //! simulation must settle there.
 
 /// The 2D body whose equilibrium is computed (all springs undamped at equilibrium).

@@ -1,7 +1,7 @@
-//! The inner layer kept inside the closed outer layer (seed 004, Sec. 4.6.2) by a closest-point
+//! The inner layer kept inside the closed outer layer (Song 2009, Sec. 4.6.2) by a closest-point
 //! test against the whole outer surface.
 //!
-//! The seed tests each inner particle against the tangent plane of its outer partner. That
+//! The paper tests each inner particle against the tangent plane of its outer partner. That
 //! plane is only a local approximation: on a bent outer layer an inner particle can be behind
 //! the plane and still outside the surface (or the other way round). Here each inner particle
 //! `p` is tested against the outer surface itself:
@@ -40,8 +40,8 @@
 //! crumpled layer can exceed the true distance; the long bouncing test of
 //! `tests/integration/two_layer.rs` checks every 10th step by an independent winding number.
 
-use super::TwoLayerError;
-use balloon_constraint::two_layer::{polygon_winding_number, winding_number};
+use super::winding::{polygon_winding_number, winding_number};
+use crate::ConstraintError;
 use nalgebra::{Point3, Vector3};
 use std::collections::HashMap;
 
@@ -82,9 +82,10 @@ enum Topology {
 }
 
 /// Keeps inner particles `inner_offset + j` inside the closed outer layer whose vertex `j` is
-/// particle `outer_offset + j` (`j < count`); see the module documentation for the method.
+/// particle `outer_offset + j` (`j < count`); see the module documentation for the method. It
+/// keeps per-particle hints and clearances from call to call: use one per body.
 #[derive(Clone, Debug)]
-pub(crate) struct LayerContainment {
+pub struct LayerContainment {
     topology: Topology,
     inner_offset: usize,
     outer_offset: usize,
@@ -172,15 +173,18 @@ impl LayerContainment {
     /// Containment by a closed outward-oriented triangle surface (local vertex indices
     /// `0..count`). Errors unless every edge is shared by exactly two faces with opposite
     /// orientations.
-    pub(crate) fn surface(
+    ///
+    /// # Errors
+    /// [`ConstraintError::InvalidLayerSurface`] naming the first edge, face or vertex at fault.
+    pub fn surface(
         inner_offset: usize,
         outer_offset: usize,
         count: usize,
         triangles: &[[usize; 3]],
-    ) -> Result<Self, TwoLayerError> {
-        let bad = |reason: String| TwoLayerError::InvalidParameter {
-            name: "layer surface",
-            value: format!("{} triangles on {count} vertices", triangles.len()),
+    ) -> Result<Self, ConstraintError> {
+        let bad = |reason: String| ConstraintError::InvalidLayerSurface {
+            triangles: triangles.len(),
+            vertices: count,
             reason,
         };
         let mut directed: HashMap<(usize, usize), (usize, usize)> = HashMap::new();
@@ -247,7 +251,7 @@ impl LayerContainment {
 
     /// Containment by the closed counter-clockwise polygon `0, 1, ..., count - 1` in the `xy`
     /// plane.
-    pub(crate) fn polygon(inner_offset: usize, outer_offset: usize, count: usize) -> Self {
+    pub fn polygon(inner_offset: usize, outer_offset: usize, count: usize) -> Self {
         Self {
             topology: Topology::Polygon,
             inner_offset,
@@ -477,7 +481,7 @@ impl LayerContainment {
     /// velocity relative to the surface (module documentation). `positions`, `velocities`:
     /// flat, all particles; `masses` and `fixed` per particle (fixed particles are neither
     /// moved nor pushed: infinite mass). Returns the number of particles corrected.
-    pub(crate) fn contain(
+    pub fn contain(
         &mut self,
         positions: &mut [f64],
         velocities: &mut [f64],

@@ -1,558 +1,154 @@
-//! Time stepping of a two-layer object: integrate (seed Ch. 5), collide (seed Sec. 4.6), check
-//! for blow-up, report.
+//! Tests of the two-layer system (forces, stepping, the viewer's controls) through the
+//! builder of this module: the stage crate `balloon-two-layer` cannot build bodies from shapes.
 
-use super::containment::LayerContainment;
-use super::forces::{AnchorSpring, DragTarget, EnergyBreakdown, TwoLayerForces};
-use super::model::{Dimension, TwoLayerBody, TwoLayerModel};
-use super::{BlowUpReason, TwoLayerError, non_negative, positive};
-use balloon_constraint::two_layer::{AxisBox, collide_box, polygon_winding_number, winding_number};
-use balloon_integrate::explicit::{ExplicitIntegrator, ExplicitMethod};
-use balloon_mesh::TriMesh;
-use nalgebra::Point3;
-use serde::{Deserialize, Serialize};
+mod forces {
+    use super::super::*;
+    use nalgebra::{Point3, Vector3};
 
-/// Statistics of one step (or of the initial state, step 0).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct TwoLayerStats {
-    /// Steps taken.
-    pub step: usize,
-    /// Simulated time (s).
-    pub time: f64,
-    /// Kinetic energy (J).
-    pub kinetic: f64,
-    /// Potential energy: springs + gas + gravity + drag (J).
-    pub potential: f64,
-    /// Total energy (J).
-    pub total: f64,
-    /// Volume enclosed by the outer layer (m^3; area in 2D; 0 in 1D).
-    pub volume_outer: f64,
-    /// Volume enclosed by the inner layer.
-    pub volume_inner: f64,
-    /// Gas pressure of the outer layer (Pa).
-    pub pressure_outer: f64,
-    /// Gas pressure of the inner layer (Pa).
-    pub pressure_inner: f64,
-    /// Lowest particle coordinate along the up axis (m).
-    pub min_height: f64,
-    /// Particle-wall contacts resolved in this step.
-    pub collisions: usize,
-    /// Inner particles put back inside the outer layer in this step.
-    pub contained: usize,
-}
-
-/// A running two-layer simulation: state `[x; v]`, an explicit integrator with its buffers,
-/// collision box, energy bookkeeping for blow-up detection.
-#[derive(Clone, Debug)]
-pub struct TwoLayerSimulation {
-    forces: TwoLayerForces,
-    integrator: ExplicitIntegrator,
-    state: Vec<f64>,
-    time: f64,
-    steps: usize,
-    dt: f64,
-    collision_box: Option<AxisBox>,
-    restitution: f64,
-    energy_initial: f64,
-    work: f64,
-    scale: f64,
-    tolerance: f64,
-    /// Keeps the inner layer inside the outer one (2D and 3D).
-    containment: Option<LayerContainment>,
-    last_collisions: usize,
-    last_contained: usize,
-}
-
-impl TwoLayerBody {
-    /// Builds the body and a simulation of it at rest with `method` and time step `dt` (s).
-    pub fn simulate(
-        &self,
-        method: ExplicitMethod,
-        dt: f64,
-    ) -> Result<TwoLayerSimulation, TwoLayerError> {
-        TwoLayerSimulation::new(self, method, dt)
+    fn vec3(x: &[f64], i: usize) -> Vector3<f64> {
+        Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2])
     }
-}
+    use balloon_test_support::{Rng, assert_second_order, check_gradient, taylor_remainder_orders};
 
-impl TwoLayerSimulation {
-    /// A simulation of `body` starting at rest in its rest shape.
-    pub fn new(
-        body: &TwoLayerBody,
-        method: ExplicitMethod,
-        dt: f64,
-    ) -> Result<Self, TwoLayerError> {
-        positive("dt", dt)?;
-        let model = body.build()?;
-        let n3 = 3 * model.num_particles();
-        let mut state = model.rest_positions.clone();
-        state.resize(2 * n3, 0.0);
-        let n = model.layer_size;
-        let containment = match model.dimension {
-            Dimension::One => None,
-            Dimension::Two => Some(LayerContainment::polygon(0, n, n)),
-            Dimension::Three => Some(LayerContainment::surface(0, n, n, &model.surface)?),
-        };
-        let forces = TwoLayerForces::new(model, body);
-        let mut sim = Self {
-            integrator: ExplicitIntegrator::new(method),
-            state,
-            time: 0.0,
-            steps: 0,
-            dt,
-            collision_box: body.collision_box,
-            restitution: body.restitution,
-            energy_initial: 0.0,
-            work: 0.0,
-            scale: forces.energy_scale(),
-            tolerance: body.blowup_tolerance,
-            containment,
-            last_collisions: 0,
-            last_contained: 0,
-            forces,
-        };
-        if let Some(b) = sim.collision_box {
-            let x = &sim.state[..n3];
-            let outside = (0..x.len() / 3)
-                .filter(|&i| !b.contains(&Point3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2]), 0.0))
-                .count();
-            if outside > 0 {
-                // Starting outside the box would mean a violent first projection; refuse.
-                return Err(TwoLayerError::InvalidParameter {
-                    name: "collision_box",
-                    value: format!("{:?} .. {:?}", b.min, b.max),
-                    reason: format!(
-                        "{outside} particles of the body at rest lie outside the box; enlarge the box or move the centre"
-                    ),
-                });
-            }
-        }
-        sim.energy_initial = sim.energies().total();
-        sim.scale = sim.scale.max(sim.energy_initial.abs());
-        Ok(sim)
-    }
-
-    /// The model.
-    pub fn model(&self) -> &TwoLayerModel {
-        self.forces.model()
-    }
-
-    /// The force system.
-    pub fn forces(&self) -> &TwoLayerForces {
-        &self.forces
-    }
-
-    /// Positions, flat `[x0, y0, z0, ...]` (m).
-    pub fn positions(&self) -> &[f64] {
-        &self.state[..self.state.len() / 2]
-    }
-
-    /// Velocities, flat (m/s).
-    pub fn velocities(&self) -> &[f64] {
-        &self.state[self.state.len() / 2..]
-    }
-
-    /// Simulated time (s).
-    pub fn time(&self) -> f64 {
-        self.time
-    }
-
-    /// Steps taken.
-    pub fn step_count(&self) -> usize {
-        self.steps
-    }
-
-    /// The time step (s).
-    pub fn dt(&self) -> f64 {
-        self.dt
-    }
-
-    /// The integrator.
-    pub fn method(&self) -> ExplicitMethod {
-        self.integrator.method()
-    }
-
-    /// Total energy at the start (J).
-    pub fn energy_initial(&self) -> f64 {
-        self.energy_initial
-    }
-
-    /// Energy put in by setting or removing drag targets (J).
-    pub fn work_done(&self) -> f64 {
-        self.work
-    }
-
-    /// Energies of the current state.
-    pub fn energies(&self) -> EnergyBreakdown {
-        let (x, v) = self.state.split_at(self.state.len() / 2);
-        self.forces.energies(x, v)
-    }
-
-    /// Sets the drag ("mouse") target while the simulation runs, or removes it with `None`
-    /// (seed Sec. 4.4). The pulled particle is the outer particle nearest to the target now.
-    /// The energy the drag spring stores at this moment counts as work done on the body.
-    /// Returns the pulled particle.
-    pub fn set_drag(&mut self, target: Option<DragTarget>) -> Result<Option<usize>, TwoLayerError> {
-        if let Some(t) = &target {
-            positive("drag stiffness", t.stiffness)?;
-            non_negative("drag damping", t.damping)?;
-            non_negative("drag rest length", t.rest_length)?;
-            if !t.point.coords.iter().all(|c| c.is_finite()) {
-                return Err(TwoLayerError::InvalidParameter {
-                    name: "drag point",
-                    value: format!("{:?}", t.point),
-                    reason: "must be finite".into(),
-                });
-            }
-        }
-        let before = self.energies().drag;
-        let n3 = self.state.len() / 2;
-        let particle = self.forces.set_drag(target, &self.state[..n3]);
-        self.work += self.energies().drag - before;
-        Ok(particle)
-    }
-
-    /// Sets the loads of the following steps, replacing earlier ones: zero-length anchor
-    /// springs `F = K (a - x)` (spring anchors and grabs) and constant external forces (N, flat,
-    /// one triple per particle; `None` for none), added to the forces of every evaluation of
-    /// the integrator. Their energy (`EnergyBreakdown::loads`: `1/2 K |x - a|^2 - F . x`) is
-    /// part of the total, and the change it makes at this moment counts as work done on the
-    /// body, as for the drag. Every particle must exist, every stiffness be positive and
-    /// finite, every coordinate and force finite.
-    ///
-    /// ```
-    /// use balloon::two_layer::{AnchorSpring, ExplicitMethod, TwoLayerBody};
-    /// // A 2D ring without gravity, its particle 0 held by a spring 1 m below where it is.
-    /// let mut sim = TwoLayerBody::circle(12).with_gravity(0.0).simulate(ExplicitMethod::Rk4, 1e-3)?;
-    /// let y0 = sim.positions()[1];
-    /// let anchor = AnchorSpring { particle: 0, point: [sim.positions()[0], y0 - 1.0, 0.0], stiffness: 5.0 };
-    /// sim.set_loads(vec![anchor], None)?;
-    /// sim.run(50)?;
-    /// assert!(sim.positions()[1] < y0); // pulled down
-    /// assert!(sim.work_done() > 0.0); // the spring's 1/2 K (1 m)^2 counts as work
-    /// # Ok::<(), balloon::two_layer::TwoLayerError>(())
-    /// ```
-    pub fn set_loads(
-        &mut self,
-        anchors: Vec<AnchorSpring>,
-        external: Option<&[f64]>,
-    ) -> Result<(), TwoLayerError> {
-        let n3 = self.state.len() / 2;
-        let n = n3 / 3;
-        for a in &anchors {
-            if a.particle >= n {
-                return Err(TwoLayerError::InvalidParameter {
-                    name: "anchor particle",
-                    value: a.particle.to_string(),
-                    reason: format!("the body has {n} particles"),
-                });
-            }
-            positive("anchor stiffness", a.stiffness)?;
-            if !a.point.iter().all(|c| c.is_finite()) {
-                return Err(TwoLayerError::InvalidParameter {
-                    name: "anchor point",
-                    value: format!("{:?}", a.point),
-                    reason: "must be finite".into(),
-                });
-            }
-        }
-        let external = external.map(<[f64]>::to_vec).unwrap_or_default();
-        if !external.is_empty() && external.len() != n3 {
-            return Err(TwoLayerError::InvalidParameter {
-                name: "external forces",
-                value: external.len().to_string(),
-                reason: format!("expected {n3} components (3 per particle)"),
-            });
-        }
-        if let Some(i) = external.iter().position(|f| !f.is_finite()) {
-            return Err(TwoLayerError::InvalidParameter {
-                name: "external forces",
-                value: external[i].to_string(),
-                reason: format!("the force on particle {} must be finite", i / 3),
-            });
-        }
-        let before = self.energies().loads;
-        self.forces.set_loads(anchors, external);
-        self.work += self.energies().loads - before;
-        Ok(())
-    }
-
-    /// Statistics of the current state.
-    pub fn stats(&self) -> TwoLayerStats {
-        let (x, v) = self.state.split_at(self.state.len() / 2);
-        let m = self.model();
-        let up = m.dimension.up_axis();
-        let (volume_outer, volume_inner) = (m.layer_volume(x, true), m.layer_volume(x, false));
-        let e = self
-            .forces
-            .energies_with_volumes(x, v, volume_outer, volume_inner);
-        let pressure = |gas: f64, v: f64| if gas == 0.0 { 0.0 } else { gas / v };
-        TwoLayerStats {
-            step: self.steps,
-            time: self.time,
-            kinetic: e.kinetic,
-            potential: e.potential(),
-            total: e.total(),
-            volume_outer,
-            volume_inner,
-            pressure_outer: pressure(m.gas_outer, volume_outer),
-            pressure_inner: pressure(m.gas_inner, volume_inner),
-            min_height: x
-                .iter()
-                .skip(up)
-                .step_by(3)
-                .copied()
-                .fold(f64::INFINITY, f64::min),
-            collisions: self.last_collisions,
-            contained: self.last_contained,
-        }
-    }
-
-    fn blow_up(&self, reason: BlowUpReason) -> TwoLayerError {
-        let omega = self.forces.max_frequency_estimate();
-        let limit = if omega > 0.0 { 1.0 / omega } else { self.dt };
-        TwoLayerError::BlowUp {
-            step: self.steps,
-            time: self.time,
-            method: self.method(),
-            dt: self.dt,
-            suggested_dt: (0.25 * self.dt).min(limit),
-            reason,
-        }
-    }
-
-    /// Advances one step: integrate all forces over `dt` (seed Sec. 4.7, Step 11), resolve box
-    /// collisions and inner-layer containment (Step 12), then check for blow-up.
-    ///
-    /// Errors with [`TwoLayerError::BlowUp`] (naming the step, method and dt) when a coordinate
-    /// becomes non-finite, a gas-filled layer inverts, or the total energy exceeds
-    /// `initial + work + tolerance * scale`. The state is then left as it was after the failed
-    /// step; earlier output stays valid.
-    pub fn step(&mut self) -> Result<TwoLayerStats, TwoLayerError> {
-        let n3 = self.state.len() / 2;
-        self.integrator
-            .step_second_order(&mut self.forces, self.time, self.dt, &mut self.state)?;
-        self.time += self.dt;
-        self.steps += 1;
-        if let Some(i) = self.state.iter().position(|c| !c.is_finite()) {
-            return Err(self.blow_up(BlowUpReason::NonFinite {
-                particle: (i % n3) / 3,
-                velocity: i >= n3,
-            }));
-        }
-        let (x, v) = self.state.split_at_mut(n3);
-        let m = self.forces.model();
-        self.last_collisions = 0;
-        self.last_contained = 0;
-        if let Some(b) = &self.collision_box {
-            self.last_collisions = collide_box(x, v, 0..m.num_particles(), b, self.restitution);
-        }
-        if let Some(c) = &mut self.containment {
-            self.last_contained = c.contain(x, v, &m.masses, &m.fixed, self.restitution);
-        }
-        let stats = self.stats();
-        let m = self.forces.model();
-        for (vol, gas, name) in [
-            (stats.volume_outer, m.gas_outer, "outer"),
-            (stats.volume_inner, m.gas_inner, "inner"),
-        ] {
-            if gas > 0.0 && vol <= 0.0 {
-                return Err(self.blow_up(BlowUpReason::InvertedLayer {
-                    layer: name,
-                    volume: vol,
-                }));
-            }
-        }
-        let bound = self.energy_initial + self.work + self.tolerance * self.scale;
-        if !stats.total.is_finite() || stats.total > bound {
-            return Err(self.blow_up(BlowUpReason::EnergyGrowth {
-                total: stats.total,
-                bound,
-                initial: self.energy_initial,
-                work: self.work,
-                tolerance: self.tolerance,
-                scale: self.scale,
-            }));
-        }
-        Ok(stats)
-    }
-
-    /// Pins `particles` hard from now on: they become fixed particles of the model (as the top
-    /// of the 1D spring, seed Sec. 3.3), with zero inverse mass and zero velocity, so every
-    /// explicit method leaves their positions exactly as they are. Their springs still pull on
-    /// their neighbours. Every particle must exist.
-    ///
-    /// ```
-    /// use balloon::two_layer::{ExplicitMethod, TwoLayerBody};
-    /// let mut sim = TwoLayerBody::uv_sphere(8, 6).simulate(ExplicitMethod::Rk4, 1e-3)?;
-    /// let before = sim.positions()[..3].to_vec();
-    /// sim.fix_particles(&[0])?;
-    /// sim.run(50)?;
-    /// assert_eq!(&sim.positions()[..3], &before[..]);
-    /// # Ok::<(), balloon::two_layer::TwoLayerError>(())
-    /// ```
-    pub fn fix_particles(&mut self, particles: &[usize]) -> Result<(), TwoLayerError> {
-        let n = self.forces.model().num_particles();
-        if let Some(&bad) = particles.iter().find(|&&i| i >= n) {
-            return Err(TwoLayerError::InvalidParameter {
-                name: "fixed particle",
-                value: bad.to_string(),
-                reason: format!("the body has {n} particles"),
-            });
-        }
-        self.forces.fix(particles);
-        let n3 = 3 * n;
-        for &i in particles {
-            self.state[n3 + 3 * i..n3 + 3 * i + 3].fill(0.0);
-        }
-        Ok(())
-    }
-
-    /// Takes `steps` steps and returns the last statistics.
-    pub fn run(&mut self, steps: usize) -> Result<TwoLayerStats, TwoLayerError> {
-        let mut last = self.stats();
-        for _ in 0..steps {
-            last = self.step()?;
-        }
-        Ok(last)
-    }
-
-    /// A mesh of the current shape for drawing (see [`TwoLayerModel::draw_triangles`]).
-    pub fn draw_mesh(&self) -> TriMesh {
-        let x = self.positions();
-        let vertices = x
-            .chunks_exact(3)
-            .map(|c| Point3::new(c[0], c[1], c[2]))
-            .collect();
-        TriMesh::new(vertices, self.model().draw_triangles())
-    }
-
-    /// The closed outer (`outer = true`) or inner layer as its own mesh (3D only).
-    pub fn layer_mesh(&self, outer: bool) -> Option<TriMesh> {
-        let m = self.model();
-        if m.dimension != Dimension::Three {
-            return None;
-        }
-        let off = if outer { m.layer_size } else { 0 };
-        let x = self.positions();
-        let vertices = (off..off + m.layer_size)
-            .map(|i| Point3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2]))
-            .collect();
-        Some(TriMesh::new(vertices, m.surface.clone()))
-    }
-
-    /// Particles that escaped: any particle outside the collision box (by more than 1e-9 m)
-    /// plus inner particles outside the outer layer by the exact winding-number test
-    /// ([`winding_number`] < 1/2; cost `O(n^2)`, meant for summaries, not every step).
-    pub fn escaped_particles(&self) -> usize {
-        let x = self.positions();
-        let m = self.model();
-        let p = |i: usize| Point3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
-        let mut count = 0;
-        if let Some(b) = &self.collision_box {
-            count += (0..m.num_particles())
-                .filter(|&i| !b.contains(&p(i), 1e-9))
-                .count();
-        }
-        let n = m.layer_size;
-        count += (0..n)
-            .filter(|&i| {
-                let w = match m.dimension {
-                    Dimension::Three => winding_number(&p(i), x, n, &m.surface),
-                    _ => polygon_winding_number(&p(i), x, n, n),
-                };
-                w < 0.5
+    fn perturbed(model: &TwoLayerModel, amp: f64, seed: u64) -> Vec<f64> {
+        let mut rng = Rng::new(seed);
+        let free = model.dimension.free_axes();
+        model
+            .rest_positions
+            .iter()
+            .enumerate()
+            .map(|(k, x)| {
+                if k % 3 < free {
+                    x + amp * rng.next_f64()
+                } else {
+                    *x
+                }
             })
-            .count();
-        count
+            .collect()
     }
-}
 
-impl TwoLayerSimulation {
-    /// Sets the drag spring (seed Sec. 4.4, Eq. 4.7) on a chosen particle instead of the one
-    /// nearest to the target (what the live viewer needs: the user picks a vertex, then moves the
-    /// target). The particle must be an outer-layer particle (a free particle in 1D) that is not
-    /// fixed. The work bookkeeping is that of [`TwoLayerSimulation::set_drag`]. Returns the
-    /// particle.
-    pub fn set_drag_particle(
-        &mut self,
-        particle: usize,
-        target: DragTarget,
-    ) -> Result<usize, TwoLayerError> {
-        let m = self.forces.model();
-        let allowed = if m.has_layers() {
-            m.layer_size..2 * m.layer_size
-        } else {
-            0..m.num_particles()
-        };
-        if !allowed.contains(&particle) || m.fixed[particle] {
-            return Err(TwoLayerError::InvalidParameter {
-                name: "drag particle",
-                value: particle.to_string(),
-                reason: format!(
-                    "must be a free particle of the outer layer ({}..{})",
-                    allowed.start, allowed.end
-                ),
-            });
-        }
-        positive("drag stiffness", target.stiffness)?;
-        non_negative("drag damping", target.damping)?;
-        non_negative("drag rest length", target.rest_length)?;
-        if !target.point.coords.iter().all(|c| c.is_finite()) {
-            return Err(TwoLayerError::InvalidParameter {
-                name: "drag point",
-                value: format!("{:?}", target.point),
-                reason: "must be finite".into(),
-            });
-        }
-        // `TwoLayerForces::set_drag` picks the particle nearest to the target: hand it a copy
-        // of the positions with the chosen particle on the target, so that particle is picked.
-        let n3 = self.state.len() / 2;
-        let mut probe = self.state[..n3].to_vec();
-        for (c, p) in probe[3 * particle..3 * particle + 3]
-            .iter_mut()
-            .zip(target.point.iter())
-        {
-            *c = *p;
-        }
-        let before = self.energies().drag;
-        let previous = self.forces.drag();
-        let picked = self.forces.set_drag(Some(target), &probe);
-        if picked != Some(particle) {
-            // Another particle sits exactly on the target: keep the previous drag.
-            let restore = previous.map(|(t, i)| {
-                let mut x = self.state[..n3].to_vec();
-                x[3 * i..3 * i + 3].copy_from_slice(t.point.coords.as_slice());
-                (t, x)
-            });
-            match restore {
-                Some((t, x)) => self.forces.set_drag(Some(t), &x),
-                None => self.forces.set_drag(None, &probe),
+    fn bodies() -> Vec<TwoLayerBody> {
+        vec![
+            TwoLayerBody::line(0.5),
+            TwoLayerBody::circle(7),
+            TwoLayerBody::uv_sphere(5, 4),
+            TwoLayerBody::octahedron_sphere(1),
+        ]
+        .into_iter()
+        .map(|b| {
+            b.with_radii(0.6, 1.0)
+                .with_pressure(300.0, 150.0)
+                .with_spring(SpringKind::Radius, 70.0, 0.0)
+                .with_spring(SpringKind::ShearLeft, 30.0, 0.0)
+                .with_spring(SpringKind::ShearRight, 40.0, 0.0)
+                .with_damping(0.0)
+                .with_gravity(3.0)
+        })
+        .collect()
+    }
+
+    /// Undamped forces are minus the gradient of spring + gas + gravity + drag energy (central
+    /// differences and a Taylor remainder that falls 4x per halving).
+    #[test]
+    fn conservative_forces_are_minus_energy_gradient() {
+        for body in bodies() {
+            let model = body.build().unwrap();
+            let x0 = perturbed(&model, 0.05, 3);
+            let mut forces = TwoLayerForces::new(model.clone(), &body);
+            forces.set_drag(
+                Some(DragTarget {
+                    point: Point3::new(2.0, 0.5, -0.3),
+                    stiffness: 20.0,
+                    damping: 0.0,
+                    rest_length: 0.1,
+                }),
+                &x0,
+            );
+            let zero_v = vec![0.0; x0.len()];
+            let energy = |x: &[f64]| forces.energies(x, &zero_v).potential();
+            let grad = |x: &[f64]| {
+                let mut f = vec![0.0; x.len()];
+                forces.clone().forces_into(x, &zero_v, &mut f);
+                f.iter().map(|c| -c).collect::<Vec<f64>>()
             };
-            return Err(TwoLayerError::InvalidParameter {
-                name: "drag particle",
-                value: particle.to_string(),
-                reason: "another particle lies exactly on the target".into(),
-            });
+            check_gradient(energy, grad, &x0, 1e-6, 1e-6);
+            let dx = Rng::new(9).vector(x0.len());
+            assert_second_order(&taylor_remainder_orders(energy, grad, &x0, &dx, 1e-3));
         }
-        // The energy the spring stores now (real positions) is work done on the body.
-        self.work += self.energies().drag - before;
-        Ok(particle)
     }
 
-    /// Changes the integration method for the following steps (seed Ch. 5).
-    pub fn set_method(&mut self, method: ExplicitMethod) {
-        self.integrator.set_method(method);
+    /// Spring and drag damping only dissipate: the power of the damping forces `F_d . v` is
+    /// never positive, and internal forces sum to zero (action = reaction), so with no gravity,
+    /// gas or drag the net force vanishes.
+    #[test]
+    fn damping_dissipates_and_internal_forces_balance() {
+        let body = TwoLayerBody::octahedron_sphere(1)
+            .with_damping(0.3)
+            .with_gravity(0.0);
+        let model = body.build().unwrap();
+        let x = perturbed(&model, 0.05, 5);
+        let v = Rng::new(11).vector(x.len());
+        let mut forces = TwoLayerForces::new(model, &body);
+        let mut f_damped = vec![0.0; x.len()];
+        let mut f_still = vec![0.0; x.len()];
+        forces.forces_into(&x, &v, &mut f_damped);
+        forces.forces_into(&x, &vec![0.0; x.len()], &mut f_still);
+        let power: f64 = f_damped
+            .iter()
+            .zip(&f_still)
+            .zip(&v)
+            .map(|((a, b), vi)| (a - b) * vi)
+            .sum();
+        assert!(power < 0.0, "damping power {power} must be negative");
+        for d in 0..3 {
+            let net: f64 = f_damped.iter().skip(d).step_by(3).sum();
+            assert!(net.abs() < 1e-10, "net internal force {net} along axis {d}");
+        }
     }
 
-    /// Changes the time step (s, positive and finite) for the following steps.
-    pub fn set_dt(&mut self, dt: f64) -> Result<(), TwoLayerError> {
-        self.dt = positive("dt", dt)?;
-        Ok(())
+    /// Gas pressure on a closed layer exerts zero net force and zero net torque (a closed
+    /// surface has zero vector area and zero moment of area).
+    #[test]
+    fn pressure_has_zero_net_force_and_torque() {
+        let body = TwoLayerBody::uv_sphere(6, 5)
+            .with_pressure(1e3, 5e2)
+            .with_gravity(0.0);
+        let model = body.build().unwrap();
+        let x = perturbed(&model, 0.1, 17);
+        let mut forces = TwoLayerForces::new(model.clone(), &body);
+        let mut f_gas = vec![0.0; x.len()];
+        forces.forces_into(&x, &vec![0.0; x.len()], &mut f_gas);
+        let mut net = Vector3::zeros();
+        let mut torque = Vector3::zeros();
+        for i in 0..model.num_particles() {
+            net += vec3(&f_gas, i);
+            torque += vec3(&x, i).cross(&vec3(&f_gas, i));
+        }
+        assert!(net.norm() < 1e-9 * 1e3, "net force {net}");
+        assert!(torque.norm() < 1e-9 * 1e3, "net torque {torque}");
+    }
+
+    #[test]
+    fn valence_normalisation_equalises_kernel_points() {
+        // Octahedron kernel points have 4 structural neighbours, subdivision points 6 (seed
+        // Sec. 3.5.3); normalisation scales their spring forces by mean/valence.
+        let body = TwoLayerBody::octahedron_sphere(2).with_valence_normalization(true);
+        let model = body.build().unwrap();
+        let val = model.valences();
+        let forces = TwoLayerForces::new(model.clone(), &body);
+        let w = forces.valence_factors().unwrap();
+        let n = model.layer_size;
+        // Inner kernel point 0 has fewer springs than inner point 6 (a subdivision point).
+        assert!(val[0] < val[6]);
+        assert!(w[0] > 1.0 && w[6] < 1.0);
+        assert!((w[0] * val[0] as f64 - w[6] * val[6] as f64).abs() < 1e-12);
+        let mean: f64 = (0..n).map(|i| val[i] as f64).sum::<f64>() / n as f64;
+        assert!((w[0] - mean / val[0] as f64).abs() < 1e-15);
     }
 }
 
-#[cfg(test)]
-mod viewer_api_tests {
-    use super::*;
+mod viewer_api {
+    use super::super::*;
     use nalgebra::Vector3;
 
     fn sphere() -> TwoLayerSimulation {
@@ -635,10 +231,8 @@ mod viewer_api_tests {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::super::model::SpringKind;
-    use super::*;
+mod stepping {
+    use super::super::*;
     use balloon_mesh::generate::octahedron_sphere;
     use nalgebra::Vector3;
 
@@ -659,7 +253,7 @@ mod tests {
             / n
     }
 
-    /// The 1D hanging spring (seed Sec. 3.3) released from its rest length is a harmonic
+    /// The 1D hanging spring (Song 2009, Sec. 3.3) released from its rest length is a harmonic
     /// oscillator about `L + m g / k`: `x(t) = -L - (m g / k)(1 - cos(omega t))`. The global
     /// error at t = 1 s must fall with the method's order (Euler and symplectic 1, midpoint 2,
     /// RK4 4), fitted over four time steps within +-0.3.
@@ -818,7 +412,7 @@ mod tests {
     /// mesh and minimised by Newton (the 1D radial root find of `docs/two-layer.md`, done for
     /// both layers). The model's energy must agree with it on scaled shapes; the simulated
     /// equilibrium must have a lower energy (it minimises over all shapes) and lie within 2%
-    /// of the predicted radii (the valence-4 kernel points bulge a little, seed Sec. 3.5.3).
+    /// of the predicted radii (the valence-4 kernel points bulge a little, Song 2009, Sec. 3.5.3).
     #[test]
     fn pressurised_sphere_settles_at_radial_force_balance() {
         let (a0, b0, level) = (0.7, 1.0, 2u32);
@@ -1080,7 +674,7 @@ mod tests {
                     // The reason carries its numbers and the message states them.
                     match reason {
                         BlowUpReason::NonFinite { particle, .. } => {
-                            assert!(particle < sim.forces.model().num_particles())
+                            assert!(particle < sim.forces().model().num_particles())
                         }
                         BlowUpReason::InvertedLayer { volume, .. } => assert!(volume <= 0.0),
                         BlowUpReason::EnergyGrowth { total, bound, .. } => {
@@ -1143,7 +737,7 @@ mod tests {
 
     #[test]
     fn builders_make_the_seed_spring_layout() {
-        // 2D (seed Sec. 3.4.2): N structural springs per layer, N radius, N left and N right
+        // 2D (Song 2009, Sec. 3.4.2): N structural springs per layer, N radius, N left and N right
         // shear springs; 2N drawing triangles.
         let m = TwoLayerBody::circle(12).build().unwrap();
         assert_eq!(m.num_particles(), 24);

@@ -1,17 +1,17 @@
-//! Collisions of two-layer objects (seed 004, Sec. 4.6): particles against the walls, floor and
+//! Collisions of two-layer objects (Song 2009, Sec. 4.6): particles against the walls, floor and
 //! ceiling of an axis-aligned box, perfectly elastic or damped by a coefficient of restitution,
 //! and the inner layer kept inside the outer layer.
 //!
 //! All functions work on flat arrays `positions` / `velocities` of length `3 * particles`
 //! (`[x0, y0, z0, x1, ...]`, metres and metres per second) and change them in place, after the
-//! integration step (seed Sec. 4.7, Step 12).
+//! integration step (Song 2009, Sec. 4.7, Step 12).
 //!
-//! **Response (seed Eq. 4.17-4.19).** A particle found outside a plane is put back on it and the
-//! normal component of its velocity is reflected and scaled by the restitution `e` in `[0, 1]`:
+//! **Response (Song 2009, Eq. 4.17-4.19).** A particle found outside a plane is put back on it and
+//! the normal component of its velocity is reflected and scaled by the restitution `e` in `[0, 1]`:
 //! `v_n <- -e v_n` (only when it still moves outward), the tangential component is kept (no
-//! friction). `e = 1` is the seed's perfect elastic collision, `e < 1` its damped collision.
+//! friction). `e = 1` is the paper's perfect elastic collision, `e < 1` its damped collision.
 //!
-//! **Inner layer.** The seed constrains the inner layer by the outer layer instead of the box.
+//! **Inner layer.** The paper constrains the inner layer by the outer layer instead of the box.
 //! Inner particle `i` is paired with outer particle `i` (both layers share connectivity); the
 //! outer surface near the pair is approximated by its tangent plane at the outer particle, with
 //! the area-weighted outer vertex normal `n_i`. If `(x_in - x_out) . n_i > 0` the inner particle
@@ -23,6 +23,12 @@ use crate::ConstraintError;
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
+
+mod containment;
+mod winding;
+
+pub use containment::LayerContainment;
+pub use winding::{polygon_winding_number, winding_number};
 
 /// An axis-aligned box whose six faces (walls, floor, ceiling) the particles stay inside.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -67,7 +73,7 @@ pub fn check_restitution(restitution: f64) -> Result<f64, ConstraintError> {
     }
 }
 
-/// Collides particles `particles` with the six faces of `bbox` (seed Sec. 4.6): a particle
+/// Collides particles `particles` with the six faces of `bbox` (Song 2009, Sec. 4.6): a particle
 /// outside a face is moved onto it and its outward normal velocity `v_n` becomes
 /// `-restitution * v_n`. Returns the number of particle-face contacts resolved.
 ///
@@ -106,7 +112,7 @@ fn point(positions: &[f64], i: usize) -> Vector3<f64> {
 }
 
 /// Area-weighted unit vertex normals of a closed triangle layer whose vertex `j` is particle
-/// `offset + j` (seed Sec. 4.5.2, "particle normal": the normalised sum of the adjacent face
+/// `offset + j` (Song 2009, Sec. 4.5.2, "particle normal": the normalised sum of the adjacent face
 /// normals). `normals` is resized to `count`. A vertex with no faces gets a zero normal.
 pub fn layer_vertex_normals_into(
     positions: &[f64],
@@ -136,7 +142,7 @@ pub fn layer_vertex_normals_into(
 }
 
 /// Unit in-plane vertex normals of a closed counter-clockwise polygon in the `xy` plane whose
-/// vertex `j` is particle `offset + j` (seed Sec. 4.5.2, 2D normals: each edge `(dx, dy)` has
+/// vertex `j` is particle `offset + j` (Song 2009, Sec. 4.5.2, 2D normals: each edge `(dx, dy)` has
 /// outward normal `(dy, -dx)`, each vertex the normalised sum of its two edges' normals).
 pub fn polygon_vertex_normals_into(
     positions: &[f64],
@@ -163,7 +169,7 @@ pub fn polygon_vertex_normals_into(
     }
 }
 
-/// Keeps the inner layer inside the outer one (seed Sec. 4.6.2): for each pair `j` in
+/// Keeps the inner layer inside the outer one (Song 2009, Sec. 4.6.2): for each pair `j` in
 /// `0..count`, inner particle `inner_offset + j` is tested against the tangent plane of the outer
 /// layer at outer particle `outer_offset + j` with unit outward normal `outer_normals[j]`. An
 /// escaped inner particle is projected onto the plane. If the pair still separates along `n`
@@ -173,11 +179,11 @@ pub fn polygon_vertex_normals_into(
 /// momentum is conserved and kinetic energy never grows for `e <= 1` (a wall that moves must
 /// not pump energy into the inner layer). Returns how many inner particles were corrected.
 ///
-/// This is the seed's per-pair test, kept for comparison: it only looks at one tangent plane
+/// This is the paper's per-pair test, kept for comparison: it only looks at one tangent plane
 /// per inner particle, so on a deforming body some inner particles end up outside the outer
 /// surface (4 to 44 of 258 on the level-3 sphere, by winding number). `TwoLayerSimulation`
-/// uses the closest-point test over the whole outer layer instead
-/// (`balloon::two_layer::containment`), which keeps every inner particle inside.
+/// uses the closest-point test over the whole outer layer instead ([`LayerContainment`]),
+/// which keeps every inner particle inside.
 pub fn contain_inner_layer(
     positions: &mut [f64],
     velocities: &mut [f64],
@@ -214,47 +220,6 @@ pub fn contain_inner_layer(
         }
     }
     corrected
-}
-
-/// Generalised winding number of `p` with respect to the closed triangle layer whose vertex `j`
-/// is particle `offset + j`: the sum of the signed solid angles of its triangles divided by
-/// `4 pi` (Van Oosterom and Strackee). About 1 inside an outward-oriented closed surface, 0
-/// outside.
-pub fn winding_number(
-    p: &Point3<f64>,
-    positions: &[f64],
-    offset: usize,
-    triangles: &[[usize; 3]],
-) -> f64 {
-    let mut omega = 0.0;
-    for t in triangles {
-        let a = point(positions, offset + t[0]) - p.coords;
-        let b = point(positions, offset + t[1]) - p.coords;
-        let c = point(positions, offset + t[2]) - p.coords;
-        let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
-        let num = a.dot(&b.cross(&c));
-        let den = la * lb * lc + a.dot(&b) * lc + a.dot(&c) * lb + b.dot(&c) * la;
-        omega += 2.0 * num.atan2(den);
-    }
-    omega / (4.0 * std::f64::consts::PI)
-}
-
-/// Winding number of `p` (its `x`, `y`) with respect to the closed polygon in the `xy` plane
-/// whose vertex `j` is particle `offset + j`, `j < count`: the sum of the signed angles its
-/// edges subtend divided by `2 pi`. About 1 inside a counter-clockwise polygon, 0 outside.
-pub fn polygon_winding_number(
-    p: &Point3<f64>,
-    positions: &[f64],
-    offset: usize,
-    count: usize,
-) -> f64 {
-    let mut angle = 0.0;
-    for j in 0..count {
-        let a = point(positions, offset + j) - p.coords;
-        let b = point(positions, offset + (j + 1) % count) - p.coords;
-        angle += (a.x * b.y - a.y * b.x).atan2(a.x * b.x + a.y * b.y);
-    }
-    angle / (2.0 * std::f64::consts::PI)
 }
 
 #[cfg(test)]

@@ -1,13 +1,15 @@
-//! Forces on a two-layer object (seed 004, Ch. 4) and its energies.
+//! Forces on a two-layer object (Song 2009, Ch. 4) and its energies.
 
-use super::model::{Dimension, SpringParams, TwoLayerBody, TwoLayerModel};
+use crate::model::{Dimension, SpringParams, TwoLayerModel};
+use crate::params::TwoLayerParams;
 use balloon_element::{Spring, TargetSpring};
 use balloon_gas::layer::{ClosedLayer, LayerGas};
 use balloon_integrate::explicit::SecondOrderSystem;
+use balloon_mesh::geometry::enclosed_volume_of;
 use nalgebra::{Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
-/// The drag ("mouse") spring of seed Sec. 4.4 (Eq. 4.7): from a target point to the particle
+/// The drag ("mouse") spring of Song 2009, Sec. 4.4 (Eq. 4.7): from a target point to the particle
 /// nearest to it, with its own stiffness and damping. The target is at rest.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DragTarget {
@@ -52,7 +54,7 @@ impl EnergyBreakdown {
     }
 }
 
-/// All forces on a two-layer object (seed Sec. 4.7, Steps 1-10): gravity (Eq. 4.1), Hooke
+/// All forces on a two-layer object (Song 2009, Sec. 4.7, Steps 1-10): gravity (Eq. 4.1), Hooke
 /// (Eq. 4.2-4.4) and damping (Eq. 4.5-4.6) per spring type ([`balloon_element::Spring`]), gas
 /// pressure on each closed layer (Eq. 4.10-4.16, [`balloon_gas::layer`]), the drag spring
 /// (Eq. 4.7, [`balloon_element::TargetSpring`]). This type only lays the model's springs and
@@ -90,7 +92,7 @@ struct SpringArrays {
     damping: Vec<f64>,
 }
 
-/// The force on end `a` of a spring (seed Eq. 4.2-4.6), `None` at zero length: the arithmetic
+/// The force on end `a` of a spring (Song 2009, Eq. 4.2-4.6), `None` at zero length: the arithmetic
 /// of [`Spring::force`] (so the same bits). `e = x_b - x_a`, `l = |e|`,
 /// `F_a = e (k (l - L) + d (v_b - v_a) . e / l) / l`.
 #[inline(always)]
@@ -130,7 +132,7 @@ impl SpringArrays {
         s
     }
 
-    /// Adds the Hooke and damping forces of every spring (seed Eq. 4.2-4.6) to `f`, in spring
+    /// Adds the Hooke and damping forces of every spring (Song 2009, Eq. 4.2-4.6) to `f`, in spring
     /// order. The same arithmetic as [`Spring::force`] (so the same bits): `e = x_b - x_a`,
     /// `l = |e|`, `F_a = e (k (l - L) + d (v_b - v_a) . e / l) / l`, `F_b = -F_a`.
     ///
@@ -182,10 +184,10 @@ impl GasLayer {
         self.layer.volume(&x[self.range.clone()])
     }
 
-    /// [`GasLayer::volume`] for a 3D layer from the compact triangles, then `P = nRT / V`
-    /// (seed Eq. 4.10), then each face's `P/6 (b - a) x (c - a)` added to its three corners
-    /// (seed Eq. 4.11-4.16; the arithmetic of [`ClosedLayer::volume`] and
-    /// [`ClosedLayer::add_pressure_forces`], so the same bits). Falls back to those for 2D.
+    /// [`GasLayer::volume`] for a 3D layer from the compact triangles (the mesh crate's kernel,
+    /// [`enclosed_volume_of`]), then `P = nRT / V` (Song 2009, Eq. 4.10), then each face's
+    /// `P/6 (b - a) x (c - a)` added to its three corners (Song 2009, Eq. 4.11-4.16; the arithmetic
+    /// of [`ClosedLayer::add_pressure_forces`], so the same bits). Falls back to those for 2D.
     fn add_pressure_forces(&self, x: &[f64], f: &mut [f64]) {
         let r = self.range.clone();
         if self.triangles.is_empty() {
@@ -205,16 +207,9 @@ impl GasLayer {
                 u[0] * w[1] - u[1] * w[0],
             ]
         };
-        let six_v: f64 = self
-            .triangles
-            .iter()
-            .map(|t| {
-                let (a, b, c) = (x3[t[0] as usize], x3[t[1] as usize], x3[t[2] as usize]);
-                let bc = cross(b, c);
-                a[0] * bc[0] + a[1] * bc[1] + a[2] * bc[2]
-            })
-            .sum();
-        let pressure = self.gas.pressure(six_v / 6.0);
+        let triangles = self.triangles.iter().map(|t| t.map(|k| k as usize));
+        let volume = enclosed_volume_of(triangles, |i| Vector3::from(x3[i]));
+        let pressure = self.gas.pressure(volume);
         if pressure == 0.0 {
             return;
         }
@@ -300,8 +295,11 @@ fn add3(f: &mut [f64], i: usize, v: Vector3<f64>) {
 }
 
 impl TwoLayerForces {
-    /// Forces of `model` with the spring constants, gravity and valence option of `body`.
-    pub fn new(model: TwoLayerModel, body: &TwoLayerBody) -> Self {
+    /// Forces of `model` with the spring constants, gravity and valence option of `params`
+    /// (a [`TwoLayerParams`], or anything that converts into one, such as the facade's body
+    /// builder; the box, restitution and blow-up bound are not used here).
+    pub fn new(model: TwoLayerModel, params: impl Into<TwoLayerParams>) -> Self {
+        let body = params.into();
         let valence_factor = body.valence_normalization.then(|| {
             // Seed Sec. 3.5.3: scale the spring force sum at a particle by (mean valence of its
             // layer) / (its valence), so kernel points with fewer springs are not softer.
@@ -384,6 +382,12 @@ impl TwoLayerForces {
         &self.model
     }
 
+    /// The valence normalisation factors `mean valence / valence` per particle (Song 2009, Sec.
+    /// 3.5.3), or `None` when the normalisation is off.
+    pub fn valence_factors(&self) -> Option<&[f64]> {
+        self.valence_factor.as_deref()
+    }
+
     /// The active drag target and the particle it pulls.
     pub fn drag(&self) -> Option<(DragTarget, usize)> {
         self.drag
@@ -391,7 +395,7 @@ impl TwoLayerForces {
 
     /// Sets the drag target (or removes it with `None`) for positions `x`: the pulled particle
     /// is the outer-layer particle (a free particle in 1D) nearest to the target at this moment
-    /// (seed Sec. 4.4) and stays the same while the target is set. Returns that particle.
+    /// (Song 2009, Sec. 4.4) and stays the same while the target is set. Returns that particle.
     pub fn set_drag(&mut self, target: Option<DragTarget>, x: &[f64]) -> Option<usize> {
         self.drag = target.map(|t| {
             let n = self.model.layer_size;
@@ -426,7 +430,7 @@ impl TwoLayerForces {
     }
 
     /// Current gas pressures `(outer, inner)` (Pa) for positions `x`: `P = nRT / V`
-    /// (seed Eq. 4.10). Zero where there is no gas.
+    /// (Song 2009, Eq. 4.10). Zero where there is no gas.
     pub fn pressures(&self, x: &[f64]) -> (f64, f64) {
         match &self.layers[..] {
             [outer, inner] => (
@@ -452,11 +456,11 @@ impl TwoLayerForces {
         f.fill(0.0);
         let m = &self.model;
         let up = m.dimension.up_axis();
-        // Step 1: gravity (seed Eq. 4.1), F = -m g along the up axis.
+        // Step 1: gravity (Song 2009, Eq. 4.1), F = -m g along the up axis.
         for (i, mass) in m.masses.iter().enumerate() {
             f[3 * i + up] -= mass * self.gravity;
         }
-        // Steps 2-4: Hooke and damping forces of all springs (seed Eq. 4.2-4.6).
+        // Steps 2-4: Hooke and damping forces of all springs (Song 2009, Eq. 4.2-4.6).
         let sf: &mut [f64] = if self.valence_factor.is_some() {
             self.spring_force.fill(0.0);
             &mut self.spring_force
@@ -478,7 +482,7 @@ impl TwoLayerForces {
         for l in &self.layers {
             l.add_pressure_forces(x, f);
         }
-        // Step 10: drag spring (seed Eq. 4.7), the target at rest.
+        // Step 10: drag spring (Song 2009, Eq. 4.7), the target at rest.
         if let Some((t, i)) = self.drag {
             let fd = drag_spring(&t).force(&vec3(x, i), &vec3(v, i), &t.point, &Vector3::zeros());
             add3(f, i, fd);
@@ -589,148 +593,5 @@ impl SecondOrderSystem for TwoLayerForces {
         for (ai, wi) in a.iter_mut().zip(&self.inverse_mass) {
             *ai *= wi;
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::super::model::{SpringKind, TwoLayerBody};
-    use super::*;
-    use balloon_test_support::{Rng, assert_second_order, check_gradient, taylor_remainder_orders};
-
-    fn perturbed(model: &TwoLayerModel, amp: f64, seed: u64) -> Vec<f64> {
-        let mut rng = Rng::new(seed);
-        let free = model.dimension.free_axes();
-        model
-            .rest_positions
-            .iter()
-            .enumerate()
-            .map(|(k, x)| {
-                if k % 3 < free {
-                    x + amp * rng.next_f64()
-                } else {
-                    *x
-                }
-            })
-            .collect()
-    }
-
-    fn bodies() -> Vec<TwoLayerBody> {
-        vec![
-            TwoLayerBody::line(0.5),
-            TwoLayerBody::circle(7),
-            TwoLayerBody::uv_sphere(5, 4),
-            TwoLayerBody::octahedron_sphere(1),
-        ]
-        .into_iter()
-        .map(|b| {
-            b.with_radii(0.6, 1.0)
-                .with_pressure(300.0, 150.0)
-                .with_spring(SpringKind::Radius, 70.0, 0.0)
-                .with_spring(SpringKind::ShearLeft, 30.0, 0.0)
-                .with_spring(SpringKind::ShearRight, 40.0, 0.0)
-                .with_damping(0.0)
-                .with_gravity(3.0)
-        })
-        .collect()
-    }
-
-    /// Undamped forces are minus the gradient of spring + gas + gravity + drag energy (central
-    /// differences and a Taylor remainder that falls 4x per halving).
-    #[test]
-    fn conservative_forces_are_minus_energy_gradient() {
-        for body in bodies() {
-            let model = body.build().unwrap();
-            let x0 = perturbed(&model, 0.05, 3);
-            let mut forces = TwoLayerForces::new(model.clone(), &body);
-            forces.set_drag(
-                Some(DragTarget {
-                    point: Point3::new(2.0, 0.5, -0.3),
-                    stiffness: 20.0,
-                    damping: 0.0,
-                    rest_length: 0.1,
-                }),
-                &x0,
-            );
-            let zero_v = vec![0.0; x0.len()];
-            let energy = |x: &[f64]| forces.energies(x, &zero_v).potential();
-            let grad = |x: &[f64]| {
-                let mut f = vec![0.0; x.len()];
-                forces.clone().forces_into(x, &zero_v, &mut f);
-                f.iter().map(|c| -c).collect::<Vec<f64>>()
-            };
-            check_gradient(energy, grad, &x0, 1e-6, 1e-6);
-            let dx = Rng::new(9).vector(x0.len());
-            assert_second_order(&taylor_remainder_orders(energy, grad, &x0, &dx, 1e-3));
-        }
-    }
-
-    /// Spring and drag damping only dissipate: the power of the damping forces `F_d . v` is
-    /// never positive, and internal forces sum to zero (action = reaction), so with no gravity,
-    /// gas or drag the net force vanishes.
-    #[test]
-    fn damping_dissipates_and_internal_forces_balance() {
-        let body = TwoLayerBody::octahedron_sphere(1)
-            .with_damping(0.3)
-            .with_gravity(0.0);
-        let model = body.build().unwrap();
-        let x = perturbed(&model, 0.05, 5);
-        let v = Rng::new(11).vector(x.len());
-        let mut forces = TwoLayerForces::new(model, &body);
-        let mut f_damped = vec![0.0; x.len()];
-        let mut f_still = vec![0.0; x.len()];
-        forces.forces_into(&x, &v, &mut f_damped);
-        forces.forces_into(&x, &vec![0.0; x.len()], &mut f_still);
-        let power: f64 = f_damped
-            .iter()
-            .zip(&f_still)
-            .zip(&v)
-            .map(|((a, b), vi)| (a - b) * vi)
-            .sum();
-        assert!(power < 0.0, "damping power {power} must be negative");
-        for d in 0..3 {
-            let net: f64 = f_damped.iter().skip(d).step_by(3).sum();
-            assert!(net.abs() < 1e-10, "net internal force {net} along axis {d}");
-        }
-    }
-
-    /// Gas pressure on a closed layer exerts zero net force and zero net torque (a closed
-    /// surface has zero vector area and zero moment of area).
-    #[test]
-    fn pressure_has_zero_net_force_and_torque() {
-        let body = TwoLayerBody::uv_sphere(6, 5)
-            .with_pressure(1e3, 5e2)
-            .with_gravity(0.0);
-        let model = body.build().unwrap();
-        let x = perturbed(&model, 0.1, 17);
-        let mut forces = TwoLayerForces::new(model.clone(), &body);
-        let mut f_gas = vec![0.0; x.len()];
-        forces.forces_into(&x, &vec![0.0; x.len()], &mut f_gas);
-        let mut net = Vector3::zeros();
-        let mut torque = Vector3::zeros();
-        for i in 0..model.num_particles() {
-            net += vec3(&f_gas, i);
-            torque += vec3(&x, i).cross(&vec3(&f_gas, i));
-        }
-        assert!(net.norm() < 1e-9 * 1e3, "net force {net}");
-        assert!(torque.norm() < 1e-9 * 1e3, "net torque {torque}");
-    }
-
-    #[test]
-    fn valence_normalisation_equalises_kernel_points() {
-        // Octahedron kernel points have 4 structural neighbours, subdivision points 6 (seed
-        // Sec. 3.5.3); normalisation scales their spring forces by mean/valence.
-        let body = TwoLayerBody::octahedron_sphere(2).with_valence_normalization(true);
-        let model = body.build().unwrap();
-        let val = model.valences();
-        let forces = TwoLayerForces::new(model.clone(), &body);
-        let w = forces.valence_factor.as_ref().unwrap();
-        let n = model.layer_size;
-        // Inner kernel point 0 has fewer springs than inner point 6 (a subdivision point).
-        assert!(val[0] < val[6]);
-        assert!(w[0] > 1.0 && w[6] < 1.0);
-        assert!((w[0] * val[0] as f64 - w[6] * val[6] as f64).abs() < 1e-12);
-        let mean: f64 = (0..n).map(|i| val[i] as f64).sum::<f64>() / n as f64;
-        assert!((w[0] - mean / val[0] as f64).abs() < 1e-15);
     }
 }
