@@ -2,12 +2,13 @@
 //! `python/pyproject.toml`).
 //!
 //! It is what the Python API calls: whole jobs (`inflate`, `volumetric`, `two_layer`,
-//! `run_scenario`) and step-wise simulations (`Shell`, `Volumetric`, `TwoLayer`). It is not a
-//! second implementation of the command-line tool: keyword options become the CLI's flags
-//! (`newton_tol=1e-8` is `--newton-tol=1e-8`, `True` the bare flag) and are parsed by the CLI's
-//! own clap structures; the simulations are made by the CLI's `build` functions and whole jobs
-//! run through its `execute` functions, so defaults, units, validation messages and results are
-//! the CLI's by construction. It is not a Rust API either: Rust code uses the `balloon` crate.
+//! `connect`, `run_scenario`) and step-wise simulations (`Shell`, `Volumetric`, `TwoLayer`).
+//! Keyword options are the scenario's parameters by name (`newton_tol=1e-8` sets
+//! `newton_tol`, the command line's `--newton-tol`): each Python value becomes a typed value of
+//! `balloon_scenario` directly (no text on the way), the scenario is checked by the library,
+//! the simulation built by the scenario's `build`, and whole jobs run through `balloon_run`,
+//! the command-line tool's run loop; so defaults, units, checks and results are the CLI's. It is
+//! not a Rust API: Rust code uses `balloon` and `balloon-scenario`.
 //!
 //! From Python (the crate's tests are `python/tests`, run by pytest; a Rust doctest cannot
 //! load an extension module):
@@ -23,14 +24,14 @@ use balloon::shell::AnchorSpring;
 use balloon::two_layer::{DragTarget, TwoLayerSimulation};
 use balloon::volumetric::VolumetricSimulation;
 use balloon::{Simulation, SimulationError, SimulationStats};
-use balloon_cli::cmd_connect::{self, ConnectArgs};
-use balloon_cli::cmd_inflate::{self, InflateArgs, ShellSim};
-use balloon_cli::cmd_run::{self, ScenarioError, SystemArgs};
-use balloon_cli::cmd_two_layer::{self, TwoLayerArgs};
-use balloon_cli::cmd_volumetric::{self, VolumetricArgs};
-use balloon_cli::interrupt::Interrupted;
-use balloon_cli::run::Finished;
-use clap::{CommandFactory, Parser};
+use balloon_run::Finished;
+use balloon_run::interrupt::Interrupted;
+use balloon_scenario::keys::{Kind, Literals};
+use balloon_scenario::names::{Spelling, respell, value_message};
+use balloon_scenario::selection::ShellLoads;
+use balloon_scenario::shell::ShellSim;
+use balloon_scenario::value::{SetError, Value};
+use balloon_scenario::{Scenario, ScenarioError, SystemKind};
 use nalgebra::{Point3, Vector3};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2};
 use pyo3::create_exception;
@@ -50,8 +51,8 @@ create_exception!(
     _balloon,
     InvalidOption,
     BalloonError,
-    "An unknown keyword option, a value of the wrong type or outside its range, or a scenario \
-     file that does not parse (the CLI flag parser's message)."
+    "An unknown keyword option, a value of the wrong type or outside its range, keywords that \
+     do not go together, or a scenario file that does not parse."
 );
 create_exception!(
     _balloon,
@@ -67,98 +68,67 @@ create_exception!(
     "A simulation step that failed (Newton did not converge, an inverted element, a blow-up)."
 );
 
-/// The parser of `balloon inflate`'s flags, on their own.
-#[derive(Parser)]
-#[command(name = "balloon.inflate", no_binary_name = true)]
-struct ShellCli {
-    #[command(flatten)]
-    args: InflateArgs,
+/// How errors spell parameters: as the command line does, so that a message reads the same
+/// from Python and from the CLI (the package's tests compare them). `Spelling::Keyword`
+/// (`dt=`) is the alternative `balloon_scenario::names` offers.
+const SPELLING: Spelling = Spelling::Flag;
+
+/// A library message with its parameters spelled for Python users.
+fn spelled(message: &str) -> String {
+    respell(message, SPELLING)
 }
 
-/// The parser of `balloon volumetric`'s flags, on their own.
-#[derive(Parser)]
-#[command(name = "balloon.volumetric", no_binary_name = true)]
-struct VolumetricCli {
-    #[command(flatten)]
-    args: VolumetricArgs,
+/// An `Exception` raised while a value is read is the value's fault; anything else (a
+/// KeyboardInterrupt from Ctrl-C, SystemExit) is passed on, not taken for a wrong type.
+fn not_an_exception(py: Python<'_>, e: PyErr) -> PyResult<()> {
+    if e.is_instance_of::<PyException>(py) {
+        Ok(())
+    } else {
+        Err(e)
+    }
 }
 
-/// The parser of `balloon two-layer`'s flags, on their own.
-#[derive(Parser)]
-#[command(name = "balloon.two_layer", no_binary_name = true)]
-struct TwoLayerCli {
-    #[command(flatten)]
-    args: TwoLayerArgs,
-}
-
-/// The parser of `balloon connect`'s flags, on their own.
-#[derive(Parser)]
-#[command(name = "balloon.connect", no_binary_name = true)]
-struct ConnectCli {
-    #[command(flatten)]
-    args: ConnectArgs,
-}
-
-/// The CLI flag of a keyword option: `newton_tol` is `newton-tol`.
-fn flag_name(keyword: &str) -> String {
-    keyword.replace('_', "-")
-}
-
-/// The first line of a clap error without its `error: ` prefix.
-fn clap_message(e: &clap::Error) -> String {
-    let text = e.to_string();
-    let line = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
-    line.strip_prefix("error: ").unwrap_or(line).to_owned()
-}
-
-/// A keyword option's value as flag text: numbers in round-trip form, lists comma-separated,
-/// paths through `os.fspath`.
-fn value_text(v: &Bound<'_, PyAny>) -> PyResult<String> {
-    if v.is_instance_of::<PyBool>() {
-        return Err(InvalidOption::new_err(
-            "a boolean is only valid for an on/off flag",
-        ));
+/// A keyword option's Python value as an untyped scenario value: booleans, integers (numpy's
+/// too), floats, strings and paths (`os.fspath`), lists and tuples of them.
+fn py_value(v: &Bound<'_, PyAny>) -> PyResult<Value> {
+    if let Ok(b) = v.cast::<PyBool>() {
+        return Ok(Value::Bool(b.is_true()));
     }
     if v.is_instance_of::<PyInt>() {
-        return Ok(v.str()?.to_cow()?.into_owned());
+        return Ok(match v.extract::<i64>() {
+            Ok(i) => Value::Int(i),
+            // Beyond i64: as a real, which no whole-number parameter takes.
+            Err(_) => Value::Float(v.extract::<f64>()?),
+        });
     }
     if v.is_instance_of::<PyFloat>() {
-        return Ok(format!("{:?}", v.extract::<f64>()?));
+        return Ok(Value::Float(v.extract::<f64>()?));
     }
     if let Ok(s) = v.cast::<PyString>() {
-        return Ok(s.to_cow()?.into_owned());
+        return Ok(Value::Text(s.to_cow()?.into_owned()));
     }
     if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
-        let parts = v
+        let items = v
             .try_iter()?
-            .map(|x| value_text(&x?))
+            .map(|x| py_value(&x?))
             .collect::<PyResult<Vec<_>>>()?;
-        return Ok(parts.join(","));
+        return Ok(Value::List(items));
     }
-    // Each attempt below may fail with an `Exception` (try the next); anything else (a
-    // KeyboardInterrupt from Ctrl-C, SystemExit) is passed on, not taken for a wrong type.
     let py = v.py();
-    let not_an_exception = |e: PyErr| -> PyResult<()> {
-        if e.is_instance_of::<PyException>(py) {
-            Ok(())
-        } else {
-            Err(e)
-        }
-    };
     let os = py.import("os")?;
     match os.call_method1("fspath", (v,)) {
-        Ok(p) => return p.extract::<String>(),
-        Err(e) => not_an_exception(e)?,
+        Ok(p) => return Ok(Value::Text(p.extract::<String>()?)),
+        Err(e) => not_an_exception(py, e)?,
     }
     // numpy integers (and anything else with `__index__`), then numpy floats and other reals.
     match v.extract::<i64>() {
-        Ok(i) => return Ok(i.to_string()),
-        Err(e) => not_an_exception(e)?,
+        Ok(i) => return Ok(Value::Int(i)),
+        Err(e) => not_an_exception(py, e)?,
     }
     match v.extract::<f64>() {
-        Ok(f) => Ok(format!("{f:?}")),
+        Ok(f) => Ok(Value::Float(f)),
         Err(e) => {
-            not_an_exception(e)?;
+            not_an_exception(py, e)?;
             Err(InvalidOption::new_err(format!(
                 "cannot use a value of type {} as an option",
                 v.get_type().name()?
@@ -167,79 +137,147 @@ fn value_text(v: &Bound<'_, PyAny>) -> PyResult<String> {
     }
 }
 
-/// The command-line arguments of keyword `options` for the flags of `cmd`: `--name=value`;
-/// for an on/off flag `--name` for `True` and nothing for `False`; for a switch with a default
-/// of its own (`follower_term`) `--name=true` or `--name=false`; nothing for `None`. Unknown
-/// keywords are refused with the list of the known ones.
-fn option_args(cmd: &clap::Command, options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
-    let mut out = Vec::new();
-    let Some(options) = options else {
-        return Ok(out);
-    };
-    for (k, v) in options.iter() {
-        let key: String = k.extract()?;
-        let long = flag_name(&key);
-        let Some(arg) = cmd
-            .get_arguments()
-            .find(|a| a.get_long() == Some(long.as_str()))
-        else {
-            let mut known: Vec<String> = cmd
-                .get_arguments()
-                .filter_map(|a| a.get_long())
-                .filter(|l| *l != "help" && *l != "version")
-                .map(|l| l.replace('-', "_"))
-                .collect();
-            known.sort();
-            return Err(InvalidOption::new_err(format!(
-                "unknown option `{key}` (the options are {})",
-                known.join(", ")
-            )));
-        };
-        if v.is_none() {
-            continue;
-        }
-        if matches!(arg.get_action(), clap::ArgAction::SetTrue) {
-            let on = v.cast::<PyBool>().map_err(|_| {
-                InvalidOption::new_err(format!(
-                    "option `{key}` is on/off: give True or False, not {}",
-                    v.repr().map(|r| r.to_string()).unwrap_or_default()
-                ))
-            })?;
-            if on.is_true() {
-                out.push(format!("--{long}"));
-            }
-            continue;
-        }
-        // A switch with a default of its own (`--flag[=true|false]`): the value spelled out.
-        if let Ok(on) = v.cast::<PyBool>()
-            && arg.get_num_args().is_some_and(|r| r.min_values() == 0)
-        {
-            out.push(format!("--{long}={}", on.is_true()));
-            continue;
-        }
-        // A KeyboardInterrupt (Ctrl-C while the options are read) is not an invalid option:
-        // only `Exception`s are reported as this option's.
-        let text = value_text(&v).map_err(|e| {
-            if e.is_instance_of::<PyException>(v.py()) {
-                InvalidOption::new_err(format!("option `{key}`: {}", e.value(v.py())))
-            } else {
-                e
-            }
-        })?;
-        out.push(format!("--{long}={text}"));
-    }
-    Ok(out)
+/// The parameter names of system `kind` (the keyword options), sorted.
+fn option_names(kind: SystemKind) -> Vec<&'static str> {
+    let mut names: Vec<&'static str> = Scenario::keys(kind)
+        .into_iter()
+        .map(|k| k.name)
+        .filter(|n| *n != "mesh")
+        .collect();
+    names.sort_unstable();
+    names
 }
 
-/// Parses `argv` with parser `C` as the CLI would, returning the arguments and their scenario
-/// record (written to `OUT/scenario.toml` as the CLI writes it).
-fn parse_args<C: Parser>(argv: &[String]) -> PyResult<(C, clap::ArgMatches)> {
-    let matches = C::command()
-        .try_get_matches_from(argv)
-        .map_err(|e| InvalidOption::new_err(clap_message(&e)))?;
-    let cli =
-        C::from_arg_matches(&matches).map_err(|e| InvalidOption::new_err(clap_message(&e)))?;
-    Ok((cli, matches))
+/// Sets keyword option `key` (a parameter's name) with its Python value on `scenario`, and
+/// records the value's text in `literals` (for the recorded scenario and errors, as the CLI
+/// records the text typed). `None` leaves the default.
+fn set_option(
+    scenario: &mut Scenario,
+    literals: &mut Literals,
+    key: &str,
+    v: &Bound<'_, PyAny>,
+) -> PyResult<()> {
+    let Some(info) = scenario.key(key).filter(|k| k.name != "mesh") else {
+        return Err(InvalidOption::new_err(format!(
+            "unknown option `{key}` (the options are {})",
+            option_names(scenario.kind()).join(", ")
+        )));
+    };
+    if v.is_none() {
+        return Ok(());
+    }
+    let is_bool = v.is_instance_of::<PyBool>();
+    match info.kind {
+        Kind::Bool if !is_bool => {
+            return Err(InvalidOption::new_err(format!(
+                "option `{key}` is on/off: give True or False, not {}",
+                v.repr().map(|r| r.to_string()).unwrap_or_default()
+            )));
+        }
+        Kind::Bool | Kind::Switch => {}
+        _ if is_bool => {
+            return Err(InvalidOption::new_err(format!(
+                "option `{key}`: a boolean is only valid for an on/off flag"
+            )));
+        }
+        _ => {}
+    }
+    // A KeyboardInterrupt (Ctrl-C while the options are read) is not an invalid option: only
+    // `Exception`s are reported as this option's.
+    let value = py_value(v).map_err(|e| {
+        if e.is_instance_of::<PyException>(v.py()) {
+            InvalidOption::new_err(format!("option `{key}`: {}", e.value(v.py())))
+        } else {
+            e
+        }
+    })?;
+    // A list for a text (`render=[0, 100, "last"]`) is its comma-separated text.
+    let value = match (&value, info.kind) {
+        (Value::List(items), Kind::Text | Kind::Rule | Kind::Path | Kind::NumberOrText) => {
+            Value::Text(
+                items
+                    .iter()
+                    .map(Value::literal)
+                    .collect::<Vec<_>>()
+                    .join(","),
+            )
+        }
+        _ => value,
+    };
+    let texts: Vec<String> = match &value {
+        Value::List(items) => items.iter().map(Value::literal).collect(),
+        other => vec![other.literal()],
+    };
+    match scenario.set(key, &value) {
+        Ok(()) => {}
+        Err(SetError::Type(m)) => {
+            return Err(InvalidOption::new_err(format!("option `{key}`: {m}")));
+        }
+        Err(SetError::Value(e)) => {
+            let typed = texts.get(e.index.unwrap_or(0)).map(String::as_str);
+            return Err(InvalidOption::new_err(value_message(&e, SPELLING, typed)));
+        }
+    }
+    if matches!(
+        info.kind,
+        Kind::Number | Kind::Numbers | Kind::NumberOrText | Kind::Text | Kind::Rule
+    ) {
+        literals.set(key, texts);
+    }
+    Ok(())
+}
+
+/// A scenario's check as a Python exception: a value outside its range shows the text given
+/// (`invalid value '5.0' for '--dt <DT>': ...`, the CLI's message); keys that do not go
+/// together are named.
+fn invalid(e: ScenarioError, literals: &Literals) -> PyErr {
+    match e {
+        ScenarioError::Value(v) => {
+            InvalidOption::new_err(value_message(&v, SPELLING, literals.typed(&v)))
+        }
+        e => InvalidOption::new_err(spelled(&e.to_string())),
+    }
+}
+
+/// The checked scenario of system `kind` with keyword `options`, the mesh given (a path, or
+/// arrays returned beside it), and the values' texts.
+fn scenario_of(
+    kind: SystemKind,
+    mesh: Option<&Bound<'_, PyAny>>,
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<(Scenario, Option<balloon::mesh::TriMesh>, Literals)> {
+    let mut scenario = Scenario::new(kind);
+    let mut literals = Literals::default();
+    let arrays = match mesh {
+        Some(mesh) => {
+            let (name, arrays) = mesh_spec(mesh)?.split();
+            scenario
+                .set("mesh", &Value::Text(name))
+                .map_err(|_| MeshError::new_err("this system takes no mesh"))?;
+            arrays
+        }
+        None => None,
+    };
+    if let Some(options) = options {
+        for (k, v) in options.iter() {
+            let key: String = k.extract()?;
+            set_option(&mut scenario, &mut literals, &key, &v)?;
+        }
+    }
+    scenario.validate().map_err(|e| invalid(e, &literals))?;
+    Ok((scenario, arrays, literals))
+}
+
+/// The recorded scenario of a run (none for a mesh given as arrays, which a scenario cannot
+/// name).
+fn record_of(
+    scenario: &Scenario,
+    literals: &Literals,
+    arrays: &Option<balloon::mesh::TriMesh>,
+) -> Option<String> {
+    arrays
+        .is_none()
+        .then(|| balloon_scenario::file::record(scenario, literals))
 }
 
 /// `numpy.ascontiguousarray(x, dtype=dtype)`.
@@ -251,8 +289,8 @@ fn as_array<'py>(x: &Bound<'py, PyAny>, dtype: &str) -> PyResult<Bound<'py, PyAn
         .call_method("ascontiguousarray", (x,), Some(&kw))
 }
 
-/// A `mesh` argument: a path or `builtin[:NAME]` (passed to the CLI as its positional MESH) or
-/// a `(vertices, triangles)` pair of arrays (built here; the summary's `mesh` is then `<arrays>`).
+/// A `mesh` argument: a path or `builtin[:NAME]` (the scenario's `mesh.path`) or a
+/// `(vertices, triangles)` pair of arrays (built here; the summary's `mesh` is then `<arrays>`).
 enum MeshSpec {
     Named(String),
     Arrays(balloon::mesh::TriMesh),
@@ -330,7 +368,7 @@ fn mesh_spec(mesh: &Bound<'_, PyAny>) -> PyResult<MeshSpec> {
 }
 
 impl MeshSpec {
-    /// The positional MESH argument and the in-memory mesh.
+    /// The scenario's mesh path and the in-memory mesh.
     fn split(self) -> (String, Option<balloon::mesh::TriMesh>) {
         match self {
             MeshSpec::Named(p) => (p, None),
@@ -357,15 +395,15 @@ fn check_python_signals() -> Option<i32> {
     })
 }
 
-/// The Python exception of a CLI error: the signal's exception for an interrupted run, else a
+/// The Python exception of a job's error: the signal's exception for an interrupted run, else a
 /// [`BalloonError`] subclass by the error's kind, with the CLI's message.
 fn to_py_err(e: anyhow::Error) -> PyErr {
     if e.chain().any(|c| c.is::<Interrupted>()) {
         return SIGNAL_ERROR
             .with(|s| s.borrow_mut().take())
-            .unwrap_or_else(|| PyKeyboardInterrupt::new_err(balloon_cli::error_chain(&e)));
+            .unwrap_or_else(|| PyKeyboardInterrupt::new_err(error_chain(&e)));
     }
-    let msg = balloon_cli::error_chain(&e);
+    let msg = error_chain(&e);
     if e.chain().any(|c| c.is::<ScenarioError>()) {
         InvalidOption::new_err(msg)
     } else if e.chain().any(|c| c.is::<SimulationError>()) {
@@ -375,6 +413,28 @@ fn to_py_err(e: anyhow::Error) -> PyErr {
     } else {
         BalloonError::new_err(msg)
     }
+}
+
+/// The error and its causes joined by `: ` (skipping a cause the message already holds), with
+/// the parameters spelled for Python users: the CLI's message.
+fn error_chain(e: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if msg.contains(&text) {
+            continue;
+        }
+        if !msg.is_empty() {
+            msg.push_str(": ");
+        }
+        msg.push_str(&text);
+    }
+    spelled(&msg)
+}
+
+/// A library error of a step-wise simulation's setter.
+fn setter_err(e: impl std::fmt::Display) -> PyErr {
+    InvalidOption::new_err(spelled(&e.to_string()))
 }
 
 /// A JSON value (a summary, a stats row) as Python objects.
@@ -480,41 +540,19 @@ fn job_result<'py, S: Simulation>(
     Ok(d)
 }
 
-/// The flags of a command that runs on a mesh (`C`: the CLI's parser of `inflate` or
-/// `volumetric`): the mesh's name as the first argument (in-memory arrays are returned beside
-/// it, with a placeholder name), then the keyword options; with the parsed matches, from which
-/// the run's scenario record is written.
-fn mesh_command_args<C: Parser>(
-    mesh: Option<&Bound<'_, PyAny>>,
-    options: Option<&Bound<'_, PyDict>>,
-) -> PyResult<(C, Option<balloon::mesh::TriMesh>, clap::ArgMatches)> {
-    let (name, arrays) = match mesh {
-        Some(mesh) => mesh_spec(mesh)?.split(),
-        None => ("builtin".to_owned(), None),
-    };
-    let mut argv = vec![name];
-    argv.extend(option_args(&C::command(), options)?);
-    let (cli, m) = parse_args::<C>(&argv)?;
-    Ok((cli, arrays, m))
-}
-
-fn two_layer_args(
-    options: Option<&Bound<'_, PyDict>>,
-) -> PyResult<(TwoLayerArgs, clap::ArgMatches)> {
-    let argv = option_args(&TwoLayerCli::command(), options)?;
-    let (cli, m) = parse_args::<TwoLayerCli>(&argv)?;
-    Ok((cli.args, m))
-}
-
 fn run_shell<'py>(
     py: Python<'py>,
-    mut args: InflateArgs,
+    scenario: Scenario,
     mesh: Option<balloon::mesh::TriMesh>,
+    record: Option<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    args.json = false;
-    let static_solve = args.static_solve;
+    let Scenario::Shell(mut s) = scenario else {
+        return Err(BalloonError::new_err("not a shell scenario"));
+    };
+    s.output.json = false;
+    let static_solve = s.run.static_solve;
     let (finished, points) = detached(py, move || {
-        cmd_inflate::execute_with_points(&args, mesh, true)
+        balloon_run::jobs::shell::run(&s, mesh, record.as_deref(), true)
     })?;
     let d = job_result(py, &finished, finished.sim.positions())?;
     if static_solve {
@@ -534,10 +572,16 @@ fn run_shell<'py>(
 
 fn run_volumetric<'py>(
     py: Python<'py>,
-    args: VolumetricArgs,
+    scenario: Scenario,
     mesh: Option<balloon::mesh::TriMesh>,
+    record: Option<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let finished = detached(py, move || cmd_volumetric::execute(&args, mesh, true))?;
+    let Scenario::Volumetric(s) = scenario else {
+        return Err(BalloonError::new_err("not a volumetric scenario"));
+    };
+    let finished = detached(py, move || {
+        balloon_run::jobs::volumetric::run(&s, mesh, record.as_deref(), true)
+    })?;
     let d = job_result(py, &finished, Simulation::positions(&finished.sim))?;
     let emb = &finished.sim.lattice().embedding;
     let surface: Vec<f64> = emb
@@ -550,9 +594,18 @@ fn run_volumetric<'py>(
     Ok(d)
 }
 
-fn run_connect<'py>(py: Python<'py>, mut args: ConnectArgs) -> PyResult<Bound<'py, PyDict>> {
-    args.shell.json = false;
-    let finished = detached(py, move || cmd_connect::execute(args, true))?;
+fn run_connect<'py>(
+    py: Python<'py>,
+    scenario: Scenario,
+    record: Option<String>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let Scenario::Connect(mut s) = scenario else {
+        return Err(BalloonError::new_err("not a connect scenario"));
+    };
+    s.shell.output.json = false;
+    let finished = detached(py, move || {
+        balloon_run::jobs::connect::run(&s, record.as_deref(), true)
+    })?;
     let d = job_result(py, &finished, Simulation::positions(&finished.sim))?;
     let offsets = finished.sim.vertex_offsets();
     let triangles: Vec<[usize; 3]> = finished
@@ -567,8 +620,17 @@ fn run_connect<'py>(py: Python<'py>, mut args: ConnectArgs) -> PyResult<Bound<'p
     Ok(d)
 }
 
-fn run_two_layer<'py>(py: Python<'py>, args: TwoLayerArgs) -> PyResult<Bound<'py, PyDict>> {
-    let finished = detached(py, move || cmd_two_layer::execute(&args, true))?;
+fn run_two_layer<'py>(
+    py: Python<'py>,
+    scenario: Scenario,
+    record: Option<String>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let Scenario::TwoLayer(s) = scenario else {
+        return Err(BalloonError::new_err("not a two-layer scenario"));
+    };
+    let finished = detached(py, move || {
+        balloon_run::jobs::two_layer::run(&s, record.as_deref(), true)
+    })?;
     job_result(py, &finished, Simulation::positions(&finished.sim))
 }
 
@@ -591,13 +653,9 @@ fn inflate<'py>(
     mesh: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (cli, arrays, m) = mesh_command_args::<ShellCli>(mesh, options)?;
-    let mut args = cli.args;
-    // A recorded scenario names its mesh file: in-memory arrays have none, so none is written.
-    if arrays.is_none() {
-        args.scenario_record = Some(cmd_run::record(&cmd_run::SHELL, &m));
-    }
-    run_shell(py, args, arrays)
+    let (scenario, arrays, literals) = scenario_of(SystemKind::Shell, mesh, options)?;
+    let record = record_of(&scenario, &literals, &arrays);
+    run_shell(py, scenario, arrays, record)
 }
 
 /// volumetric(mesh="builtin", **options)
@@ -613,13 +671,9 @@ fn volumetric<'py>(
     mesh: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (cli, arrays, m) = mesh_command_args::<VolumetricCli>(mesh, options)?;
-    let mut args = cli.args;
-    // A recorded scenario names its mesh file: in-memory arrays have none, so none is written.
-    if arrays.is_none() {
-        args.scenario_record = Some(cmd_run::record(&cmd_run::VOLUMETRIC, &m));
-    }
-    run_volumetric(py, args, arrays)
+    let (scenario, arrays, literals) = scenario_of(SystemKind::Volumetric, mesh, options)?;
+    let record = record_of(&scenario, &literals, &arrays);
+    run_volumetric(py, scenario, arrays, record)
 }
 
 /// two_layer(**options)
@@ -634,9 +688,9 @@ fn two_layer<'py>(
     py: Python<'py>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (mut args, m) = two_layer_args(options)?;
-    args.scenario_record = Some(cmd_run::record(&cmd_run::TWO_LAYER, &m));
-    run_two_layer(py, args)
+    let (scenario, _, literals) = scenario_of(SystemKind::TwoLayer, None, options)?;
+    let record = Some(balloon_scenario::file::record(&scenario, &literals));
+    run_two_layer(py, scenario, record)
 }
 
 /// connect(mesh="builtin", **options)
@@ -657,15 +711,14 @@ fn connect<'py>(
     mesh: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (cli, arrays, m) = mesh_command_args::<ConnectCli>(mesh, options)?;
+    let (scenario, arrays, literals) = scenario_of(SystemKind::Connect, mesh, options)?;
     if arrays.is_some() {
         return Err(InvalidOption::new_err(
             "connect takes a mesh path or \"builtin:NAME\", not arrays: write the mesh to a file",
         ));
     }
-    let mut args = cli.args;
-    args.shell.scenario_record = Some(cmd_run::record(&cmd_run::CONNECT, &m));
-    run_connect(py, args)
+    let record = Some(balloon_scenario::file::record(&scenario, &literals));
+    run_connect(py, scenario, record)
 }
 
 /// run_scenario(path, **overrides)
@@ -686,42 +739,37 @@ fn run_scenario<'py>(
         .import("os")?
         .call_method1("fspath", (path,))?
         .extract()?;
-    // The overrides are checked against the flags of the file's system by `scenario_args`;
-    // their names against the union of the three systems' flags here.
-    let mut flags = Vec::new();
+    let file = std::path::Path::new(&path);
+    let scenario_error = |e: ScenarioError| InvalidOption::new_err(e.to_string());
+    let kind = balloon_scenario::file::system_of(file).map_err(scenario_error)?;
+    // The overrides' names first: their values in the file are replaced, not checked.
+    let mut given: Vec<String> = Vec::new();
     if let Some(o) = overrides {
-        for (k, v) in o.iter() {
-            let one = PyDict::new(py);
-            one.set_item(&k, &v)?;
+        for (k, _) in o.iter() {
             let key: String = k.extract()?;
-            let long = flag_name(&key);
-            let cmd = [
-                ShellCli::command(),
-                VolumetricCli::command(),
-                TwoLayerCli::command(),
-                ConnectCli::command(),
-            ]
-            .into_iter()
-            .find(|c| {
-                c.get_arguments()
-                    .any(|a| a.get_long() == Some(long.as_str()))
-            })
-            .ok_or_else(|| InvalidOption::new_err(format!("unknown option `{key}`")))?;
-            flags.extend(option_args(&cmd, Some(&one))?);
+            if Scenario::new(kind).key(&key).is_none() {
+                return Err(InvalidOption::new_err(format!("unknown option `{key}`")));
+            }
+            given.push(key);
         }
     }
-    let file = std::path::Path::new(&path);
-    if let Some(a) = cmd_run::connect_scenario_args(file, &flags)
-        .map_err(|e| InvalidOption::new_err(e.to_string()))?
-    {
-        return run_connect(py, a);
+    let names: Vec<&str> = given.iter().map(String::as_str).collect();
+    let read = balloon_scenario::file::read(file, &names).map_err(scenario_error)?;
+    let (mut scenario, mut literals) = (read.scenario, read.literals);
+    if let Some(o) = overrides {
+        for (k, v) in o.iter() {
+            let key: String = k.extract()?;
+            literals.remove(&key);
+            set_option(&mut scenario, &mut literals, &key, &v)?;
+        }
     }
-    let args =
-        cmd_run::scenario_args(file, &flags).map_err(|e| InvalidOption::new_err(e.to_string()))?;
-    match args {
-        SystemArgs::Shell(a) => run_shell(py, *a, None),
-        SystemArgs::Volumetric(a) => run_volumetric(py, *a, None),
-        SystemArgs::TwoLayer(a) => run_two_layer(py, *a),
+    scenario.validate().map_err(|e| invalid(e, &literals))?;
+    let record = Some(balloon_scenario::file::record(&scenario, &literals));
+    match scenario.kind() {
+        SystemKind::Shell => run_shell(py, scenario, None, record),
+        SystemKind::Connect => run_connect(py, scenario, record),
+        SystemKind::Volumetric => run_volumetric(py, scenario, None, record),
+        SystemKind::TwoLayer => run_two_layer(py, scenario, record),
     }
 }
 
@@ -744,7 +792,7 @@ struct Shell {
     sim: Mutex<ShellSim>,
     /// The anchor springs and scheduled loads of the options (`pin`, `load`), applied before
     /// every step as the CLI applies them.
-    loads: Mutex<balloon_cli::selection::ShellLoads>,
+    loads: Mutex<ShellLoads>,
 }
 
 #[pymethods]
@@ -756,9 +804,11 @@ impl Shell {
         mesh: Option<&Bound<'_, PyAny>>,
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let (cli, arrays, _) = mesh_command_args::<ShellCli>(mesh, options)?;
-        let args = cli.args;
-        let (sim, loads) = detached(py, move || cmd_inflate::build_with_loads(&args, arrays))?;
+        let (scenario, arrays, _) = scenario_of(SystemKind::Shell, mesh, options)?;
+        let Scenario::Shell(s) = scenario else {
+            return Err(BalloonError::new_err("not a shell scenario"));
+        };
+        let (sim, loads) = detached(py, move || Ok(s.build(arrays)?))?;
         Ok(Self {
             sim: Mutex::new(sim),
             loads: Mutex::new(loads),
@@ -836,9 +886,7 @@ impl Shell {
 
     /// Changes the time step (s) of the following steps.
     fn set_dt(&self, dt: f64) -> PyResult<()> {
-        lock(&self.sim)?
-            .set_dt(dt)
-            .map_err(|e| InvalidOption::new_err(e.to_string()))
+        lock(&self.sim)?.set_dt(dt).map_err(setter_err)
     }
 
     /// Sets the gauge pressure, Pa (held pressure of `gas="constant"`, the amount of the
@@ -846,14 +894,12 @@ impl Shell {
     fn set_pressure(&self, pressure: f64) -> PyResult<()> {
         lock(&self.sim)?
             .set_gauge_pressure(pressure)
-            .map_err(|e| InvalidOption::new_err(e.to_string()))
+            .map_err(setter_err)
     }
 
     /// Sets the pump rate, m^3/s of ambient air, of `gas="pump"` from now on.
     fn set_pump_rate(&self, rate: f64) -> PyResult<()> {
-        lock(&self.sim)?
-            .set_pump_rate(rate)
-            .map_err(|e| InvalidOption::new_err(e.to_string()))
+        lock(&self.sim)?.set_pump_rate(rate).map_err(setter_err)
     }
 
     /// Sets external forces, N: an (n, 3) array, one per vertex, applied in every following
@@ -865,8 +911,7 @@ impl Shell {
             Some(f) => Some(flat_points(f, sim.positions().len() / 3, "forces")?),
             None => None,
         };
-        sim.set_external_forces(f.as_deref())
-            .map_err(|e| InvalidOption::new_err(e.to_string()))
+        sim.set_external_forces(f.as_deref()).map_err(setter_err)
     }
 
     /// Replaces the anchor springs: a list of (vertex, (x, y, z), stiffness N/m), zero-length
@@ -882,7 +927,7 @@ impl Shell {
             .collect();
         lock(&self.sim)?
             .set_anchor_springs(springs)
-            .map_err(|e| InvalidOption::new_err(e.to_string()))
+            .map_err(setter_err)
     }
 }
 
@@ -906,9 +951,11 @@ impl Volumetric {
         mesh: Option<&Bound<'_, PyAny>>,
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let (cli, arrays, _) = mesh_command_args::<VolumetricCli>(mesh, options)?;
-        let args = cli.args;
-        let built = detached(py, move || cmd_volumetric::build(&args, arrays))?;
+        let (scenario, arrays, _) = scenario_of(SystemKind::Volumetric, mesh, options)?;
+        let Scenario::Volumetric(s) = scenario else {
+            return Err(BalloonError::new_err("not a volumetric scenario"));
+        };
+        let built = detached(py, move || Ok(s.build(arrays)?))?;
         Ok(Self {
             sim: Mutex::new(built.sim),
         })
@@ -976,8 +1023,7 @@ impl Volumetric {
 
     /// Changes the time step (s) of the following steps.
     fn set_dt(&self, dt: f64) -> PyResult<()> {
-        Simulation::set_dt(&mut *lock(&self.sim)?, dt)
-            .map_err(|e| InvalidOption::new_err(e.to_string()))
+        Simulation::set_dt(&mut *lock(&self.sim)?, dt).map_err(setter_err)
     }
 
     /// Sets external forces, N: an (n, 3) array, one per lattice particle; None removes them.
@@ -995,8 +1041,7 @@ impl Volumetric {
             }
             None => None,
         };
-        sim.set_external_forces(f.as_deref())
-            .map_err(|e| InvalidOption::new_err(e.to_string()))
+        sim.set_external_forces(f.as_deref()).map_err(setter_err)
     }
 }
 
@@ -1015,8 +1060,11 @@ impl TwoLayer {
     #[new]
     #[pyo3(signature = (**options))]
     fn new(py: Python<'_>, options: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
-        let (args, _) = two_layer_args(options)?;
-        let sim = detached(py, move || cmd_two_layer::build(&args))?;
+        let (scenario, _, _) = scenario_of(SystemKind::TwoLayer, None, options)?;
+        let Scenario::TwoLayer(s) = scenario else {
+            return Err(BalloonError::new_err("not a two-layer scenario"));
+        };
+        let sim = detached(py, move || Ok(s.build()?))?;
         Ok(Self {
             sim: Mutex::new(sim),
         })
@@ -1064,8 +1112,7 @@ impl TwoLayer {
 
     /// Changes the time step (s) of the following steps.
     fn set_dt(&self, dt: f64) -> PyResult<()> {
-        Simulation::set_dt(&mut *lock(&self.sim)?, dt)
-            .map_err(|e| InvalidOption::new_err(e.to_string()))
+        Simulation::set_dt(&mut *lock(&self.sim)?, dt).map_err(setter_err)
     }
 
     /// Drags the body ("mouse"): a spring of `stiffness` N/m and `damping` N s/m from the
@@ -1083,9 +1130,7 @@ impl TwoLayer {
             damping,
             rest_length: 0.0,
         });
-        lock(&self.sim)?
-            .set_drag(target)
-            .map_err(|e| InvalidOption::new_err(e.to_string()))
+        lock(&self.sim)?.set_drag(target).map_err(setter_err)
     }
 }
 
@@ -1093,8 +1138,8 @@ impl TwoLayer {
 #[pymodule]
 fn _balloon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
-    // Ctrl-C as Python sees it stops the CLI's run loops between steps.
-    balloon_cli::interrupt::set_checker(check_python_signals);
+    // Ctrl-C as Python sees it stops the run loops between steps.
+    balloon_run::interrupt::set_checker(check_python_signals);
     m.add("BalloonError", py.get_type::<BalloonError>())?;
     m.add("InvalidOption", py.get_type::<InvalidOption>())?;
     m.add("MeshError", py.get_type::<MeshError>())?;
