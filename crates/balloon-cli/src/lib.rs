@@ -35,21 +35,4 @@ pub mod pictures;
 pub mod scenario_cli;
 pub mod selection;
 
-/// The error and its causes joined by `: `, skipping a cause whose text the message already
-/// contains (library errors often include their source in their own message), with every
-/// backticked parameter name spelled as its flag (`` `dt` `` becomes `--dt`): the message the
-/// CLI prints after `error: `.
-pub fn error_chain(e: &anyhow::Error) -> String {
-    let mut msg = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if msg.contains(&text) {
-            continue;
-        }
-        if !msg.is_empty() {
-            msg.push_str(": ");
-        }
-        msg.push_str(&text);
-    }
-    balloon_scenario::names::respell(&msg, balloon_scenario::names::Spelling::Flag)
-}
+pub use scenario_cli::error_chain;

@@ -94,62 +94,26 @@ impl Invocation {
     }
 }
 
+/// The error and its causes joined by `: `, skipping a cause whose text the message already
+/// contains (library errors often include their source in their own message), with every
+/// backticked parameter name spelled as its flag (`` `dt` `` becomes `--dt`): the message the
+/// CLI prints after `error: `.
+pub fn error_chain(e: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if msg.contains(&text) {
+            continue;
+        }
+        if !msg.is_empty() {
+            msg.push_str(": ");
+        }
+        msg.push_str(&text);
+    }
+    balloon_scenario::names::respell(&msg, Spelling::Flag)
+}
+
 /// The flag (`--dt`) of parameter `name`, for messages.
 pub fn flag(name: &str) -> String {
     format!("--{}", flag_of(name).unwrap_or(name))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use clap::CommandFactory;
-
-    /// Every key of each system is one flag of its command (or the positional mesh), and every
-    /// flag is one key: the command line, the scenario files and Python name the same
-    /// parameters.
-    #[test]
-    fn every_flag_of_each_system_has_exactly_one_key_of_the_right_kind() {
-        for (kind, cmd) in crate::cmd_run::commands() {
-            let keys = Scenario::keys(kind);
-            for arg in cmd.get_arguments() {
-                let id = arg.get_id().as_str();
-                if id == "help" || id == "version" {
-                    continue;
-                }
-                let matching: Vec<_> = keys.iter().filter(|k| arg_id(k.name) == id).collect();
-                assert_eq!(
-                    matching.len(),
-                    1,
-                    "{kind}: argument `{id}` has {} keys",
-                    matching.len()
-                );
-                let key = matching[0];
-                let is_flag = matches!(arg.get_action(), clap::ArgAction::SetTrue);
-                assert_eq!(
-                    key.kind == Kind::Bool,
-                    is_flag,
-                    "{kind}: `{id}`: {:?}",
-                    key.kind
-                );
-                if key.name != "mesh" {
-                    assert_eq!(
-                        arg.get_long(),
-                        flag_of(key.name),
-                        "{kind}: `{}` is set by --{:?}",
-                        key.name,
-                        arg.get_long()
-                    );
-                }
-            }
-            for key in &keys {
-                assert!(
-                    cmd.get_arguments().any(|a| a.get_id() == arg_id(key.name)),
-                    "{kind}: key {}.{} names no argument",
-                    key.table,
-                    key.key
-                );
-            }
-        }
-        let _ = crate::cmd_inflate::ShellCli::command();
-    }
 }

@@ -29,10 +29,4 @@ pub mod jobs;
 pub mod output;
 pub mod run;
 
-/// A job that ran to its end: its summary and the simulation in its final state.
-pub struct Finished<S> {
-    /// The summary as `summary.json` holds it (with `interrupted`, `frames` and `error`).
-    pub summary: Option<serde_json::Value>,
-    /// The simulation after the last step.
-    pub sim: S,
-}
+pub use run::Finished;

@@ -54,6 +54,14 @@ pub struct RunPlan {
     pub quiet: bool,
 }
 
+/// A job that ran to its end: its summary and the simulation in its final state.
+pub struct Finished<S> {
+    /// The summary as `summary.json` holds it (with `interrupted`, `frames` and `error`).
+    pub summary: Option<serde_json::Value>,
+    /// The simulation after the last step.
+    pub sim: S,
+}
+
 /// What the loop saw, for the summary.
 #[derive(Debug)]
 pub struct RunRecord<D> {

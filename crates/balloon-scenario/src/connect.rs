@@ -14,7 +14,7 @@
 //! assert_eq!("0-1,1-2".parse::<TubeList>().unwrap().0, vec![(0, 1), (1, 2)]);
 //! ```
 
-use crate::ScenarioError;
+use crate::error::ScenarioError;
 use crate::gas::GasControl;
 use crate::keys::{Key, Kind, Recorded, flag, no_check, reals_opt, whole_opt};
 use crate::range::End::{Closed, Open};

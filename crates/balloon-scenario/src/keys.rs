@@ -18,7 +18,8 @@
 //! );
 //! ```
 
-use crate::range::ValueError;
+use crate::range::End::{Closed, Open};
+use crate::range::{MAX_STEPS, Real, ValueError, Whole};
 use crate::value::{SetError, Value};
 use std::collections::BTreeMap;
 
@@ -469,3 +470,33 @@ pub fn by_name<'k, S>(keys: &'k [Key<S>], name: &str) -> Option<&'k Key<S>> {
 pub fn check_all<S>(keys: &[Key<S>], s: &S) -> Result<(), ValueError> {
     keys.iter().try_for_each(|k| (k.check)(s))
 }
+
+/// The scale of a mesh (mesh units -> metres): (0, 1e6].
+pub const SCALE: Real = Real::new(Open(0.0), Closed(1e6));
+/// Each number of an affine map: [-1e6, 1e6].
+pub const TRANSFORM: Real = Real::new(Closed(-1e6), Closed(1e6));
+/// The stiffness of an anchor without its own, N/m: (0, 1e12].
+pub const PIN_STIFFNESS: Real = crate::selection::STIFFNESS;
+/// Steps of a run: 0 to 1e8.
+pub const STEPS: Whole = Whole::new(0, MAX_STEPS);
+
+/// The `[mesh] path` key (a file, or `builtin[:NAME]`).
+macro_rules! mesh_path {
+    ($s:ty, $($f:ident).+) => {
+        $crate::keys::Key::<$s> {
+            table: "mesh",
+            key: "path",
+            name: "mesh",
+            kind: $crate::keys::Kind::Path,
+            recorded: true,
+            set: |s, v| {
+                s.$($f).+ = v.text()?.to_owned();
+                Ok(())
+            },
+            check: $crate::keys::no_check,
+            get: |s| $crate::keys::Recorded::one(&s.$($f).+),
+            copy: |d, s| d.$($f).+.clone_from(&s.$($f).+),
+        }
+    };
+}
+pub(crate) use mesh_path;

@@ -197,6 +197,21 @@ pub fn parse_image_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+/// An image size `(w, h)` as `"WxH"`.
+mod image_size_text {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Serializes as `"WxH"`.
+    pub fn serialize<S: Serializer>(v: &(u32, u32), s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(&format_args!("{}x{}", v.0, v.1))
+    }
+
+    /// Deserializes `"WxH"`.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<(u32, u32), D::Error> {
+        super::parse_image_size(&String::deserialize(d)?).map_err(serde::de::Error::custom)
+    }
+}
+
 /// Which steps `render` asks for.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RenderSpec {
@@ -259,7 +274,7 @@ pub struct Output {
     /// Write `final.pov`, a POV-Ray scene of the last frame.
     pub pov: bool,
     /// Size of the PNG renders and GIF frames, pixels (width, height).
-    #[serde(with = "serde_text::image_size")]
+    #[serde(with = "image_size_text")]
     pub image_size: (u32, u32),
     /// Colour-map range.
     #[serde(with = "serde_text")]

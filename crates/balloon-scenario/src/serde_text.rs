@@ -47,18 +47,3 @@ pub mod option {
             .transpose()
     }
 }
-
-/// An image size `(w, h)` as `"WxH"`.
-pub mod image_size {
-    use super::*;
-
-    /// Serializes as `"WxH"`.
-    pub fn serialize<S: Serializer>(v: &(u32, u32), s: S) -> Result<S::Ok, S::Error> {
-        s.collect_str(&format_args!("{}x{}", v.0, v.1))
-    }
-
-    /// Deserializes `"WxH"`.
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<(u32, u32), D::Error> {
-        crate::output::parse_image_size(&String::deserialize(d)?).map_err(serde::de::Error::custom)
-    }
-}

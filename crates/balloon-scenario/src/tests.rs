@@ -2,6 +2,8 @@
 
 use super::*;
 use crate::names::flag_of;
+use crate::range::ValueError;
+use crate::value::{SetError, Value};
 
 #[test]
 fn every_key_name_is_a_parameter_with_a_flag() {

@@ -13,14 +13,14 @@
 //! assert_eq!(balloon::Simulation::steps(&sim), 1);
 //! ```
 
-use crate::ScenarioError;
+use crate::error::ScenarioError;
 use crate::keys::{Key, anchor_keys, choice, flag, output_keys, real, real_opt, text_opt, whole};
+use crate::keys::{PIN_STIFFNESS, STEPS};
 use crate::output::{ColorField, Output, choices};
 use crate::range::End::{Closed, Open};
 use crate::range::{Real, Whole};
 use crate::selection::apply::fix_two_layer;
 use crate::selection::{Load, Pin, SelectionError};
-use crate::shell::keys::{PIN_STIFFNESS, STEPS};
 use balloon::two_layer::{
     AxisBox, ExplicitMethod, SpringKind, TwoLayerBody, TwoLayerError, TwoLayerSimulation,
 };

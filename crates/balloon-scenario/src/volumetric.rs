@@ -15,17 +15,17 @@
 //! assert!(built.sim.lattice().cells.len() > 50);
 //! ```
 
-use crate::ScenarioError;
+use crate::error::ScenarioError;
 use crate::keys::{
-    Key, Kind, Recorded, anchor_keys, flag, no_check, output_keys, real, real_opt, whole, whole_opt,
+    Key, Kind, Recorded, anchor_keys, flag, output_keys, real, real_opt, whole, whole_opt,
 };
+use crate::keys::{PIN_STIFFNESS, SCALE, STEPS, TRANSFORM, mesh_path};
 use crate::mesh::MeshSpec;
 use crate::output::{ColorField, Output, choices};
 use crate::range::End::{Closed, Open};
 use crate::range::{MAX_STEPS, Real, ValueError, Whole, real_text};
 use crate::selection::apply::fix_volumetric;
 use crate::selection::{Load, Pin, SelectionError};
-use crate::shell::keys::{PIN_STIFFNESS, SCALE, STEPS, TRANSFORM, mesh_path};
 use crate::value::{SetError, Value};
 use balloon::constraint::cell_volume::{
     CellCentre, CellCorrection, CellVolumeParams, SpringParams,

@@ -1,7 +1,10 @@
 //! A scenario file with the flags after it.
 
 use super::*;
+use crate::scenario_cli::arg_id;
 use balloon::shell::connected::Conductance;
+use balloon_scenario::keys::Kind;
+use balloon_scenario::names::flag_of;
 use balloon_scenario::selection::Selector;
 use balloon_scenario::shell::ShellScenario;
 
@@ -24,7 +27,7 @@ fn an_invalid_override_names_the_flag_not_the_file() {
         (vec!["--steps", "x"], "'--steps <STEPS>'"),
         (vec!["--bogus"], "'--bogus'"),
     ] {
-        let text = crate::error_chain(&shell(&path, &flags).unwrap_err());
+        let text = crate::scenario_cli::error_chain(&shell(&path, &flags).unwrap_err());
         assert!(
             text.contains(named) && text.starts_with("command line") && !text.contains("s.toml"),
             "{flags:?}: {text}"
@@ -32,7 +35,7 @@ fn an_invalid_override_names_the_flag_not_the_file() {
     }
     // A bad value in the file still names the file, its line and key.
     std::fs::write(&path, "[run]\ndt = -1\n").unwrap();
-    let e = crate::error_chain(&shell(&path, &[]).unwrap_err());
+    let e = crate::scenario_cli::error_chain(&shell(&path, &[]).unwrap_err());
     assert!(e.contains("s.toml:2: `run.dt`"), "{e}");
     // ... unless a flag replaces it.
     assert_eq!(shell(&path, &["--dt", "0.5"]).unwrap().run.dt, 0.5);
@@ -98,9 +101,59 @@ fn connect_overrides_and_another_system_s_flags() {
     assert_eq!(c.connect.conductance, Conductance::Instant);
     assert!(call.record().contains("conductance = \"instant\""));
     // A volumetric flag is not a connect flag.
-    let e = crate::error_chain(&scenario_of(&path, &["--cells".into(), "9".into()]).unwrap_err());
+    let e = crate::scenario_cli::error_chain(
+        &scenario_of(&path, &["--cells".into(), "9".into()]).unwrap_err(),
+    );
     assert!(
         e.starts_with("command line") && e.contains("--cells"),
         "{e}"
     );
+}
+
+/// Every key of each system is one flag of its command (or the positional mesh), and every
+/// flag is one key: the command line, the scenario files and Python name the same
+/// parameters.
+#[test]
+fn every_flag_of_each_system_has_exactly_one_key_of_the_right_kind() {
+    for (kind, cmd) in commands() {
+        let keys = Scenario::keys(kind);
+        for arg in cmd.get_arguments() {
+            let id = arg.get_id().as_str();
+            if id == "help" || id == "version" {
+                continue;
+            }
+            let matching: Vec<_> = keys.iter().filter(|k| arg_id(k.name) == id).collect();
+            assert_eq!(
+                matching.len(),
+                1,
+                "{kind}: argument `{id}` has {} keys",
+                matching.len()
+            );
+            let key = matching[0];
+            let is_flag = matches!(arg.get_action(), clap::ArgAction::SetTrue);
+            assert_eq!(
+                key.kind == Kind::Bool,
+                is_flag,
+                "{kind}: `{id}`: {:?}",
+                key.kind
+            );
+            if key.name != "mesh" {
+                assert_eq!(
+                    arg.get_long(),
+                    flag_of(key.name),
+                    "{kind}: `{}` is set by --{:?}",
+                    key.name,
+                    arg.get_long()
+                );
+            }
+        }
+        for key in &keys {
+            assert!(
+                cmd.get_arguments().any(|a| a.get_id() == arg_id(key.name)),
+                "{kind}: key {}.{} names no argument",
+                key.table,
+                key.key
+            );
+        }
+    }
 }

@@ -7,9 +7,8 @@
 //! `pair_start.png` / `pair_end.png` (renders) and `pressure_stretch.png` (each balloon's path
 //! in the pressure-stretch plane, over the analytic thin-sphere curve where there is one).
 
-use crate::Finished;
 use crate::output::{ColorField, Field, Frame, OutputDir, PictureStyle};
-use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
+use crate::run::{Finished, FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::{Context, Result};
 use balloon::material::MembraneModel;
 use balloon::material::membrane::ThinSphere;

@@ -3,6 +3,9 @@
 
 pub mod connect;
 pub mod shell;
+mod shell_frame;
 pub mod statics;
 pub mod two_layer;
 pub mod volumetric;
+
+pub use shell_frame::shell_frame;

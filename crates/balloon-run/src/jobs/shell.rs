@@ -1,9 +1,9 @@
 //! The job of a shell run (`balloon inflate`): the output folder, the steps (or the static
 //! solve, [`super::statics`]), the summary.
 
-use crate::Finished;
-use crate::output::{ColorField, Field, Frame, OutputDir, PictureStyle};
-use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
+use super::shell_frame::shell_frame;
+use crate::output::{ColorField, Frame, OutputDir, PictureStyle};
+use crate::run::{Finished, FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::Result;
 use balloon::integrate::PhaseTimes;
 use balloon::mesh::TriMesh;
@@ -90,21 +90,6 @@ pub(crate) fn style() -> PictureStyle {
         closed: true,
         ..PictureStyle::new("inflate", UpAxis::Y, ColorField::Thickness, SHELL_COLORS)
     }
-}
-
-/// The current state as a frame with its fields: velocity, speed, pressure force (Eq. 15),
-/// thickness, stretch and max_stretch against the rest shape.
-pub fn shell_frame<M: ShellMaterial>(sim: &ShellSimulation<M>, step: usize) -> Result<Frame> {
-    let x = sim.positions();
-    let tris = sim.triangles();
-    let force = balloon::fields::pressure_forces(x, tris, sim.gauge_pressure())?;
-    let mut f = Frame::new(step, sim.time(), x.to_vec(), tris.to_vec())
-        .with_velocity(sim.velocities().to_vec())?
-        .with_stretch(sim.rest_positions())?;
-    f.point_data.push(Field::vector("pressure_force", force));
-    f.cell_data
-        .push(Field::scalar("thickness", sim.thickness().to_vec()));
-    Ok(f)
 }
 
 /// What a shell run adds to the shared run loop: the summary's running totals, convergence

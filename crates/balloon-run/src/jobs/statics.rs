@@ -3,7 +3,7 @@
 //! volume, `volume_ratios`), whose pressure-volume curve is drawn into `pressure_volume.png`
 //! of the output folder.
 
-use super::shell::shell_frame;
+use super::shell_frame::shell_frame;
 use crate::output::{OutputDir, print_json_line};
 use anyhow::{Context, Result};
 use balloon::integrate::PhaseTimes;

@@ -5,9 +5,8 @@
 //! flushed, so a run that blows up leaves a readable file) and `summary.json` (also written
 //! when the run fails, with the error).
 
-use crate::Finished;
 use crate::output::{ColorField, Frame, OutputDir, PictureStyle};
-use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
+use crate::run::{Finished, FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::Result;
 use balloon::two_layer::{DragTarget, ExplicitMethod, TwoLayerSimulation, TwoLayerStats};
 use balloon_render::{Camera, Projection, UpAxis};

@@ -8,9 +8,8 @@
 //! each frame as `sphere_NNNNN.<ext>` and `floor.<ext>` (parts 1 and 2 of `series.pvd` with
 //! VTK) and into the pictures.
 
-use crate::Finished;
 use crate::output::{ColorField, Frame, OutputDir, PictureStyle};
-use crate::run::{FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
+use crate::run::{Finished, FramePolicy, RunHooks, RunPlan, RunRecord, run_simulation};
 use anyhow::Result;
 use balloon::mesh::TriMesh;
 use balloon::mesh::lattice::Lattice;

@@ -54,7 +54,7 @@ pub struct Frame {
     pub cell_data: Vec<Field>,
     /// Rigid objects of the scene at this step (the volumetric drop-sphere's sphere and floor):
     /// written beside the frame file (`sphere_NNNNN.<ext>`, `floor.<ext>`, see
-    /// [`OutputDir::frame`]) and drawn in the pictures.
+    /// [`super::OutputDir::frame`]) and drawn in the pictures.
     pub props: Vec<Prop>,
 }
 

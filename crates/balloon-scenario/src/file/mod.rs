@@ -27,10 +27,12 @@ mod tables;
 
 pub use record::{record, record_json, resolve_shell_record};
 
+use crate::error::ScenarioError;
 use crate::keys::{Kind, Literals};
+use crate::scenario::{KeyInfo, Scenario, SystemKind};
 use crate::value::{SetError, Value};
-use crate::{KeyInfo, Scenario, ScenarioError, SystemKind};
 use std::path::{Path, PathBuf};
+use tables::number_text;
 use toml_edit::Item;
 
 /// A scenario file read: the scenario, the text of each value as written (for the recorded
@@ -111,15 +113,6 @@ fn type_name(v: &toml_edit::Value) -> &'static str {
     }
 }
 
-/// A number of the file as text (floats in Rust's round-trip form).
-pub(crate) fn number_text(v: &toml_edit::Value) -> Option<String> {
-    match v {
-        toml_edit::Value::Integer(i) => Some(i.value().to_string()),
-        toml_edit::Value::Float(f) => Some(format!("{:?}", f.value())),
-        _ => None,
-    }
-}
-
 /// The value a key of the file gives, as the setter takes it (a path joined to the file's
 /// folder), with its text as written; or what is wrong with its type.
 fn file_value(
@@ -153,7 +146,7 @@ fn file_value(
         Kind::Text => Ok((value_of(v), v.as_str().map(|s| vec![s.to_owned()]))),
         Kind::Rule => {
             let value = value_of(v);
-            let text = crate::shell::keys::rule_text(&value).ok();
+            let text = crate::shell::rule_text(&value).ok();
             Ok((value, text.map(|t| vec![t])))
         }
         Kind::Bool | Kind::Switch | Kind::Tables => Ok((value_of(v), None)),

@@ -2,8 +2,8 @@
 //! default), the mesh path absolute, the program version; `balloon run` of it repeats the run.
 
 use crate::keys::{Kind, Literals, Recorded};
+use crate::scenario::{Scenario, SystemKind};
 use crate::shell::ShellScenario;
-use crate::{Scenario, SystemKind};
 use balloon::shell::{self, ShellMaterial, ShellMaterialModel};
 use std::path::PathBuf;
 use toml_edit::Value;

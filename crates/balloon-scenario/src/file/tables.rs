@@ -3,9 +3,17 @@
 //! `spec`; each is turned into its spec (`below:z:0.01@200.0`), with file paths joined to the
 //! scenario file's folder.
 
-use super::number_text;
 use std::path::Path;
 use toml_edit::{Item, Value};
+
+/// A number of the file as text (floats in Rust's round-trip form).
+pub(super) fn number_text(v: &toml_edit::Value) -> Option<String> {
+    match v {
+        toml_edit::Value::Integer(i) => Some(i.value().to_string()),
+        toml_edit::Value::Float(f) => Some(format!("{:?}", f.value())),
+        _ => None,
+    }
+}
 
 /// A selector key of an `[[anchors]]` or `[[loads]]` table as a selector spec
 /// (`crate::selection::parse_selector`), `None` when `key` is not a selector key.

@@ -20,7 +20,8 @@
 //! applied.before_step(&mut sim).unwrap(); // before every step: the force starts at 0.5 s
 //! ```
 
-use super::{Load, LoadKind, Pin, SelectionError, Selector};
+use super::selector::{SelectionError, Selector};
+use super::specs::{Load, LoadKind, Pin};
 use balloon::shell::{AnchorSpring, ShellMaterial, ShellSimulation};
 use balloon::volumetric::VolumetricSimulation;
 

@@ -15,7 +15,7 @@
 //! assert!(parse_load("force=0,0,1").unwrap_err().contains("on="));
 //! ```
 
-use super::{Selector, numbers, parse_selector, spec_real, stiffness};
+use super::selector::{Selector, numbers, parse_selector, spec_real, stiffness};
 use crate::range::{End, Real};
 use serde::{Deserialize, Serialize};
 use std::path::Path;

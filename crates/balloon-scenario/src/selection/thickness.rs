@@ -12,7 +12,7 @@
 //! assert_eq!(thickness_map(None, None, "m.obj", &mesh).unwrap(), None);
 //! ```
 
-use super::{SelectionError, data_lines, parse_axis, spec_real};
+use super::selector::{SelectionError, data_lines, parse_axis, spec_real};
 use crate::range::{End, Real};
 use balloon::mesh::TriMesh;
 use balloon::mesh::io::PlyProperty;

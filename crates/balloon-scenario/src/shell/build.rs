@@ -1,7 +1,7 @@
 //! Setting a shell run up from its scenario: the one place that turns a [`ShellScenario`] into
 //! the builder calls of `balloon::shell::ShellBalloon`.
 
-use super::{ProjectionMode, ShellScenario};
+use super::types::{ProjectionMode, ShellScenario};
 use crate::mesh::LoadError;
 use crate::selection::{SelectionError, ShellLoads, apply::shell_anchors, thickness_map};
 use balloon::constraint::shell_volume::{ProjectionScope, ShellVolumeParams};

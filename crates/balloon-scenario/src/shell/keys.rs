@@ -1,14 +1,18 @@
 //! The keys of a shell scenario (`kind = "shell"`, `balloon inflate`), in the order the
 //! recorded scenario writes them, with their ranges.
 
-use super::ShellScenario;
+use super::types::ShellScenario;
 use crate::keys::{
     Key, Kind, Recorded, anchor_keys, choice, choice_opt, flag, no_check, output_keys, path_opt,
     real, real_opt, reals_opt, whole,
 };
+use crate::keys::{PIN_STIFFNESS, SCALE, STEPS, TRANSFORM, mesh_path};
 use crate::range::End::{Closed, Open};
-use crate::range::{MAX_STEPS, Real, ValueError, Whole};
+use crate::range::{Real, ValueError, Whole};
 use crate::value::{SetError, Value, parse_choice};
+
+/// A modulus, Pa (its sign is the model's check): [-1e12, 1e12].
+const MODULUS: Real = Real::new(Closed(-1e12), Closed(1e12));
 
 /// A real number with no range of its own (checked with the keys it belongs to).
 macro_rules! real_opt_free {
@@ -22,38 +26,6 @@ macro_rules! real_opt_free {
         }
     };
 }
-
-/// The scale of a mesh (mesh units -> metres): (0, 1e6].
-pub(crate) const SCALE: Real = Real::new(Open(0.0), Closed(1e6));
-/// Each number of an affine map: [-1e6, 1e6].
-pub(crate) const TRANSFORM: Real = Real::new(Closed(-1e6), Closed(1e6));
-/// A modulus, Pa (its sign is the model's check): [-1e12, 1e12].
-const MODULUS: Real = Real::new(Closed(-1e12), Closed(1e12));
-/// The stiffness of an anchor without its own, N/m: (0, 1e12].
-pub(crate) const PIN_STIFFNESS: Real = crate::selection::STIFFNESS;
-/// Steps of a run: 0 to 1e8.
-pub(crate) const STEPS: Whole = Whole::new(0, MAX_STEPS);
-
-/// The `[mesh] path` key (a file, or `builtin[:NAME]`).
-macro_rules! mesh_path {
-    ($s:ty, $($f:ident).+) => {
-        Key::<$s> {
-            table: "mesh",
-            key: "path",
-            name: "mesh",
-            kind: Kind::Path,
-            recorded: true,
-            set: |s, v| {
-                s.$($f).+ = v.text()?.to_owned();
-                Ok(())
-            },
-            check: no_check,
-            get: |s| Recorded::one(&s.$($f).+),
-            copy: |d, s| d.$($f).+.clone_from(&s.$($f).+),
-        }
-    };
-}
-pub(crate) use mesh_path;
 
 /// The `thickness_rule` key: `"AXIS:FROM:TO"` or `{ axis, from, to }`.
 pub(crate) fn set_rule(v: &Value) -> Result<crate::selection::LinearRule, SetError> {

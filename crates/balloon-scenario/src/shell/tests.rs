@@ -1,6 +1,7 @@
 //! The shell scenario's checks across keys and its builder.
 
 use super::*;
+use crate::gas::GasControl;
 use crate::range::End::{Closed, Open};
 use crate::range::Real;
 

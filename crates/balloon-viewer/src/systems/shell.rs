@@ -1,7 +1,18 @@
 //! The shell balloon (seed 000) in the viewer.
 
-use super::*;
-
+use super::view::*;
+use crate::ViewerError;
+use crate::protocol::{ControlSpec, ControlValue, DragMode};
+use balloon::Simulation;
+use balloon::fields;
+use balloon::gas::GasKind;
+use balloon::integrate::TangentKind;
+use balloon::integrate::linear::LinearSolverKind;
+use balloon::material::{Lame, MaterialKind, MaterialModel};
+use balloon::mesh::TriMesh;
+use balloon::shell::{AnchorSpring, ShellBalloon, ShellSimulation};
+use nalgebra::Vector3;
+use serde_json::{Map, Value, json};
 
 /// Settings of the shell view (the controls).
 #[derive(Clone, Debug)]
@@ -423,4 +434,3 @@ impl ViewSystem for ShellView {
             .map_err(ViewerError::from)
     }
 }
-

@@ -2,9 +2,15 @@
 
 use super::shell::ShellControl;
 use super::two_layer::TwoLayerControl;
+use super::view::*;
 use super::volumetric::VolumetricControl;
 use super::*;
-
+use crate::ViewerError;
+use crate::protocol::{ControlSpec, ControlValue, DragMode};
+use balloon::constraint::cell_volume::CellSolver;
+use balloon::fields;
+use balloon::integrate::linear::LinearSolverKind;
+use nalgebra::{Point3, Vector3};
 
 fn run(sys: &mut dyn ViewSystem, seconds: f64) -> Result<(), String> {
     let t0 = std::time::Instant::now();

@@ -1,7 +1,15 @@
 //! The two-layer body (seed 004) in the viewer.
 
-use super::*;
-
+use super::view::*;
+use crate::ViewerError;
+use crate::protocol::{ControlSpec, ControlValue};
+use balloon::Simulation;
+use balloon::fields;
+use balloon::two_layer::{
+    AxisBox, DragTarget, ExplicitMethod, SpringKind, TwoLayerBody, TwoLayerSimulation,
+};
+use nalgebra::{Point3, Vector3};
+use serde_json::{Map, Value, json};
 
 #[derive(Clone, Debug)]
 pub(super) struct TwoLayerSettings {
@@ -242,4 +250,3 @@ impl ViewSystem for TwoLayerView {
         Ok(())
     }
 }
-

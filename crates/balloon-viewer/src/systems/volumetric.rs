@@ -1,7 +1,16 @@
 //! The volumetric body (seed 003) in the viewer.
 
-use super::*;
-
+use super::view::*;
+use crate::ViewerError;
+use crate::protocol::{ControlSpec, ControlValue};
+use balloon::Simulation;
+use balloon::constraint::cell_volume::{CellCorrection, CellSolver};
+use balloon::fields;
+use balloon::mesh::TriMesh;
+use balloon::mesh::lattice::LatticeParams;
+use balloon::volumetric::{VolumetricBody, VolumetricParams, VolumetricSimulation};
+use nalgebra::{Point3, Vector3};
+use serde_json::{Map, Value, json};
 
 #[derive(Clone, Debug)]
 pub(super) struct VolumetricSettings {
@@ -314,4 +323,3 @@ impl ViewSystem for VolumetricView {
             .map_err(ViewerError::from)
     }
 }
-
