@@ -2,7 +2,7 @@
 
 use crate::convert::{detached, job_result, json_to_py, points_array, triangles_array};
 use crate::errors::{BalloonError, InvalidOption, invalid};
-use crate::options::{record_of, scenario_of, set_option};
+use crate::options::{Use, record_of, scenario_of, set_option};
 use balloon::Simulation;
 use balloon_scenario::{Scenario, ScenarioError, SystemKind};
 use numpy::PyArray1;
@@ -122,7 +122,7 @@ pub(crate) fn inflate<'py>(
     mesh: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (scenario, arrays, literals) = scenario_of(SystemKind::Shell, mesh, options)?;
+    let (scenario, arrays, literals) = scenario_of(SystemKind::Shell, mesh, options, Use::Job)?;
     let record = record_of(&scenario, &literals, &arrays);
     run_shell(py, scenario, arrays, record)
 }
@@ -140,7 +140,8 @@ pub(crate) fn volumetric<'py>(
     mesh: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (scenario, arrays, literals) = scenario_of(SystemKind::Volumetric, mesh, options)?;
+    let (scenario, arrays, literals) =
+        scenario_of(SystemKind::Volumetric, mesh, options, Use::Job)?;
     let record = record_of(&scenario, &literals, &arrays);
     run_volumetric(py, scenario, arrays, record)
 }
@@ -157,7 +158,7 @@ pub(crate) fn two_layer<'py>(
     py: Python<'py>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (scenario, _, literals) = scenario_of(SystemKind::TwoLayer, None, options)?;
+    let (scenario, _, literals) = scenario_of(SystemKind::TwoLayer, None, options, Use::Job)?;
     let record = Some(balloon_scenario::file::record(&scenario, &literals));
     run_two_layer(py, scenario, record)
 }
@@ -180,7 +181,7 @@ pub(crate) fn connect<'py>(
     mesh: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (scenario, arrays, literals) = scenario_of(SystemKind::Connect, mesh, options)?;
+    let (scenario, arrays, literals) = scenario_of(SystemKind::Connect, mesh, options, Use::Job)?;
     if arrays.is_some() {
         return Err(InvalidOption::new_err(
             "connect takes a mesh path or \"builtin:NAME\", not arrays: write the mesh to a file",

@@ -161,12 +161,23 @@ pub(crate) fn set_option(
     Ok(())
 }
 
+/// What a scenario is for: a whole job, or a step-wise simulation (whose output options are
+/// accepted and ignored: it writes nothing).
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Use {
+    /// A whole job with its outputs.
+    Job,
+    /// A simulation stepped from Python.
+    Stepwise,
+}
+
 /// The checked scenario of system `kind` with keyword `options`, the mesh given (a path, or
 /// arrays returned beside it), and the values' texts.
 pub(crate) fn scenario_of(
     kind: SystemKind,
     mesh: Option<&Bound<'_, PyAny>>,
     options: Option<&Bound<'_, PyDict>>,
+    purpose: Use,
 ) -> PyResult<(Scenario, Option<balloon::mesh::TriMesh>, Literals)> {
     let mut scenario = Scenario::new(kind);
     let mut literals = Literals::default();
@@ -185,6 +196,15 @@ pub(crate) fn scenario_of(
             let key: String = k.extract()?;
             set_option(&mut scenario, &mut literals, &key, &v)?;
         }
+    }
+    if purpose == Use::Stepwise {
+        // Nothing is written: the pictures (which need a folder) are left out.
+        let output = scenario.output_mut();
+        output.out = None;
+        output.render = None;
+        output.gif = false;
+        output.pov = false;
+        output.color = None;
     }
     scenario.validate().map_err(|e| invalid(e, &literals))?;
     Ok((scenario, arrays, literals))

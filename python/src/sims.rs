@@ -2,7 +2,7 @@
 
 use crate::convert::{detached, flat_points, points_array, stats_dict, triangles_array};
 use crate::errors::{BalloonError, setter_err, to_py_err};
-use crate::options::scenario_of;
+use crate::options::{Use, scenario_of};
 use balloon::Simulation;
 use balloon::shell::AnchorSpring;
 use balloon::two_layer::{DragTarget, TwoLayerSimulation};
@@ -47,7 +47,7 @@ impl Shell {
         mesh: Option<&Bound<'_, PyAny>>,
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let (scenario, arrays, _) = scenario_of(SystemKind::Shell, mesh, options)?;
+        let (scenario, arrays, _) = scenario_of(SystemKind::Shell, mesh, options, Use::Stepwise)?;
         let Scenario::Shell(s) = scenario else {
             return Err(BalloonError::new_err("not a shell scenario"));
         };
@@ -194,7 +194,8 @@ impl Volumetric {
         mesh: Option<&Bound<'_, PyAny>>,
         options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let (scenario, arrays, _) = scenario_of(SystemKind::Volumetric, mesh, options)?;
+        let (scenario, arrays, _) =
+            scenario_of(SystemKind::Volumetric, mesh, options, Use::Stepwise)?;
         let Scenario::Volumetric(s) = scenario else {
             return Err(BalloonError::new_err("not a volumetric scenario"));
         };
@@ -303,7 +304,7 @@ impl TwoLayer {
     #[new]
     #[pyo3(signature = (**options))]
     fn new(py: Python<'_>, options: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
-        let (scenario, _, _) = scenario_of(SystemKind::TwoLayer, None, options)?;
+        let (scenario, _, _) = scenario_of(SystemKind::TwoLayer, None, options, Use::Stepwise)?;
         let Scenario::TwoLayer(s) = scenario else {
             return Err(BalloonError::new_err("not a two-layer scenario"));
         };
