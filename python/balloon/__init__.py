@@ -2,7 +2,8 @@
 
 Python bindings of the ``balloon`` Rust workspace. Every function takes the command-line
 tool's flags as keyword options in snake_case, with the same defaults and units, and runs
-exactly what the CLI runs (the options are parsed by the CLI's own parser):
+exactly what the CLI runs (each option is a parameter of the library's typed scenario, which
+the CLI's flags and scenario files set too):
 
 >>> import balloon
 >>> r = balloon.inflate("builtin:sphere", steps=15, gas="constant", pressure=900.0)

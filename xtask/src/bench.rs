@@ -727,15 +727,15 @@ struct TeddyInflation {
     shape_difference: f64,
 }
 
-/// The peer comparison's sphere (10242 vertices; [`balloon_tests::peer_sphere`]).
+/// The peer comparison's sphere (10242 vertices; [`crate::measure::peer_sphere`]).
 pub fn peer_sphere() -> Result<balloon::shell::ShellSimulation> {
-    let builder = balloon_tests::peer_sphere(5).map_err(|e| anyhow::anyhow!(e))?;
+    let builder = crate::measure::peer_sphere(5).map_err(|e| anyhow::anyhow!(e))?;
     Ok(builder.build()?)
 }
 
 /// Largest vertex distance between `a` and `b` over the bounding-box diagonal of `a`.
 fn shape_difference(a: &[f64], b: &[f64]) -> f64 {
-    balloon_tests::max_vertex_distance(a, b) / balloon_tests::bbox_diagonal(a)
+    crate::measure::max_vertex_distance(a, b) / crate::measure::bbox_diagonal(a)
 }
 
 fn sphere_to_rest() -> Result<SphereToRest> {

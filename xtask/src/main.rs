@@ -22,6 +22,7 @@
 
 mod bench;
 mod e2e;
+mod measure;
 mod plot;
 mod render;
 mod report;

@@ -1,10 +1,10 @@
 //! `balloon mesh info <FILE|builtin[:NAME]> [--json]`: statistics and validity of a mesh.
 
-use crate::output::print_json_line;
 use anyhow::{Context, Result};
 use balloon_mesh::geometry;
 use balloon_mesh::topology::Topology;
 use balloon_mesh::validate::{ValidationOptions, validate};
+use balloon_run::output::print_json_line;
 use serde::Serialize;
 use std::io::Write;
 

@@ -33,7 +33,7 @@ pub struct ViewArgs {
     #[arg(long)]
     pub browser: Option<String>,
     /// Stop serving after this many seconds (tests, demos), in [0, 1e7] (about 4 months).
-    #[arg(long, value_parser = crate::params::real(crate::params::End::Closed(0.0), crate::params::End::Closed(1e7)))]
+    #[arg(long, value_parser = crate::params::real(crate::params::Closed(0.0), crate::params::Closed(1e7)))]
     pub exit_after: Option<f64>,
 }
 

@@ -1,58 +1,38 @@
 //! The library behind the `balloon` command-line tool: every subcommand's flags (clap
-//! structures), the simulations they build and the shared run loop with its output folder.
+//! structures), which become the typed scenario of `balloon-scenario`, and the spelling of the
+//! library's errors as flags.
 //!
-//! It exists so that other front ends build and run exactly what the CLI builds and runs, with
-//! the same flags, defaults, units and validation: the binary (`src/main.rs`) is a thin
-//! dispatcher over it, and the Python package (`python/`, crate `balloon-py`) turns keyword
-//! options into these flags and calls the same functions. It is not a stable Rust API for
-//! simulations: use the `balloon` crate's builders for that.
+//! It is a thin client: the scenario (its keys, defaults, ranges, checks and the building of
+//! each simulation) is `balloon-scenario`'s, the run loop and the output folder are
+//! `balloon-run`'s, shared with the Python package. It is not a Rust API for simulations: use
+//! `balloon` and `balloon-scenario` for that.
 //!
 //! ```
-//! use balloon_cli::cmd_inflate::InflateArgs;
+//! use balloon_cli::cmd_inflate::ShellCli;
 //! use clap::Parser;
-//!
-//! #[derive(Parser)]
-//! struct Cli {
-//!     #[command(flatten)]
-//!     args: InflateArgs,
-//! }
 //! // `balloon inflate builtin:sphere --steps 2 --gas constant`, parsed as the CLI parses it.
-//! let cli = Cli::try_parse_from(["balloon", "builtin:sphere", "--steps", "2", "--gas", "constant"])
+//! let cli = ShellCli::try_parse_from(["balloon", "builtin:sphere", "--steps", "2", "--gas", "constant"])
 //!     .unwrap();
 //! assert_eq!(cli.args.steps, 2);
 //! assert_eq!(cli.args.pressure, balloon::shell::DEFAULT_GAUGE_PRESSURE);
+//! let scenario = cli.args.scenario();
+//! assert_eq!(scenario.run.steps, 2);
+//! assert_eq!(scenario.gas.model, balloon_scenario::gas::GasControl::Constant);
 //! ```
 
+pub mod choices;
 pub mod cmd_connect;
 pub mod cmd_inflate;
 pub mod cmd_mesh;
 pub mod cmd_run;
-pub mod cmd_static;
 pub mod cmd_two_layer;
 pub mod cmd_view;
 pub mod cmd_volumetric;
 pub mod interrupt;
 pub mod material_args;
-pub mod output;
 pub mod params;
-pub mod run;
-pub mod scenario_json;
+pub mod pictures;
+pub mod scenario_cli;
 pub mod selection;
 
-/// The error and its causes joined by `: `, skipping a cause whose text the message already
-/// contains (library errors often include their source in their own message): the message the
-/// CLI prints after `error: ` and the Python package raises.
-pub fn error_chain(e: &anyhow::Error) -> String {
-    let mut msg = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if msg.contains(&text) {
-            continue;
-        }
-        if !msg.is_empty() {
-            msg.push_str(": ");
-        }
-        msg.push_str(&text);
-    }
-    msg
-}
+pub use scenario_cli::error_chain;

@@ -45,20 +45,14 @@ enum Command {
 
 fn main() -> std::process::ExitCode {
     let matches = Cli::command().get_matches();
-    let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
-    // `inflate|connect|volumetric|two-layer --out DIR` record its resolved scenario in DIR/scenario.toml.
-    let record = |name: &str, system: &cmd_run::System| {
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    // The subcommand's matches: the values as typed, for the recorded scenario and errors.
+    let sub = |name: &str| {
         matches
             .subcommand_matches(name)
-            .map(|m| cmd_run::record(system, m))
+            .cloned()
+            .unwrap_or_default()
     };
-    match &mut cli.command {
-        Command::Inflate(a) => a.scenario_record = record("inflate", &cmd_run::SHELL),
-        Command::Connect(a) => a.shell.scenario_record = record("connect", &cmd_run::CONNECT),
-        Command::Volumetric(a) => a.scenario_record = record("volumetric", &cmd_run::VOLUMETRIC),
-        Command::TwoLayer(a) => a.scenario_record = record("two-layer", &cmd_run::TWO_LAYER),
-        _ => {}
-    }
     if matches!(
         cli.command,
         Command::Inflate(_)
@@ -74,10 +68,10 @@ fn main() -> std::process::ExitCode {
     }
     let result = match cli.command {
         Command::Mesh(c) => cmd_mesh::run(c),
-        Command::Inflate(a) => cmd_inflate::run(a),
-        Command::Connect(a) => cmd_connect::run(a),
-        Command::Volumetric(a) => cmd_volumetric::run(a),
-        Command::TwoLayer(a) => cmd_two_layer::run(a),
+        Command::Inflate(a) => cmd_inflate::run(&a, &sub("inflate")),
+        Command::Connect(a) => cmd_connect::run(&a, &sub("connect")),
+        Command::Volumetric(a) => cmd_volumetric::run(&a, &sub("volumetric")),
+        Command::TwoLayer(a) => cmd_two_layer::run(&a, &sub("two-layer")),
         Command::Run(a) => cmd_run::run(a),
         Command::View(a) => cmd_view::run(a),
     };

@@ -3,7 +3,7 @@
 
 use crate::ViewerError;
 use crate::protocol::{ClientMessage, error_message, validate_control, validate_vertex};
-use crate::systems::{DragRequest, ViewSystem};
+use crate::systems::{DragRequest, ViewSystem, first_non_finite};
 use serde_json::{Map, Value, json};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -135,11 +135,6 @@ struct FiniteFrame {
     time: f64,
     stats: Map<String, Value>,
     scalars: Vec<(&'static str, String)>,
-}
-
-/// The first vertex of the flat positions `x` with a non-finite coordinate, if any.
-pub fn first_non_finite(x: &[f64]) -> Option<usize> {
-    x.iter().position(|v| !v.is_finite()).map(|k| k / 3)
 }
 
 /// The error of a caught panic.

@@ -1,13 +1,13 @@
 //! The default drop-sphere scene of `balloon volumetric` (seed 003, Fig. 4, scaled to the body;
 //! issue 16) on every shared model and the built-in teddy, at their natural size: built exactly
-//! as the command builds it (`balloon_cli::cmd_volumetric::build`: lattice sized for about 1000
+//! as the command builds it (`balloon_scenario::volumetric::VolumetricScenario::build`: lattice sized for about 1000
 //! cells, springs and time step from the particle mass, sphere size, height and speed from the
 //! body) and stepped 2000 times.
 //!
 //! With the global cell-volume solver (the CLI's default) every run must complete its steps
 //! without a failure (an inversion that step halving cannot avoid ends a run), with every
 //! tetrahedron positive and every cell at its rest volume, both recomputed here from the
-//! positions after every step (`balloon_tests::cell_volumes`), not taken from the solver.
+//! positions after every step (`crate::measure::cell_volumes`), not taken from the solver.
 //!
 //! `--volume-solver gauss-seidel` at its defaults (gradient correction, adaptive
 //! over-relaxation: `CellVolumeParams::gauss_seidel`) must pass the same checks over the same
@@ -26,8 +26,9 @@ use super::meshes::{Source, shared_meshes_dir};
 use crate::report::Case;
 use anyhow::{Context, Result};
 use balloon::volumetric::{VolumetricError, VolumetricSimulation};
-use balloon_cli::cmd_volumetric::{VolumetricArgs, build};
-use clap::Parser;
+use balloon_scenario::value::Value;
+use balloon_scenario::volumetric::VolumetricScenario;
+use balloon_scenario::{Scenario, SystemKind};
 
 const G: &str = "drop-sphere";
 
@@ -35,34 +36,30 @@ const G: &str = "drop-sphere";
 /// 1e-10 per cell; the recomputed tetrahedron sums add round-off.
 const CELL_BOUND: f64 = 1e-9;
 
-/// `balloon volumetric`'s flags on their own.
-#[derive(Parser)]
-struct Cli {
-    #[command(flatten)]
-    args: VolumetricArgs,
-}
-
-/// The command's arguments for `mesh` with the cell-volume solver flags `solver` (e.g.
-/// `["--volume-solver", "global"]`).
-fn args(mesh: &str, solver: &[&str]) -> Result<VolumetricArgs> {
-    let mut argv = vec!["volumetric", mesh];
-    if !solver.contains(&"--scene") {
-        argv.extend(["--scene", "drop-sphere"]);
+/// The scenario of `balloon volumetric MESH --scene drop-sphere` with the cell-volume solver
+/// settings `solver` (scenario keys and their values, e.g. `[("volume_solver", "global")]`).
+fn scenario(mesh: &str, solver: &[(&str, &str)]) -> Result<VolumetricScenario> {
+    let mut s = Scenario::new(SystemKind::Volumetric);
+    s.set("mesh", &Value::Text(mesh.into()))
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    s.set("scene", &Value::Text("drop-sphere".into()))
+        .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    for (key, value) in solver {
+        s.set(key, &Value::Text((*value).into()))
+            .map_err(|e| anyhow::anyhow!("{key} = {value}: {e:?}"))?;
     }
-    argv.extend_from_slice(solver);
-    Ok(Cli::try_parse_from(argv)
-        .context("volumetric arguments")?
-        .args)
+    s.validate().context("volumetric scenario")?;
+    match s {
+        Scenario::Volumetric(v) => Ok(v),
+        _ => unreachable!("a volumetric scenario"),
+    }
 }
 
 /// The paper's exact Gauss-Seidel sweeps: the scaling correction, no over-relaxation.
-const GS_PAPER: &[&str] = &[
-    "--volume-solver",
-    "gauss-seidel",
-    "--correction",
-    "scaling",
-    "--over-relaxation",
-    "1",
+const GS_PAPER: &[(&str, &str)] = &[
+    ("volume_solver", "gauss-seidel"),
+    ("correction", "scaling"),
+    ("over_relaxation", "1"),
 ];
 
 /// What one run did.
@@ -83,10 +80,10 @@ struct Outcome {
     touched: bool,
 }
 
-fn run(mesh: &str, solver: &[&str], steps: usize) -> Result<Outcome> {
-    let mut sim: VolumetricSimulation = build(&args(mesh, solver)?, None)?.sim;
+fn run(mesh: &str, solver: &[(&str, &str)], steps: usize) -> Result<Outcome> {
+    let mut sim: VolumetricSimulation = scenario(mesh, solver)?.build(None)?.sim;
     let lattice = sim.lattice().clone();
-    let rest = balloon_tests::cell_volumes(sim.positions(), &lattice);
+    let rest = crate::measure::cell_volumes(sim.positions(), &lattice);
     let tets = &lattice.tet_mesh.tets;
     let tet_volume = |x: &[nalgebra::Point3<f64>], t: &[usize; 4]| {
         let o = x[t[0]];
@@ -121,10 +118,10 @@ fn run(mesh: &str, solver: &[&str], steps: usize) -> Result<Outcome> {
             }
         }
         let x = sim.positions();
-        let now = balloon_tests::cell_volumes(x, &lattice);
+        let now = crate::measure::cell_volumes(x, &lattice);
         out.worst_cell = out
             .worst_cell
-            .max(balloon_tests::max_relative_change(&now, &rest));
+            .max(crate::measure::max_relative_change(&now, &rest));
         out.min_tet = tets
             .iter()
             .map(|t| tet_volume(x, t) / rest_min)
@@ -189,10 +186,10 @@ pub fn cases(opts: &Options) -> Vec<Case> {
     for mesh in &models {
         let name = short(mesh);
         for (label, solver, steps) in [
-            ("global", &["--volume-solver", "global"][..], steps),
+            ("global", &[("volume_solver", "global")][..], steps),
             (
                 "Gauss-Seidel",
-                &["--volume-solver", "gauss-seidel"][..],
+                &[("volume_solver", "gauss-seidel")][..],
                 steps,
             ),
         ] {
@@ -242,7 +239,7 @@ pub fn cases(opts: &Options) -> Vec<Case> {
         }
         for (label, solver) in [("global", "global"), ("Gauss-Seidel", "gauss-seidel")] {
             eprintln!("xtask validate: drop-sphere / {name} (free scene, {label}, {steps} steps)");
-            let argv = ["--scene", "free", "--volume-solver", solver];
+            let argv = [("scene", "free"), ("volume_solver", solver)];
             match run(mesh, &argv, steps) {
                 Ok(o) => free_completed(&mut cases, &name, label, steps, &o),
                 Err(e) => cases.push(Case::error(

@@ -342,7 +342,7 @@ fn thickness_scaling(cases: &mut Vec<Case>) -> Result<()> {
 
 /// Isothermal ideal gas (Eq. 12-14): `pV` stays `p0 V0` while the balloon inflates. Neither
 /// factor is the gas model's own: `V` is the volume the deformed mesh encloses and `p` the
-/// pressure its pressure forces imply (`balloon_tests::implied_gauge_pressure`, ambient 0), and
+/// pressure its pressure forces imply (`crate::measure::implied_gauge_pressure`, ambient 0), and
 /// `p0 V0` comes from the input (2 kPa times the rest mesh's enclosed volume).
 fn gas_law(cases: &mut Vec<Case>) -> Result<()> {
     let mesh = icosphere(0.1, 3)?;
@@ -356,8 +356,8 @@ fn gas_law(cases: &mut Vec<Case>) -> Result<()> {
     let mut worst: f64 = 0.0;
     for _ in 0..30 {
         sim.step()?;
-        let v = balloon_tests::mesh_volume(sim.positions(), sim.triangles());
-        let p = balloon_tests::implied_gauge_pressure(&sim);
+        let v = crate::measure::mesh_volume(sim.positions(), sim.triangles());
+        let p = crate::measure::implied_gauge_pressure(&sim);
         worst = worst.max((p * v / p0v0 - 1.0).abs());
     }
     cases.push(Case::at_most(
@@ -369,7 +369,7 @@ fn gas_law(cases: &mut Vec<Case>) -> Result<()> {
     cases.push(Case::at_least(
         G,
         "ideal gas: the balloon inflated (mesh volume / rest after 30 steps)",
-        balloon_tests::mesh_volume(sim.positions(), sim.triangles()) * 2000.0 / p0v0,
+        crate::measure::mesh_volume(sim.positions(), sim.triangles()) * 2000.0 / p0v0,
         1.01,
         "> 1",
     ));
@@ -443,7 +443,7 @@ fn long_run(opts: &Options, figs: &mut Figures, cases: &mut Vec<Case>) -> Result
     let mut shell = Vec::new();
     let mut worst: f64 = 0.0;
     let rest_thickness = sim.thickness().to_vec();
-    let rest = balloon_tests::shell_material_volume(
+    let rest = crate::measure::shell_material_volume(
         &mesh.positions_flat(),
         &mesh.triangles,
         &rest_thickness,
@@ -451,8 +451,11 @@ fn long_run(opts: &Options, figs: &mut Figures, cases: &mut Vec<Case>) -> Result
     let t0 = std::time::Instant::now();
     for _ in 0..steps {
         let s = sim.step()?;
-        let measured =
-            balloon_tests::shell_material_volume(sim.positions(), sim.triangles(), sim.thickness());
+        let measured = crate::measure::shell_material_volume(
+            sim.positions(),
+            sim.triangles(),
+            sim.thickness(),
+        );
         worst = worst.max((measured / rest - 1.0).abs());
         gas.push((s.time, s.gas_volume / sim.rest_gas_volume()));
         shell.push((s.time, (s.shell_volume_ratio - 1.0).abs().max(1e-17)));

@@ -57,8 +57,8 @@ fn free_body(opts: &Options, solver: CellSolver, cases: &mut Vec<Case>) -> Resul
     let lattice = body.lattice.clone();
     let mut sim = VolumetricSimulation::new(body);
     // Rest cell volumes from the rest positions, by this file's own tetrahedron sums
-    // (`balloon_tests::cell_volumes`), not the solver's error measure.
-    let rest = balloon_tests::cell_volumes(sim.positions(), &lattice);
+    // (`crate::measure::cell_volumes`), not the solver's error measure.
+    let rest = crate::measure::cell_volumes(sim.positions(), &lattice);
     let mut state: u64 = 12345;
     let v: Vec<Vector3<f64>> = (0..sim.positions().len())
         .map(|_| {
@@ -80,8 +80,8 @@ fn free_body(opts: &Options, solver: CellSolver, cases: &mut Vec<Case>) -> Resul
     let mut halvings = 0;
     for _ in 0..steps {
         let s = sim.step()?;
-        let now = balloon_tests::cell_volumes(sim.positions(), &lattice);
-        worst_cell = worst_cell.max(balloon_tests::max_relative_change(&now, &rest));
+        let now = crate::measure::cell_volumes(sim.positions(), &lattice);
+        worst_cell = worst_cell.max(crate::measure::max_relative_change(&now, &rest));
         worst_total = worst_total.max((s.total_volume_ratio - 1.0).abs());
         sweeps += s.sweeps;
         halvings += s.halvings;
@@ -164,7 +164,7 @@ fn drop_sphere(opts: &Options, cases: &mut Vec<Case>) -> Result<()> {
     };
     let mut sim = scene.build(None, drop_sphere_params(false))?;
     let lattice = sim.body().lattice.clone();
-    let rest = balloon_tests::cell_volumes(sim.positions(), &lattice);
+    let rest = crate::measure::cell_volumes(sim.positions(), &lattice);
     // 300 steps of 1 ms cover the fall and the impact (contact from about step 175 to 240).
     let steps = if opts.quick { 300 } else { 800 };
     let mut worst: f64 = 0.0;
@@ -173,8 +173,8 @@ fn drop_sphere(opts: &Options, cases: &mut Vec<Case>) -> Result<()> {
     let mut closest = f64::INFINITY;
     for _ in 0..steps {
         sim.step()?;
-        let now = balloon_tests::cell_volumes(sim.positions(), &lattice);
-        worst = worst.max(balloon_tests::max_relative_change(&now, &rest));
+        let now = crate::measure::cell_volumes(sim.positions(), &lattice);
+        worst = worst.max(crate::measure::max_relative_change(&now, &rest));
         if let Some(s) = sim.sphere() {
             let gap = sim
                 .positions()

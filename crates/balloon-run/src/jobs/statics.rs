@@ -1,158 +1,18 @@
-//! `balloon inflate --static`: the rest shape solved directly (`ShellSimulation::solve_static`),
-//! for one load or along a volume continuation (`--gas volume --volume-ratios START:END:STEP`),
-//! whose pressure-volume curve is drawn into `pressure_volume.png` of the output folder.
+//! The static solve of a shell scenario (`static`): the rest shape solved directly
+//! (`ShellSimulation::solve_static`), for one load or along a volume continuation (`gas` =
+//! volume, `volume_ratios`), whose pressure-volume curve is drawn into `pressure_volume.png`
+//! of the output folder.
 
-use crate::cmd_inflate::{InflateArgs, shell_frame};
+use super::shell_frame::shell_frame;
 use crate::output::{OutputDir, print_json_line};
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use balloon::integrate::PhaseTimes;
 use balloon::shell::ShellMaterial;
 use balloon::shell::ShellSimulation;
-use balloon::shell::statics::{StaticControl, StaticOptions, StaticReport};
+use balloon::shell::statics::{StaticControl, StaticReport};
+use balloon_scenario::shell::ShellScenario;
 use serde::Serialize;
 use std::io::Write;
-
-/// How the gas is held (`--gas`): the three gas models, or a given volume (static only).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum GasArg {
-    /// Ambient air added at --pump-rate from the rest shape (the amount at the current time
-    /// for --static).
-    Pump,
-    /// Isothermal ideal gas, a fixed amount (Eq. 12-14).
-    Ideal,
-    /// A fixed pressure.
-    Constant,
-    /// Polytropic (adiabatic) gas, `p V^gamma` constant (--gamma, default 1.4), starting at
-    /// --pressure.
-    Polytropic,
-    /// Ideal gas at --pressure leaking to ambient through --leak-conductance.
-    Leak,
-    /// A pump at --pump-rate that stops at --supply-pressure.
-    SupplyPump,
-    /// A given enclosed volume (--static only; --volume-ratio or --volume-ratios): the pressure
-    /// is its Lagrange multiplier.
-    Volume,
-}
-
-impl GasArg {
-    /// The gas model the simulation is built with (volume control builds a constant-pressure
-    /// gas at --pressure, which the static solve does not use).
-    pub fn kind(self) -> balloon::gas::GasKind {
-        use balloon::gas::GasKind;
-        match self {
-            Self::Pump => GasKind::Pump,
-            Self::Ideal => GasKind::Ideal,
-            Self::Constant | Self::Volume => GasKind::Constant,
-            Self::Polytropic => GasKind::Polytropic,
-            Self::Leak => GasKind::Leak,
-            Self::SupplyPump => GasKind::SupplyPump,
-        }
-    }
-}
-
-impl std::fmt::Display for GasArg {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Self::Pump => "pump",
-            Self::Ideal => "ideal",
-            Self::Constant => "constant",
-            Self::Volume => "volume",
-            Self::Polytropic => "polytropic",
-            Self::Leak => "leak",
-            Self::SupplyPump => "supply-pump",
-        })
-    }
-}
-
-/// The flags of the gas laws beyond the isothermal ones (`balloon_gas::laws`), checked against
-/// `--gas` by [`GasLawArgs::params`].
-#[derive(Clone, Debug, Default, clap::Args)]
-pub struct GasLawArgs {
-    /// Polytropic exponent of `--gas polytropic`, `p V^gamma` constant (> 0; 1.4 adiabatic
-    /// air, 1 isothermal) [default: 1.4].
-    #[arg(long, allow_hyphen_values = true)]
-    pub gamma: Option<f64>,
-    /// Leak conductance of `--gas leak`, m^3/s (>= 0): the gas content nRT flows out at
-    /// C (p - p_ambient) J/s, so a rigid balloon of volume V loses its gauge pressure as
-    /// exp(-C t / V).
-    #[arg(long, allow_hyphen_values = true)]
-    pub leak_conductance: Option<f64>,
-    /// Gauge supply pressure of `--gas supply-pump`, Pa (> 0): the pump adds --pump-rate until
-    /// the balloon reaches it, then stops.
-    #[arg(long, allow_hyphen_values = true)]
-    pub supply_pressure: Option<f64>,
-}
-
-impl GasLawArgs {
-    /// The gas-law parameters for `gas`: each flag only with its gas, the required ones present,
-    /// every value in range; an error names the flag and its value.
-    pub fn params(&self, gas: GasArg) -> Result<balloon::gas::GasLawParams> {
-        let mut law = balloon::gas::GasLawParams::default();
-        let flags = [
-            ("--gamma", self.gamma, GasArg::Polytropic),
-            ("--leak-conductance", self.leak_conductance, GasArg::Leak),
-            (
-                "--supply-pressure",
-                self.supply_pressure,
-                GasArg::SupplyPump,
-            ),
-        ];
-        for (flag, value, owner) in flags {
-            if let Some(v) = value
-                && gas != owner
-            {
-                bail!("{flag} {v} is a parameter of --gas {owner}, but --gas is {gas}");
-            }
-        }
-        if let Some(g) = self.gamma {
-            if !(g.is_finite() && g > 0.0) {
-                bail!("invalid --gamma {g}: the polytropic exponent must be positive and finite");
-            }
-            law.gamma = g;
-        }
-        match (gas, self.leak_conductance) {
-            (GasArg::Leak, None) => bail!("--gas leak needs --leak-conductance C (m^3/s)"),
-            (_, Some(c)) if !(c.is_finite() && c >= 0.0) => {
-                bail!("invalid --leak-conductance {c}: must be a finite conductance >= 0 m^3/s")
-            }
-            (_, c) => law.leak_conductance = c,
-        }
-        match (gas, self.supply_pressure) {
-            (GasArg::SupplyPump, None) => {
-                bail!("--gas supply-pump needs --supply-pressure P (gauge, Pa)")
-            }
-            (_, Some(p)) if !(p.is_finite() && p > 0.0) => {
-                bail!("invalid --supply-pressure {p}: the gauge supply pressure must be positive")
-            }
-            (_, p) => law.supply_pressure = p,
-        }
-        Ok(law)
-    }
-}
-
-/// `--volume-ratios START:END:STEP`: the volume ratios (to the rest volume) of the points, from
-/// START to END inclusive in steps of STEP (either direction).
-pub fn parse_volume_ratios(s: &str) -> Result<Vec<f64>, String> {
-    let parts: Vec<&str> = s.split(':').collect();
-    let bad = || format!("`{s}` is not START:END:STEP with positive ratios and a non-zero step");
-    if parts.len() != 3 {
-        return Err(bad());
-    }
-    let v: Vec<f64> = parts
-        .iter()
-        .map(|p| p.trim().parse::<f64>().map_err(|_| bad()))
-        .collect::<Result<_, _>>()?;
-    let (start, end, step) = (v[0], v[1], v[2]);
-    let finite = [start, end, step].iter().all(|v| v.is_finite());
-    if !(finite && start > 0.0 && end > 0.0 && step != 0.0) || (end - start) * step < 0.0 {
-        return Err(bad());
-    }
-    let count = ((end - start) / step + 1e-9).floor() as usize + 1;
-    if count > 100_000 {
-        return Err(format!("`{s}` asks for {count} points; at most 100000"));
-    }
-    Ok((0..count).map(|i| start + i as f64 * step).collect())
-}
 
 /// One line of `stats.jsonl` per static point.
 #[derive(Debug, Serialize)]
@@ -220,7 +80,7 @@ struct StaticSummary {
     gas: String,
     vertices: usize,
     triangles: usize,
-    /// Points solved (1 without --volume-ratios).
+    /// Points solved (1 without `volume_ratios`).
     points: usize,
     /// Whether every point converged.
     converged: bool,
@@ -262,60 +122,22 @@ pub struct StaticRun {
     pub points: Vec<serde_json::Value>,
 }
 
-/// Runs the static solve(s) of `balloon inflate --static` on the built simulation. `quiet`
-/// prints nothing (no summary line or `--json` line), for callers that take the returned
-/// [`StaticRun`] instead; `record_text` is the resolved scenario the summary repeats.
+/// Runs the static solve(s) of a shell scenario on the built simulation. `quiet` prints
+/// nothing (no summary line or `json` line), for callers that take the returned [`StaticRun`]
+/// instead; `record_text` is the resolved scenario the summary repeats.
 pub fn run<M: ShellMaterial>(
-    args: &InflateArgs,
+    args: &ShellScenario,
     sim: &mut ShellSimulation<M>,
     mut out: Option<OutputDir>,
     quiet: bool,
     record_text: Option<&str>,
 ) -> Result<StaticRun> {
-    if matches!(args.gas, GasArg::Pump | GasArg::SupplyPump) && sim.time() == 0.0 {
-        // The amount of a pump at the start is the rest amount: the equilibrium is the mesh
-        // itself, a run that "succeeds" with nothing solved.
-        bail!(
-            "--static with --gas {} solves at the gas amount at the start, which is the rest \
-             amount (no gauge pressure): the rest shape would be the mesh itself. For an inflated \
-             rest shape give --gas constant --pressure P (a gauge pressure, Pa), --gas ideal \
-             --pressure P (that gauge pressure in the rest volume, then expanding), or --gas volume \
-             --volume-ratio R",
-            args.gas
-        );
-    }
-    let ratios: Vec<Option<f64>> = match (args.gas, args.volume_ratio, &args.volume_ratios) {
-        (GasArg::Volume, Some(r), None) => vec![Some(r)],
-        (GasArg::Volume, None, Some(list)) => list.iter().map(|r| Some(*r)).collect(),
-        (GasArg::Volume, Some(_), Some(_)) => {
-            bail!("give either --volume-ratio or --volume-ratios, not both")
-        }
-        (GasArg::Volume, None, None) => {
-            bail!("--gas volume needs --volume-ratio R or --volume-ratios START:END:STEP")
-        }
-        (_, None, None) => vec![None],
-        _ => bail!("--volume-ratio and --volume-ratios need --gas volume"),
-    };
-    if let Some(r) = ratios
-        .iter()
-        .flatten()
-        .find(|r| !(r.is_finite() && **r > 0.0))
-    {
-        bail!("invalid volume ratio {r}: must be positive");
-    }
-    let mut options = StaticOptions::default();
-    if args.newton_tol > 0.0 {
-        options.solver.tolerance = args.newton_tol;
-    }
-    options.solver.tangent = args.tangent;
-    options.solver.inexact_forcing = args.inexact_forcing;
-    options.solver.solver.linear.kind = args.linear_solver;
-    options.solver.solver.linear.max_iterations = args.cg_max_iters;
-    options.solver.solver.pcg_preconditioner = args.pcg_preconditioner;
+    let ratios = args.static_points().map_err(anyhow::Error::msg)?;
+    let mut options = args.static_options();
     let mut summary = StaticSummary {
-        mesh: args.mesh.clone(),
+        mesh: args.mesh.path.clone(),
         mode: "static",
-        gas: args.gas.to_string(),
+        gas: args.gas.model.to_string(),
         vertices: sim.positions().len() / 3,
         triangles: sim.triangles().len(),
         initial_gas_volume: sim.rest_gas_volume(),
@@ -392,7 +214,7 @@ pub fn run<M: ShellMaterial>(
         && ratios.len() > 1
         && curve.len() > 1
     {
-        write_pressure_volume_plot(o, &args.mesh, &curve)?;
+        write_pressure_volume_plot(o, &args.mesh.path, &curve)?;
     }
     if let Some(o) = &mut out {
         let last = shell_frame(sim, summary.points.max(1))?;
@@ -405,7 +227,7 @@ pub fn run<M: ShellMaterial>(
         }
     }
     if quiet {
-    } else if args.json {
+    } else if args.output.json {
         print_json_line(&record)?;
     } else {
         let mut w = std::io::stdout().lock();
@@ -430,7 +252,7 @@ pub fn run<M: ShellMaterial>(
     match failure {
         Some(e) => Err(anyhow::Error::new(e).context(format!(
             "the static solve of `{}` did not converge (the simulation is left at the last converged point)",
-            args.mesh
+            args.mesh.path
         ))),
         None => match interrupted {
             Some(signal) => Err(crate::interrupt::Interrupted {
@@ -447,7 +269,7 @@ pub fn run<M: ShellMaterial>(
 }
 
 /// Writes `pressure_volume.png` into the output folder: the gauge pressure over the volume
-/// ratio of a `--volume-ratios` continuation (one marker per converged point).
+/// ratio of a `volume_ratios` continuation (one marker per converged point).
 fn write_pressure_volume_plot(out: &OutputDir, mesh: &str, curve: &[(f64, f64)]) -> Result<()> {
     use balloon_render::plot::{LinePlot, PlotSeries};
     let plot = LinePlot::new(
@@ -464,22 +286,4 @@ fn write_pressure_volume_plot(out: &OutputDir, mesh: &str, curve: &[(f64, f64)])
     plot.render(960, 640)
         .and_then(|img| img.write_png(&path))
         .with_context(|| format!("cannot write {}", path.display()))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn volume_ratios_parse_both_directions_and_reject_nonsense() {
-        assert_eq!(parse_volume_ratios("1:2:0.5").unwrap(), vec![1.0, 1.5, 2.0]);
-        assert_eq!(
-            parse_volume_ratios("3:2:-0.5").unwrap(),
-            vec![3.0, 2.5, 2.0]
-        );
-        assert_eq!(parse_volume_ratios("1:1.05:0.1").unwrap(), vec![1.0]);
-        for bad in ["1:2", "1:2:0", "2:1:0.5", "0:1:0.1", "a:b:c", "1:2:inf"] {
-            assert!(parse_volume_ratios(bad).is_err(), "{bad}");
-        }
-    }
 }

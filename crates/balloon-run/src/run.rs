@@ -1,22 +1,23 @@
-//! The run loop of `inflate`, `volumetric` and `two-layer`, written once over
+//! The run loop of every system, written once over
 //! [`balloon::Simulation`]: the first frame, then per step the stats line, the frames (regular
-//! ones as files, `--render` steps as pictures), the progress bar; then the pictures' finishing,
+//! ones as files, `render` steps as pictures), the progress bar; then the pictures' finishing,
 //! the summary and its printing, and the error (so the process exits non-zero).
 //!
 //! The records are written however the run ends: completed, stopped early (converged), failed
 //! (a step's error, an output error, no progress), or interrupted by SIGINT / SIGTERM (checked
-//! between steps, see [`crate::interrupt`]). `summary.json` and the `--json` line then always
+//! between steps, see [`crate::interrupt`]). `summary.json` and the `json` line then always
 //! carry `steps` (completed steps), `frames`, `interrupted` and `error` (null on success).
 //!
 //! Steps are counted from 1: step N is the N-th step, `frame_N` and the `stats.jsonl` line
 //! with `"step": N` are the state after it, `frame_00000` is the initial state, and a failure
 //! "at step N" means N - 1 steps completed (`docs/outputs.md`).
 //!
-//! A subcommand supplies a [`RunHooks`]: how a frame of its system looks, what it adds around
+//! A system's job supplies a [`RunHooks`]: how a frame of its system looks, what it adds around
 //! each step (a drag, convergence, lattice files) and its summary. Nothing else differs.
 
 use crate::interrupt::{self, Interrupted};
 use crate::output::{Frame, OutputDir, print_json_line, progress_bar};
+
 use anyhow::Result;
 use balloon::{Simulation, SimulationError, SimulationStats};
 use serde::Serialize;
@@ -80,7 +81,7 @@ pub struct RunRecord<D> {
     pub interrupted: Option<i32>,
 }
 
-/// What a subcommand adds to the shared loop.
+/// What a system's job adds to the shared loop.
 pub trait RunHooks<S: Simulation> {
     /// The summary written to `summary.json` and printed (a JSON object; the loop adds
     /// `interrupted`, and `frames` and `error` when the summary has none).
@@ -90,7 +91,7 @@ pub trait RunHooks<S: Simulation> {
     fn frame(&self, sim: &S, step: usize) -> Result<Frame>;
 
     /// The run's resolved scenario (the TOML text of `scenario.toml`), repeated in the summary
-    /// as `scenario` so that `summary.json` and the `--json` line carry every physical
+    /// as `scenario` so that `summary.json` and the `json` line carry every physical
     /// parameter of the run (issue 15, item 2). `None` leaves the key out.
     fn scenario(&self) -> Option<String> {
         None
@@ -143,12 +144,12 @@ pub trait RunHooks<S: Simulation> {
         w: &mut dyn Write,
     ) -> std::io::Result<()>;
 
-    /// Whether the human line is still printed after a failure (the `--json` line always is).
+    /// Whether the human line is still printed after a failure (the `json` line always is).
     fn print_after_failure(&self) -> bool {
         false
     }
 
-    /// The error the subcommand reports for a failed step `step` (1-based: `step - 1` steps
+    /// The error the job reports for a failed step `step` (1-based: `step - 1` steps
     /// completed).
     fn failure(&self, error: SimulationError, step: usize) -> anyhow::Error {
         anyhow::Error::new(error).context(format!(
@@ -244,60 +245,22 @@ where
     Ok(())
 }
 
-/// Adds what every summary carries: `interrupted`, and `frames` and `error` unless the
-/// subcommand's summary has them (an `error` it left null is filled in). A `status` of `"ok"`
-/// becomes `"failed"` when there is an error the subcommand did not see (an output that could
-/// not be written, a run that made no progress).
 /// Adds `scenario`, the resolved scenario's TOML `text` as a JSON object, to a summary object
-/// (a text that does not parse, which `cmd_run::record` never writes, adds nothing).
+/// (a text that does not parse, which `balloon_scenario::file::record` never writes, adds
+/// nothing).
 pub fn insert_scenario(summary: &mut serde_json::Value, text: &str) {
-    if let (Some(o), Ok(doc)) = (
+    if let (Some(o), Some(scenario)) = (
         summary.as_object_mut(),
-        text.parse::<toml_edit::DocumentMut>(),
+        balloon_scenario::file::record_json(text),
     ) {
-        o.insert("scenario".into(), toml_table_json(doc.as_table()));
+        o.insert("scenario".into(), scenario);
     }
 }
 
-/// A TOML table as a JSON object (keys in the file's order).
-fn toml_table_json(t: &toml_edit::Table) -> serde_json::Value {
-    serde_json::Value::Object(
-        t.iter()
-            .filter_map(|(k, item)| toml_item_json(item).map(|v| (k.to_owned(), v)))
-            .collect(),
-    )
-}
-
-fn toml_item_json(item: &toml_edit::Item) -> Option<serde_json::Value> {
-    use toml_edit::Item;
-    match item {
-        Item::None => None,
-        Item::Value(v) => Some(toml_value_json(v)),
-        Item::Table(t) => Some(toml_table_json(t)),
-        Item::ArrayOfTables(a) => Some(serde_json::Value::Array(
-            a.iter().map(toml_table_json).collect(),
-        )),
-    }
-}
-
-fn toml_value_json(v: &toml_edit::Value) -> serde_json::Value {
-    use serde_json::Value as J;
-    use toml_edit::Value as T;
-    match v {
-        T::String(s) => J::from(s.value().as_str()),
-        T::Integer(i) => J::from(*i.value()),
-        T::Float(f) => serde_json::Number::from_f64(*f.value()).map_or(J::Null, J::Number),
-        T::Boolean(b) => J::from(*b.value()),
-        T::Datetime(d) => J::from(d.value().to_string()),
-        T::Array(a) => J::Array(a.iter().map(toml_value_json).collect()),
-        T::InlineTable(t) => J::Object(
-            t.iter()
-                .map(|(k, v)| (k.to_owned(), toml_value_json(v)))
-                .collect(),
-        ),
-    }
-}
-
+/// Adds what every summary carries: `interrupted`, and `frames` and `error` unless the
+/// system's summary has them (an `error` it left null is filled in). A `status` of `"ok"`
+/// becomes `"failed"` when there is an error the system did not see (an output that could
+/// not be written, a run that made no progress).
 fn annotate(
     summary: &mut serde_json::Value,
     interrupted: bool,

@@ -6,7 +6,7 @@
 //!
 //! ```
 //! let json = "{\n  \"run\": {\"steps\": 5},\n  \"anchors\": [\n    {\"indices\": [1, 2]}\n  ]\n}\n";
-//! let c = balloon_cli::scenario_json::to_toml(json).unwrap();
+//! let c = balloon_scenario::file::json::to_toml(json).unwrap();
 //! assert_eq!(c.toml, "[run]\nsteps = 5\n[[anchors]]\nindices = [1, 2]\n");
 //! assert_eq!(c.lines, vec![2, 2, 4, 4]); // JSON line of each TOML line
 //! ```
