@@ -3,6 +3,7 @@
 mod anchors;
 mod bulge;
 mod connected;
+mod layout;
 mod limit_point;
 mod newton;
 mod shell;

@@ -106,9 +106,15 @@ fn cargo(args: &[&str], envs: &[(&str, &str)]) -> Result<()> {
     for (k, v) in envs {
         cmd.env(k, v);
     }
+    let started = std::time::Instant::now();
     let status = cmd
         .status()
         .with_context(|| format!("failed to start cargo {}", args.join(" ")))?;
+    eprintln!(
+        "xtask: cargo {} took {:.0} s",
+        args.join(" "),
+        started.elapsed().as_secs_f64()
+    );
     if !status.success() {
         bail!("`cargo {}` failed ({status})", args.join(" "));
     }
@@ -147,7 +153,9 @@ fn ci(quick: bool) -> Result<()> {
         }
     }
     cargo(&["test", "--workspace"], &[])?;
+    let started = std::time::Instant::now();
     e2e::run(&e2e::Options::default())?;
+    eprintln!("xtask: viewer e2e took {:.0} s", started.elapsed().as_secs_f64());
     // The validation cases (analytic sphere, gas law, volume conservation, ...) in their quick
     // subset, without rewriting docs/validation.md: a failing case fails CI.
     cargo(
@@ -166,7 +174,9 @@ fn ci(quick: bool) -> Result<()> {
     )?;
     // The Python package after the validation: its release wheel reuses the release build of
     // the `balloon` crates and their dependencies that `validate` made.
+    let started = std::time::Instant::now();
     python()?;
+    eprintln!("xtask: python took {:.0} s", started.elapsed().as_secs_f64());
     // Every criterion bench once in test mode so none rots. The `test` profile and the whole
     // workspace (the same feature unification as `cargo test --workspace`) reuse the test
     // build: `-p balloon-benches --profile dev` rebuilt 50 crates (3.4 min on the 2-core

@@ -13,18 +13,30 @@
 //!   [`ShellMaterialModel`] chosen at run time);
 //! * [`statics::StaticShell`]: the static energy of the shell with a load factor and a gas
 //!   term (the shell's own gas, or a volume control by an augmented Lagrangian), for
-//!   `balloon_integrate::statics::StaticSolver`.
+//!   `balloon_integrate::statics::StaticSolver`;
+//! * [`ShellSimulation`]: the running balloon (Algorithms 1 and 2): each step backward Euler
+//!   on the system (wrapped by the anchor and pin decorators of `balloon-integrate`) in
+//!   adaptive sub-steps, the shell-volume projection of `balloon-constraint`, the velocity
+//!   update, the state check; its live controls, statistics ([`ShellStepStats`]) and errors
+//!   ([`ShellError`]); and its static rest shape ([`ShellSimulation::solve_static`]: the
+//!   thickness fixed point and the volume control around the static solver, see
+//!   [`statics`]);
+//! * [`connected::ConnectedBalloons`]: balloons of ideal gas joined by tubes the gas flows
+//!   through;
+//! * [`analytic`]: the analytic inflated sphere of the three-prism model.
 //!
-//! **Not for:** time stepping, sub-stepping, the shell-volume projection, anchors and pins
-//! (`balloon-integrate`, its `decorators`, and `balloon-constraint`), or building a balloon
-//! from a mesh file with defaults (the `balloon` facade's `ShellBalloon`).
+//! **Not for:** the integrators, sub-step control, anchors and pins themselves
+//! (`balloon-integrate` and its `decorators`), the shell-volume projection
+//! (`balloon-constraint`), or building a balloon from a mesh with defaults and a gas set-up
+//! (the `balloon` facade's `ShellBalloon`).
 //!
 //! **Why a crate of its own** and not part of `balloon-element`: an element knows its
 //! material and its corners, nothing of the gas. The shell system joins the elements over a
 //! mesh with the enclosed gas (`balloon-gas`): the pressure's rank-1 tangent and follower
 //! blocks are added to the element blocks in the same pass, and the static energy replaces the
 //! gas by a volume control. So it depends on `balloon-element`, `balloon-gas` and
-//! `balloon-integrate` (whose `ForceSystem` it implements), which `balloon-element` must not.
+//! `balloon-integrate` (whose `ForceSystem` it implements), which `balloon-element` must not;
+//! the running balloon adds `balloon-constraint` (its projector).
 //!
 //! ```
 //! use balloon_gas::{IdealGas, PressureLoad};
@@ -57,15 +69,19 @@
 //! |---|---|---|
 //! | `parallel` | on | runs the element loops on rayon from [`PARALLEL_THRESHOLD`] elements on (identical results) |
 
+pub mod analytic;
+pub mod connected;
 mod error;
 mod material;
 mod membrane;
+pub mod run;
 pub mod statics;
 mod system;
 
 pub use error::ShellSystemError;
 pub use material::{ShellElement, ShellMaterial, ShellMaterialModel};
 pub use membrane::{Membrane, membrane_sphere_stretch};
+pub use run::{RUNAWAY_VOLUME_FACTOR, ShellError, ShellSimulation, ShellStepStats};
 pub use system::{PARALLEL_THRESHOLD, ShellSystem};
 
 #[cfg(test)]

@@ -1,4 +1,9 @@
-//! The shell as the static solver sees it: [`StaticShell`], the static energy
+//! The static rest shape of a shell balloon: [`ShellSimulation::solve_static`], and the shell
+//! as the static solver sees it, [`StaticShell`].
+//!
+//! # The static energy
+//!
+//! [`StaticShell`] is the static energy
 //! `W_elastic(x) + W_gas(x)` (Wang et al. 2015, elastic energy Eq. 6-8, gas Eq. 12-17) with a
 //! load factor for continuation ([`LoadScaling`]) and one of two gas terms ([`GasTerm`]):
 //!
@@ -10,7 +15,7 @@
 //!   gas with `p_gauge(V) = lambda - rho (V - V_t)` and `dp/dV = -rho` (the rank-1 tangent of
 //!   Eq. 16-17, solved by Sherman-Morrison like any gas); `V_t` moves from the start volume to
 //!   the target with the load factor. The multiplier update and the choice of `rho` are the
-//!   caller's (the outer loop of the `balloon` facade's static solve).
+//!   outer loop's (below).
 //!
 //! The pressure tangent includes the follower term `-(p - p_ambient) d^2V/dx^2` when asked
 //! (the exact Hessian), added to each element's stiffness block by the inner element pass, so
@@ -46,6 +51,89 @@
 //! assert!(statics.volume() > v0 && statics.gauge_pressure() < 3000.0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! # The rest shape
+//!
+//! [`ShellSimulation::solve_static`] finds the equilibrium that minimises the static energy
+//! `W_elastic(x) + W_gas(x) - f_ext . x` (Wang et al. 2015, elastic energy Eq. 6-8, gas
+//! Eq. 12-17) with the generic
+//! [`balloon_integrate::statics::StaticSolver`] (Newton, Levenberg-Marquardt mass shift, Armijo
+//! line search, load continuation). Three ways to hold the gas ([`StaticControl`]):
+//!
+//! * **given amount** (the simulation's ideal gas or pump, the amount at the current time):
+//!   `W_gas = -p0 V0 ln V + p_ambient V` (Eq. 14 integrated);
+//! * **given pressure** (the simulation's constant-pressure gas): `W_gas = -(p - p_ambient) V`;
+//! * **given volume** ([`StaticControl::Volume`]): the constraint `V(x) = V_target` with the
+//!   gauge pressure as its Lagrange multiplier `lambda`, by an augmented Lagrangian
+//!   `W_elastic - lambda (V - V_t) + rho/2 (V - V_t)^2`: each inner solve is the energy of a
+//!   gas with `p_gauge(V) = lambda - rho (V - V_t)` and `dp/dV = -rho` (the rank-1 tangent of
+//!   Eq. 16-17, solved by Sherman-Morrison like any gas), followed by the multiplier update
+//!   `lambda <- lambda - rho (V - V_t)`. `rho` starts at 100 times the shell's own volume
+//!   stiffness along `dV/dx` (`g^T K g / |g|^4` at the start shape), so the multiplier gains
+//!   about two digits per update; it grows tenfold when an update gains less than one.
+//!   `lambda` starts at the gauge pressure that balances the elastic forces of the start shape
+//!   (`-f_e . g / |g|^2`): along a continuation the previous point's pressure, so the first
+//!   inner solve starts on the branch (the target volume is then reached by load continuation
+//!   from the start volume). The reported pressure is `lambda` at the converged volume. Past a
+//!   pressure maximum (a limit point of the membrane) this control stays on the branch, where
+//!   pressure control snaps (`docs/membranes.md` section 9).
+//!
+//! The pressure tangent includes the follower term `-(p - p_ambient) d^2V/dx^2` by default, so
+//! the Hessian is exact and Newton converges quadratically (the shift absorbs its
+//! indefiniteness).
+//!
+//! # Thickness at rest
+//!
+//! The rule that holds at the returned equilibrium: **the shape is a static equilibrium at the
+//! thickness `h*`, and `h*` is what the simulation's shell-volume projection (Algorithm 2,
+//! Eq. 24-28, or the simulation's own projector) gives for that shape**, i.e. projecting the
+//! result again changes the thickness by less than [`StaticOptions::thickness_tolerance`]
+//! (relative). It is reached by a fixed-point iteration on `h = G(h)`, `G` = solve at `h`,
+//! project the solution (keeping the projection's thickness and discarding its small position
+//! correction, so the shape stays an exact equilibrium). The multiplier update of the volume
+//! control shares this loop. Without a projector the thickness stays the current one.
+//!
+//! The loop is made cheap three ways, none of which weakens the rule above:
+//!
+//! * **Inexact outer iterations.** A solve at a thickness that is still moving need not be exact:
+//!   the first solve is asked for a relative residual of `1e-3` (or the final tolerance if looser),
+//!   each later one for `0.1` times the relative thickness change of the previous projection,
+//!   clamped to `[0.1 thickness_tolerance, 1e-3]` (under volume control never looser than the final
+//!   tolerance). The loop stops only after a solve at least as tight as
+//!   [`StaticParams::tolerance`](balloon_integrate::statics::StaticParams::tolerance) whose
+//!   projection changes the thickness by at most `thickness_tolerance`: the returned shape is that
+//!   solve's equilibrium, the returned thickness that projection's.
+//! * **Anderson acceleration** (type II, depth 3) of the thickness fixed point, in the
+//!   thickness relative to its first value, with safeguards (the plain update `G(h)` when the
+//!   fixed-point residual grew, the least-squares problem is singular, or the extrapolation
+//!   would move a thickness by more than half its plain update's value): the map is nearly
+//!   one-dimensional (the global projection moves every thickness along one pattern), so it
+//!   converges in a few iterations where the plain iteration contracts by about 3 per
+//!   iteration (15 iterations on the peer sphere).
+//! * **Warm starts.** Each solve starts from the previous equilibrium with the previous solve's
+//!   final Levenberg-Marquardt shift
+//!   ([`StaticSolver::set_warm_start`](balloon_integrate::statics::StaticSolver::set_warm_start))
+//!   and keeps the linear solver's factorisation (`balloon_integrate::statics`, "Reused
+//!   factorisations"). After an extrapolated thickness it starts instead from the kept equilibria
+//!   combined with the extrapolation's own weights (to first order the equilibrium at that
+//!   thickness; the last equilibrium if the combination inverts an element): on the peer sphere the
+//!   solves of outer iterations 3-5 then end 100-6000 times below their residuals without it after
+//!   their one Newton iteration each, and the last solve needs none (7 outer iterations and 11
+//!   Newton iterations instead of 8 and 14; `OUTER_LOG=1 cargo run --release -p balloon-benches
+//!   --example static_profile`).
+//!
+//! With the follower term the Newton matrix is assembled from blocks only: each triangle's
+//! block of `-(p - p_ambient) d^2V/dx^2` is added to its element stiffness block (no triplet
+//! list).
+//!
+//! Anchor springs are not part of the static energy: a simulation with anchor springs set is
+//! refused. External forces ([`ShellSimulation::set_external_forces`]) are included, scaled
+//! with the gas load during continuation.
+//!
+//! [`ShellSimulation::inflate_to_volume`] inflates to a volume this way and leaves the balloon
+//! holding its own ideal gas at that volume. Files: `statics/options.rs` (options, report),
+//! `statics/rest_shape.rs` (the outer loop), `statics/inflate.rs`; the thickness acceleration
+//! is [`balloon_integrate::statics::Anderson`].
 
 use balloon_gas::GasModel;
 use balloon_integrate::statics::LoadScaling;
@@ -53,6 +141,17 @@ use balloon_integrate::{ForceSystem, LowRankTerm, StiffnessBlocks, SystemError, 
 
 use crate::material::ShellMaterial;
 use crate::system::{FollowerGauge, ShellSystem};
+
+#[cfg(doc)]
+use crate::ShellSimulation;
+
+mod inflate;
+mod options;
+mod rest_shape;
+#[cfg(test)]
+mod tests;
+
+pub use options::{OuterRecord, StaticControl, StaticOptions, StaticReport};
 
 /// How the gas acts in the static energy (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]

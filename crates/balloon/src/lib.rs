@@ -3,11 +3,11 @@
 //! This is the thin facade over the solver crates. It re-exports them and offers builders for the
 //! three systems of the project:
 //!
-//! | system | builder | seed |
-//! |---|---|---|
-//! | shell balloons with thickness | `shell::ShellBalloon` | 000 (Wang et al., "Cute Balloons with Thickness") |
-//! | volume-conserving impulse-based bodies | `volumetric::VolumetricBody` | 003 (Diziol, Bender, Bayer) |
-//! | two-layer elastic objects | `two_layer::TwoLayerBody` | 004 (Song) |
+//! | system | builder | runs in | paper |
+//! |---|---|---|---|
+//! | shell balloons with thickness | `shell::ShellBalloon` | `balloon-shell` | Wang et al. 2015, "Cute Balloons with Thickness" |
+//! | volume-conserving impulse-based bodies | `volumetric::VolumetricBody` | `balloon-constraint` | Diziol, Bender and Bayer 2011 |
+//! | two-layer elastic objects | `two_layer::TwoLayerBody` | `balloon-two-layer` | Song 2009 |
 //!
 //! Every running system implements [`Simulation`] (step, time, dt, flat positions, the drawn
 //! surface, shared statistics, a typed [`SimulationError`]), so run loops, viewers and benchmarks
@@ -15,8 +15,9 @@
 //! model (a user's own `GasModel` too), integrator parameters, linear solver and projector (see
 //! [`shell`]).
 //!
-//! Not in this crate: the numerics themselves (elements, materials, gases, integrators, constraint
-//! projectors live in the re-exported stage crates), file output and pictures (the CLI and
+//! Not in this crate: the numerics themselves and the running systems' state machines (elements,
+//! materials, gases, integrators, constraint projectors, the shell's step, sub-steps and static
+//! rest shape live in the re-exported stage crates), file output and pictures (the CLI and
 //! `balloon-render`).
 //!
 //! Features: `parallel` (default on) runs the shell's per-element force and stiffness loops and

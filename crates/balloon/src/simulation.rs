@@ -1,9 +1,10 @@
 //! One interface for the three systems: [`Simulation`].
 //!
-//! The shell balloon ([`ShellSimulation`], seed 000), the volume-conserving body
-//! ([`VolumetricSimulation`], seed 003) and the two-layer body ([`TwoLayerSimulation`], seed 004)
-//! are stepped, timed, read and drawn the same way through this trait, so a run loop, a viewer or
-//! a benchmark is written once for all of them:
+//! The shell balloon ([`ShellSimulation`], Wang et al. 2015) and its connected sets
+//! ([`ConnectedBalloons`]), the volume-conserving body ([`VolumetricSimulation`], Diziol, Bender
+//! and Bayer 2011) and the two-layer body ([`TwoLayerSimulation`], Song 2009) are stepped, timed,
+//! read and drawn the same way through this trait, so a run loop, a viewer or a benchmark is
+//! written once for all of them:
 //!
 //! - [`Simulation::step`] advances one time step and returns [`SimulationStats`]: the numbers
 //!   every system has (steps taken, time, the dt used, kinetic energy) plus the system's own
@@ -42,12 +43,11 @@
 //! assert_eq!(surface.positions.len(), Simulation::positions(&sim).len());
 //! ```
 
-use crate::shell::ShellMaterial;
-use crate::shell::connected_error::ConnectedError;
-use crate::shell::{ShellError, ShellSimulation, ShellStepStats};
 use crate::two_layer::{TwoLayerError, TwoLayerSimulation, TwoLayerStats};
 use crate::volumetric::{StepStats, VolumetricError, VolumetricSimulation};
 use balloon_gas::GasModel;
+use balloon_shell::connected::{ConnectedBalloons, ConnectedError, ConnectedStepStats};
+use balloon_shell::{ShellError, ShellMaterial, ShellSimulation, ShellStepStats};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use thiserror::Error;
@@ -66,7 +66,7 @@ pub enum SimulationError {
     /// A two-layer body failed.
     #[error(transparent)]
     TwoLayer(#[from] TwoLayerError),
-    /// A set of connected balloons failed ([`crate::shell::connected::ConnectedBalloons`]).
+    /// A set of connected balloons failed ([`ConnectedBalloons`]).
     #[error(transparent)]
     Connected(#[from] ConnectedError),
 }
@@ -190,6 +190,53 @@ impl<M: ShellMaterial, G: GasModel> Simulation for ShellSimulation<M, G> {
         DrawnSurface {
             positions: Cow::Borrowed(ShellSimulation::positions(self)),
             triangles: Cow::Borrowed(self.triangles()),
+        }
+    }
+}
+
+impl<M: ShellMaterial> Simulation for ConnectedBalloons<M> {
+    type Detail = ConnectedStepStats;
+
+    fn name(&self) -> &'static str {
+        "connected"
+    }
+    fn step(&mut self) -> Result<SimulationStats<ConnectedStepStats>, SimulationError> {
+        let dt = ConnectedBalloons::dt(self);
+        let detail = ConnectedBalloons::step(self)?;
+        Ok(SimulationStats {
+            steps: ConnectedBalloons::steps(self),
+            time: detail.time,
+            dt,
+            kinetic_energy: Simulation::kinetic_energy(self),
+            detail,
+        })
+    }
+    fn time(&self) -> f64 {
+        ConnectedBalloons::time(self)
+    }
+    fn dt(&self) -> f64 {
+        ConnectedBalloons::dt(self)
+    }
+    /// Sets the time step of every balloon ([`ConnectedBalloons::set_dt`]).
+    fn set_dt(&mut self, dt: f64) -> Result<(), SimulationError> {
+        Ok(ConnectedBalloons::set_dt(self, dt)?)
+    }
+    fn steps(&self) -> usize {
+        ConnectedBalloons::steps(self)
+    }
+    fn positions(&self) -> &[f64] {
+        self.merged_positions()
+    }
+    fn velocities(&self) -> &[f64] {
+        self.merged_velocities()
+    }
+    fn kinetic_energy(&self) -> f64 {
+        self.balloons().iter().map(Simulation::kinetic_energy).sum()
+    }
+    fn surface(&self) -> DrawnSurface<'_> {
+        DrawnSurface {
+            positions: Cow::Borrowed(self.merged_positions()),
+            triangles: Cow::Borrowed(self.merged_triangles()),
         }
     }
 }

@@ -133,6 +133,7 @@
 //! iteration, its line search, Levenberg-Marquardt shift, convergence test and error are the
 //! core of [`crate::newton`], shared with the backward Euler step.
 
+mod anderson;
 mod continuation;
 mod info;
 mod params;
@@ -140,6 +141,7 @@ mod solver;
 #[cfg(test)]
 mod tests;
 
+pub use anderson::{Anderson, AndersonParams};
 pub use info::StaticInfo;
 pub use params::{DEFAULT_STATIC_ITERATIONS, StaticParams};
 pub use solver::StaticSolver;

@@ -1,8 +1,8 @@
 //! The analytic inflated sphere of the three-prism model (derivation: `docs/analytic-sphere.md`).
 //!
 //! Under a uniform gauge pressure `p` a spherical three-prism shell of rest radius `R` and rest
-//! thickness `H` stretches uniformly by `lambda`; the shell-volume projection (seed 000, Eq. 24-28)
-//! sets the thickness to `h = H / lambda^2`, and equilibrium at fixed thickness gives
+//! thickness `H` stretches uniformly by `lambda`; the shell-volume projection (Wang et al. 2015,
+//! Eq. 24-28) sets the thickness to `h = H / lambda^2`, and equilibrium at fixed thickness gives
 //!
 //! `p(lambda) = H / (R lambda^2) * (P_11 + P_22)` at `F = diag(lambda, lambda, 1/lambda^2)`,
 //!

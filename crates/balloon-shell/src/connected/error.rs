@@ -1,10 +1,8 @@
-//! The error of connected balloons, in a file of its own so that the `Simulation` trait's
-//! error (`crate::simulation`) can wrap it without importing the connected balloons
-//! themselves.
+//! The error of connected balloons ([`super::ConnectedBalloons`]).
 
 use thiserror::Error;
 
-use super::ShellError;
+use crate::ShellError;
 
 /// Errors of the connected balloons (`ConnectedBalloons`).
 #[derive(Debug, Error)]

@@ -10,6 +10,10 @@ use crate::mesh::geometry;
 use crate::shell::ShellBalloon;
 use crate::shell::analytic::sphere_stretch;
 
+mod builder_examples;
+mod live_controls;
+mod pins;
+
 /// Projected Newton (per-element PSD stiffness) converges to the same equilibrium as the
 /// exact tangent: the analytic StVK sphere stretch within 0.5 % on the 2562-vertex icosphere
 /// at two pressures, with both assembled solvers that rely on an SPD matrix.

@@ -1,11 +1,11 @@
 //! Connected balloons: several closed shells, each holding its own isothermal ideal gas
-//! (seed 000, Eq. 12), joined by tubes through which gas flows from the higher pressure to the
-//! lower (issue 14, item 4: the two-balloon experiment).
+//! (Wang et al. 2015, Eq. 12), joined by tubes through which gas flows from the higher pressure
+//! to the lower (the two-balloon experiment).
 //!
-//! Each step advances every shell with its own amount of gas held fixed (the implicit step of
-//! seed 000, Eq. 18-23, unchanged), then lets gas flow through the tubes at the end-of-step
-//! volumes. The flow law of a tube between balloons `i` and `j` with conductance `kappa`
-//! (m^3/s) moves gas amount (in `nRT` units, J) at the rate
+//! Each step advances every shell with its own amount of gas held fixed (the implicit step of Wang
+//! et al. 2015, Eq. 18-23, unchanged), then lets gas flow through the tubes at the end-of-step
+//! volumes. The flow law of a tube between balloons `i` and `j` with conductance `kappa` (m^3/s)
+//! moves gas amount (in `nRT` units, J) at the rate
 //!
 //! ```text
 //! d(nRT)_i/dt = -kappa (p_i - p_j),     p_i = (nRT)_i / V_i,
@@ -19,104 +19,49 @@
 //! equal and the total amount is the one they started with.
 //!
 //! ```
-//! use balloon::gas::GasKind;
-//! use balloon::mesh::generate::icosphere;
-//! use balloon::shell::ShellBalloon;
-//! use balloon::shell::connected::{Conductance, ConnectedBalloons, Tube};
+//! use balloon_gas::{Gas, IdealGas, PressureLoad};
+//! use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
+//! use balloon_material::{Lame, StVenantKirchhoff};
+//! use balloon_shell::connected::{Conductance, ConnectedBalloons, Tube};
+//! use balloon_shell::{ShellSimulation, ShellSystem};
 //!
-//! let balloon = |gauge: f64| {
-//!     ShellBalloon::new(icosphere(0.1, 1).unwrap())
-//!         .with_gas(GasKind::Ideal)
-//!         .with_gauge_pressure(gauge)
-//!         .build()
-//!         .unwrap()
+//! // A latex sphere holding an ideal gas `gauge` Pa over the atmosphere.
+//! let balloon = |gauge: f64| -> Result<ShellSimulation<StVenantKirchhoff>, Box<dyn std::error::Error>> {
+//!     let mesh = balloon_mesh::generate::icosphere(0.1, 1)?;
+//!     let x = mesh.positions_flat();
+//!     let v0 = balloon_gas::enclosed_volume(&x, &mesh.triangles)?;
+//!     let gas = Gas::Ideal(IdealGas::try_new(101_325.0 + gauge, v0)?);
+//!     let gas = PressureLoad::new(gas).with_ambient_pressure(101_325.0)?;
+//!     let material = StVenantKirchhoff::new(Lame::try_from_young_poisson(1e6, 0.45)?);
+//!     let h = vec![3e-4; mesh.num_triangles()];
+//!     let system = ShellSystem::from_rest_shape(&x, mesh.triangles, h, 950.0, material, gas)?;
+//!     let mut params = BackwardEulerParams::default();
+//!     params.mass_damping = 10.0;
+//!     let integrator = BackwardEuler::new(params)?;
+//!     Ok(ShellSimulation::new(system, x, 950.0, integrator, None, 0.01, 10)?)
 //! };
 //! let tube = Tube { a: 0, b: 1, conductance: Conductance::Finite(1e-3) };
-//! let mut pair = ConnectedBalloons::new(vec![balloon(800.0), balloon(200.0)], vec![tube]).unwrap();
+//! let mut pair = ConnectedBalloons::new(vec![balloon(800.0)?, balloon(200.0)?], vec![tube])?;
 //! let total = pair.total_amount();
-//! pair.step().unwrap();
+//! pair.step()?;
 //! assert!((pair.total_amount() / total - 1.0).abs() < 1e-12);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! Files: `mod.rs` the set, its checks and its step; `flow.rs` the flow through the tubes;
+//! `error.rs` the error.
+
+mod error;
+mod flow;
+
+pub use error::ConnectedError;
 
 use balloon_gas::Gas;
-use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-pub use super::connected_error::ConnectedError;
-use super::statics::{StaticControl, StaticOptions, StaticReport};
-use super::{ShellError, ShellMaterial, ShellSimulation, ShellStepStats};
-use crate::simulation::{DrawnSurface, Simulation, SimulationError, SimulationStats};
-use std::borrow::Cow;
+use flow::{equalise_instant_groups, find, finite_flow};
 
-impl<M: ShellMaterial> ShellSimulation<M, Gas> {
-    /// Inflates the balloon statically to the enclosed volume `target` (m^3) and leaves it
-    /// holding that gas: a static solve under volume control (the gauge pressure is the
-    /// volume constraint's multiplier, [`StaticControl::Volume`]), then the isothermal ideal
-    /// gas amount is set to `nRT = (p_ambient + p_gauge) V` (seed 000, Eq. 12) so that the
-    /// balloon is at rest at that volume with its own gas, ready to be connected. `options`
-    /// gives the solver settings; its `control` is replaced by the volume target.
-    ///
-    /// To pre-inflate to a linear stretch `l` of a sphere, pass
-    /// `target = l^3 * rest_gas_volume()`.
-    ///
-    /// ```
-    /// use balloon::gas::GasKind;
-    /// use balloon::shell::ShellBalloon;
-    /// use balloon::shell::statics::StaticOptions;
-    /// let mut sim = ShellBalloon::new(balloon::mesh::generate::icosphere(0.1, 1).unwrap())
-    ///     .with_gas(GasKind::Ideal)
-    ///     .build()
-    ///     .unwrap();
-    /// let target = 1.2 * sim.rest_gas_volume();
-    /// let report = sim.inflate_to_volume(target, &StaticOptions::default())?;
-    /// assert!((sim.gas_volume() / target - 1.0).abs() < 1e-6);
-    /// let amount = (sim.ambient_pressure() + report.gauge_pressure) * report.gas_volume;
-    /// assert_eq!(sim.gas_amount(), Some(amount));
-    /// # Ok::<(), balloon::shell::ShellError>(())
-    /// ```
-    ///
-    /// # Errors
-    /// [`ShellError::InvalidParameter`] when the gas is not the isothermal ideal gas or
-    /// `target` is not positive and finite; the static solve's error when it fails (the
-    /// simulation is then left as it was), [`ShellError::StaticNotConverged`] when it ends
-    /// without meeting its tolerances.
-    pub fn inflate_to_volume(
-        &mut self,
-        target: f64,
-        options: &StaticOptions,
-    ) -> Result<StaticReport, ShellError> {
-        if self.gas_amount().is_none() {
-            return Err(ShellError::InvalidParameter {
-                name: "gas",
-                value: format!("{:?}", self.gas().kind()).to_lowercase(),
-                reason: "inflating to a volume and holding the gas needs the isothermal ideal \
-                         gas (`gas` = ideal)"
-                    .into(),
-            });
-        }
-        if !(target.is_finite() && target > 0.0) {
-            return Err(ShellError::InvalidParameter {
-                name: "volume",
-                value: target.to_string(),
-                reason: "the target volume must be positive and finite (m^3)".into(),
-            });
-        }
-        let report = self.solve_static(&StaticOptions {
-            control: StaticControl::Volume { target },
-            ..*options
-        })?;
-        if !report.converged {
-            return Err(ShellError::StaticNotConverged {
-                outer_iterations: report.outer_iterations,
-                residual: report.relative_residual,
-                thickness_change: report.thickness_change,
-                volume_error: report.volume_error,
-            });
-        }
-        self.set_gas_amount((self.ambient_pressure() + report.gauge_pressure) * report.gas_volume)?;
-        Ok(report)
-    }
-}
+use crate::{ShellMaterial, ShellSimulation, ShellStepStats};
 
 /// How freely gas flows through a [`Tube`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -171,7 +116,7 @@ pub struct ConnectedBalloons<M: ShellMaterial> {
     groups: Vec<usize>,
     step: usize,
     /// All balloons' positions, velocities and triangles one after the other (the balloons'
-    /// vertex blocks in order), refreshed after every step: what [`Simulation`] reads.
+    /// vertex blocks in order), refreshed after every step: the set as one surface.
     merged: Merged,
 }
 
@@ -207,14 +152,6 @@ impl Merged {
             self.velocities.extend_from_slice(b.velocities());
         }
     }
-}
-
-fn find(parent: &mut [usize], mut i: usize) -> usize {
-    while parent[i] != i {
-        parent[i] = parent[parent[i]];
-        i = parent[i];
-    }
-    i
 }
 
 impl<M: ShellMaterial> ConnectedBalloons<M> {
@@ -289,9 +226,10 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
         &self.balloons
     }
 
-    /// Where each balloon's vertices start in the merged surface ([`Simulation::positions`],
-    /// [`Simulation::surface`]): balloon `i` owns vertices `offsets[i]..offsets[i + 1]`; the
-    /// last entry is the total vertex count.
+    /// Where each balloon's vertices start in the merged surface
+    /// ([`ConnectedBalloons::merged_positions`], [`ConnectedBalloons::merged_triangles`]):
+    /// balloon `i` owns vertices `offsets[i]..offsets[i + 1]`; the last entry is the total
+    /// vertex count.
     pub fn vertex_offsets(&self) -> Vec<usize> {
         let mut offsets = vec![0];
         for b in &self.balloons {
@@ -307,6 +245,36 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
             .iter()
             .map(|b| (b.gas_volume() / b.rest_gas_volume()).cbrt())
             .collect()
+    }
+
+    /// All balloons' positions one after the other (flat, m; balloon `i` at
+    /// [`ConnectedBalloons::vertex_offsets`] `[i]`), as of the end of the last step.
+    pub fn merged_positions(&self) -> &[f64] {
+        &self.merged.positions
+    }
+
+    /// All balloons' velocities one after the other (flat, m/s), laid out as
+    /// [`ConnectedBalloons::merged_positions`].
+    pub fn merged_velocities(&self) -> &[f64] {
+        &self.merged.velocities
+    }
+
+    /// All balloons' triangles, indexing [`ConnectedBalloons::merged_positions`].
+    pub fn merged_triangles(&self) -> &[[usize; 3]] {
+        &self.merged.triangles
+    }
+
+    /// Sets the time step of every balloon. They all check the same range, so a refusal comes
+    /// from balloon 0, before any balloon changed.
+    ///
+    /// # Errors
+    /// [`ConnectedError::Shell`] naming the balloon that refused `dt`.
+    pub fn set_dt(&mut self, dt: f64) -> Result<(), ConnectedError> {
+        for (i, b) in self.balloons.iter_mut().enumerate() {
+            b.set_dt(dt)
+                .map_err(|source| ConnectedError::Shell { balloon: i, source })?;
+        }
+        Ok(())
     }
 
     /// The tubes.
@@ -372,8 +340,8 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
         let dt = self.balloons[0].dt();
         let volumes: Vec<f64> = self.balloons.iter().map(|b| b.gas_volume()).collect();
         let old = self.amounts();
-        let mut new = self.finite_flow(dt, &volumes, &old);
-        self.equalise_instant_groups(&volumes, &mut new);
+        let mut new = finite_flow(&self.tubes, dt, &volumes, &old);
+        equalise_instant_groups(&self.groups, &volumes, &mut new);
         for (i, (b, &n)) in self.balloons.iter_mut().zip(&new).enumerate() {
             if !(n.is_finite() && n > 0.0) {
                 return Err(ConnectedError::Flow {
@@ -402,98 +370,5 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
             max_transfer,
             balloons: stats,
         })
-    }
-
-    /// Backward Euler on the finite tubes at fixed volumes: `(I + dt L D) n' = n`.
-    fn finite_flow(&self, dt: f64, volumes: &[f64], amounts: &[f64]) -> Vec<f64> {
-        let n = amounts.len();
-        let mut a = DMatrix::<f64>::identity(n, n);
-        let mut any = false;
-        for t in &self.tubes {
-            if let Conductance::Finite(kappa) = t.conductance {
-                any = true;
-                let c = dt * kappa;
-                // Row i: + c (n_i / V_i - n_j / V_j); row j the opposite.
-                a[(t.a, t.a)] += c / volumes[t.a];
-                a[(t.a, t.b)] -= c / volumes[t.b];
-                a[(t.b, t.b)] += c / volumes[t.b];
-                a[(t.b, t.a)] -= c / volumes[t.a];
-            }
-        }
-        if !any {
-            return amounts.to_vec();
-        }
-        // A column-diagonally dominant M-matrix: LU with partial pivoting always succeeds.
-        a.lu()
-            .solve(&DVector::from_column_slice(amounts))
-            .map_or_else(|| vec![f64::NAN; n], |x| x.as_slice().to_vec())
-    }
-
-    /// Shares the gas of every group of balloons joined by instant tubes at one pressure.
-    fn equalise_instant_groups(&self, volumes: &[f64], amounts: &mut [f64]) {
-        let n = amounts.len();
-        for root in 0..n {
-            let members: Vec<usize> = (0..n).filter(|&i| self.groups[i] == root).collect();
-            if members.len() < 2 {
-                continue;
-            }
-            let total: f64 = members.iter().map(|&i| amounts[i]).sum();
-            let volume: f64 = members.iter().map(|&i| volumes[i]).sum();
-            for &i in &members {
-                amounts[i] = total * volumes[i] / volume;
-            }
-        }
-    }
-}
-
-impl<M: ShellMaterial> Simulation for ConnectedBalloons<M> {
-    type Detail = ConnectedStepStats;
-
-    fn name(&self) -> &'static str {
-        "connected"
-    }
-    fn step(&mut self) -> Result<SimulationStats<ConnectedStepStats>, SimulationError> {
-        let dt = ConnectedBalloons::dt(self);
-        let detail = ConnectedBalloons::step(self)?;
-        Ok(SimulationStats {
-            steps: self.step,
-            time: detail.time,
-            dt,
-            kinetic_energy: Simulation::kinetic_energy(self),
-            detail,
-        })
-    }
-    fn time(&self) -> f64 {
-        ConnectedBalloons::time(self)
-    }
-    fn dt(&self) -> f64 {
-        ConnectedBalloons::dt(self)
-    }
-    /// Sets the time step of every balloon. They all check the same range, so a refusal comes
-    /// from balloon 0, before any balloon changed.
-    fn set_dt(&mut self, dt: f64) -> Result<(), SimulationError> {
-        for (i, b) in self.balloons.iter_mut().enumerate() {
-            b.set_dt(dt)
-                .map_err(|source| ConnectedError::Shell { balloon: i, source })?;
-        }
-        Ok(())
-    }
-    fn steps(&self) -> usize {
-        self.step
-    }
-    fn positions(&self) -> &[f64] {
-        &self.merged.positions
-    }
-    fn velocities(&self) -> &[f64] {
-        &self.merged.velocities
-    }
-    fn kinetic_energy(&self) -> f64 {
-        self.balloons.iter().map(Simulation::kinetic_energy).sum()
-    }
-    fn surface(&self) -> DrawnSurface<'_> {
-        DrawnSurface {
-            positions: Cow::Borrowed(&self.merged.positions),
-            triangles: Cow::Borrowed(&self.merged.triangles),
-        }
     }
 }

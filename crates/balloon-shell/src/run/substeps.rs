@@ -1,0 +1,146 @@
+//! The sub-step driver of a running shell: [`ShellSubsteps`], the shell as
+//! [`AdaptiveSubsteps`] drives it (save and restore the state, one sub-step, when a sub-step
+//! was easy, which failures are retried), and the step's advance through it.
+
+use balloon_gas::GasModel;
+use balloon_integrate::implicit::{IntegrateError, StepInfo};
+use balloon_integrate::substep::{Attempt, EASY_NEWTON_ITERATIONS, Substepper};
+
+#[cfg(doc)]
+use balloon_integrate::substep::{AdaptiveSubsteps, SubstepGrowth};
+
+use super::stats::StepTotals;
+use super::{ShellError, ShellSimulation};
+use crate::ShellMaterial;
+
+/// One shell simulation as the sub-step controller drives it (`step`: the step number for
+/// the errors).
+pub(crate) struct ShellSubsteps<'a, M: ShellMaterial, G: GasModel> {
+    sim: &'a mut ShellSimulation<M, G>,
+    step: usize,
+}
+
+impl<M: ShellMaterial, G: GasModel> Substepper for ShellSubsteps<'_, M, G> {
+    type State = (Vec<f64>, Vec<f64>, Vec<f64>);
+    type Info = (StepInfo, usize);
+    type Error = ShellError;
+
+    fn save(&self) -> Self::State {
+        (
+            self.sim.x.clone(),
+            self.sim.v.clone(),
+            self.sim.system.thickness.clone(),
+        )
+    }
+
+    fn restore(&mut self, (x, v, thickness): Self::State) {
+        (self.sim.x, self.sim.v, self.sim.system.thickness) = (x, v, thickness);
+    }
+
+    fn substep(&mut self, time: f64, dt: f64) -> Result<Self::Info, ShellError> {
+        self.sim.x_prev.copy_from_slice(&self.sim.x);
+        self.sim.step_inner(self.step, time, dt)
+    }
+
+    fn is_easy((info, _): &Self::Info) -> bool {
+        info.newton_iterations <= EASY_NEWTON_ITERATIONS && info.line_search_cuts == 0
+    }
+
+    /// A physical runaway of the gas volume is not retried.
+    fn may_retry(error: &ShellError) -> bool {
+        !matches!(error, ShellError::RunawayVolume { .. })
+    }
+}
+
+impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
+    /// Advances from `time` by `dt` in sub-steps that add up to `dt` exactly (so the step ends at
+    /// the time the user asked for). A sub-step that fails numerically (Newton does not converge,
+    /// the linear solver breaks down, a non-finite state, an element or thickness that degenerates
+    /// in the projection) is rolled back and retried at half the size, at most `max_step_halvings`
+    /// halvings below `dt` (the remedy of Diziol, Bender and Bayer 2011, Sec. 4, applied to the
+    /// shell); after easy sub-steps (Newton converged in at most [`EASY_NEWTON_ITERATIONS`]
+    /// iterations without line-search cuts) the size doubles again, up to `dt`, as
+    /// [`SubstepGrowth`] says when. The size reached is where the next step starts. A physical
+    /// runaway of the gas volume is not retried.
+    pub(crate) fn advance(
+        &mut self,
+        step: usize,
+        time: f64,
+        dt: f64,
+        totals: &mut StepTotals,
+    ) -> Result<(), ShellError> {
+        let mut substeps = self.substeps;
+        let max_halvings = substeps.max_halvings();
+        let advanced = substeps.advance(
+            &mut ShellSubsteps { sim: self, step },
+            time,
+            dt,
+            |attempt| match attempt {
+                Attempt::Accepted {
+                    info: (info, proj_iters),
+                    ..
+                } => {
+                    totals.newton_iterations += info.newton_iterations;
+                    totals.linear_iterations += info.total_linear_iterations();
+                    totals.factorizations += info.factorizations;
+                    totals.newton_residual = totals.newton_residual.max(info.relative_residual);
+                    totals.line_search_cuts += info.line_search_cuts;
+                    totals.regularized_solves += info.regularized_solves;
+                    totals.projection_iterations += proj_iters;
+                }
+                Attempt::Failed {
+                    error:
+                        ShellError::Integrate {
+                            source: IntegrateError::NotConverged { iterations, .. },
+                            ..
+                        },
+                    ..
+                } => totals.newton_iterations += iterations,
+                Attempt::Failed { .. } => {}
+            },
+        );
+        self.substeps = substeps;
+        match advanced {
+            Ok(report) => {
+                totals.substeps = report.substeps;
+                totals.halvings = report.halvings;
+                totals.min_dt = report.min_dt;
+                Ok(())
+            }
+            Err(failure) => Err(Self::explain(
+                failure.error,
+                failure.halvings,
+                max_halvings,
+                failure.dt,
+            )),
+        }
+    }
+
+    /// A Newton solve that still does not converge at the smallest sub-step becomes
+    /// [`ShellError::NotConverged`] (with what to try); other errors pass unchanged.
+    fn explain(e: ShellError, halvings: usize, max_halvings: usize, dt: f64) -> ShellError {
+        match e {
+            ShellError::Integrate {
+                step,
+                time,
+                source:
+                    IntegrateError::NotConverged {
+                        iterations,
+                        residual,
+                        tolerance,
+                        ..
+                    },
+            } => ShellError::NotConverged {
+                step,
+                time,
+                dt,
+                halvings,
+                max_halvings,
+                iterations,
+                residual,
+                tolerance,
+            },
+            other => other,
+        }
+    }
+}

@@ -1,0 +1,135 @@
+//! Tests of the static rest shape that look inside the simulation (its projection inputs).
+
+use balloon_constraint::projector::ShellProjectionInput;
+use balloon_constraint::shell_volume::{ShellVolumeParams, ShellVolumeProjection};
+use balloon_gas::{Gas, IdealGas, PressureLoad, STANDARD_ATMOSPHERE};
+use balloon_integrate::ForceSystem;
+use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
+use balloon_integrate::statics::StaticSolver;
+use balloon_material::{Lame, MaterialKind, MaterialModel};
+use balloon_mesh::TriMesh;
+
+use super::rest_shape::max_relative_change;
+use super::{GasTerm, StaticOptions, StaticShell};
+use crate::{ShellSimulation, ShellSystem};
+
+fn norm(a: &[f64]) -> f64 {
+    a.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// The `balloon` facade's default latex balloon (StVK, E = 1 MPa, nu = 0.45, 0.3 mm, 950
+/// kg/m^3, the global volume projection) holding an ideal gas `gauge` Pa over the atmosphere,
+/// with the follower term in the tangent.
+fn ideal_gas_balloon(mesh: &TriMesh, gauge: f64) -> ShellSimulation {
+    let x = mesh.positions_flat();
+    let v0 = balloon_gas::enclosed_volume(&x, &mesh.triangles).unwrap();
+    let gas = Gas::Ideal(IdealGas::try_new(STANDARD_ATMOSPHERE + gauge, v0).unwrap());
+    let load = PressureLoad::new(gas)
+        .with_ambient_pressure(STANDARD_ATMOSPHERE)
+        .unwrap()
+        .with_follower_term(true);
+    let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
+    let material = MaterialModel::from_lame(MaterialKind::StVenantKirchhoff, lame);
+    let thickness = vec![3.0e-4; mesh.num_triangles()];
+    let system =
+        ShellSystem::from_rest_shape(&x, mesh.triangles.clone(), thickness, 950.0, material, load)
+            .unwrap();
+    let integrator = BackwardEuler::new(BackwardEulerParams::default()).unwrap();
+    let projection = ShellVolumeProjection::new(ShellVolumeParams::default());
+    ShellSimulation::new(
+        system,
+        x,
+        950.0,
+        integrator,
+        Some(Box::new(projection)),
+        0.01,
+        10,
+    )
+    .unwrap()
+}
+
+/// The thickness rule at rest, checked independently of the loop that reached it: the
+/// returned shape is an equilibrium of the shell's own forces at the returned thickness,
+/// and projecting the returned state again moves the thickness by less than the tolerance;
+/// the inexact, accelerated loop was exercised (a loose first solve, an extrapolated
+/// thickness), and its result is the thickness the plain fixed point converges to.
+#[test]
+fn the_rest_state_is_an_equilibrium_whose_projection_keeps_its_thickness() {
+    let mesh = balloon_mesh::generate::icosphere(0.1, 3).unwrap();
+    let build = || ideal_gas_balloon(&mesh, 3000.0);
+    let mut sim = build();
+    let options = StaticOptions::default();
+    let report = sim.solve_static(&options).unwrap();
+    assert!(report.converged);
+    assert!(
+        report.outer[0].tolerance > options.solver.tolerance,
+        "{report:?}"
+    );
+    assert!(report.outer.iter().any(|o| o.accelerated), "{report:?}");
+    let last = report.outer.last().unwrap();
+    assert!(last.tolerance <= options.solver.tolerance, "{last:?}");
+    // The shell's own forces (elastic + the ideal gas at the current amount) at the result.
+    let x = sim.x.clone();
+    let mut f = vec![0.0; x.len()];
+    sim.system.forces(sim.time, &x, &mut f).unwrap();
+    let scale = sim.system.force_scale().unwrap();
+    let relative = norm(&f) / scale;
+    // The solve's tolerance at its thickness, plus what the last projection's change of at
+    // most `thickness_tolerance` does to the elastic forces.
+    assert!(
+        relative <= options.solver.tolerance + 2.0 * options.thickness_tolerance,
+        "relative residual {relative:e}"
+    );
+    // Project the returned state again.
+    let input = ShellProjectionInput {
+        triangles: sim.system.triangles(),
+        vertex_inverse_mass: &sim.vertex_inv_mass,
+        element_inverse_mass: &sim.element_inv_mass,
+        rest_shell_volume: sim.rest_shell_volume,
+        rest_element_volumes: &sim.rest_element_volumes,
+    };
+    let mut projector = sim.projection.clone().unwrap();
+    let (mut xp, mut h) = (x.clone(), sim.system.thickness.clone());
+    projector.project(&input, &mut xp, &mut h).unwrap();
+    let change = max_relative_change(&h, &sim.system.thickness);
+    assert!(
+        change <= options.thickness_tolerance,
+        "thickness change {change:e}"
+    );
+    // The plain fixed point (exact solves, no extrapolation: many outer iterations) ends at
+    // the same thickness and shape.
+    let mut plain = build();
+    let mut h_plain = plain.system.thickness.clone();
+    let mut x_plain = plain.x.clone();
+    for _ in 0..60 {
+        {
+            let mut shell = StaticShell::new(&mut plain.system, GasTerm::Own, true);
+            StaticSolver::new(options.solver)
+                .unwrap()
+                .solve(&mut shell, 0.0, &mut x_plain, None)
+                .unwrap();
+        }
+        let input = ShellProjectionInput {
+            triangles: plain.system.triangles(),
+            vertex_inverse_mass: &plain.vertex_inv_mass,
+            element_inverse_mass: &plain.element_inv_mass,
+            rest_shell_volume: plain.rest_shell_volume,
+            rest_element_volumes: &plain.rest_element_volumes,
+        };
+        let mut xp = x_plain.clone();
+        let proj = plain.projection.as_mut().unwrap();
+        proj.project(&input, &mut xp, &mut h_plain).unwrap();
+        let done = max_relative_change(&h_plain, &plain.system.thickness) <= 1e-10;
+        plain.system.thickness.copy_from_slice(&h_plain);
+        if done {
+            break;
+        }
+    }
+    assert!(max_relative_change(&sim.system.thickness, &h_plain) <= 1e-7);
+    let d = x
+        .iter()
+        .zip(&x_plain)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(d <= 1e-7, "shape difference {d:e} m");
+}
