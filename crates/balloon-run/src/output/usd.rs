@@ -189,7 +189,11 @@ fn array(out: &mut String, values: &[f64], components: usize) {
 
 /// The USD type of a field (vertex or face values, 1 or 3 components).
 fn field_type(components: usize) -> &'static str {
-    if components == 3 { "float3[]" } else { "float[]" }
+    if components == 3 {
+        "float3[]"
+    } else {
+        "float[]"
+    }
 }
 
 impl UsdWriter {
@@ -259,10 +263,10 @@ impl UsdWriter {
         }
         text.push_str(")\n\ndef Xform \"World\"\n{\n");
         let block = |text: &mut String,
-                         pieces: &mut Vec<Piece>,
-                         blocks: &mut Vec<(Source, usize)>,
-                         decl: &str,
-                         source: Source| {
+                     pieces: &mut Vec<Piece>,
+                     blocks: &mut Vec<(Source, usize)>,
+                     decl: &str,
+                     source: Source| {
             let _ = writeln!(text, "{decl}.timeSamples = {{");
             flush(text, pieces);
             blocks.push((source, pieces.len()));
@@ -314,12 +318,11 @@ impl UsdWriter {
                 }
             }
             text.push_str("]\n");
-            let e = format!("        float3[] extent");
             block(
                 &mut text,
                 &mut pieces,
                 &mut blocks,
-                &e,
+                "        float3[] extent",
                 Source::Extent { body: b },
             );
             block(
@@ -455,20 +458,16 @@ impl UsdWriter {
                 let mut lo = [f64::INFINITY; 3];
                 let mut hi = [f64::NEG_INFINITY; 3];
                 for p in frame.positions[3 * v.start..3 * v.end].chunks_exact(3) {
-                    for a in 0..3 {
-                        lo[a] = lo[a].min(p[a]);
-                        hi[a] = hi[a].max(p[a]);
+                    for ((l, h), x) in lo.iter_mut().zip(&mut hi).zip(p) {
+                        *l = l.min(*x);
+                        *h = h.max(*x);
                     }
                 }
                 let b: Vec<f64> = lo.iter().chain(&hi).copied().collect();
                 array(&mut s, &b, 3);
             }
             Source::PointField { body, field: f } => {
-                let values = field(
-                    &frame.point_data,
-                    f,
-                    shape.bodies[body].vertices.clone(),
-                );
+                let values = field(&frame.point_data, f, shape.bodies[body].vertices.clone());
                 array(&mut s, &values, frame.point_data[f].components);
             }
             Source::CellField { body, field: f } => {
@@ -476,7 +475,11 @@ impl UsdWriter {
                 array(&mut s, &values, frame.cell_data[f].components);
             }
             Source::Pressure { body } => {
-                num(&mut s, frame.bodies[body].pressure.unwrap_or(f64::NAN), true);
+                num(
+                    &mut s,
+                    frame.bodies[body].pressure.unwrap_or(f64::NAN),
+                    true,
+                );
             }
             Source::Translate { prop } => {
                 let c = match frame.props[prop] {

@@ -10,8 +10,30 @@ use balloon_render::Prop;
 fn frame(step: usize) -> Frame {
     let s = step as f64;
     let positions = vec![
-        0.0, 0.0, s, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, //
-        5.0, 0.0, 0.0, 6.0, 0.0, 0.0, 5.0, 1.0, 0.0, 6.0, 1.0, 0.5 * s,
+        0.0,
+        0.0,
+        s,
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        1.0,
+        0.0,
+        1.0,
+        1.0,
+        0.0, //
+        5.0,
+        0.0,
+        0.0,
+        6.0,
+        0.0,
+        0.0,
+        5.0,
+        1.0,
+        0.0,
+        6.0,
+        1.0,
+        0.5 * s,
     ];
     let triangles = vec![[0, 1, 2], [1, 3, 2], [4, 5, 6], [5, 7, 6]];
     let mut f = Frame::new(step, 0.01 * s, positions, triangles).with_bodies(vec![
