@@ -25,7 +25,7 @@ pub fn teddy_with_about(target: usize) -> TriMesh {
     best.expect("at least one resolution")
 }
 
-/// The built-in teddy at a resolution close to the paper's 11090-vertex Teddy (seed 000, Table 1).
+/// The built-in teddy at a resolution close to the paper's 11090-vertex Teddy (Wang et al. 2015, Table 1).
 pub fn teddy_about_11k() -> TriMesh {
     teddy_with_about(11_090)
 }

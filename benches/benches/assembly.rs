@@ -1,4 +1,4 @@
-//! Shell stiffness assembly alone (seed 000, Eq. 11 and 23): the 9x9 three-prism stiffness blocks
+//! Shell stiffness assembly alone (Wang et al. 2015, Eq. 11 and 23): the 9x9 three-prism stiffness blocks
 //! of an inflating balloon scattered into triplets, and the triplets summed into the CSR matrix
 //! `A = M + dt^2 K` with the cached pattern (what the PCG and Cholesky solvers do once per Newton
 //! iteration). The element blocks themselves are timed in `element.rs`, the solves in

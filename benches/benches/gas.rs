@@ -1,5 +1,5 @@
 //! Gas stage alone: enclosed volume + gradient + pressure forces (`PressureLoad::evaluate`,
-//! seed 000 Eq. 13-15) and the matrix-free tangent product (Eq. 16-17, rank-1, with and without
+//! Wang et al. 2015, Eq. 13-15) and the matrix-free tangent product (Eq. 16-17, rank-1, with and without
 //! the follower term) on icospheres of 2562 and 10242 vertices.
 
 use std::hint::black_box;

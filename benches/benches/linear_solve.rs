@@ -1,4 +1,4 @@
-//! Linear solvers behind Newton (seed 000, Eq. 23): one backward-Euler step (3 Newton iterations)
+//! Linear solvers behind Newton (Wang et al. 2015, Eq. 23): one backward-Euler step (3 Newton iterations)
 //! of an edge-spring balloon with an ideal gas (rank-1 tangent) on an icosphere, with matrix-free
 //! CG (the paper), assembled Jacobi-PCG and sparse Cholesky + Sherman-Morrison.
 

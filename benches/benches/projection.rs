@@ -1,4 +1,4 @@
-//! Shell-volume projection alone (seed 000, Eq. 24-28, Algorithm 2): an icosphere shell stretched
+//! Shell-volume projection alone (Wang et al. 2015, Eq. 24-28, Algorithm 2): an icosphere shell stretched
 //! by 1.3 and perturbed is projected back to its rest material volume (tolerance 1e-9), on 2562
 //! and 10242 vertices.
 

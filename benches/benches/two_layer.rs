@@ -1,4 +1,4 @@
-//! Two-layer objects (seed 004): one force evaluation (springs + damping + gas + gravity) and one
+//! Two-layer objects (Song 2009): one force evaluation (springs + damping + gas + gravity) and one
 //! whole step (integrate, box collisions, inner-layer containment, blow-up check) per explicit
 //! method, on octahedron spheres of level 3 (516 particles) and 4 (2052 particles), both of
 //! about 5 kg in total. The real-time claim of `docs/two-layer.md`: a level-4 RK4 step at

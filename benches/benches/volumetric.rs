@@ -1,4 +1,4 @@
-//! Volume-conserving impulse-based bodies (seed 003): lattice generation from a soup (Sec. 3),
+//! Volume-conserving impulse-based bodies (Diziol, Bender and Bayer 2011): lattice generation from a soup (Sec. 3),
 //! the cell-volume projection alone (Sec. 4, Eq. 2-4; the paper's Gauss-Seidel sweeps and the
 //! global Newton solve) and one whole step of the Fig. 4 drop-sphere scene.
 

@@ -14,30 +14,65 @@ Whole jobs: :func:`inflate`, :func:`volumetric`, :func:`two_layer`, :func:`conne
 :func:`run_scenario`.
 Step-wise simulations: :class:`Shell`, :class:`Volumetric`, :class:`TwoLayer`.
 Parameter sweeps over a dask.distributed cluster: :func:`sweep`, :func:`sweep_scenario`.
+Surfaces for other tools: :func:`mesh_arrays` (a ``(vertices, faces)`` pair for trimesh or
+pyvista) and :func:`to_meshio` (a ``meshio.Mesh``; meshio is optional), also methods of the
+results and the step-wise simulations.
 Errors: :class:`BalloonError` and its subclasses :class:`InvalidOption`, :class:`MeshError`,
 :class:`SolverError`.
 """
 
+import functools as _functools
+
+from . import _balloon
 from ._balloon import (
     BalloonError,
     InvalidOption,
     MeshError,
-    Shell,
     SolverError,
-    TwoLayer,
-    Volumetric,
     __version__,
-    connect,
-    inflate,
-    run_scenario,
-    two_layer,
-    volumetric,
 )
+from ._mesh import MeshMethods as _MeshMethods
+from ._mesh import Result, mesh_arrays, to_meshio
 from ._sweep import sweep, sweep_scenario
+
+
+def _returns_result(job):
+    """``job`` with its result dictionary as a :class:`Result` (a dict with ``to_meshio``)."""
+
+    @_functools.wraps(job)
+    def run(*args, **options):
+        r = job(*args, **options)
+        return Result(r) if isinstance(r, dict) else r
+
+    return run
+
+
+inflate = _returns_result(_balloon.inflate)
+volumetric = _returns_result(_balloon.volumetric)
+two_layer = _returns_result(_balloon.two_layer)
+connect = _returns_result(_balloon.connect)
+run_scenario = _returns_result(_balloon.run_scenario)
+
+
+class Shell(_balloon.Shell, _MeshMethods):
+    __doc__ = _balloon.Shell.__doc__
+    __module__ = "balloon"
+
+
+class Volumetric(_balloon.Volumetric, _MeshMethods):
+    __doc__ = _balloon.Volumetric.__doc__
+    __module__ = "balloon"
+
+
+class TwoLayer(_balloon.TwoLayer, _MeshMethods):
+    __doc__ = _balloon.TwoLayer.__doc__
+    __module__ = "balloon"
+
 
 __all__ = [
     "BalloonError",
     "InvalidOption",
+    "Result",
     "MeshError",
     "SolverError",
     "Shell",
@@ -46,9 +81,11 @@ __all__ = [
     "__version__",
     "connect",
     "inflate",
+    "mesh_arrays",
     "run_scenario",
     "sweep",
     "sweep_scenario",
+    "to_meshio",
     "two_layer",
     "volumetric",
 ]

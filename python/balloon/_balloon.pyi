@@ -51,14 +51,14 @@ class TwoLayerResult(TypedDict):
     positions: npt.NDArray[np.float64]
 
 def inflate(mesh: Optional[MeshLike] = None, **options: Option) -> ShellResult:
-    """Runs ``balloon inflate`` (a shell balloon, seed 000) and returns its summary and final
+    """Runs ``balloon inflate`` (a shell balloon, Wang et al. 2015) and returns its summary and final
     state; the GIL is released and Ctrl-C stops the run after the current step."""
 
 def volumetric(mesh: Optional[MeshLike] = None, **options: Option) -> VolumetricResult:
-    """Runs ``balloon volumetric`` (a volume-conserving body, seed 003)."""
+    """Runs ``balloon volumetric`` (a volume-conserving body, Diziol, Bender and Bayer 2011)."""
 
 def two_layer(**options: Option) -> TwoLayerResult:
-    """Runs ``balloon two-layer`` (a two-layer mass-spring body, seed 004)."""
+    """Runs ``balloon two-layer`` (a two-layer mass-spring body, Song 2009)."""
 
 class ConnectResult(TypedDict):
     summary: Dict[str, Any]

@@ -130,7 +130,7 @@ pub(crate) fn inflate<'py>(
 /// volumetric(mesh="builtin", **options)
 /// --
 ///
-/// Runs `balloon volumetric` (a volume-conserving body, seed 003) on `mesh` with the CLI's
+/// Runs `balloon volumetric` (a volume-conserving body, Diziol, Bender and Bayer 2011) on `mesh` with the CLI's
 /// flags as keyword options. Returns {"summary": dict, "positions": (n, 3) lattice particle
 /// positions, "surface_positions": (k, 3) the embedded surface, "surface_triangles": (m, 3)}.
 #[pyfunction]
@@ -149,7 +149,7 @@ pub(crate) fn volumetric<'py>(
 /// two_layer(**options)
 /// --
 ///
-/// Runs `balloon two-layer` (a two-layer mass-spring body, seed 004) with the CLI's flags as
+/// Runs `balloon two-layer` (a two-layer mass-spring body, Song 2009) with the CLI's flags as
 /// keyword options (`dim=3, integrator="rk4", steps=2000`, ...). Returns {"summary": dict,
 /// "positions": (n, 3) particle positions}.
 #[pyfunction]

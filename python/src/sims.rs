@@ -25,12 +25,12 @@ fn lock<T>(m: &Mutex<T>) -> PyResult<MutexGuard<'_, T>> {
 /// Shell(mesh="builtin", **options)
 /// --
 ///
-/// A shell balloon (seed 000) built exactly as `balloon inflate` builds it from the same
+/// A shell balloon (Wang et al. 2015) built exactly as `balloon inflate` builds it from the same
 /// options, driven step by step from Python: `step()` returns the step's statistics;
 /// `positions`, `velocities`, `thickness`, `time`, `gauge_pressure`, `gas_volume` read the
 /// state; `set_pressure`, `set_pump_rate`, `set_external_forces`, `set_anchor_springs`,
 /// `set_dt` steer it. Output options (`out`, `render`, ...) are accepted and ignored.
-#[pyclass(module = "balloon._balloon")]
+#[pyclass(module = "balloon._balloon", subclass)]
 pub(crate) struct Shell {
     sim: Mutex<ShellSim>,
     /// The anchor springs and scheduled loads of the options (`pin`, `load`), applied before
@@ -177,10 +177,10 @@ impl Shell {
 /// Volumetric(mesh="builtin", **options)
 /// --
 ///
-/// A volume-conserving body (seed 003) built exactly as `balloon volumetric` builds it, driven
+/// A volume-conserving body (Diziol, Bender and Bayer 2011) built exactly as `balloon volumetric` builds it, driven
 /// step by step: `step()`, `positions` (lattice particles), `surface_positions` (the embedded
 /// surface), `time`, `set_external_forces`, `set_dt`.
-#[pyclass(module = "balloon._balloon")]
+#[pyclass(module = "balloon._balloon", subclass)]
 pub(crate) struct Volumetric {
     sim: Mutex<VolumetricSimulation>,
 }
@@ -292,9 +292,9 @@ impl Volumetric {
 /// TwoLayer(**options)
 /// --
 ///
-/// A two-layer mass-spring body (seed 004) built exactly as `balloon two-layer` builds it,
+/// A two-layer mass-spring body (Song 2009) built exactly as `balloon two-layer` builds it,
 /// driven step by step: `step()`, `positions`, `time`, `set_drag`, `set_dt`.
-#[pyclass(module = "balloon._balloon")]
+#[pyclass(module = "balloon._balloon", subclass)]
 pub(crate) struct TwoLayer {
     sim: Mutex<TwoLayerSimulation>,
 }

@@ -1,4 +1,4 @@
-//! Shell balloons end to end (seed 000): analytic sphere, gas law, volume projection over a
+//! Shell balloons end to end (Wang et al. 2015): analytic sphere, gas law, volume projection over a
 //! long run, thickness effects, bad input and divergence.
 
 use balloon::gas::GasKind;

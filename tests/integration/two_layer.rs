@@ -1,4 +1,4 @@
-//! Two-layer elastic objects (seed 004) across crates: the facade's layers against the mesh
+//! Two-layer elastic objects (Song 2009) across crates: the facade's layers against the mesh
 //! crate's geometry and validation, the gas force against the mesh crate's exact volume
 //! gradient, and the real-time configuration (level-4 octahedron sphere with RK4).
 
@@ -192,7 +192,7 @@ fn ray_winding(p: [f64; 3], x: &[f64], offset: usize, tris: &[[usize; 3]]) -> i3
 #[test]
 fn inner_layer_stays_inside_over_a_long_bouncing_run() {
     // The CLI's default two-layer scene (`balloon two-layer`: a 4 m box centred on the body)
-    // with soft radius and shear springs under 5 g, where the seed's tangent-plane test let
+    // with soft radius and shear springs under 5 g, where the paper's tangent-plane test let
     // 15 inner particles out by the end of 2000 steps.
     let bbox = AxisBox::try_new(Point3::new(-2.0, -2.0, -2.0), Point3::new(2.0, 2.0, 2.0)).unwrap();
     let body = TwoLayerBody::octahedron_sphere(3)

@@ -1,4 +1,4 @@
-//! Volume-conserving impulse-based bodies (seed 003) across crates: lattice generation from real
+//! Volume-conserving impulse-based bodies (Diziol, Bender and Bayer 2011) across crates: lattice generation from real
 //! and procedural soups, the constraint crate and the facade together.
 
 use balloon::constraint::cell_volume::{

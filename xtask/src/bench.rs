@@ -1,4 +1,4 @@
-//! `cargo xtask bench`: the paper's Table 1 (seed 000) for a folder of meshes and every linear
+//! `cargo xtask bench`: the paper's Table 1 (Wang et al. 2015) for a folder of meshes and every linear
 //! solver behind Newton, and the growth of the cost with size for the shell, volumetric and
 //! two-layer systems. Writes `target/bench/bench.{md,json}`; `--update-docs` also writes
 //! `docs/benchmarks.md`.
@@ -422,7 +422,7 @@ fn markdown(r: &BenchReport) -> String {
          cores; rows timed while other work ran can be tens of percent slow.\n",
         r.command, r.machine, r.runs, r.steps_per_run, r.load
     );
-    s.push_str("## Table 1: shell balloons (seed 000)\n\n");
+    s.push_str("## Table 1: shell balloons (Wang et al. 2015)\n\n");
     s.push_str(
         "Pump inflation from the rest shape (2 L/s of ambient air), dt = 10 ms, backward Euler with \
          exactly 3 Newton iterations (tolerance 0), CG relative tolerance 1e-3 (pcg: incomplete-Cholesky preconditioner; the `balloon inflate` default is cholesky + projected), mass damping 10/s, StVK E = 1 MPa, nu = 0.45, \

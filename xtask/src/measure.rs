@@ -10,7 +10,7 @@ use balloon::shell::{ShellMaterial, ShellSimulation};
 use nalgebra::Point3;
 
 /// The volume the surface `x` (flat positions) over `triangles` encloses, by the divergence
-/// theorem on the mesh (seed 000, Eq. 13): not the gas model's own volume.
+/// theorem on the mesh (Wang et al. 2015, Eq. 13): not the gas model's own volume.
 pub fn mesh_volume(x: &[f64], triangles: &[[usize; 3]]) -> f64 {
     let points = x
         .chunks_exact(3)
@@ -76,7 +76,7 @@ pub fn max_relative_change(v: &[f64], v0: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// The shell's material volume `sum_e h_e A_e` (seed 000, Eq. 26) for flat positions `x`, per-face
+/// The shell's material volume `sum_e h_e A_e` (Wang et al. 2015, Eq. 26) for flat positions `x`, per-face
 /// thickness `thickness` (m), computed here from the triangle areas (not the projection's own
 /// measure).
 pub fn shell_material_volume(x: &[f64], triangles: &[[usize; 3]], thickness: &[f64]) -> f64 {

@@ -48,7 +48,7 @@ same!(GasArg => GasControl: Pump, Ideal, Constant, Polytropic, Leak, SupplyPump,
 /// Volume projection mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum ProjectionMode {
-    /// The global shell-volume projection of seed 000 (Eq. 24-28, Algorithm 2).
+    /// The global shell-volume projection of Wang et al. 2015 (Eq. 24-28, Algorithm 2).
     Global,
     /// Every element keeps its own material volume (thickness H A0 / A per element).
     PerElement,
@@ -69,8 +69,11 @@ pub enum FrameFormat {
     /// VTK XML PolyData `.vtp` with the fields (velocity, thickness, stretch, ...) and a
     /// `series.pvd` time series for ParaView.
     Vtk,
+    /// One USD stage `run.usda` for the whole run (Blender, Houdini, usdview): a mesh per body,
+    /// time-sampled points, the fields as primvars.
+    Usd,
 }
-same!(FrameFormat => Format: Obj, Ply, Vtk);
+same!(FrameFormat => Format: Obj, Ply, Vtk, Usd);
 
 /// The field that colours renders, the GIF and the POV scene.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -99,7 +102,7 @@ same!(SceneArg => SceneChoice: Free, DropSphere);
 /// Cell-volume correction (`--correction`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Correction {
-    /// Scale the cell about its centre (seed 003, Sec. 4).
+    /// Scale the cell about its centre (Diziol, Bender and Bayer 2011, Sec. 4).
     Scaling,
     /// Move along the mass-weighted volume gradient.
     Gradient,
@@ -119,9 +122,9 @@ same!(VolumeSolver => ScenarioSolver: GaussSeidel, Global);
 /// Sphere construction in 3D.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum SphereArg {
-    /// Subdivided octahedron (`--level`), seed Sec. 3.5.2.
+    /// Subdivided octahedron (`--level`), Song 2009, Sec. 3.5.2.
     Octa,
-    /// UV sphere (`--slices`, `--stacks`), seed Sec. 3.5.1.
+    /// UV sphere (`--slices`, `--stacks`), Song 2009, Sec. 3.5.1.
     Uv,
 }
 same!(SphereArg => SphereChoice: Octa, Uv);

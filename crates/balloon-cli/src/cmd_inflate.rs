@@ -1,4 +1,4 @@
-//! `balloon inflate [MESH|builtin]`: the main job, a shell balloon with thickness (seed 000):
+//! `balloon inflate [MESH|builtin]`: the main job, a shell balloon with thickness (Wang et al. 2015):
 //! its flags, turned into a `balloon_scenario::shell::ShellScenario` and run by
 //! `balloon_run::jobs::shell`.
 
@@ -155,7 +155,7 @@ pub struct InflateArgs {
     /// off in the paper's mode (`--newton-tol 0`; the paper drops it).
     #[arg(long, num_args = 0..=1, require_equals = true, default_missing_value = "true")]
     pub follower_term: Option<bool>,
-    /// Shell-volume projection: `global` (seed 000, Algorithm 2), `per-element` or `off`
+    /// Shell-volume projection: `global` (Wang et al. 2015, Algorithm 2), `per-element` or `off`
     /// [default: global; off for membranes, whose thickness H / (l1 l2) keeps every element's
     /// volume exactly, so the projection has nothing to correct].
     #[arg(long, value_enum)]

@@ -55,7 +55,7 @@ pub struct MeshInfo {
     pub euler_characteristic: i64,
     /// Total surface area.
     pub surface_area: f64,
-    /// Enclosed volume by the divergence theorem (seed 000, Eq. 13).
+    /// Enclosed volume by the divergence theorem (Wang et al. 2015, Eq. 13).
     pub enclosed_volume: f64,
     /// Bounding box minimum corner.
     pub bbox_min: [f64; 3],

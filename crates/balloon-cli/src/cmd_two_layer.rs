@@ -1,4 +1,4 @@
-//! `balloon two-layer`: a two-layer elastic object (seed 004, Song) in 1D, 2D or 3D, stepped
+//! `balloon two-layer`: a two-layer elastic object (Song 2009) in 1D, 2D or 3D, stepped
 //! with explicit Euler, midpoint, RK4 or symplectic Euler: its flags, turned into a
 //! `balloon_scenario::two_layer::TwoLayerScenario` and run by `balloon_run::jobs::two_layer`.
 //!
@@ -115,7 +115,7 @@ pub struct TwoLayerArgs {
     #[arg(long, default_value_t = TwoLayerRun::default().restitution, allow_hyphen_values = true,
           value_parser = parse_real)]
     pub restitution: f64,
-    /// Normalise spring forces by valence (seed Sec. 3.5.3).
+    /// Normalise spring forces by valence (Song 2009, Sec. 3.5.3).
     #[arg(long)]
     pub valence_normalization: bool,
     /// Integrator: euler | midpoint | rk4 | symplectic.

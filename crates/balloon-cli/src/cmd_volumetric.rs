@@ -1,5 +1,5 @@
 //! `balloon volumetric [MESH|builtin]`: a volume-conserving impulse-based body generated from a
-//! triangle soup (seed 003, Diziol, Bender and Bayer), optionally in the Fig. 4 drop-sphere
+//! triangle soup (Diziol, Bender and Bayer 2011), optionally in the Fig. 4 drop-sphere
 //! scene: its flags, turned into a `balloon_scenario::volumetric::VolumetricScenario` and run by
 //! `balloon_run::jobs::volumetric` (its output folder is described there).
 
@@ -153,7 +153,7 @@ pub struct VolumetricArgs {
     pub json: bool,
 }
 
-/// Flags of the soup -> lattice generator (seed 003, Sec. 3).
+/// Flags of the soup -> lattice generator (Diziol, Bender and Bayer 2011, Sec. 3).
 #[derive(Debug, clap::Args)]
 pub struct LatticeArgs {
     /// Voxels along the longest side of the bounding box, 4 to 200: the voxel grid holds up to

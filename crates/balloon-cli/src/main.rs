@@ -1,8 +1,8 @@
 //! The `balloon` command-line tool.
 //!
-//! Subcommands: `mesh info` (inspect a mesh), `inflate` (shell balloons, seed 000), `connect`
+//! Subcommands: `mesh info` (inspect a mesh), `inflate` (shell balloons, Wang et al. 2015), `connect`
 //! (shell balloons joined by tubes),
-//! `volumetric` (volume-conserving bodies, seed 003) and `two-layer` (two-layer objects, seed 004),
+//! `volumetric` (volume-conserving bodies, Diziol, Bender and Bayer 2011) and `two-layer` (two-layer objects, Song 2009),
 //! `run` (a shell run described by a scenario file) and `view` (a live viewer in the browser).
 //! Run `balloon <subcommand> --help` for the flags and their defaults.
 
@@ -24,16 +24,16 @@ enum Command {
     /// Inspect meshes.
     #[command(subcommand)]
     Mesh(cmd_mesh::MeshCommand),
-    /// Inflate a shell balloon with thickness (three-prism FEM, seed 000). With no MESH, the
+    /// Inflate a shell balloon with thickness (three-prism FEM, Wang et al. 2015). With no MESH, the
     /// built-in teddy.
     Inflate(cmd_inflate::InflateArgs),
     /// Connect several shell balloons, each with its own ideal gas, by tubes (the two-balloon
     /// experiment): copies of one mesh or the components of one file, pre-inflated to stretches
     /// or pressures; every `inflate` flag applies.
     Connect(cmd_connect::ConnectArgs),
-    /// Simulate a volume-conserving impulse-based body generated from a triangle soup (seed 003).
+    /// Simulate a volume-conserving impulse-based body generated from a triangle soup (Diziol, Bender and Bayer 2011).
     Volumetric(cmd_volumetric::VolumetricArgs),
-    /// Simulate a two-layer elastic object (seed 004).
+    /// Simulate a two-layer elastic object (Song 2009).
     TwoLayer(cmd_two_layer::TwoLayerArgs),
     /// Run a scenario file (TOML; `[system] kind` selects `shell` (`inflate`), `connect`,
     /// `volumetric` or `two-layer`, whose flags are the keys, grouped in tables); flags after

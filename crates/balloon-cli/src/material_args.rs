@@ -9,7 +9,7 @@ use balloon_scenario::range::parse_real;
 /// The material flags of `balloon inflate`.
 #[derive(Clone, Debug, Default, clap::Args)]
 pub struct MaterialArgs {
-    /// Constitutive model [default: stvk]. On three-prism elements (seed 000): `stvk`
+    /// Constitutive model [default: stvk]. On three-prism elements (Wang et al. 2015): `stvk`
     /// (St. Venant-Kirchhoff, the paper's) or `neo-hookean`, with --young and --poisson.
     /// Incompressible rubber membranes (thickness H / (l1 l2), a pressure maximum like a real
     /// balloon; docs/membranes.md): `membrane-neo-hookean` (--mu), `membrane-mooney-rivlin`

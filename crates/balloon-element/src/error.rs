@@ -58,7 +58,7 @@ pub enum ElementError {
         /// Signed rest volume (m^3).
         volume: f64,
     },
-    /// The current state is degenerate: zero triangle area (the unit normal of seed 000 Eq. 1 is
+    /// The current state is degenerate: zero triangle area (the unit normal of Wang et al. 2015, Eq. 1 is
     /// undefined) or zero spring length (the direction is undefined).
     ///
     /// Happens when a simulation collapses an element; reduce the time step or stiffen the model.

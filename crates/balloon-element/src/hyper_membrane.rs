@@ -187,7 +187,7 @@ impl HyperMembrane {
     }
 
     /// Evaluates the kinematics and the stress once at `x` so that the forces and many force
-    /// differentials (one per CG iteration of a matrix-free Newton solve, seed 000 Eq. 11) reuse
+    /// differentials (one per CG iteration of a matrix-free Newton solve, Wang et al. 2015, Eq. 11) reuse
     /// them. Assumes a valid state, like the other hot-path methods.
     pub fn linearize<M: MembraneMaterial>(
         &self,

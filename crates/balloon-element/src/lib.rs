@@ -4,19 +4,19 @@
 //! **What it is for.** One element at a time, allocation-free, monomorphised over the material
 //! (no trait objects in hot loops). Assembly over a mesh, time integration and gas pressure live
 //! in other crates; this crate knows nothing of time or gas. Every element here is used by a
-//! system: the three-prism by the shell balloon (seed 000), the springs by the two-layer body
-//! (seed 004).
+//! system: the three-prism by the shell balloon (Wang et al. 2015), the springs by the two-layer body
+//! (Song 2009).
 //!
 //! **What it is not for.** Volumetric (tetrahedral) elasticity: the
-//! volumetric body of seed 003 is held together by cell-volume impulses and cell springs
+//! volumetric body of Diziol, Bender and Bayer 2011 is held together by cell-volume impulses and cell springs
 //! (`balloon-constraint`), not by tetrahedral elements.
 //!
-//! | element | DOFs | kinematics | seed |
+//! | element | DOFs | kinematics | paper |
 //! |---|---|---|---|
-//! | [`ThreePrism`] | 3 vertices (+ thickness parameter `h`) | `F = [e12 e13 d h][E12 E13 D H]^-1` | 000 Eq. 1-4, 8, 11, 19 |
+//! | [`ThreePrism`] | 3 vertices (+ thickness parameter `h`) | `F = [e12 e13 d h][E12 E13 D H]^-1` | Wang et al. 2015, Eq. 1-4, 8, 11, 19 |
 //! | [`HyperMembrane`] | 3 vertices, incompressible (`h = H / sqrt(det C)`) | `C = Fm^T Fm` (2x2) into a `MembraneMaterial` | `docs/membranes.md` (not yet wired into the shell system) |
-//! | [`Spring`] | 2 particles | Hooke + axial dashpot | 004 Eq. 4.2-4.6 (two-layer bodies) |
-//! | [`TargetSpring`] | 1 particle + a driven target | Hooke + axial dashpot | 004 Eq. 4.7 (drag) |
+//! | [`Spring`] | 2 particles | Hooke + axial dashpot | Song 2009, Eq. 4.2-4.6 (two-layer bodies) |
+//! | [`TargetSpring`] | 1 particle + a driven target | Hooke + axial dashpot | Song 2009, Eq. 4.7 (drag) |
 //!
 //! Sign conventions, shared by all elements: `forces = -dE/dx`; `force_differential(dx) = df =
 //! -K dx`; `stiffness = K = d^2E/dx^2` (symmetric), vertex-major `[x1 y1 z1 x2 ...]`.

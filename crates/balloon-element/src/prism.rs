@@ -1,4 +1,4 @@
-//! The three-prism shell element of seed 000 (Sec. 4, Eq. 1-4, 8, 11, 19).
+//! The three-prism shell element of Wang et al. 2015 (Sec. 4, Eq. 1-4, 8, 11, 19).
 
 use balloon_material::Material;
 use nalgebra::{Matrix3, SMatrix, Vector3};
@@ -10,7 +10,7 @@ use crate::triangle::{check_area, check_positions, rest_triangle};
 const NAME: &str = "three-prism";
 
 /// Rest data of one three-prism element: a triangle extruded along its unit normal by a thickness
-/// (seed 000 Sec. 4, Fig. 1).
+/// (Wang et al. 2015, Sec. 4, Fig. 1).
 ///
 /// A point of the element with parameters `alpha = (a1, a2, a3)` is (Eq. 1)
 /// `x(alpha) = (1 - a1 - a2) x1 + a1 x2 + a2 x3 + a3 h d`, `d = (e12 x e13) / |e12 x e13|`,
@@ -20,7 +20,7 @@ const NAME: &str = "three-prism";
 ///
 /// where capital letters are rest quantities. The three vertex positions are degrees of freedom;
 /// the current thickness `h` is a *parameter* (changed only by the shell-volume projection of
-/// seed 000 Sec. 7). Because `d` is the current unit normal, `F` depends non-linearly on the
+/// Wang et al. 2015, Sec. 7). Because `d` is the current unit normal, `F` depends non-linearly on the
 /// positions and the forces and stiffness include the derivative of `d` (see `docs/elements.md`):
 /// through `dF` always, and through a geometric "normal lever" term that vanishes identically for
 /// isotropic materials (then `P D` is parallel to `d`) but is kept for general ones.
@@ -92,7 +92,7 @@ impl ThreePrism {
         self.rest_thickness
     }
 
-    /// Rest volume `V^e = A H` (m^3), the `V^e` of seed 000 Eq. 8 and 19.
+    /// Rest volume `V^e = A H` (m^3), the `V^e` of Wang et al. 2015, Eq. 8 and 19.
     pub fn rest_volume(&self) -> f64 {
         self.rest_area * self.rest_thickness
     }
@@ -218,17 +218,17 @@ impl ThreePrism {
         Self::finish_differential(k, s, &dmt, (de12, de13), &dp, &dd, d_dn)
     }
 
-    /// Deformation gradient `F = [e12 e13 d h] Dm^-1` (seed 000 Eq. 4), dimensionless.
+    /// Deformation gradient `F = [e12 e13 d h] Dm^-1` (Wang et al. 2015, Eq. 4), dimensionless.
     pub fn deformation_gradient(&self, x: &[Vector3<f64>; 3], h: f64) -> Matrix3<f64> {
         self.kinematics(x, h).f
     }
 
-    /// Elastic energy `E^e = V^e psi(F)` (J) with `V^e = A H` the rest volume (seed 000 Eq. 5, 8).
+    /// Elastic energy `E^e = V^e psi(F)` (J) with `V^e = A H` the rest volume (Wang et al. 2015, Eq. 5, 8).
     pub fn energy<M: Material>(&self, mat: &M, x: &[Vector3<f64>; 3], h: f64) -> f64 {
         self.rest_volume() * mat.energy_density(&self.kinematics(x, h).f)
     }
 
-    /// Elastic forces `f_i = -dE^e/dx_i` (N) on the three vertices (seed 000 Eq. 8), including
+    /// Elastic forces `f_i = -dE^e/dx_i` (N) on the three vertices (Wang et al. 2015, Eq. 8), including
     /// the contribution of the rotating unit normal `d`.
     pub fn forces<M: Material>(&self, mat: &M, x: &[Vector3<f64>; 3], h: f64) -> [Vector3<f64>; 3] {
         let k = self.kinematics(x, h);
@@ -254,7 +254,7 @@ impl ThreePrism {
         ([g12 + g13, -g12, -g13], self.rest_volume() * psi)
     }
 
-    /// Force differential `df = -K dx` (N) along vertex displacements `dx` (m), seed 000 Eq. 11,
+    /// Force differential `df = -K dx` (N) along vertex displacements `dx` (m), Wang et al. 2015, Eq. 11,
     /// including the variation of the unit normal `d` (both through `dF` and through the
     /// geometric term `P : d^2F`). The thickness `h` is held fixed.
     pub fn force_differential<M: Material>(
@@ -272,7 +272,7 @@ impl ThreePrism {
     }
 
     /// Evaluates the kinematics and the stress once at `(x, h)` so that the forces and many
-    /// force differentials (one per CG iteration of a matrix-free Newton solve, seed 000 Eq. 11
+    /// force differentials (one per CG iteration of a matrix-free Newton solve, Wang et al. 2015, Eq. 11
     /// and 23) can reuse them. Assumes a valid state, like the other hot-path methods.
     pub fn linearize<M: Material>(
         &self,
@@ -327,7 +327,7 @@ impl ThreePrism {
     /// Cholesky factorisation of the 6x6 succeeds, the usual case for a stretched element) the
     /// exact stiffness is returned unchanged and no eigen-decomposition is done. The forces are
     /// the exact ones; only the Newton matrix changes, so Newton converges to the same backward
-    /// Euler solution (seed 000 Eq. 18), linearly rather than quadratically where elements are
+    /// Euler solution (Wang et al. 2015, Eq. 18), linearly rather than quadratically where elements are
     /// compressed.
     pub fn forces_and_projected_stiffness<M: Material>(
         &self,
@@ -400,13 +400,13 @@ impl ThreePrism {
         -k.d.dot(&g.column(2))
     }
 
-    /// Lumped vertex masses of seed 000 Eq. 19 with `w_i = 1/3`: `rho A H / 3` each (kg), for a
+    /// Lumped vertex masses of Wang et al. 2015, Eq. 19 with `w_i = 1/3`: `rho A H / 3` each (kg), for a
     /// density `density` in kg/m^3. They sum to `rho V^e`.
     pub fn lumped_masses(&self, density: f64) -> [f64; 3] {
         [density * self.rest_volume() / 3.0; 3]
     }
 
-    /// Masses for the shell-volume projection of seed 000 Sec. 7 (Eq. 27): weight 1/6 for each of
+    /// Masses for the shell-volume projection of Wang et al. 2015, Sec. 7 (Eq. 27): weight 1/6 for each of
     /// the three real vertices and 1/2 for the virtual vertex at the centre of the upper triangle,
     /// i.e. `([rho V/6; 3], rho V/2)` in kg. They sum to `rho V^e`.
     pub fn projection_masses(&self, density: f64) -> ([f64; 3], f64) {

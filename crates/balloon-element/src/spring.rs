@@ -1,5 +1,5 @@
 //! Damped linear spring between two particles ([`Spring`]) and from a particle to a prescribed,
-//! possibly moving, target point ([`TargetSpring`], the drag or "mouse" spring of seed 004
+//! possibly moving, target point ([`TargetSpring`], the drag or "mouse" spring of Song 2009
 //! Sec. 4.4).
 
 use nalgebra::{Matrix3, Point3, SMatrix, Vector3};
@@ -8,7 +8,7 @@ use crate::ElementError;
 
 const NAME: &str = "spring";
 
-/// Hooke spring with dashpot damping along its axis (seed 004's mass-spring layers, seed 003's
+/// Hooke spring with dashpot damping along its axis (Song 2009's mass-spring layers, Diziol, Bender and Bayer 2011's
 /// cell springs).
 ///
 /// With `l = |x2 - x1|`, `u = (x2 - x1)/l`:
@@ -178,7 +178,7 @@ impl Spring {
         0.5 * self.stiffness * (s * s)
     }
 
-    /// Forces on the two ends (N), elastic plus damping (seed 004 Eq. 4.2-4.6): `[f1, -f1]` with
+    /// Forces on the two ends (N), elastic plus damping (Song 2009, Eq. 4.2-4.6): `[f1, -f1]` with
     /// `f1 = [k (l - L0) + c (v2 - v1) . u] u`, evaluated as `[k (l - L0) + c (v2 - v1) . e / l]
     /// e / l` with `e = x2 - x1` (one square root, one division).
     #[inline]
@@ -273,7 +273,7 @@ impl Spring {
 }
 
 /// A [`Spring`] from a particle to a prescribed target point that may move: the drag ("mouse")
-/// spring of seed 004 Sec. 4.4 (Eq. 4.7), which pulls the particle nearest to the mouse.
+/// spring of Song 2009, Sec. 4.4 (Eq. 4.7), which pulls the particle nearest to the mouse.
 ///
 /// With `d = x - p` (particle minus target), `l = |d|`, `u = d / l`:
 ///

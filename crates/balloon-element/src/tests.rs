@@ -316,7 +316,7 @@ fn three_prism_rest_rotation_and_kinematics() {
         // Stretching in-plane at fixed thickness makes the sheet want to thin: -dE/dh < 0
         // (Poisson effect).
         assert!(p.thickness_force(mat, &big, big_h) < 0.0);
-        // The thickness effect (seed 000 Fig. 7): at the same stretch a twice-thicker sheet stores
+        // The thickness effect (Wang et al. 2015, Fig. 7): at the same stretch a twice-thicker sheet stores
         // twice the energy.
         let p2 = ThreePrism::try_new(rest, 2.0 * big_h).unwrap();
         let (ea, eb) = (

@@ -8,7 +8,7 @@
 //! depends on the volume the surface reaches. Over a time step from the committed state
 //! `(N0, t0)` to the time `t` (`tau = t - t0`) the amount is integrated by backward Euler with
 //! the end-of-step volume `V`, which makes the pressure a function `p(V, t)` at fixed `t` with a
-//! potential (so the implicit step stays an energy minimisation, seed 000 Eq. 18), and
+//! potential (so the implicit step stays an energy minimisation, Wang et al. 2015, Eq. 18), and
 //! [`GasModel::end_step`] commits the amount reached when a step is accepted.
 
 use serde::{Deserialize, Serialize};
@@ -46,7 +46,7 @@ fn positive(name: &'static str, value: f64) -> Result<f64, GasError> {
 }
 
 /// A polytropic gas: `p V^gamma = p0 V0^gamma` (G1). `gamma = 1.4` is the adiabatic (isentropic)
-/// compression of air, `gamma = 1` the isothermal ideal gas of seed 000 Eq. 14.
+/// compression of air, `gamma = 1` the isothermal ideal gas of Wang et al. 2015, Eq. 14.
 ///
 /// `p = K V^-gamma` with `K = p0 V0^gamma`, `dp/dV = -gamma p / V` (G2, the coefficient of the
 /// rank-1 tangent of Eq. 16-17), potential `Phi = K V^(1-gamma) / (gamma - 1)` (G3; `-K ln V`

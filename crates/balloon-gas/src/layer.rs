@@ -1,4 +1,4 @@
-//! The gas inside one closed layer of a two-layer body (seed 004, Sec. 4.5 and 4.7 Steps 5-9):
+//! The gas inside one closed layer of a two-layer body (Song 2009, Sec. 4.5 and 4.7 Steps 5-9):
 //! the enclosed volume of a closed polygon (2D) or triangle surface (3D), the isothermal
 //! pressure `P = nRT / V` (Eq. 4.10), its energy `-nRT ln(V / V0)` and the pressure forces on the
 //! layer's particles (Eq. 4.11-4.16).
@@ -100,7 +100,7 @@ impl ClosedLayer {
 
     /// Enclosed volume (m^3; m^2 per unit depth for a polygon) at positions `x`: Green's theorem
     /// `A = 1/2 sum_i (x_i y_(i+1) - x_(i+1) y_i)` for a polygon, the divergence theorem
-    /// `V = 1/6 sum_f x_a . (x_b x x_c)` for a surface (seed 004 Eq. 4.12-4.16; the same volume
+    /// `V = 1/6 sum_f x_a . (x_b x x_c)` for a surface (Song 2009, Eq. 4.12-4.16; the same volume
     /// as [`crate::enclosed_volume`]).
     pub fn volume(&self, x: &[f64]) -> f64 {
         match &self.shape {
@@ -110,7 +110,7 @@ impl ClosedLayer {
     }
 
     /// Adds the force of the uniform `pressure` (Pa, N/m in 2D) on the layer at positions `x` to
-    /// `f` (seed 004 Eq. 4.11-4.16). Polygon: each side `(dx, dy)` takes `P (dy, -dx)` (outward
+    /// `f` (Song 2009, Eq. 4.11-4.16). Polygon: each side `(dx, dy)` takes `P (dy, -dx)` (outward
     /// normal times length), half to each end. Surface: each face takes `P A n = P/2 (b - a) x
     /// (c - a)`, a third to each corner. On a closed layer this is `P dV/dx`.
     pub fn add_pressure_forces(&self, x: &[f64], pressure: f64, f: &mut [f64]) {
@@ -152,7 +152,7 @@ pub fn polygon_area(x: &[f64]) -> f64 {
     0.5 * a
 }
 
-/// The isothermal gas of one closed layer (seed 004 Sec. 4.5): a constant `nRT` (J; J/m in 2D)
+/// The isothermal gas of one closed layer (Song 2009, Sec. 4.5): a constant `nRT` (J; J/m in 2D)
 /// and the rest volume `V0` at which the gas energy is zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LayerGas {
@@ -214,7 +214,7 @@ impl LayerGas {
         self.rest_volume
     }
 
-    /// Pressure `P = nRT / V` at `volume` (seed 004 Eq. 4.10); exactly 0 without gas.
+    /// Pressure `P = nRT / V` at `volume` (Song 2009, Eq. 4.10); exactly 0 without gas.
     pub fn pressure(&self, volume: f64) -> f64 {
         if self.nrt == 0.0 {
             0.0

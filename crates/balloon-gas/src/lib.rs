@@ -1,13 +1,13 @@
 //! Enclosed-volume gas models for the `balloon` toolkit.
 //!
-//! **For:** the uniform gas inside a closed, outward-oriented triangle surface (seed 000,
+//! **For:** the uniform gas inside a closed, outward-oriented triangle surface (Wang et al. 2015,
 //! Sec. 5): a [`GasModel`] gives the absolute pressure `p(V, t)` and `dp/dV`; a
 //! [`PressureLoad`] turns it into nodal forces `(p - p_amb) dV/dx` (Eq. 15) and their tangent,
 //! a rank-1 term applied matrix-free (Eq. 16-17, constant corrected from 1/27 to 1/9 for the
 //! `sum A n` form) plus an optional follower term.
 //!
-//! The [`layer`] module holds the simpler gas of seed 004's two-layer bodies: a constant `nRT`
-//! per closed layer (polygon or triangle surface), `P = nRT / V` (seed 004 Eq. 4.10) and its
+//! The [`layer`] module holds the simpler gas of Song 2009's two-layer bodies: a constant `nRT`
+//! per closed layer (polygon or triangle surface), `P = nRT / V` (Song 2009, Eq. 4.10) and its
 //! forces on the layer.
 //!
 //! **Not for:** elastic forces (`balloon-element`) or time integration (`balloon-integrate`).

@@ -184,7 +184,7 @@ impl<G: GasModel> PressureLoad<G> {
     }
 
     /// The rank-1 part `c g g^T` of the tangent at the last evaluation, with `c = -dp/dV >= 0`
-    /// (Pa/m^3) and `g = dV/dx` (m^2): seed 000 Eq. 16 with the corrected constant (see the type
+    /// (Pa/m^3) and `g = dV/dx` (m^2): Wang et al. 2015, Eq. 16 with the corrected constant (see the type
     /// docs). Return it from `ForceSystem::low_rank_terms` with `std::slice::from_ref`.
     pub fn low_rank_term(&self) -> &LowRankTerm {
         &self.rank1

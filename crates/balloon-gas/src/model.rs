@@ -12,7 +12,7 @@ use crate::GasError;
 /// Standard atmospheric pressure, 101 325 Pa: the default ambient pressure outside a balloon.
 pub const STANDARD_ATMOSPHERE: f64 = 101_325.0;
 
-/// A uniform gas filling a closed volume (seed 000, Sec. 5: the pressure is the same everywhere
+/// A uniform gas filling a closed volume (Wang et al. 2015, Sec. 5: the pressure is the same everywhere
 /// inside, Eq. 12).
 ///
 /// Implementations must be cheap to evaluate; they are called once per Newton iteration.
@@ -29,7 +29,7 @@ pub trait GasModel: Send + Sync + Debug {
     /// (absolute pressure) at fixed time, or `None` when the model has none (a user's model
     /// whose pressure is not integrable in closed form). The value may carry any constant
     /// offset in `V`. This is what lets an implicit step be an energy minimisation (the
-    /// incremental potential of backward Euler, seed 000 Eq. 18, evaluated at the end-of-step
+    /// incremental potential of backward Euler, Wang et al. 2015, Eq. 18, evaluated at the end-of-step
     /// time).
     ///
     /// * isothermal ideal gas: `Phi = -p0 V0 ln V` (Eq. 14 integrated),
@@ -84,7 +84,7 @@ fn non_negative(name: &'static str, value: f64) -> Result<f64, GasError> {
     }
 }
 
-/// Isothermal ideal gas with a fixed amount of gas: `p V = nRT = p0 V0` (seed 000, Eq. 12 and
+/// Isothermal ideal gas with a fixed amount of gas: `p V = nRT = p0 V0` (Wang et al. 2015, Eq. 12 and
 /// Eq. 14), so `p = p0 V0 / V` and `dp/dV = -p0 V0 / V^2`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IdealGas {

@@ -2,7 +2,7 @@
 
 use balloon_mesh::fields::{FieldError, vertex_area_normal_sums};
 
-/// Gas pressure force on each vertex (flat, N), seed 000 Eq. 15 in its area-normal form:
+/// Gas pressure force on each vertex (flat, N), Wang et al. 2015, Eq. 15 in its area-normal form:
 /// `f_i = p sum_{f ∋ i} A_f n_f / 3`, with `p` the gauge pressure (Pa, inside minus ambient).
 /// On a closed surface this equals `p dV/dx_i`, the force [`crate::PressureLoad`] applies.
 ///

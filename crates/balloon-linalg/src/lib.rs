@@ -2,7 +2,7 @@
 //!
 //! **For:** solving the Newton systems of implicit time stepping,
 //! `A = m_coef M + k_coef (K + sum_i c_i u_i u_i^T)` with a lumped mass `M`, a sparse stiffness
-//! `K` and dense low-rank terms that are never assembled (seed 000, Eq. 16-17 and 23):
+//! `K` and dense low-rank terms that are never assembled (Wang et al. 2015, Eq. 16-17 and 23):
 //!
 //! * storage and assembly: [`CsrMatrix`] (the hot-path type), [`SparseAssembler`] (from triplets
 //!   or dense element blocks, pattern reused while unchanged), conversion to and from

@@ -1,5 +1,5 @@
 //! Dense low-rank terms `c u u^T` that are never assembled ([`LowRankTerm`]; the uniform-gas
-//! coupling of seed 000, Eq. 16-17) and exact solves with them by Sherman-Morrison / Woodbury
+//! coupling of Wang et al. 2015, Eq. 16-17) and exact solves with them by Sherman-Morrison / Woodbury
 //! ([`solve_with_low_rank`]).
 
 use nalgebra::{DMatrix, DVector};
@@ -8,7 +8,7 @@ use crate::error::SolveError;
 use crate::vector::dot;
 
 /// A dense symmetric rank-1 term `coefficient * u u^T` of a stiffness matrix that must never be
-/// assembled (the uniform-gas coupling of seed 000, Eq. 16-17).
+/// assembled (the uniform-gas coupling of Wang et al. 2015, Eq. 16-17).
 #[derive(Clone, Debug, Default)]
 pub struct LowRankTerm {
     /// Scalar factor (units of stiffness per unit of `u u^T`).

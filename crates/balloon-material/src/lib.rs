@@ -6,7 +6,7 @@
 //! **What it is for.** Constitutive laws evaluated on one 3x3 deformation gradient at a time, in
 //! `f64` and SI units (`psi` in J/m^3 per unit *rest* volume, `P` in Pa). Elements
 //! (`balloon-element`) are generic over the [`Material`] trait and monomorphised, so a material is
-//! a small `Copy` value with no allocation. The equations follow seed 000 ("Cute Balloons with
+//! a small `Copy` value with no allocation. The equations follow Wang et al. 2015 ("Cute Balloons with
 //! Thickness"), Sec. 4, Eq. 6, 7, 9 and the differential used by Eq. 11.
 //!
 //! **What it is not for.** Meshes, elements, quadrature and assembly live elsewhere; this crate
@@ -57,17 +57,17 @@ use nalgebra::{Matrix3, SMatrix};
 ///
 /// Implementors must keep `first_piola` the exact derivative of `energy_density` and
 /// `first_piola_differential` the exact directional derivative of `first_piola`: elements and the
-/// Newton solver (seed 000 Eq. 8, 11, 23) rely on it, and the crate's finite-difference tests check
+/// Newton solver (Wang et al. 2015, Eq. 8, 11, 23) rely on it, and the crate's finite-difference tests check
 /// it for every model.
 pub trait Material: Clone + Send + Sync + std::fmt::Debug {
-    /// Energy density `psi(F)` in J/m^3 (per unit rest volume), seed 000 Eq. 5-6.
+    /// Energy density `psi(F)` in J/m^3 (per unit rest volume), Wang et al. 2015, Eq. 5-6.
     fn energy_density(&self, f: &Matrix3<f64>) -> f64;
 
-    /// First Piola-Kirchhoff stress `P = dpsi/dF` in Pa, seed 000 Eq. 9.
+    /// First Piola-Kirchhoff stress `P = dpsi/dF` in Pa, Wang et al. 2015, Eq. 9.
     fn first_piola(&self, f: &Matrix3<f64>) -> Matrix3<f64>;
 
     /// Directional derivative `dP = (dP/dF) : dF` of the first Piola stress at `F` along `dF`
-    /// (the `P(F; dF)` of seed 000 Eq. 11), in Pa per unit of `dF`.
+    /// (the `P(F; dF)` of Wang et al. 2015, Eq. 11), in Pa per unit of `dF`.
     fn first_piola_differential(&self, f: &Matrix3<f64>, df: &Matrix3<f64>) -> Matrix3<f64>;
 
     /// `dP(F; dF_k)` for several directions `dF_k` at the same `F`. Override when the

@@ -16,7 +16,7 @@ use crate::{Lame, Material, MaterialError, NeoHookean, StVenantKirchhoff};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum MaterialKind {
-    /// [`StVenantKirchhoff`], seed 000 Eq. 6-9.
+    /// [`StVenantKirchhoff`], Wang et al. 2015, Eq. 6-9.
     #[serde(alias = "stvk")]
     StVenantKirchhoff,
     /// [`NeoHookean`].
@@ -54,7 +54,7 @@ impl fmt::Display for MaterialKind {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "model", rename_all = "kebab-case")]
 pub enum MaterialModel {
-    /// St. Venant-Kirchhoff (seed 000 Eq. 6-9).
+    /// St. Venant-Kirchhoff (Wang et al. 2015, Eq. 6-9).
     #[serde(alias = "stvk")]
     StVenantKirchhoff(StVenantKirchhoff),
     /// Compressible neo-Hookean.

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::{Lame, Material, MaterialError};
 
 /// Compressible neo-Hookean material (Bonet and Wood, *Nonlinear Continuum Mechanics for Finite
-/// Element Analysis*, Eq. 6.27), an alternative to the St. Venant-Kirchhoff law of seed 000 Eq. 6
+/// Element Analysis*, Eq. 6.27), an alternative to the St. Venant-Kirchhoff law of Wang et al. 2015, Eq. 6
 /// that resists compression and inversion.
 ///
 /// With `J = det F` and `I1 = tr(F^T F)`:

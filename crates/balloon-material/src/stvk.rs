@@ -1,11 +1,11 @@
-//! St. Venant-Kirchhoff material, seed 000 Eq. 6, 7, 9.
+//! St. Venant-Kirchhoff material, Wang et al. 2015, Eq. 6, 7, 9.
 
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
 use crate::{Lame, Material, MaterialError};
 
-/// St. Venant-Kirchhoff hyperelastic material (seed 000, Eq. 6-9).
+/// St. Venant-Kirchhoff hyperelastic material (Wang et al. 2015, Eq. 6-9).
 ///
 /// With the Green strain `E = (F^T F - I) / 2` (Eq. 7):
 ///

@@ -168,7 +168,7 @@ fn cauchy_green(
 
 /// Mean in-plane stretch of each face, `sqrt(A / A0)` (deformed over rest area), one value per
 /// triangle. For an equibiaxially stretched sphere it equals the stretch ratio `lambda` used by
-/// the shell analytic solution (seed 000, Sec. 7).
+/// the shell analytic solution (Wang et al. 2015, Sec. 7).
 pub fn face_area_stretch(
     rest: &[f64],
     x: &[f64],
@@ -187,7 +187,7 @@ pub fn face_area_stretch(
 
 /// Largest principal in-plane stretch of each face: the square root of the larger eigenvalue of
 /// `C = F^T F`, with `F` the 3x2 in-plane deformation gradient (the same constant-strain
-/// triangle kinematics as the membrane part of the three-prism element, seed 000 Sec. 4).
+/// triangle kinematics as the membrane part of the three-prism element, Wang et al. 2015, Sec. 4).
 pub fn face_max_stretch(
     rest: &[f64],
     x: &[f64],
@@ -207,7 +207,7 @@ pub fn face_max_stretch(
 }
 
 /// [`face_area_stretch`] that gives `NaN` ("undefined") for degenerate rest triangles instead
-/// of failing: triangle soups (seed 003 takes any) may hold zero-area triangles, whose stretch
+/// of failing: triangle soups (Diziol, Bender and Bayer 2011 takes any) may hold zero-area triangles, whose stretch
 /// has no meaning while every other face's has. Other input errors still fail.
 pub fn face_area_stretch_or_nan(
     rest: &[f64],
@@ -318,7 +318,7 @@ pub fn vertex_normals(x: &[f64], tris: &[[usize; 3]]) -> Result<Vec<f64>, FieldE
 /// `sum_{f ∋ i} e12 x e13` per vertex (flat, m^2): twice the area-weighted normal sum
 /// `2 sum_{f ∋ i} A_f n_f`. The checked form of
 /// [`crate::geometry::vertex_area_normal_sums_flat`]; a pressure `p` puts the force
-/// `p / 6` times this on each vertex (seed 000 Eq. 15).
+/// `p / 6` times this on each vertex (Wang et al. 2015, Eq. 15).
 pub fn vertex_area_normal_sums(x: &[f64], tris: &[[usize; 3]]) -> Result<Vec<f64>, FieldError> {
     let n = vertex_count("x", x)?;
     check_triangles(n, tris)?;

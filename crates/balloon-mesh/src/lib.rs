@@ -4,7 +4,7 @@
 //! errors that name the file, line and element, topology (edges, adjacency, components, genus),
 //! geometry (areas, normals, enclosed volume and its gradient), procedural generators (spheres,
 //! torus, box, implicit shapes, the built-in teddy) and the triangle-soup to tetrahedral-lattice
-//! generator of Diziol, Bender and Bayer (seed 003, Sec. 3).
+//! generator of Diziol, Bender and Bayer (Diziol, Bender and Bayer 2011, Sec. 3).
 //!
 //! **Not for:** physics. Nothing here knows about materials, forces or time.
 //!
@@ -18,10 +18,10 @@
 //! | [`io`] | OBJ, OFF, PLY, STL readers (errors name file + line/byte) and writers |
 //! | [`validate`] | [`validate::validate_closed_manifold`], defect reports, weld / orient / clean |
 //! | [`topology`] | edges, CSR adjacency, one-rings, components, Euler characteristic, genus |
-//! | [`geometry`] | areas, normals, enclosed volume (seed 000, Eq. 13) and its gradient |
+//! | [`geometry`] | areas, normals, enclosed volume (Wang et al. 2015, Eq. 13) and its gradient |
 //! | [`fields`] | checked per-face / per-vertex fields for output: stretches, normals, speeds |
 //! | [`generate`] | spheres, torus, box, implicit surfaces, the procedural teddy |
-//! | [`tet`], [`lattice`] | tetrahedral meshes and the seed-003 lattice generator |
+//! | [`tet`], [`lattice`] | tetrahedral meshes and the lattice generator of Diziol, Bender and Bayer 2011 |
 //!
 //! ```
 //! let mesh = balloon_mesh::load("builtin:icosphere").unwrap();

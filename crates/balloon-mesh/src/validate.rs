@@ -479,7 +479,7 @@ pub fn remove_degenerate_triangles(mesh: &TriMesh, tol: f64) -> TriMesh {
 
 /// Makes the orientation consistent (breadth-first over each edge-connected component, flipping
 /// triangles to match their neighbours), then flips every component whose enclosed volume
-/// (divergence theorem, seed 000 Eq. 13) is negative so that normals point outward.
+/// (divergence theorem, Wang et al. 2015, Eq. 13) is negative so that normals point outward.
 ///
 /// # Errors
 /// [`MeshError::InvalidMesh`] when an index is out of range, an edge is non-manifold, or a

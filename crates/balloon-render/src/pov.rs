@@ -1,4 +1,4 @@
-//! POV-Ray scene export of one frame: the paper's own rendering pipeline (seed 000 renders its
+//! POV-Ray scene export of one frame: the paper's own rendering pipeline (Wang et al. 2015 renders its
 //! balloons with POV-Ray).
 //!
 //! The scene holds a `mesh2` (vertex positions, smooth vertex normals from

@@ -1,5 +1,5 @@
 //! Rigid scene objects drawn beside the simulated surface: a sphere (the falling ball of the
-//! volumetric drop-sphere scene, seed 003 Fig. 4) and a floor plane.
+//! volumetric drop-sphere scene, Diziol, Bender and Bayer 2011, Fig. 4) and a floor plane.
 //!
 //! The rasteriser draws a [`Prop`] through its triangulation ([`Prop::mesh`]: an icosphere, or
 //! a square grid on the plane), in its own solid colour; the POV-Ray export writes the exact

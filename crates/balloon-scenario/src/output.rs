@@ -27,6 +27,9 @@ pub enum FrameFormat {
     /// VTK XML PolyData `.vtp` with the fields (velocity, thickness, stretch, ...) and a
     /// `series.pvd` time series for ParaView.
     Vtk,
+    /// One USD stage `run.usda` for the whole run (Blender, Houdini, usdview): a mesh per body,
+    /// time-sampled points, the fields as primvars.
+    Usd,
 }
 
 impl FrameFormat {
@@ -36,6 +39,7 @@ impl FrameFormat {
             FrameFormat::Obj => "obj",
             FrameFormat::Ply => "ply",
             FrameFormat::Vtk => "vtp",
+            FrameFormat::Usd => "usda",
         }
     }
 }
@@ -94,7 +98,8 @@ choices!(
     [
         (FrameFormat::Obj, "obj"),
         (FrameFormat::Ply, "ply"),
-        (FrameFormat::Vtk, "vtk")
+        (FrameFormat::Vtk, "vtk"),
+        (FrameFormat::Usd, "usd")
     ]
 );
 

@@ -13,12 +13,12 @@
 //!   frames instead of queueing them.
 //! * A failing step pauses the simulation and sends an `error` message to every client; the
 //!   server keeps running and `reset` rebuilds.
-//! * Drags (seed 004 Sec. 4.4's mouse spring): the shell gets zero-length springs from the
+//! * Drags (Song 2009, Sec. 4.4's mouse spring): the shell gets zero-length springs from the
 //!   picked vertex's neighbourhood to the target, inside backward Euler's implicit solve
 //!   (`ShellSimulation::set_anchor_springs`; a pinch squeezes the neighbourhood towards the
 //!   target); the volumetric body a damped spring on the picked surface point, spread to the four
 //!   particles that carry it by their barycentric weights and applied as an impulse `h F` in each
-//!   step (seed 003, Eq. 1); the two-layer object seed 004's drag spring on the picked outer
+//!   step (Diziol, Bender and Bayer 2011, Eq. 1); the two-layer object Song 2009's drag spring on the picked outer
 //!   particle.
 //! * A panic inside a step or a command is caught and treated like a failing step, and so is a
 //!   step that leaves a non-finite position: no frame ever carries one (the last finite frame
@@ -73,11 +73,11 @@ use thiserror::Error;
 /// Which simulation to view.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SystemKind {
-    /// Shell balloon with thickness (seed 000).
+    /// Shell balloon with thickness (Wang et al. 2015).
     Shell,
-    /// Volume-conserving lattice body (seed 003).
+    /// Volume-conserving lattice body (Diziol, Bender and Bayer 2011).
     Volumetric,
-    /// Two-layer elastic sphere (seed 004).
+    /// Two-layer elastic sphere (Song 2009).
     TwoLayer,
 }
 

@@ -1,4 +1,4 @@
-//! The default drop-sphere scene of `balloon volumetric` (seed 003, Fig. 4, scaled to the body;
+//! The default drop-sphere scene of `balloon volumetric` (Diziol, Bender and Bayer 2011, Fig. 4, scaled to the body;
 //! issue 16) on every shared model and the built-in teddy, at their natural size: built exactly
 //! as the command builds it (`balloon_scenario::volumetric::VolumetricScenario::build`: lattice sized for about 1000
 //! cells, springs and time step from the particle mass, sphere size, height and speed from the

@@ -1,4 +1,4 @@
-//! Shell balloon cases (seed 000): analytic sphere (pressure-stretch curve, two resolutions, StVK
+//! Shell balloon cases (Wang et al. 2015): analytic sphere (pressure-stretch curve, two resolutions, StVK
 //! and neo-Hookean), thickness scaling, gas law, pressure equilibrium, shell-volume ratio over a
 //! long teddy inflation, and the before / after render.
 

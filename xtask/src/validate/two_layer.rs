@@ -1,4 +1,4 @@
-//! Two-layer elastic objects (seed 004): measured orders of the explicit integrators, energy
+//! Two-layer elastic objects (Song 2009): measured orders of the explicit integrators, energy
 //! drift of an undamped body, and the settled radii of a pressurised two-layer circle against
 //! the analytic radial force balance (docs/two-layer.md).
 
@@ -11,9 +11,9 @@ use balloon::two_layer::{ExplicitMethod, SpringKind, TwoLayerBody};
 
 const G: &str = "two-layer";
 
-/// The 1D hanging spring (seed Sec. 3.3) released at its rest length is a harmonic oscillator
+/// The 1D hanging spring (Song 2009, Sec. 3.3) released at its rest length is a harmonic oscillator
 /// about `L + m g / k`: `x(t) = -L - (m g / k)(1 - cos(omega t))`. The global error at t = 1 s
-/// must fall like `dt^order` (Euler and symplectic Euler 1, midpoint 2, RK4 4; seed Ch. 5).
+/// must fall like `dt^order` (Euler and symplectic Euler 1, midpoint 2, RK4 4; Song 2009, Ch. 5).
 fn orders(figs: &mut Figures, cases: &mut Vec<Case>) -> Result<()> {
     let (mass, k, g, length): (f64, f64, f64, f64) = (1.0, 100.0, 9.81, 0.5);
     let omega = (k / mass).sqrt();

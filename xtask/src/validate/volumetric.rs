@@ -1,4 +1,4 @@
-//! Volume-conserving impulse-based bodies (seed 003): per-cell volume error, momentum drift of a
+//! Volume-conserving impulse-based bodies (Diziol, Bender and Bayer 2011): per-cell volume error, momentum drift of a
 //! free body, generated (lattice) volume vs the enclosed volume of the input surface, and the
 //! drop-sphere scene (contacts + volume impulses).
 
@@ -18,7 +18,7 @@ use nalgebra::Vector3;
 const G: &str = "volumetric";
 
 /// A free body (no gravity, no contacts) with pseudo-random initial velocities: every step must
-/// end with every cell at its rest volume (seed 003, Eq. 1-2, tolerance 1e-10), and since the
+/// end with every cell at its rest volume (Diziol, Bender and Bayer 2011, Eq. 1-2, tolerance 1e-10), and since the
 /// volume impulses and springs are internal, the linear momentum must not change.
 ///
 /// Run once with the paper's Gauss-Seidel sweeps and once with the global Newton solve of all
@@ -130,7 +130,7 @@ fn free_body(opts: &Options, solver: CellSolver, cases: &mut Vec<Case>) -> Resul
 }
 
 /// The lattice fills the soup: its volume must be close to the enclosed volume of the input
-/// surface (the voxel boundary cuts corners and bulges by about half a voxel; the seed's
+/// surface (the voxel boundary cuts corners and bulges by about half a voxel; the paper's
 /// smoothing keeps the volume). 3% at `resolution` voxels across (48 for a sphere; thin parts
 /// such as ears and horns need more).
 fn generated_volume(name: &str, soup: &TriMesh, resolution: usize, cases: &mut Vec<Case>) {
@@ -154,7 +154,7 @@ fn generated_volume(name: &str, soup: &TriMesh, resolution: usize, cases: &mut V
     }
 }
 
-/// The drop-sphere scene (seed 003, Fig. 4): a rigid sphere falls onto a soft cube on a floor.
+/// The drop-sphere scene (Diziol, Bender and Bayer 2011, Fig. 4): a rigid sphere falls onto a soft cube on a floor.
 /// With contacts every step must still end with all cells at their rest volume (measured from
 /// the particle positions, not the solver's own error), the sphere must touch the cube (else the
 /// contact cases below would hold vacuously) and no particle may enter the sphere.

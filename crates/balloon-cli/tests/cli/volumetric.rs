@@ -318,7 +318,7 @@ fn drop_sphere_impact_with_the_global_solver_keeps_every_cell_and_the_sphere_out
         .collect();
     let cell = lattice.info.cell_size;
     let sphere0 = *sim.sphere().unwrap();
-    // The contacts act between the sphere and the particles (seed 003 Sec. 5), so a sphere
+    // The contacts act between the sphere and the particles (Diziol, Bender and Bayer 2011, Sec. 5), so a sphere
     // resting on the corners of a boundary triangle dips into it by at most the sagitta
     // `r - sqrt(r^2 - R^2)` of the triangle's circumradius R. The bound takes the largest rest
     // circumradius, stretched by 25 % for the deformation under the impact.

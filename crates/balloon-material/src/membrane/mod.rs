@@ -27,7 +27,7 @@
 //! | [`ThinSphere`] | the analytic inflated thin sphere `P(l)` and its extrema | |
 //!
 //! The derivation, equation by equation, is in `docs/membranes.md`. These models replace the
-//! St. Venant-Kirchhoff law of seed 000 (Eq. 6-9) for a shell that must show the pressure
+//! St. Venant-Kirchhoff law of Wang et al. 2015 (Eq. 6-9) for a shell that must show the pressure
 //! maximum of a real balloon; the element that uses them is `balloon_element::HyperMembrane`.
 //!
 //! ```
@@ -70,7 +70,7 @@ use nalgebra::{Matrix2, Matrix3};
 /// Implementors keep [`MembraneMaterial::stress`] the exact derivative `2 dW/dC` of
 /// [`MembraneMaterial::energy`] and [`MembraneMaterial::stress_differential`] the exact
 /// directional derivative of the stress; the crate's finite-difference tests check it for every
-/// model, and the element and Newton solver rely on it (seed 000 Eq. 8, 11).
+/// model, and the element and Newton solver rely on it (Wang et al. 2015, Eq. 8, 11).
 ///
 /// Outside the admissible set ([`MembraneMaterial::is_admissible`]: `det C > 0`, finite, and a
 /// model-specific limit such as Gent's `I1 - 3 < jm`) the energy is `+infinity` and the stresses

@@ -1,11 +1,11 @@
 //! Procedural mesh generators. All return closed, outward-oriented triangle meshes.
 //!
-//! * spheres: [`icosphere`], [`octahedron_sphere`], [`uv_sphere`] (seed 004, Sec. 3.4);
-//! * [`torus`], the subdivided box [`box_mesh`] and the 12-triangle [`cube_soup`] (seed 003's
+//! * spheres: [`icosphere`], [`octahedron_sphere`], [`uv_sphere`] (Song 2009, Sec. 3.4);
+//! * [`torus`], the subdivided box [`box_mesh`] and the 12-triangle [`cube_soup`] (Diziol, Bender and Bayer 2011's
 //!   default body);
 //! * [`implicit::implicit_surface`]: any signed distance / implicit function, meshed by marching
 //!   tetrahedra and relaxed onto the surface;
-//! * [`teddy::teddy`]: the procedural teddy bear (seed 000, Fig. 4), built on the implicit mesher;
+//! * [`teddy::teddy`]: the procedural teddy bear (Wang et al. 2015, Fig. 4), built on the implicit mesher;
 //! * [`tube::tube`]: a closed cylinder with hemispherical end caps (the bulging tube).
 
 pub mod implicit;
@@ -115,7 +115,7 @@ pub fn icosphere(radius: f64, subdivisions: u32) -> Result<TriMesh, MeshError> {
     Ok(mesh)
 }
 
-/// Sphere by octahedron subdivision (seed 004, Sec. 3.4): a regular octahedron subdivided `level`
+/// Sphere by octahedron subdivision (Song 2009, Sec. 3.4): a regular octahedron subdivided `level`
 /// times, vertices projected to `radius` (m). Level `n` has `4^(n+1) + 2` vertices.
 pub fn octahedron_sphere(radius: f64, level: u32) -> Result<TriMesh, MeshError> {
     check_radius(radius)?;
@@ -152,7 +152,7 @@ pub fn octahedron_sphere(radius: f64, level: u32) -> Result<TriMesh, MeshError> 
     Ok(mesh)
 }
 
-/// UV sphere (seed 004, Sec. 3.4) of `radius` (m) with `slices` meridians (>= 3) and `stacks`
+/// UV sphere (Song 2009, Sec. 3.4) of `radius` (m) with `slices` meridians (>= 3) and `stacks`
 /// latitude bands (>= 2), two pole vertices. Vertex count `slices * (stacks - 1) + 2`.
 /// Vertex 0 is the north pole (+z), the last vertex the south pole.
 pub fn uv_sphere(radius: f64, slices: usize, stacks: usize) -> Result<TriMesh, MeshError> {
@@ -330,7 +330,7 @@ pub fn box_mesh(size: Vector3<f64>, subdivisions: usize) -> Result<TriMesh, Mesh
 
 /// A closed, outward-oriented axis-aligned cube of side `side` (m) with its minimum corner at
 /// `min`: the 8 corners in the lattice's cell-corner order ([`crate::lattice::CORNERS`]) and 12
-/// triangles, the default body of seed 003's Fig. 4 scene. A negative `side` turns it inside
+/// triangles, the default body of Diziol, Bender and Bayer 2011's Fig. 4 scene. A negative `side` turns it inside
 /// out.
 pub fn cube_soup(min: Point3<f64>, side: f64) -> TriMesh {
     let v: Vec<Point3<f64>> = crate::lattice::CORNERS

@@ -1,4 +1,4 @@
-//! The procedural teddy bear, the stand-in for the paper's Teddy model (seed 000, Fig. 4: "the
+//! The procedural teddy bear, the stand-in for the paper's Teddy model (Wang et al. 2015, Fig. 4: "the
 //! shape of teddy's head is some of a big sphere, on which the ear is some of a small
 //! hemisphere"), which comes from a benchmark whose terms forbid redistribution.
 //!
@@ -335,7 +335,7 @@ pub fn teddy(params: &TeddyParams) -> Result<TriMesh, MeshError> {
 
 /// Labels every vertex of `mesh` (a teddy made by [`teddy`] with the same `params`) with the body
 /// part whose primitive is nearest (smallest signed distance). Used to measure, for instance, how
-/// the ears inflate relative to the head (seed 000, Sec. 5, Fig. 7). Works on deformed copies too
+/// the ears inflate relative to the head (Wang et al. 2015, Sec. 5, Fig. 7). Works on deformed copies too
 /// (labels then follow the rest-shape primitives, so label the rest mesh and keep the labels).
 ///
 /// Infallible: with out-of-range `params` (which [`teddy`] would have rejected) the labels are

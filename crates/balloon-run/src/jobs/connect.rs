@@ -117,7 +117,17 @@ fn frame(sim: &ConnectSim, step: usize) -> Result<Frame> {
     use balloon::Simulation;
     let surface = sim.surface();
     let (mut rest, mut force, mut thickness) = (Vec::new(), Vec::new(), Vec::new());
-    for b in sim.balloons() {
+    let mut bodies = Vec::new();
+    let (mut v0, mut f0) = (0, 0);
+    for (i, b) in sim.balloons().iter().enumerate() {
+        let (nv, nf) = (b.positions().len() / 3, b.triangles().len());
+        bodies.push(crate::output::Body {
+            name: format!("balloon_{i}"),
+            vertices: v0..v0 + nv,
+            faces: f0..f0 + nf,
+            pressure: Some(b.gauge_pressure()),
+        });
+        (v0, f0) = (v0 + nv, f0 + nf);
         rest.extend_from_slice(b.rest_positions());
         force.extend(balloon::fields::pressure_forces(
             b.positions(),
@@ -133,7 +143,8 @@ fn frame(sim: &ConnectSim, step: usize) -> Result<Frame> {
         surface.triangles.to_vec(),
     )
     .with_velocity(Simulation::velocities(sim).to_vec())?
-    .with_stretch(&rest)?;
+    .with_stretch(&rest)?
+    .with_bodies(bodies);
     f.point_data.push(Field::vector("pressure_force", force));
     f.cell_data.push(Field::scalar("thickness", thickness));
     Ok(f)

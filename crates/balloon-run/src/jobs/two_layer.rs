@@ -59,14 +59,12 @@ fn style(dim: u8) -> PictureStyle {
 /// All particles with the drawing triangles (3D: outer and inner surface; 2D: the band between
 /// the layers), velocity, speed, and stretch against the initial positions `rest`.
 fn layer_frame(sim: &TwoLayerSimulation, rest: &[f64], step: usize) -> Result<Frame> {
-    Frame::new(
-        step,
-        sim.time(),
-        sim.positions().to_vec(),
-        sim.model().draw_triangles(),
-    )
-    .with_velocity(sim.velocities().to_vec())?
-    .with_stretch(rest)
+    let tris = sim.model().draw_triangles();
+    let body = crate::output::Body::whole("body", sim.positions().len() / 3, tris.len());
+    Frame::new(step, sim.time(), sim.positions().to_vec(), tris)
+        .with_velocity(sim.velocities().to_vec())?
+        .with_stretch(rest)
+        .map(|f| f.with_bodies(vec![body]))
 }
 
 /// What a two-layer run adds to the shared run loop: the drag window (`drag`) before each

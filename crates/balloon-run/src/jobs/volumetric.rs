@@ -129,9 +129,11 @@ fn surface_frame(sim: &VolumetricSimulation, rest: &[f64], step: usize) -> Resul
     let x = flat(emb.positions(sim.positions()));
     let vel: Vec<Point3<f64>> = sim.velocities().iter().map(|v| Point3::from(*v)).collect();
     let v = flat(emb.positions(&vel));
+    let body = crate::output::Body::whole("body", x.len() / 3, emb.triangles.len());
     Frame::new(step, sim.time(), x, emb.triangles.clone())
         .with_velocity(v)?
         .with_stretch(rest)
+        .map(|f| f.with_bodies(vec![body]))
 }
 
 /// What a volumetric run adds to the shared run loop: the embedded-surface frames, lattice

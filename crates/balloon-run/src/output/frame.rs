@@ -37,6 +37,38 @@ impl Field {
     }
 }
 
+/// One body of a frame's surface (a balloon of a connected set, or the whole surface): the USD
+/// output writes each body as its own mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Body {
+    /// Prim name (a USD identifier: letters, digits, `_`).
+    pub name: String,
+    /// Its vertices in the frame's surface.
+    pub vertices: std::ops::Range<usize>,
+    /// Its triangles in the frame's surface (they use only its vertices).
+    pub faces: std::ops::Range<usize>,
+    /// Gauge pressure of its gas (Pa), when it encloses one.
+    pub pressure: Option<f64>,
+}
+
+impl Body {
+    /// The whole surface of `vertices` vertices and `faces` triangles as one body.
+    pub fn whole(name: &str, vertices: usize, faces: usize) -> Self {
+        Self {
+            name: name.into(),
+            vertices: 0..vertices,
+            faces: 0..faces,
+            pressure: None,
+        }
+    }
+
+    /// The same body with gauge pressure `pressure` (Pa).
+    pub fn with_pressure(mut self, pressure: f64) -> Self {
+        self.pressure = Some(pressure);
+        self
+    }
+}
+
 /// One frame of a run: the surface and its fields.
 #[derive(Clone, Debug)]
 pub struct Frame {
@@ -56,6 +88,8 @@ pub struct Frame {
     /// written beside the frame file (`sphere_NNNNN.<ext>`, `floor.<ext>`, see
     /// [`super::OutputDir::frame`]) and drawn in the pictures.
     pub props: Vec<Prop>,
+    /// The bodies the surface is made of (empty: one body, the whole surface).
+    pub bodies: Vec<Body>,
 }
 
 impl Frame {
@@ -69,7 +103,14 @@ impl Frame {
             point_data: Vec::new(),
             cell_data: Vec::new(),
             props: Vec::new(),
+            bodies: Vec::new(),
         }
+    }
+
+    /// The same frame made of `bodies` (see [`Body`]).
+    pub fn with_bodies(mut self, bodies: Vec<Body>) -> Self {
+        self.bodies = bodies;
+        self
     }
 
     /// The same frame with the rigid objects `props` of the scene.

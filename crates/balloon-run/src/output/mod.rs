@@ -4,15 +4,17 @@
 //! the progress bar.
 //!
 //! Frames are OBJ, PLY or VTK XML PolyData (`.vtp`, with per-vertex and per-face fields, listed
-//! with their times in `series.pvd`, rewritten after every frame). Every file is written
+//! with their times in `series.pvd`, rewritten after every frame), or one USD stage `run.usda`
+//! for the whole run ([`usd`]). Every file is written
 //! atomically, and [`OutputDir::finish`] is also called when a run fails, so everything written
 //! so far stays valid.
 
 pub mod frame;
 pub mod pictures;
+pub mod usd;
 
 pub use balloon_scenario::output::ColorField;
-pub use frame::{Field, Frame};
+pub use frame::{Body, Field, Frame};
 pub use pictures::PictureStyle;
 
 use anyhow::{Context, Result, bail};
@@ -37,6 +39,10 @@ pub struct OutputDir {
     pictures: Option<Pictures>,
     /// The floor file (`floor.<ext>`) is written (once: the floor does not move).
     floor_written: bool,
+    /// The run's USD stage (`run.usda`) with the USD format.
+    usd: Option<usd::UsdWriter>,
+    /// The scene's up axis (from the picture style).
+    up: balloon_render::UpAxis,
 }
 
 /// Whether `name` is a file this program writes into an output folder (frames, records,
@@ -51,6 +57,7 @@ fn is_run_file(name: &str) -> bool {
         "run.gif",
         "final.pov",
         "lattice.vtk",
+        "run.usda",
     ];
     let name = name
         .strip_prefix('.')
@@ -68,7 +75,7 @@ fn is_run_file(name: &str) -> bool {
             .and_then(|rest| rest.strip_prefix('.'))
             .is_some_and(|ext| exts.contains(&ext))
     };
-    let frames = ["obj", "ply", "vtp", "tmp"];
+    let frames = ["obj", "ply", "vtp", "usda", "tmp"];
     EXACT.contains(&name)
         || numbered("frame_", &frames)
         || numbered("lattice_", &["vtk"])
@@ -192,6 +199,9 @@ impl OutputDir {
             pvd,
             pictures: None,
             floor_written: false,
+            usd: (format == FrameFormat::Usd)
+                .then(|| usd::UsdWriter::new(&dir.join("run.usda"), balloon_render::UpAxis::Y)),
+            up: balloon_render::UpAxis::Y,
         })
     }
 
@@ -203,6 +213,10 @@ impl OutputDir {
         spec: Option<RenderSpec>,
         style: PictureStyle,
     ) -> Result<Self> {
+        self.up = style.camera.up;
+        if let Some(u) = &mut self.usd {
+            *u = usd::UsdWriter::new(u.path(), style.camera.up);
+        }
         if spec.is_none() && !args.gif && !args.pov {
             return Ok(self);
         }
@@ -256,8 +270,13 @@ impl OutputDir {
     /// `sphereK_NNNNN`), a plane as `floor.<ext>` (one quad, written with the first frame: it
     /// does not move). With VTK, `series.pvd` lists them at the frame's time as parts 1, 2, ...
     /// after the surface (part 0).
+    ///
+    /// With the USD format a frame file is instead a time sample of `run.usda`, which holds the
+    /// props as its own prims ([`usd`]).
     pub fn frame(&mut self, frame: &Frame, as_file: bool) -> Result<()> {
-        if as_file {
+        if let (Some(u), true) = (&mut self.usd, as_file) {
+            u.push(frame)?;
+        } else if as_file {
             let ext = self.format.extension();
             let name = format!("frame_{:05}.{ext}", frame.step);
             let path = self.dir.join(&name);
@@ -328,6 +347,9 @@ impl OutputDir {
     pub fn finish(&mut self, last: &Frame, failed: bool) -> Result<Vec<String>> {
         let mut warnings = Vec::new();
         let dir = self.dir.clone();
+        if let Some(u) = &mut self.usd {
+            u.finish()?;
+        }
         let Some(p) = &mut self.pictures else {
             return Ok(warnings);
         };
@@ -401,6 +423,9 @@ impl OutputDir {
     }
 
     fn write_frame_file(&self, path: &Path, frame: &Frame) -> Result<()> {
+        if self.format == FrameFormat::Usd {
+            return usd::write_single(path, frame, self.up);
+        }
         if self.format == FrameFormat::Vtk {
             let pd: Vec<VtpArray<'_>> = frame
                 .point_data
@@ -449,7 +474,7 @@ impl OutputDir {
             match self.format {
                 FrameFormat::Obj => balloon::mesh::io::write_obj(tmp, &mesh)?,
                 FrameFormat::Ply => balloon::mesh::io::write_ply_binary(tmp, &mesh)?,
-                FrameFormat::Vtk => unreachable!("handled above"),
+                FrameFormat::Vtk | FrameFormat::Usd => unreachable!("handled above"),
             }
             Ok(())
         })

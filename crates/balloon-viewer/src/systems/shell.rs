@@ -1,4 +1,4 @@
-//! The shell balloon (seed 000) in the viewer.
+//! The shell balloon (Wang et al. 2015) in the viewer.
 
 use super::view::*;
 use crate::ViewerError;
@@ -99,7 +99,7 @@ pub(super) struct ShellDrag {
     pub(super) neighbours: Vec<(usize, f64, Vector3<f64>)>,
 }
 
-/// A shell balloon (seed 000) in the viewer.
+/// A shell balloon (Wang et al. 2015) in the viewer.
 pub struct ShellView {
     pub(super) mesh: TriMesh,
     pub(super) settings: ShellSettings,
@@ -366,7 +366,7 @@ impl ViewSystem for ShellView {
                 return fields::vertex_speeds(self.sim.velocities()).map_err(ViewerError::from);
             }
             "pressure_force" => {
-                // |f_p| per vertex (seed 000 Eq. 15), the norm of each vertex's 3-vector.
+                // |f_p| per vertex (Wang et al. 2015, Eq. 15), the norm of each vertex's 3-vector.
                 let f = fields::pressure_forces(x, t, self.sim.gauge_pressure())
                     .map_err(ViewerError::from)?;
                 return fields::vertex_speeds(&f).map_err(ViewerError::from);

@@ -249,7 +249,7 @@ fn two_layer_view_drags_an_outer_particle() {
 
 #[test]
 fn volumetric_view_colours_a_soup_with_a_zero_area_triangle() {
-    // Seed 003 takes any soup; a sliver of three collinear points has no stretch (NaN, drawn
+    // Diziol, Bender and Bayer 2011 takes any soup; a sliver of three collinear points has no stretch (NaN, drawn
     // neutral) while every other vertex gets its value.
     let mut soup = balloon::mesh::generate::icosphere(0.1, 2).unwrap();
     let n = soup.vertices.len();

@@ -1,4 +1,4 @@
-//! The two-layer body (seed 004) in the viewer.
+//! The two-layer body (Song 2009) in the viewer.
 
 use super::view::*;
 use crate::ViewerError;
@@ -51,14 +51,14 @@ impl TwoLayerControl {
     }
 }
 
-/// A two-layer sphere (seed 004) in a box in the viewer.
+/// A two-layer sphere (Song 2009) in a box in the viewer.
 pub struct TwoLayerView {
     pub(super) settings: TwoLayerSettings,
     pub(super) sim: TwoLayerSimulation,
     pub(super) drag: Option<DragRequest>,
 }
 
-/// Drag spring of the two-layer view (seed Sec. 4.4): stiffness N/m and damping N s/m (the
+/// Drag spring of the two-layer view (Song 2009, Sec. 4.4): stiffness N/m and damping N s/m (the
 /// damping keeps the whole 5 kg body from swinging about the target; `c dt / m` stays below 1
 /// for a 0.01 kg particle at the largest dt).
 const TWO_LAYER_DRAG: (f64, f64) = (20.0, 4.0);

@@ -1,4 +1,4 @@
-//! The volumetric body (seed 003) in the viewer.
+//! The volumetric body (Diziol, Bender and Bayer 2011) in the viewer.
 
 use super::view::*;
 use crate::ViewerError;
@@ -61,7 +61,7 @@ impl VolumetricControl {
     }
 }
 
-/// A volume-conserving lattice body (seed 003) on a floor in the viewer.
+/// A volume-conserving lattice body (Diziol, Bender and Bayer 2011) on a floor in the viewer.
 pub struct VolumetricView {
     pub(super) soup: TriMesh,
     pub(super) settings: VolumetricSettings,
