@@ -102,7 +102,7 @@ impl DesignProblem {
             ));
         }
         let volume = enclosed_volume(&x, &target.triangles);
-        if !(volume > 0.0) {
+        if volume.is_nan() || volume <= 0.0 {
             return Err(DesignError::Target(format!(
                 "the enclosed volume is {volume:e} m^3; the target must be a closed mesh with \
                  outward-oriented triangles"
