@@ -22,6 +22,7 @@
 
 pub mod choices;
 pub mod cmd_connect;
+pub mod cmd_design;
 pub mod cmd_inflate;
 pub mod cmd_mesh;
 pub mod cmd_run;

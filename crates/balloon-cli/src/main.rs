@@ -7,7 +7,8 @@
 //! Run `balloon <subcommand> --help` for the flags and their defaults.
 
 use balloon_cli::{
-    cmd_connect, cmd_inflate, cmd_mesh, cmd_run, cmd_two_layer, cmd_view, cmd_volumetric, interrupt,
+    cmd_connect, cmd_design, cmd_inflate, cmd_mesh, cmd_run, cmd_two_layer, cmd_view,
+    cmd_volumetric, interrupt,
 };
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
@@ -39,6 +40,9 @@ enum Command {
     /// `volumetric` or `two-layer`, whose flags are the keys, grouped in tables); flags after
     /// the file override it (docs/scenarios.md).
     Run(cmd_run::RunArgs),
+    /// Design the rest shape that inflates to a target shape at a given pressure (inverse
+    /// statics, docs/design.md), checked by a forward static solve.
+    Design(cmd_design::DesignArgs),
     /// Watch and steer a simulation live in the browser (local server, loopback only).
     View(cmd_view::ViewArgs),
 }
@@ -60,6 +64,7 @@ fn main() -> std::process::ExitCode {
             | Command::Volumetric(_)
             | Command::TwoLayer(_)
             | Command::Run(_)
+            | Command::Design(_)
     ) && let Err(e) = interrupt::install()
     {
         eprintln!(
@@ -74,6 +79,7 @@ fn main() -> std::process::ExitCode {
         Command::TwoLayer(a) => cmd_two_layer::run(&a, &sub("two-layer")),
         Command::Run(a) => cmd_run::run(a),
         Command::View(a) => cmd_view::run(a),
+        Command::Design(a) => cmd_design::run(&a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

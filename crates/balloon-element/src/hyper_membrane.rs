@@ -9,6 +9,8 @@ use crate::expand::edge_to_vertex_hessian;
 use crate::prism::project_psd;
 use crate::triangle::{check_area, check_positions, rest_triangle};
 
+mod rest_derivative;
+
 const NAME: &str = "hyper membrane";
 
 /// A constant-strain triangle of an incompressible rubber membrane (plane stress), for the

@@ -7,6 +7,8 @@ use crate::ElementError;
 use crate::expand::edge_to_vertex_hessian;
 use crate::triangle::{check_area, check_positions, rest_triangle};
 
+mod rest_derivative;
+
 const NAME: &str = "three-prism";
 
 /// Rest data of one three-prism element: a triangle extruded along its unit normal by a thickness

@@ -194,14 +194,14 @@ fn three_prism_derivatives_neo_hookean() {
 /// normal-lever terms vanish identically (see `docs/elements.md`); this material has
 /// thickness-plane shear stress, so it exercises them.
 #[derive(Clone, Debug)]
-struct FibreMaterial {
+pub(crate) struct FibreMaterial {
     base: StVenantKirchhoff,
     k: f64,
     a: Vector3<f64>,
 }
 
 impl FibreMaterial {
-    fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self {
             base: StVenantKirchhoff::new(lame()),
             k: 3.0e6,

@@ -2,6 +2,7 @@
 
 mod anchors;
 mod connect;
+mod design;
 mod gas_laws;
 mod help;
 mod inflate;

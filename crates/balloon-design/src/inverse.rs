@@ -1,0 +1,393 @@
+//! The inverse-statics solve: Levenberg-Marquardt (regularised Gauss-Newton) on the rest
+//! positions with the exact Jacobian, under pressure continuation (`docs/design.md`).
+
+use balloon_linalg::{CsrMatrix, SparseCholesky};
+use serde::{Deserialize, Serialize};
+
+use crate::DesignError;
+use crate::problem::DesignProblem;
+
+/// Parameters of [`design_rest_shape`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct InverseParams {
+    /// Relative residual `|r| / |p g|` at which the full-pressure stage stops (default `1e-9`).
+    pub tolerance: f64,
+    /// Relative residual at which an intermediate continuation stage stops (default `1e-4`).
+    pub stage_tolerance: f64,
+    /// Gauss-Newton iterations allowed per stage (default 60).
+    pub max_iterations: usize,
+    /// Halvings of the pressure increment before the solve gives up (default 12).
+    pub max_halvings: usize,
+    /// First Levenberg-Marquardt damping relative to the mean diagonal of `J^T J` (default
+    /// `1e-6`).
+    pub initial_damping: f64,
+    /// Weight `beta` of the tangential regulariser relative to the mean diagonal of `J^T J`
+    /// (default `0`): the term `beta/2 sum_v a_v |(I - n_v n_v^T)(X_v - X_v^ref)|^2`, `n_v` the
+    /// target's vertex normal, `a_v` its vertex area over the mean, `X^ref` the rest shape at
+    /// the start of the stage. Zero keeps the design exact; a positive value keeps the rest
+    /// mesh's tangential spacing close to the target's where the equations leave it free (flat
+    /// regions) at the price of a residual of order `beta`.
+    pub tangential_weight: f64,
+}
+
+impl Default for InverseParams {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-9,
+            stage_tolerance: 1e-4,
+            max_iterations: 60,
+            max_halvings: 12,
+            initial_damping: 1e-6,
+            tangential_weight: 0.0,
+        }
+    }
+}
+
+impl InverseParams {
+    /// Checks every parameter; the error names the first one out of range.
+    ///
+    /// # Errors
+    /// [`DesignError::InvalidParameter`].
+    pub fn validate(&self) -> Result<(), DesignError> {
+        for (name, value, ok) in [
+            ("tolerance", self.tolerance, self.tolerance > 0.0),
+            (
+                "stage_tolerance",
+                self.stage_tolerance,
+                self.stage_tolerance > 0.0,
+            ),
+            (
+                "initial_damping",
+                self.initial_damping,
+                self.initial_damping > 0.0,
+            ),
+            (
+                "tangential_weight",
+                self.tangential_weight,
+                self.tangential_weight >= 0.0,
+            ),
+            (
+                "max_iterations",
+                self.max_iterations as f64,
+                self.max_iterations > 0,
+            ),
+        ] {
+            if !(value.is_finite() && ok) {
+                return Err(DesignError::InvalidParameter {
+                    name,
+                    value,
+                    allowed: "a finite value in range (see InverseParams)",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What [`design_rest_shape`] found.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct InverseInfo {
+    /// Whether the full pressure was reached with the residual below the tolerance.
+    pub converged: bool,
+    /// The load factor reached (1 = the full pressure).
+    pub load_reached: f64,
+    /// `|r| / |p g|` at the end.
+    pub relative_residual: f64,
+    /// Gauss-Newton iterations, all stages.
+    pub iterations: usize,
+    /// Continuation stages solved.
+    pub stages: usize,
+    /// Halvings of the pressure increment.
+    pub halvings: usize,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// Progress of a design, reported after every accepted iteration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InverseProgress {
+    /// The stage's load factor.
+    pub load: f64,
+    /// The relative residual.
+    pub relative_residual: f64,
+    /// Iterations so far.
+    pub iterations: usize,
+}
+
+struct Solver<'a> {
+    problem: &'a DesignProblem,
+    params: InverseParams,
+    scale: f64,
+    /// Tangential projectors times vertex area weights (`docs/design.md`, D11), per vertex.
+    tangential: Vec<nalgebra::Matrix3<f64>>,
+    chol: SparseCholesky,
+    pattern: u64,
+    damping: f64,
+}
+
+/// Finds the rest shape `X` whose static equilibrium under the problem's pressure is the
+/// target, starting from `start` (flat, m; the target itself is the natural start: it is the
+/// exact answer at zero pressure), and overwrites `start` with it.
+///
+/// The pressure is applied in full first and, when a stage does not converge, in increments
+/// halved as needed (a continuation from the zero-pressure answer `X = x*`). Each stage runs
+/// Levenberg-Marquardt on `|r(X)|^2 / 2` with the exact Jacobian (`docs/design.md`). On
+/// return `start` holds the last converged stage's rest shape; `progress` is called after every
+/// accepted iteration and stops the solve when it returns `false` (the best shape so far is kept).
+///
+/// # Errors
+/// An invalid parameter, a linear solve that fails outright. Non-convergence is not an error:
+/// [`InverseInfo::converged`] is `false` and [`InverseInfo::load_reached`] says how far it got.
+pub fn design_rest_shape(
+    problem: &DesignProblem,
+    params: &InverseParams,
+    start: &mut [f64],
+    mut progress: impl FnMut(&InverseProgress) -> bool,
+) -> Result<InverseInfo, DesignError> {
+    params.validate()?;
+    let started = std::time::Instant::now();
+    let scale = problem
+        .pressure_forces()
+        .iter()
+        .map(|v| v * v)
+        .sum::<f64>()
+        .sqrt();
+    let mut solver = Solver {
+        problem,
+        params: *params,
+        scale,
+        tangential: tangential_weights(problem),
+        chol: SparseCholesky::new(),
+        pattern: 0,
+        damping: params.initial_damping,
+    };
+    let mut info = InverseInfo {
+        converged: false,
+        load_reached: 0.0,
+        relative_residual: f64::INFINITY,
+        iterations: 0,
+        stages: 0,
+        halvings: 0,
+        seconds: 0.0,
+    };
+    let mut load = 0.0;
+    let mut step = 1.0f64;
+    let mut stopped = false;
+    while load < 1.0 && !stopped {
+        let next = (load + step).min(1.0);
+        let tol = if next >= 1.0 {
+            params.tolerance
+        } else {
+            params.stage_tolerance.max(params.tolerance)
+        };
+        let mut trial = start.to_vec();
+        let outcome = solver.stage(&mut trial, next, tol, &mut info, &mut progress)?;
+        match outcome {
+            Stage::Converged(res) => {
+                start.copy_from_slice(&trial);
+                load = next;
+                info.stages += 1;
+                info.load_reached = load;
+                info.relative_residual = res;
+                // Grow the increment again after an easy stage.
+                step = (step * 2.0).min(1.0);
+            }
+            Stage::Stopped => {
+                stopped = true;
+            }
+            Stage::Failed => {
+                if info.halvings >= params.max_halvings {
+                    break;
+                }
+                info.halvings += 1;
+                step *= 0.5;
+            }
+        }
+    }
+    if load < 1.0 {
+        // Report the residual of the kept shape at the full pressure.
+        info.relative_residual = match problem.residual(start, 1.0) {
+            Ok(r) => norm(&r) / scale,
+            Err(_) => f64::INFINITY,
+        };
+    }
+    info.converged = load >= 1.0 && info.relative_residual <= params.tolerance;
+    info.seconds = started.elapsed().as_secs_f64();
+    Ok(info)
+}
+
+enum Stage {
+    Converged(f64),
+    Failed,
+    Stopped,
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|a| a * a).sum::<f64>().sqrt()
+}
+
+/// Per vertex `a_v (I - n_v n_v^T)` with `n_v` the area-weighted unit normal of the target and
+/// `a_v` the vertex area over the mean vertex area.
+fn tangential_weights(problem: &DesignProblem) -> Vec<nalgebra::Matrix3<f64>> {
+    let x = problem.target();
+    let nv = x.len() / 3;
+    let mut normals = vec![nalgebra::Vector3::zeros(); nv];
+    for t in problem.triangles() {
+        let [a, b, c] = crate::problem::corners(x, t);
+        let n = (b - a).cross(&(c - a));
+        for &v in t {
+            normals[v] += n;
+        }
+    }
+    let mean = normals.iter().map(|n| n.norm()).sum::<f64>() / nv as f64;
+    normals
+        .iter()
+        .map(|n| {
+            let a = n.norm();
+            let u = n / a;
+            (nalgebra::Matrix3::identity() - u * u.transpose()) * (a / mean)
+        })
+        .collect()
+}
+
+impl Solver<'_> {
+    /// One continuation stage at load factor `load`: Levenberg-Marquardt from `x` until the
+    /// relative residual is below `tol`.
+    fn stage(
+        &mut self,
+        x: &mut [f64],
+        load: f64,
+        tol: f64,
+        info: &mut InverseInfo,
+        progress: &mut impl FnMut(&InverseProgress) -> bool,
+    ) -> Result<Stage, DesignError> {
+        let reference = x.to_vec();
+        let beta = self.params.tangential_weight;
+        let n = x.len();
+        let objective = |s: &Self, x: &[f64], r: &[f64], mean_diag: f64| -> f64 {
+            let mut phi = 0.5 * r.iter().map(|v| v * v).sum::<f64>();
+            if beta > 0.0 {
+                for (v, w) in s.tangential.iter().enumerate() {
+                    let d = nalgebra::Vector3::from_fn(|k, _| x[3 * v + k] - reference[3 * v + k]);
+                    phi += 0.5 * beta * mean_diag * d.dot(&(w * d));
+                }
+            }
+            phi
+        };
+        let Ok((mut r, mut j)) = self.problem.residual_and_jacobian(x, load) else {
+            return Ok(Stage::Failed);
+        };
+        let mut mean_diag = 0.0;
+        for it in 0..self.params.max_iterations {
+            let res = norm(&r) / self.scale;
+            if res <= tol {
+                return Ok(Stage::Converged(res));
+            }
+            // Normal equations (J^T J + beta T + mu I) dX = -(J^T r + beta T (X - X_ref)).
+            let jt = j.transpose_view().to_csr();
+            let jtj = &jt * &j;
+            let diag_sum: f64 = (0..n).map(|i| jtj.get(i, i).copied().unwrap_or(0.0)).sum();
+            if it == 0 {
+                mean_diag = diag_sum / n as f64;
+            }
+            let mut g = vec![0.0; n];
+            for (row, vec) in jt.outer_iterator().enumerate() {
+                g[row] = vec.iter().map(|(c, v)| v * r[c]).sum();
+            }
+            if beta > 0.0 {
+                for (v, w) in self.tangential.iter().enumerate() {
+                    let d = nalgebra::Vector3::from_fn(|k, _| x[3 * v + k] - reference[3 * v + k]);
+                    let wd = w * d * (beta * mean_diag);
+                    for k in 0..3 {
+                        g[3 * v + k] += wd[k];
+                    }
+                }
+            }
+            let phi0 = objective(self, x, &r, mean_diag);
+            let mut accepted = false;
+            for _ in 0..30 {
+                let a = self.normal_matrix(&jtj, beta * mean_diag, self.damping * mean_diag);
+                self.pattern += 1;
+                self.chol
+                    .factorize(&a, self.pattern)
+                    .map_err(|e| DesignError::Linear(e.to_string()))?;
+                let mut dx: Vec<f64> = g.iter().map(|v| -v).collect();
+                self.chol
+                    .solve_in_place(&mut dx)
+                    .map_err(|e| DesignError::Linear(e.to_string()))?;
+                let trial: Vec<f64> = x.iter().zip(&dx).map(|(a, b)| a + b).collect();
+                if let Ok(rt) = self.problem.residual(&trial, load) {
+                    let phi = objective(self, &trial, &rt, mean_diag);
+                    if phi < phi0 {
+                        x.copy_from_slice(&trial);
+                        self.damping = (self.damping / 3.0).max(1e-12);
+                        accepted = true;
+                        break;
+                    }
+                }
+                self.damping *= 4.0;
+            }
+            info.iterations += 1;
+            if !accepted {
+                return Ok(Stage::Failed);
+            }
+            let Ok((rn, jn)) = self.problem.residual_and_jacobian(x, load) else {
+                return Ok(Stage::Failed);
+            };
+            r = rn;
+            j = jn;
+            let report = InverseProgress {
+                load,
+                relative_residual: norm(&r) / self.scale,
+                iterations: info.iterations,
+            };
+            if !progress(&report) {
+                return Ok(Stage::Stopped);
+            }
+        }
+        let res = norm(&r) / self.scale;
+        Ok(if res <= tol {
+            Stage::Converged(res)
+        } else {
+            Stage::Failed
+        })
+    }
+
+    /// `J^T J + beta T + mu I` as a [`CsrMatrix`] (both triangles stored).
+    fn normal_matrix(&self, jtj: &sprs::CsMat<f64>, beta: f64, mu: f64) -> CsrMatrix {
+        let n = jtj.rows();
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        let mut col_idx = Vec::with_capacity(jtj.nnz() + n);
+        let mut values = Vec::with_capacity(jtj.nnz() + n);
+        row_ptr.push(0);
+        for (row, vec) in jtj.outer_iterator().enumerate() {
+            let v = row / 3;
+            let k = row % 3;
+            let mut entries: Vec<(usize, f64)> = vec.iter().map(|(c, &a)| (c, a)).collect();
+            // The vertex block of the regulariser and the damping on the diagonal.
+            for l in 0..3 {
+                let c = 3 * v + l;
+                let mut add = beta * self.tangential[v][(k, l)];
+                if c == row {
+                    add += mu;
+                }
+                match entries.binary_search_by_key(&c, |e| e.0) {
+                    Ok(p) => entries[p].1 += add,
+                    Err(p) => entries.insert(p, (c, add)),
+                }
+            }
+            for (c, a) in entries {
+                col_idx.push(c);
+                values.push(a);
+            }
+            row_ptr.push(col_idx.len());
+        }
+        CsrMatrix {
+            n,
+            row_ptr,
+            col_idx,
+            values,
+        }
+    }
+}

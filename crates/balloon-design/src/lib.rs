@@ -1,0 +1,95 @@
+//! Inverse design of shell balloons: the rest shape whose static equilibrium under a given
+//! gauge pressure is a given (target) shape.
+//!
+//! **What it is for.** Everything else in the workspace runs forward (rest shape in, inflated
+//! shape out). This crate runs the static equilibrium backwards: with the deformed positions
+//! `x*` fixed to the target, the equilibrium equations `f_el(x*; X) + p dV/dx(x*) = 0` are
+//! solved for the rest positions `X` ([`DesignProblem`], [`design_rest_shape`]) with the exact
+//! derivatives of the element forces with respect to the rest shape
+//! (`balloon_element::ThreePrism::forces_and_rest_jacobian`,
+//! `balloon_element::HyperMembrane::forces_and_rest_jacobian`), by Levenberg-Marquardt under
+//! pressure continuation. The design is then checked by a forward static solve from the
+//! designed rest shape with the shell's own static solver ([`forward_check`]), and the distance
+//! of that equilibrium to the target is reported ([`Distance`]: max and RMS, in m and over the
+//! bounding-box diagonal). Works for the three-prism shell (St. Venant-Kirchhoff,
+//! neo-Hookean; Wang et al. 2015, Eq. 4-8) and the incompressible membranes
+//! (`docs/membranes.md`). The equations, the regulariser and what the method can and cannot
+//! reach are in `docs/design.md`.
+//!
+//! ```
+//! use balloon_design::{DesignParams, DesignProblem, design};
+//! use balloon_material::membrane::{MembraneModel, MembraneNeoHookean};
+//! use balloon_shell::ShellMaterialModel;
+//!
+//! // A sphere of radius 0.1 m, wanted at 2 kPa, 1 mm rubber (mu = 0.4 MPa).
+//! let target = balloon_mesh::generate::icosphere(0.1, 1)?;
+//! let rubber = ShellMaterialModel::from(MembraneModel::from(MembraneNeoHookean::try_new(4e5)?));
+//! let problem = DesignProblem::try_new(&target, vec![1e-3; target.num_triangles()], rubber, 2e3)?;
+//! let result = design(&problem, &DesignParams::default(), |_| true)?;
+//! assert!(result.inverse.converged);
+//! // The rest shape is smaller than the target, and it inflates back onto it.
+//! assert!(balloon_design::bbox_diagonal(&result.rest) < balloon_design::bbox_diagonal(problem.target()));
+//! assert!(result.check.distance.max_relative < 1e-4);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! Features: none.
+
+mod error;
+mod forward;
+mod inverse;
+mod problem;
+
+pub use error::DesignError;
+pub use forward::{
+    Distance, ForwardCheck, bbox_diagonal, distance, forward_check, rigidly_aligned,
+    vertex_distances,
+};
+pub use inverse::{InverseInfo, InverseParams, InverseProgress, design_rest_shape};
+pub use problem::{DesignProblem, enclosed_volume, volume_gradient};
+
+use balloon_integrate::statics::StaticParams;
+use serde::{Deserialize, Serialize};
+
+/// Parameters of [`design`]: the inverse solve and the forward check's static solve.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DesignParams {
+    /// The inverse-statics solve.
+    pub inverse: InverseParams,
+    /// The forward check's static solve.
+    pub forward: StaticParams,
+}
+
+/// A designed rest shape and its check.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Design {
+    /// The rest positions (flat, m), same connectivity as the target.
+    pub rest: Vec<f64>,
+    /// How the inverse solve went.
+    pub inverse: InverseInfo,
+    /// The forward static solve from the rest shape and its distance to the target.
+    pub check: ForwardCheck,
+}
+
+/// Designs the rest shape of `problem` (from the target as the start, [`design_rest_shape`])
+/// and checks it with a forward static solve ([`forward_check`]). `progress` is called after
+/// every accepted inverse iteration; returning `false` stops the inverse solve and keeps the
+/// best rest shape so far (which is then checked).
+///
+/// # Errors
+/// Those of [`design_rest_shape`] and [`forward_check`].
+pub fn design(
+    problem: &DesignProblem,
+    params: &DesignParams,
+    progress: impl FnMut(&InverseProgress) -> bool,
+) -> Result<Design, DesignError> {
+    let mut rest = problem.target().to_vec();
+    let inverse = design_rest_shape(problem, &params.inverse, &mut rest, progress)?;
+    let check = forward_check(problem, &rest, &params.forward)?;
+    Ok(Design {
+        rest,
+        inverse,
+        check,
+    })
+}

@@ -1,0 +1,248 @@
+//! The inverse-statics equations: the residual `r(X) = f_el(x*; X) + p g(x*)` of the static
+//! equilibrium at the fixed target `x*` as a function of the rest positions `X`, and its exact
+//! Jacobian `dr/dX` assembled from the elements' rest derivatives (`docs/design.md`, D1-D10).
+
+use balloon_element::{HyperMembrane, ThreePrism};
+use balloon_mesh::TriMesh;
+use balloon_shell::ShellMaterialModel;
+use nalgebra::{SMatrix, Vector3};
+
+use crate::DesignError;
+
+/// One inverse-statics problem: the target (deformed) surface `x*`, the rest thickness of
+/// every face, the material and the gauge pressure.
+///
+/// The rest shape `X` shares the target's connectivity. The three-prism's current thickness
+/// in the static solve is its stored thickness, which for a shell built from a rest shape is the
+/// rest thickness `H` (Wang et al. 2015, Sec. 4; only the shell-volume projection of the
+/// dynamic step moves it), so the equations use `h = H`. The membranes' thickness follows the
+/// stretch and does not enter their forces.
+#[derive(Clone, Debug)]
+pub struct DesignProblem {
+    target: Vec<f64>,
+    triangles: Vec<[usize; 3]>,
+    thickness: Vec<f64>,
+    material: ShellMaterialModel,
+    pressure: f64,
+    /// `p dV/dx` at the target (N), the pressure forces (Wang et al. 2015, Eq. 15).
+    pressure_forces: Vec<f64>,
+}
+
+/// Corner positions of triangle `t` in the flat array `x`.
+pub(crate) fn corners(x: &[f64], t: &[usize; 3]) -> [Vector3<f64>; 3] {
+    t.map(|v| Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]))
+}
+
+/// `dV/dx` of the enclosed volume `V = sum_t x1 . (x2 x x3) / 6` of an outward-oriented closed
+/// mesh (m^2 per coordinate).
+pub fn volume_gradient(x: &[f64], triangles: &[[usize; 3]]) -> Vec<f64> {
+    let mut g = vec![0.0; x.len()];
+    for t in triangles {
+        let [a, b, c] = corners(x, t);
+        for (v, d) in t.iter().zip([b.cross(&c), c.cross(&a), a.cross(&b)]) {
+            for k in 0..3 {
+                g[3 * v + k] += d[k] / 6.0;
+            }
+        }
+    }
+    g
+}
+
+/// Enclosed volume (m^3) of an outward-oriented closed mesh.
+pub fn enclosed_volume(x: &[f64], triangles: &[[usize; 3]]) -> f64 {
+    triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = corners(x, t);
+            a.dot(&b.cross(&c)) / 6.0
+        })
+        .sum()
+}
+
+impl DesignProblem {
+    /// The problem of the target `target` (a closed, outward-oriented mesh, positions in m),
+    /// one rest thickness per face `thickness` (m, positive), the `material` and the gauge
+    /// pressure `pressure` (Pa, positive: the gas pushes outwards).
+    ///
+    /// # Errors
+    /// [`DesignError::InvalidParameter`] naming `thickness` or `pressure`, and
+    /// [`DesignError::Target`] for a target whose enclosed volume is not positive or whose
+    /// triangles are degenerate.
+    pub fn try_new(
+        target: &TriMesh,
+        thickness: Vec<f64>,
+        material: ShellMaterialModel,
+        pressure: f64,
+    ) -> Result<Self, DesignError> {
+        if !(pressure.is_finite() && pressure > 0.0) {
+            return Err(DesignError::InvalidParameter {
+                name: "pressure",
+                value: pressure,
+                allowed: "a positive gauge pressure in Pa",
+            });
+        }
+        if thickness.len() != target.num_triangles() {
+            return Err(DesignError::InvalidParameter {
+                name: "thickness",
+                value: thickness.len() as f64,
+                allowed: "one value per face of the target",
+            });
+        }
+        if let Some(&h) = thickness.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
+            return Err(DesignError::InvalidParameter {
+                name: "thickness",
+                value: h,
+                allowed: "positive and finite, in m",
+            });
+        }
+        let x = target.positions_flat();
+        if x.iter().any(|v| !v.is_finite()) {
+            return Err(DesignError::Target(
+                "a vertex position is not finite".into(),
+            ));
+        }
+        let volume = enclosed_volume(&x, &target.triangles);
+        if volume.is_nan() || volume <= 0.0 {
+            return Err(DesignError::Target(format!(
+                "the enclosed volume is {volume:e} m^3; the target must be a closed mesh with \
+                 outward-oriented triangles"
+            )));
+        }
+        for (e, t) in target.triangles.iter().enumerate() {
+            // The target is also the start of the rest shape: its triangles must be valid
+            // rest triangles.
+            ThreePrism::try_new(corners(&x, t), thickness[e])
+                .map_err(|err| DesignError::Target(format!("triangle {e}: {err}")))?;
+        }
+        let pressure_forces = volume_gradient(&x, &target.triangles)
+            .into_iter()
+            .map(|g| pressure * g)
+            .collect();
+        Ok(Self {
+            target: x,
+            triangles: target.triangles.clone(),
+            thickness,
+            material,
+            pressure,
+            pressure_forces,
+        })
+    }
+
+    /// The target positions `x*` (flat, m).
+    pub fn target(&self) -> &[f64] {
+        &self.target
+    }
+
+    /// The triangles (shared by the target and the rest shape).
+    pub fn triangles(&self) -> &[[usize; 3]] {
+        &self.triangles
+    }
+
+    /// The rest thickness per face (m).
+    pub fn thickness(&self) -> &[f64] {
+        &self.thickness
+    }
+
+    /// The material.
+    pub fn material(&self) -> &ShellMaterialModel {
+        &self.material
+    }
+
+    /// The gauge pressure (Pa).
+    pub fn pressure(&self) -> f64 {
+        self.pressure
+    }
+
+    /// The pressure forces `p dV/dx` at the target (N).
+    pub fn pressure_forces(&self) -> &[f64] {
+        &self.pressure_forces
+    }
+
+    /// Number of degrees of freedom (3 per vertex).
+    pub fn num_dofs(&self) -> usize {
+        self.target.len()
+    }
+
+    /// Forces and rest Jacobian of element `e` for rest positions `rest` (flat, m).
+    fn element(
+        &self,
+        e: usize,
+        rest: &[f64],
+    ) -> Result<([Vector3<f64>; 3], SMatrix<f64, 9, 9>), DesignError> {
+        let t = &self.triangles[e];
+        let xr = corners(rest, t);
+        let xs = corners(&self.target, t);
+        let h = self.thickness[e];
+        let bad = |source| DesignError::RestElement { element: e, source };
+        Ok(match &self.material {
+            ShellMaterialModel::Solid(m) => ThreePrism::try_new(xr, h)
+                .map_err(bad)?
+                .forces_and_rest_jacobian(m, &xr, &xs, h),
+            ShellMaterialModel::Membrane(m) => HyperMembrane::try_new(xr, h)
+                .map_err(bad)?
+                .forces_and_rest_jacobian(m, &xr, &xs),
+        })
+    }
+
+    /// The residual `r(X) = f_el(x*; X) + s p g(x*)` (N) at load factor `s` (the pressure
+    /// scaled by `s`), for rest positions `rest`.
+    ///
+    /// # Errors
+    /// [`DesignError::RestElement`] when a rest triangle is degenerate or not finite.
+    pub fn residual(&self, rest: &[f64], load: f64) -> Result<Vec<f64>, DesignError> {
+        self.evaluate(rest, load, false).map(|(r, _)| r)
+    }
+
+    /// The residual and its Jacobian `dr/dX` (N/m) as a sparse matrix in CSR form.
+    ///
+    /// # Errors
+    /// As [`DesignProblem::residual`].
+    pub fn residual_and_jacobian(
+        &self,
+        rest: &[f64],
+        load: f64,
+    ) -> Result<(Vec<f64>, sprs::CsMat<f64>), DesignError> {
+        self.evaluate(rest, load, true)
+            .map(|(r, j)| (r, j.expect("asked for the Jacobian")))
+    }
+
+    fn evaluate(
+        &self,
+        rest: &[f64],
+        load: f64,
+        jacobian: bool,
+    ) -> Result<(Vec<f64>, Option<sprs::CsMat<f64>>), DesignError> {
+        let n = self.num_dofs();
+        if rest.len() != n {
+            return Err(DesignError::InvalidParameter {
+                name: "rest",
+                value: rest.len() as f64,
+                allowed: "three coordinates per target vertex",
+            });
+        }
+        let mut r: Vec<f64> = self.pressure_forces.iter().map(|f| load * f).collect();
+        let mut tri =
+            jacobian.then(|| sprs::TriMat::with_capacity((n, n), 81 * self.triangles.len()));
+        for (e, t) in self.triangles.iter().enumerate() {
+            let (f, j) = self.element(e, rest)?;
+            for (a, &va) in t.iter().enumerate() {
+                for k in 0..3 {
+                    r[3 * va + k] += f[a][k];
+                }
+                if let Some(tri) = tri.as_mut() {
+                    for (b, &vb) in t.iter().enumerate() {
+                        for k in 0..3 {
+                            for l in 0..3 {
+                                tri.add_triplet(3 * va + k, 3 * vb + l, j[(3 * a + k, 3 * b + l)]);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if r.iter().any(|v| !v.is_finite()) {
+            return Err(DesignError::NonFinite("the equilibrium residual"));
+        }
+        Ok((r, tri.map(|t| t.to_csr())))
+    }
+}

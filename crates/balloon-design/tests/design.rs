@@ -1,0 +1,273 @@
+//! Designs checked against cases with known answers: the analytic thin neo-Hookean sphere and
+//! round trips (inflate a rest shape, design from the inflated shape, recover the rest shape).
+
+use balloon_design::{
+    DesignParams, DesignProblem, InverseParams, design, design_rest_shape, distance,
+    rigidly_aligned,
+};
+use balloon_gas::{ConstantPressure, PressureLoad};
+use balloon_integrate::statics::{StaticParams, StaticSolver};
+use balloon_material::membrane::{MembraneModel, MembraneNeoHookean};
+use balloon_material::{Lame, MaterialModel, NeoHookean, StVenantKirchhoff};
+use balloon_mesh::TriMesh;
+use balloon_shell::statics::{GasTerm, StaticShell};
+use balloon_shell::{ShellMaterialModel, ShellSystem};
+
+const MU: f64 = 4.0e5;
+const H: f64 = 1.0e-3;
+
+fn membrane() -> ShellMaterialModel {
+    MembraneModel::from(MembraneNeoHookean::try_new(MU).unwrap()).into()
+}
+
+/// Independent of the design code: the thin incompressible neo-Hookean sphere,
+/// `p = 2 mu H / R0 (1/lambda - 1/lambda^7)` with `lambda = R / R0`.
+fn thin_sphere_pressure(r0: f64, lambda: f64) -> f64 {
+    2.0 * MU * H / r0 * (1.0 / lambda - lambda.powi(-7))
+}
+
+#[test]
+fn neo_hookean_sphere_matches_the_thin_sphere_curve() {
+    let radius = 0.1;
+    let target = balloon_mesh::generate::icosphere(radius, 3).unwrap();
+    // Mean vertex radius of the target stands for R (the vertices lie on the sphere).
+    for lambda in [1.1, 1.25, 1.35] {
+        let r0 = radius / lambda;
+        let p = thin_sphere_pressure(r0, lambda);
+        let problem =
+            DesignProblem::try_new(&target, vec![H; target.num_triangles()], membrane(), p)
+                .unwrap();
+        let result = design(&problem, &DesignParams::default(), |_| true).unwrap();
+        assert!(result.inverse.converged, "{:?}", result.inverse);
+        let rest_radius = result
+            .rest
+            .chunks(3)
+            .map(|q| (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt())
+            .sum::<f64>()
+            / (result.rest.len() / 3) as f64;
+        let err = (rest_radius - r0).abs() / r0;
+        eprintln!(
+            "sphere lambda {lambda}: rest radius error {err:e}, iterations {}, forward {:?}",
+            result.inverse.iterations, result.check.distance
+        );
+        assert!(
+            err < 5e-3,
+            "lambda {lambda}: rest radius {rest_radius} vs {r0} ({err:e})"
+        );
+        assert!(result.check.converged);
+        assert!(
+            result.check.distance.max_relative < 1e-4,
+            "{:?}",
+            result.check.distance
+        );
+    }
+}
+
+/// The static equilibrium of the rest shape `rest` at pressure `p` by the shell's static
+/// solver (the forward problem the round trip starts from).
+fn inflate(rest: &TriMesh, material: &ShellMaterialModel, p: f64) -> Vec<f64> {
+    let gas = PressureLoad::new(ConstantPressure::try_new(p).unwrap())
+        .with_ambient_pressure(0.0)
+        .unwrap()
+        .with_follower_term(true);
+    let mut x = rest.positions_flat();
+    let mut shell = ShellSystem::from_rest_shape(
+        &x,
+        rest.triangles.clone(),
+        vec![H; rest.num_triangles()],
+        1000.0,
+        material.clone(),
+        gas,
+    )
+    .unwrap();
+    let mut statics = StaticShell::new(&mut shell, GasTerm::Own, true);
+    let params = StaticParams {
+        tolerance: 1e-11,
+        ..StaticParams::default()
+    };
+    let info = StaticSolver::new(params)
+        .unwrap()
+        .solve_with_continuation(&mut statics, 0.0, &mut x, None)
+        .unwrap();
+    assert!(info.converged);
+    x
+}
+
+/// Inflate `rest`, design from the inflated shape, and compare.
+fn round_trip(rest: &TriMesh, material: ShellMaterialModel, p: f64) {
+    let x_star = inflate(rest, &material, p);
+    let mut target = rest.clone();
+    target.set_positions_flat(&x_star);
+    let problem =
+        DesignProblem::try_new(&target, vec![H; target.num_triangles()], material, p).unwrap();
+    let result = design(&problem, &DesignParams::default(), |_| true).unwrap();
+    assert!(result.inverse.converged, "{:?}", result.inverse);
+    let x0 = rest.positions_flat();
+    let recovered = distance(&rigidly_aligned(&result.rest, &x0), &x0);
+    let inflation = distance(&x_star, &x0);
+    eprintln!(
+        "round trip: recovered {recovered:?}, inflation {inflation:?}, inverse {:?}, forward {:?}",
+        result.inverse, result.check.distance
+    );
+    assert!(
+        recovered.max_relative < 1e-3,
+        "rest shape off by {recovered:?} (inflation moved it by {inflation:?})"
+    );
+    assert!(result.check.converged);
+    assert!(
+        result.check.distance.max_relative < 1e-4,
+        "{:?}",
+        result.check.distance
+    );
+}
+
+fn ellipsoid(level: u32) -> TriMesh {
+    let mut m = balloon_mesh::generate::icosphere(0.05, level).unwrap();
+    for v in &mut m.vertices {
+        v.y *= 0.8;
+        v.z *= 0.6;
+    }
+    m
+}
+
+#[test]
+fn round_trip_neo_hookean_prism_ellipsoid() {
+    let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
+    round_trip(
+        &ellipsoid(2),
+        ShellMaterialModel::Solid(MaterialModel::NeoHookean(NeoHookean::new(lame))),
+        4.0e3,
+    );
+}
+
+#[test]
+fn round_trip_stvk_prism_ellipsoid() {
+    let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
+    round_trip(
+        &ellipsoid(2),
+        ShellMaterialModel::Solid(MaterialModel::StVenantKirchhoff(StVenantKirchhoff::new(
+            lame,
+        ))),
+        3.0e3,
+    );
+}
+
+#[test]
+fn round_trip_membrane_ellipsoid() {
+    round_trip(&ellipsoid(2), membrane(), 8.0e3);
+}
+
+#[test]
+fn beyond_the_pressure_maximum_there_is_no_design() {
+    // The thin neo-Hookean sphere holds at most p_max = 2 mu H / R0 (7^(-1/6) - 7^(-7/6)) for
+    // any R0; asking 1.5 p_max at R = 0.1 m cannot be met by any rest radius.
+    let target = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
+    let lambda_max = 7f64.powf(1.0 / 6.0);
+    let p_max = thin_sphere_pressure(0.1 / lambda_max, lambda_max);
+    let problem = DesignProblem::try_new(
+        &target,
+        vec![H; target.num_triangles()],
+        membrane(),
+        1.5 * p_max,
+    )
+    .unwrap();
+    let mut rest = problem.target().to_vec();
+    let params = InverseParams {
+        max_halvings: 4,
+        ..InverseParams::default()
+    };
+    let info = design_rest_shape(&problem, &params, &mut rest, |_| true).unwrap();
+    assert!(!info.converged);
+    assert!(info.load_reached < 1.0);
+}
+
+#[test]
+fn bad_parameters_are_named() {
+    let target = balloon_mesh::generate::icosphere(0.1, 1).unwrap();
+    let e = DesignProblem::try_new(&target, vec![H; target.num_triangles()], membrane(), -1.0)
+        .unwrap_err();
+    assert!(e.to_string().contains("`pressure`"), "{e}");
+    let e = DesignProblem::try_new(&target, vec![H; 3], membrane(), 1e3).unwrap_err();
+    assert!(e.to_string().contains("`thickness`"), "{e}");
+    let mut flipped = target.clone();
+    for t in &mut flipped.triangles {
+        t.swap(1, 2);
+    }
+    let e = DesignProblem::try_new(&flipped, vec![H; target.num_triangles()], membrane(), 1e3)
+        .unwrap_err();
+    assert!(e.to_string().contains("outward"), "{e}");
+}
+
+/// Scales `mesh` so that its largest bounding-box side is `size` (m), centred at the origin.
+fn fit(mut mesh: TriMesh, size: f64) -> TriMesh {
+    let x = mesh.positions_flat();
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in x.chunks(3) {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let side = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    let s = size / side;
+    let c: Vec<f64> = (0..3).map(|k| 0.5 * (lo[k] + hi[k])).collect();
+    let y: Vec<f64> = x
+        .chunks(3)
+        .flat_map(|p| [(p[0] - c[0]) * s, (p[1] - c[1]) * s, (p[2] - c[2]) * s])
+        .collect();
+    mesh.set_positions_flat(&y);
+    mesh
+}
+
+/// Round trips on the built-in teddy and a shared real mesh at 0.1 m, with the timing of the
+/// design against one forward static solve (release build:
+/// `cargo test --release -p balloon-design --test design -- --ignored --nocapture`).
+#[test]
+#[ignore = "large meshes: run by `cargo xtask validate` or by hand in release"]
+fn round_trips_on_real_meshes() {
+    let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
+    let nh: ShellMaterialModel =
+        ShellMaterialModel::Solid(MaterialModel::NeoHookean(NeoHookean::new(lame)));
+    let mut meshes = vec![("teddy", fit(balloon_mesh::builtin("teddy").unwrap(), 0.1))];
+    let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
+    for name in ["bunny_closed_libigl.off", "spot.obj"] {
+        let path = shared.join(name);
+        if path.exists() {
+            meshes.push((name, fit(balloon_mesh::io::read_mesh(&path).unwrap(), 0.1)));
+        } else {
+            eprintln!("skipping {name}: {} not found", path.display());
+        }
+    }
+    for (name, mesh) in meshes {
+        let started = std::time::Instant::now();
+        let x_star = inflate(&mesh, &nh, 2.0e3);
+        let forward_seconds = started.elapsed().as_secs_f64();
+        let mut target = mesh.clone();
+        target.set_positions_flat(&x_star);
+        let problem =
+            DesignProblem::try_new(&target, vec![H; target.num_triangles()], nh.clone(), 2.0e3)
+                .unwrap();
+        let result = design(&problem, &DesignParams::default(), |_| true).unwrap();
+        let x0 = mesh.positions_flat();
+        let recovered = distance(&rigidly_aligned(&result.rest, &x0), &x0);
+        let inflation = distance(&x_star, &x0);
+        eprintln!(
+            "{name}: {} vertices; forward static solve {forward_seconds:.2} s; design {:.2} s \
+             ({} iterations, {} stages); check {:.2} s; inflation moved {:.3e} of the diagonal; \
+             rest recovered to {:.3e}; forward equilibrium within {:.3e}",
+            mesh.num_vertices(),
+            result.inverse.seconds,
+            result.inverse.iterations,
+            result.inverse.stages,
+            result.check.seconds,
+            inflation.max_relative,
+            recovered.max_relative,
+            result.check.distance.max_relative,
+        );
+        assert!(result.inverse.converged, "{name}: {:?}", result.inverse);
+        assert!(recovered.max_relative < 1e-3, "{name}: {recovered:?}");
+        assert!(result.check.converged, "{name}");
+        assert!(result.check.distance.max_relative < 1e-4, "{name}");
+    }
+}
