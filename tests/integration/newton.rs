@@ -77,7 +77,12 @@ fn a_run_that_cannot_converge_stops_with_advice() {
     let e = sim.step().unwrap_err();
     assert!(matches!(e, ShellError::NotConverged { step: 1, .. }), "{e}");
     let msg = e.to_string();
-    for needle in ["step 1 ", "relative residual", "`dt`", "`newton_iterations`"] {
+    for needle in [
+        "step 1 ",
+        "relative residual",
+        "`dt`",
+        "`newton_iterations`",
+    ] {
         assert!(msg.contains(needle), "`{needle}` not in: {msg}");
     }
     assert_eq!(sim.positions(), &before[..], "state rolled back");

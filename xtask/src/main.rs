@@ -155,7 +155,10 @@ fn ci(quick: bool) -> Result<()> {
     cargo(&["test", "--workspace"], &[])?;
     let started = std::time::Instant::now();
     e2e::run(&e2e::Options::default())?;
-    eprintln!("xtask: viewer e2e took {:.0} s", started.elapsed().as_secs_f64());
+    eprintln!(
+        "xtask: viewer e2e took {:.0} s",
+        started.elapsed().as_secs_f64()
+    );
     // The validation cases (analytic sphere, gas law, volume conservation, ...) in their quick
     // subset, without rewriting docs/validation.md: a failing case fails CI.
     cargo(
@@ -176,7 +179,10 @@ fn ci(quick: bool) -> Result<()> {
     // the `balloon` crates and their dependencies that `validate` made.
     let started = std::time::Instant::now();
     python()?;
-    eprintln!("xtask: python took {:.0} s", started.elapsed().as_secs_f64());
+    eprintln!(
+        "xtask: python took {:.0} s",
+        started.elapsed().as_secs_f64()
+    );
     // Every criterion bench once in test mode so none rots. The `test` profile and the whole
     // workspace (the same feature unification as `cargo test --workspace`) reuse the test
     // build: `-p balloon-benches --profile dev` rebuilt 50 crates (3.4 min on the 2-core

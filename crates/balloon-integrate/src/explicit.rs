@@ -1,14 +1,14 @@
-//! Explicit time integrators (seed 004, Ch. 5): explicit Euler (Eq. 5.5), midpoint (Eq. 5.9),
+//! Explicit time integrators (Song 2009, Ch. 5): explicit Euler (Eq. 5.5), midpoint (Eq. 5.9),
 //! classical fourth-order Runge-Kutta, and symplectic (semi-implicit) Euler.
 //!
 //! Two kinds of systems are integrated:
 //!
-//! * [`OdeSystem`]: a generic first-order system `dy/dt = A(y, t)` (seed Eq. 5.1); Euler,
+//! * [`OdeSystem`]: a generic first-order system `dy/dt = A(y, t)` (Song 2009, Eq. 5.1); Euler,
 //!   midpoint and RK4 apply.
 //! * [`SecondOrderSystem`]: a mechanical system `dx/dt = v`, `dv/dt = a(x, v, t)` (Newton's
-//!   second law, seed Sec. 5.2). Its state is stored as one slice `[x; v]` (positions first,
+//!   second law, Song 2009, Sec. 5.2). Its state is stored as one slice `[x; v]` (positions first,
 //!   velocities second, both of length [`SecondOrderSystem::dof`]); all four methods apply, and
-//!   Euler / midpoint / RK4 treat it as the first-order system of seed Eq. 5.25-5.40.
+//!   Euler / midpoint / RK4 treat it as the first-order system of Song 2009, Eq. 5.25-5.40.
 //!
 //! [`ExplicitIntegrator`] owns its scratch buffers, so a step allocates nothing once the buffers
 //! have grown to the system's size. Nothing here knows what the forces are.
@@ -35,7 +35,7 @@ use std::fmt;
 use std::str::FromStr;
 use thiserror::Error;
 
-/// A first-order ODE system `dy/dt = A(y, t)` (seed 004, Eq. 5.1).
+/// A first-order ODE system `dy/dt = A(y, t)` (Song 2009, Eq. 5.1).
 pub trait OdeSystem {
     /// Length of the state vector `y`.
     fn dimension(&self) -> usize;
@@ -43,7 +43,7 @@ pub trait OdeSystem {
     fn derivative(&mut self, t: f64, y: &[f64], dydt: &mut [f64]);
 }
 
-/// A second-order mechanical system `x'' = a(x, v, t)` (seed 004, Sec. 5.2: `a = F / m`).
+/// A second-order mechanical system `x'' = a(x, v, t)` (Song 2009, Sec. 5.2: `a = F / m`).
 pub trait SecondOrderSystem {
     /// Number of position coordinates (e.g. `3 * particles`).
     fn dof(&self) -> usize;
@@ -73,14 +73,14 @@ impl<S: SecondOrderSystem + ?Sized> OdeSystem for FirstOrderView<'_, S> {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ExplicitMethod {
-    /// Explicit (forward) Euler, seed Eq. 5.5: `y += h A(y, t)`. First order; one evaluation.
+    /// Explicit (forward) Euler, Song 2009, Eq. 5.5: `y += h A(y, t)`. First order; one evaluation.
     Euler,
-    /// Explicit midpoint (RK2), seed Eq. 5.9-5.15: `k1 = A(y, t)`,
-    /// `y += h A(y + h/2 k1, t + h/2)`. Second order; two evaluations. (The seed's pseudocode
+    /// Explicit midpoint (RK2), Song 2009, Eq. 5.9-5.15: `k1 = A(y, t)`,
+    /// `y += h A(y + h/2 k1, t + h/2)`. Second order; two evaluations. (The paper's pseudocode
     /// averages the slopes at both ends, i.e. Heun's method; the text describes the slope at
     /// the centre of the interval, which is what is implemented. Both are second order.)
     Midpoint,
-    /// Classical fourth-order Runge-Kutta (seed Sec. 5.1.3). Fourth order; four evaluations.
+    /// Classical fourth-order Runge-Kutta (Song 2009, Sec. 5.1.3). Fourth order; four evaluations.
     #[default]
     Rk4,
     /// Symplectic (semi-implicit) Euler for second-order systems: `v += h a(x, v, t)`, then

@@ -130,8 +130,8 @@ mod forces {
 
     #[test]
     fn valence_normalisation_equalises_kernel_points() {
-        // Octahedron kernel points have 4 structural neighbours, subdivision points 6 (seed
-        // Sec. 3.5.3); normalisation scales their spring forces by mean/valence.
+        // Octahedron kernel points have 4 structural neighbours, subdivision points 6 (Song
+        // 2009, Sec. 3.5.3); normalisation scales their spring forces by mean/valence.
         let body = TwoLayerBody::octahedron_sphere(2).with_valence_normalization(true);
         let model = body.build().unwrap();
         let val = model.valences();
@@ -736,7 +736,7 @@ mod stepping {
     }
 
     #[test]
-    fn builders_make_the_seed_spring_layout() {
+    fn builders_make_the_paper_spring_layout() {
         // 2D (Song 2009, Sec. 3.4.2): N structural springs per layer, N radius, N left and N right
         // shear springs; 2N drawing triangles.
         let m = TwoLayerBody::circle(12).build().unwrap();
