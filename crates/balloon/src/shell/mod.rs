@@ -593,7 +593,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             ("mass_damping", p.mass_damping),
             ("stiffness_damping", p.stiffness_damping),
         ] {
-            if !(damping >= 0.0) {
+            if damping.is_nan() || damping < 0.0 {
                 return Err(ShellError::InvalidParameter {
                     name,
                     value: damping.to_string(),
