@@ -72,7 +72,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
 
     /// Changes the time step (s, positive and finite) for the following steps. The sub-step
     /// size reached so far (the old `dt`, or less after a hard step) is kept: a larger `dt` is
-    /// reached by doubling it after easy sub-steps (see [`EASY_NEWTON_ITERATIONS`]), a smaller
+    /// reached by doubling it after easy sub-steps (see [`EASY_NEWTON_ITERATIONS`](balloon_integrate::substep::EASY_NEWTON_ITERATIONS)), a smaller
     /// one caps it at once.
     pub fn set_dt(&mut self, dt: f64) -> Result<(), ShellError> {
         self.dt = check_dt(dt)?;
