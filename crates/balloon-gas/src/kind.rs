@@ -44,16 +44,34 @@ impl FromStr for GasKind {
     }
 }
 
-impl std::fmt::Display for GasKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
+impl GasKind {
+    /// Every kind, in documentation order.
+    pub const ALL: [GasKind; 6] = [
+        Self::Ideal,
+        Self::Constant,
+        Self::Pump,
+        Self::Polytropic,
+        Self::Leak,
+        Self::SupplyPump,
+    ];
+
+    /// The name parsed by [`FromStr`] and written by [`Display`](std::fmt::Display), e.g.
+    /// `supply-pump`.
+    pub fn name(self) -> &'static str {
+        match self {
             Self::Ideal => "ideal",
             Self::Constant => "constant",
             Self::Pump => "pump",
             Self::Polytropic => "polytropic",
             Self::Leak => "leak",
             Self::SupplyPump => "supply-pump",
-        })
+        }
+    }
+}
+
+impl std::fmt::Display for GasKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 

@@ -6,11 +6,18 @@ use crate::protocol::{ControlSpec, ControlValue, DragMode};
 use balloon::Simulation;
 use balloon::fields;
 use balloon::gas::GasKind;
+use balloon::gas::GasLawParams;
 use balloon::integrate::TangentKind;
 use balloon::integrate::linear::LinearSolverKind;
-use balloon::material::{Lame, MaterialKind, MaterialModel};
+use balloon::material::membrane::{
+    MembraneGent, MembraneKind, MembraneMooneyRivlin, MembraneNeoHookean, MembraneOgden,
+    MembraneYeoh,
+};
+use balloon::material::{Lame, MaterialKind, MaterialModel, MembraneModel};
 use balloon::mesh::TriMesh;
-use balloon::shell::{AnchorSpring, ShellBalloon, ShellSimulation};
+use balloon::shell::{
+    AnchorSpring, ShellBalloon, ShellMaterial, ShellMaterialModel, ShellSimulation,
+};
 use nalgebra::Vector3;
 use serde_json::{Map, Value, json};
 
@@ -20,8 +27,9 @@ pub(super) struct ShellSettings {
     pub(super) gas: GasKind,
     pub(super) pressure: f64,
     pub(super) pump_rate: f64,
+    pub(super) leak_conductance: f64,
     pub(super) thickness_mm: f64,
-    pub(super) material: MaterialKind,
+    pub(super) material: ViewMaterial,
     pub(super) young_mpa: f64,
     pub(super) dt: f64,
     pub(super) solver: LinearSolverKind,
@@ -29,12 +37,70 @@ pub(super) struct ShellSettings {
     pub(super) hold: bool,
 }
 
-/// The protocol's names of the shell materials (the page's short ones, not `MaterialKind`'s
-/// display names).
+/// The protocol's names of the three-prism shell materials (the page's short ones, not
+/// `MaterialKind`'s display names); the membranes go by [`MembraneKind::name`].
 const MATERIALS: [(&str, MaterialKind); 2] = [
     ("stvk", MaterialKind::StVenantKirchhoff),
     ("neo-hookean", MaterialKind::NeoHookean),
 ];
+
+/// A material of the shell view: a 3D material on three-prism elements (Wang et al. 2015) or an
+/// incompressible rubber membrane, the same choice as a scenario's `material`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum ViewMaterial {
+    /// `stvk` or `neo-hookean`.
+    Solid(MaterialKind),
+    /// `membrane-*`.
+    Membrane(MembraneKind),
+}
+
+impl ViewMaterial {
+    /// Every material the CLI offers: the three-prism ones, then every [`MembraneKind`].
+    pub(super) fn all() -> Vec<Self> {
+        MATERIALS
+            .iter()
+            .map(|&(_, k)| Self::Solid(k))
+            .chain(MembraneKind::ALL.into_iter().map(Self::Membrane))
+            .collect()
+    }
+
+    /// The protocol name.
+    pub(super) fn name(self) -> &'static str {
+        match self {
+            Self::Solid(k) => name_of(&MATERIALS, &k),
+            Self::Membrane(k) => k.name(),
+        }
+    }
+
+    /// The material at Young's modulus `young` (Pa). A membrane gets the initial shear modulus
+    /// of an incompressible solid, `mu = E / 3`, split over its terms in fixed proportions
+    /// (Mooney-Rivlin `c1 : c2 = 4 : 1`, Gent `jm = 60`, one-term Ogden with `alpha = 1.3`,
+    /// Yeoh `c3 = c1 / 500`), so the models agree for small stretches.
+    pub(super) fn model(self, young: f64) -> Result<ShellMaterialModel, ViewerError> {
+        let mu = young / 3.0;
+        let membrane: Result<MembraneModel, _> = match self {
+            Self::Solid(kind) => {
+                let lame = Lame::try_from_young_poisson(young, balloon::shell::DEFAULT_POISSON)
+                    .map_err(ViewerError::Young)?;
+                return Ok(MaterialModel::from_lame(kind, lame).into());
+            }
+            Self::Membrane(MembraneKind::NeoHookean) => {
+                MembraneNeoHookean::try_new(mu).map(Into::into)
+            }
+            Self::Membrane(MembraneKind::MooneyRivlin) => {
+                MembraneMooneyRivlin::try_new(0.4 * mu, 0.1 * mu).map(Into::into)
+            }
+            Self::Membrane(MembraneKind::Gent) => MembraneGent::try_new(mu, 60.0).map(Into::into),
+            Self::Membrane(MembraneKind::Ogden) => {
+                MembraneOgden::try_new(vec![2.0 * mu / 1.3], vec![1.3]).map(Into::into)
+            }
+            Self::Membrane(MembraneKind::Yeoh) => {
+                MembraneYeoh::try_new(0.5 * mu, 0.0, 1e-3 * mu).map(Into::into)
+            }
+        };
+        membrane.map(Into::into).map_err(ViewerError::Young)
+    }
+}
 
 /// One control of the shell view, parsed from the protocol once.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,7 +114,9 @@ pub(super) enum ShellControl {
     /// `thickness`, mm (rebuilds).
     ThicknessMm(f64),
     /// `material` (rebuilds).
-    Material(MaterialKind),
+    Material(ViewMaterial),
+    /// `leak_conductance`, m^3/s (rebuilds).
+    LeakConductance(f64),
     /// `young`, MPa (rebuilds).
     YoungMpa(f64),
     /// `dt`, s (live).
@@ -72,7 +140,16 @@ impl ShellControl {
             "pressure" => Self::Pressure(number(name, value)?),
             "pump_rate" => Self::PumpRate(number(name, value)?),
             "thickness" => Self::ThicknessMm(number(name, value)?),
-            "material" => Self::Material(lookup(&MATERIALS, name, choice(name, value)?)?),
+            "material" => {
+                let c = choice(name, value)?;
+                Self::Material(
+                    ViewMaterial::all()
+                        .into_iter()
+                        .find(|m| m.name() == c)
+                        .ok_or_else(|| kind(c))?,
+                )
+            }
+            "leak_conductance" => Self::LeakConductance(number(name, value)?),
             "young" => Self::YoungMpa(number(name, value)?),
             "dt" => Self::Dt(number(name, value)?),
             "solver" => {
@@ -103,7 +180,7 @@ pub(super) struct ShellDrag {
 pub struct ShellView {
     pub(super) mesh: TriMesh,
     pub(super) settings: ShellSettings,
-    pub(super) sim: ShellSimulation,
+    pub(super) sim: ShellSimulation<ShellMaterialModel>,
     pub(super) drag: Option<ShellDrag>,
     /// Drag neighbourhood radius, m (a fraction of the rest bounding-box diagonal).
     pub(super) drag_radius: f64,
@@ -131,8 +208,9 @@ impl ShellView {
             gas: GasKind::Constant,
             pressure: 2000.0,
             pump_rate: 1e-3,
+            leak_conductance: 1e-4,
             thickness_mm: 0.3,
-            material: MaterialKind::StVenantKirchhoff,
+            material: ViewMaterial::Solid(MaterialKind::StVenantKirchhoff),
             young_mpa: 1.0,
             dt: 0.01,
             solver: LinearSolverKind::Cholesky,
@@ -161,12 +239,30 @@ impl ShellView {
         })
     }
 
-    fn build(mesh: &TriMesh, s: &ShellSettings) -> Result<ShellSimulation, ViewerError> {
-        let lame = Lame::try_from_young_poisson(s.young_mpa * 1e6, balloon::shell::DEFAULT_POISSON)
-            .map_err(ViewerError::Young)?;
-        ShellBalloon::new(mesh.clone())
-            .with_material(MaterialModel::from_lame(s.material, lame))
+    fn build(
+        mesh: &TriMesh,
+        s: &ShellSettings,
+    ) -> Result<ShellSimulation<ShellMaterialModel>, ViewerError> {
+        let material = s.material.model(s.young_mpa * 1e6)?;
+        // As a scenario does: a membrane's thickness keeps each element's volume, so the shell
+        // volume projection is off for it.
+        let membrane = material.thickness_follows_stretch();
+        let builder = ShellBalloon::new(mesh.clone());
+        let builder = if membrane {
+            builder.with_projection(None)
+        } else {
+            builder
+        };
+        // The supply pump stops at the gauge pressure of the `pressure` control.
+        let law = GasLawParams {
+            leak_conductance: Some(s.leak_conductance),
+            supply_pressure: Some(s.pressure.max(1.0)),
+            ..GasLawParams::default()
+        };
+        builder
+            .with_material(material)
             .with_gas(s.gas)
+            .with_gas_law(law)
             .with_gauge_pressure(s.pressure)
             .with_pump_rate(s.pump_rate)
             .with_thickness(s.thickness_mm * 1e-3)
@@ -195,7 +291,7 @@ impl ShellView {
         match control {
             ShellControl::Gas(gas) => s.gas = gas,
             ShellControl::Pressure(p) => {
-                if s.gas != GasKind::Pump {
+                if matches!(s.gas, GasKind::Constant | GasKind::Ideal) {
                     self.sim.set_gauge_pressure(p).map_err(ViewerError::from)?;
                 }
                 s.pressure = p;
@@ -210,6 +306,7 @@ impl ShellView {
             }
             ShellControl::ThicknessMm(h) => s.thickness_mm = h,
             ShellControl::Material(kind) => s.material = kind,
+            ShellControl::LeakConductance(c) => s.leak_conductance = c,
             ShellControl::YoungMpa(e) => s.young_mpa = e,
             ShellControl::Dt(dt) => {
                 self.sim.set_dt(dt).map_err(ViewerError::from)?;
@@ -250,8 +347,8 @@ impl ViewSystem for ShellView {
             ControlSpec::choice(
                 "gas",
                 "Gas model",
-                &s.gas.to_string(),
-                &["ideal", "constant", "pump"],
+                s.gas.name(),
+                &GasKind::ALL.map(GasKind::name),
                 true,
             ),
             ControlSpec::number(
@@ -271,6 +368,14 @@ impl ViewSystem for ShellView {
                 false,
             ),
             ControlSpec::number(
+                "leak_conductance",
+                "Leak conductance (leak gas)",
+                s.leak_conductance,
+                (0.0, 0.01, 1e-5),
+                "m^3/s",
+                true,
+            ),
+            ControlSpec::number(
                 "thickness",
                 "Thickness",
                 s.thickness_mm,
@@ -280,9 +385,12 @@ impl ViewSystem for ShellView {
             ),
             ControlSpec::choice(
                 "material",
-                "Material",
-                name_of(&MATERIALS, &s.material),
-                &["stvk", "neo-hookean"],
+                "Material (membrane-*: incompressible rubber, mu = E / 3)",
+                s.material.name(),
+                &ViewMaterial::all()
+                    .into_iter()
+                    .map(ViewMaterial::name)
+                    .collect::<Vec<_>>(),
                 true,
             ),
             ControlSpec::number(

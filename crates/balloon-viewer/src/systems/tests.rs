@@ -390,3 +390,71 @@ fn shell_pressure_force_field_sums_to_pressure_times_area() {
         "{total} vs p A = {want}"
     );
 }
+
+/// The page's gas and material menus list every gas law and every membrane model of the
+/// library's enums, and each of them builds a balloon that steps.
+#[test]
+fn shell_menus_offer_every_gas_law_and_membrane() {
+    use super::shell::ViewMaterial;
+    use balloon::gas::GasKind;
+    use balloon::material::membrane::MembraneKind;
+    // A new variant breaks this match, and then `ALL` must grow with it.
+    let n = |k: GasKind| match k {
+        GasKind::Ideal
+        | GasKind::Constant
+        | GasKind::Pump
+        | GasKind::Polytropic
+        | GasKind::Leak
+        | GasKind::SupplyPump => 1,
+    };
+    assert_eq!(GasKind::ALL.iter().map(|&k| n(k)).sum::<usize>(), 6);
+    let mesh = balloon::mesh::generate::icosphere(0.1, 2).unwrap();
+    let mut view = ShellView::new(mesh).unwrap();
+    let controls = view.controls();
+    let menu = |name: &str| -> Vec<&'static str> {
+        controls
+            .iter()
+            .find(|c| c.name == name)
+            .unwrap()
+            .choices
+            .clone()
+    };
+    let gases = menu("gas");
+    for k in GasKind::ALL {
+        assert!(gases.contains(&k.name()), "{k} missing from {gases:?}");
+        assert_eq!(k.name().parse::<GasKind>().unwrap(), k);
+    }
+    assert_eq!(gases.len(), GasKind::ALL.len());
+    let materials = menu("material");
+    for k in MembraneKind::ALL {
+        assert!(
+            materials.contains(&k.name()),
+            "{k} missing from {materials:?}"
+        );
+    }
+    assert!(materials.contains(&"stvk") && materials.contains(&"neo-hookean"));
+    assert_eq!(materials.len(), 2 + MembraneKind::ALL.len());
+    // Every membrane has the small-strain shear modulus of an incompressible solid, E / 3.
+    for m in ViewMaterial::all() {
+        if let ViewMaterial::Membrane(_) = m {
+            let model = m.model(3e6).unwrap();
+            let balloon::shell::ShellMaterialModel::Membrane(w) = &model else {
+                panic!("{} is not a membrane", m.name());
+            };
+            let mu = balloon::material::membrane::MembraneMaterial::initial_shear_modulus(w);
+            assert!((mu - 1e6).abs() < 1e-6 * 1e6, "{}: mu = {mu}", m.name());
+        }
+    }
+    // Each choice builds and steps.
+    for g in gases {
+        view.set_control("gas", &ControlValue::Choice(g)).unwrap();
+        view.rebuild().unwrap();
+        view.simulation_mut().step().unwrap();
+    }
+    for m in materials {
+        view.set_control("material", &ControlValue::Choice(m))
+            .unwrap();
+        view.rebuild().unwrap();
+        view.simulation_mut().step().unwrap();
+    }
+}
