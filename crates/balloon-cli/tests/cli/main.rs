@@ -3,6 +3,7 @@
 mod anchors;
 mod connect;
 mod gas_laws;
+mod hostile;
 mod inflate;
 mod loads;
 mod membrane;
