@@ -133,6 +133,14 @@ pub fn run<M: ShellMaterial>(
     record_text: Option<&str>,
 ) -> Result<StaticRun> {
     let ratios = args.static_points().map_err(anyhow::Error::msg)?;
+    if ratios.is_empty() {
+        // A range whose step underflows (or whose end is not reached) would run "0 points,
+        // converged".
+        anyhow::bail!(
+            "`volume_ratios` gives no point to solve (an empty range, or a step too small to \
+             leave its start); give START:END:STEP with a step that reaches END"
+        );
+    }
     let mut options = args.static_options();
     let mut summary = StaticSummary {
         mesh: args.mesh.path.clone(),
