@@ -24,6 +24,7 @@ mod convert;
 mod errors;
 mod jobs;
 mod options;
+mod shared;
 mod sims;
 
 use errors::{BalloonError, InvalidOption, MeshError, SolverError, check_python_signals};

@@ -3,6 +3,7 @@
 use crate::convert::{detached, flat_points, points_array, stats_dict, triangles_array};
 use crate::errors::{BalloonError, setter_err, to_py_err};
 use crate::options::{Use, scenario_of};
+use crate::shared::Shared;
 use balloon::Simulation;
 use balloon::shell::AnchorSpring;
 use balloon::two_layer::{DragTarget, TwoLayerSimulation};
@@ -16,8 +17,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::{Mutex, MutexGuard};
 
-/// Locks a simulation (a poisoned lock means an earlier call panicked: refused).
-fn lock<T>(m: &Mutex<T>) -> PyResult<MutexGuard<'_, T>> {
+/// Locks the anchor springs and loads of a shell (only `step()` uses them, holding the
+/// simulation's turn, so the lock is free).
+fn lock_loads(m: &Mutex<ShellLoads>) -> PyResult<MutexGuard<'_, ShellLoads>> {
     m.lock()
         .map_err(|_| BalloonError::new_err("the simulation is unusable after an internal error"))
 }
@@ -32,7 +34,7 @@ fn lock<T>(m: &Mutex<T>) -> PyResult<MutexGuard<'_, T>> {
 /// `set_dt` steer it. Output options (`out`, `render`, ...) are accepted and ignored.
 #[pyclass(module = "balloon._balloon", subclass)]
 pub(crate) struct Shell {
-    sim: Mutex<ShellSim>,
+    sim: Shared<ShellSim>,
     /// The anchor springs and scheduled loads of the options (`pin`, `load`), applied before
     /// every step as the CLI applies them.
     loads: Mutex<ShellLoads>,
@@ -53,7 +55,7 @@ impl Shell {
         };
         let (sim, loads) = detached(py, move || Ok(s.build(arrays)?))?;
         Ok(Self {
-            sim: Mutex::new(sim),
+            sim: Shared::new(sim),
             loads: Mutex::new(loads),
         })
     }
@@ -62,9 +64,9 @@ impl Shell {
     /// a `stats.jsonl` line plus `steps`, `time`, `dt`, `kinetic_energy`). Raises SolverError
     /// when the step fails (the state is rolled back to the start of the step).
     fn step<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let mut guard = lock(&self.sim)?;
+        let mut guard = self.sim.lock(py)?;
         let sim = &mut *guard;
-        lock(&self.loads)?
+        lock_loads(&self.loads)?
             .before_step(sim)
             .map_err(|e| to_py_err(e.into()))?;
         let stats = py
@@ -76,80 +78,85 @@ impl Shell {
     /// Vertex positions, m: an (n, 3) float64 array (a copy of the current state).
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        points_array(py, lock(&self.sim)?.positions())
+        points_array(py, self.sim.lock(py)?.positions())
     }
 
     /// Vertex velocities, m/s: an (n, 3) float64 array.
     #[getter]
     fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        points_array(py, lock(&self.sim)?.velocities())
+        points_array(py, self.sim.lock(py)?.velocities())
     }
 
     /// The triangles: an (m, 3) int64 array.
     #[getter]
     fn triangles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        triangles_array(py, lock(&self.sim)?.triangles())
+        triangles_array(py, self.sim.lock(py)?.triangles())
     }
 
     /// Current shell thickness per triangle, m: an (m,) float64 array.
     #[getter]
     fn thickness<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        Ok(PyArray1::from_slice(py, lock(&self.sim)?.thickness()))
+        Ok(PyArray1::from_slice(py, self.sim.lock(py)?.thickness()))
     }
 
     /// Simulated time, s.
     #[getter]
-    fn time(&self) -> PyResult<f64> {
-        Ok(lock(&self.sim)?.time())
+    fn time(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.sim.lock(py)?.time())
     }
 
     /// Steps taken.
     #[getter]
-    fn steps(&self) -> PyResult<usize> {
-        Ok(Simulation::steps(&*lock(&self.sim)?))
+    fn steps(&self, py: Python<'_>) -> PyResult<usize> {
+        Ok(Simulation::steps(&*self.sim.lock(py)?))
     }
 
     /// The time step of the following steps, s.
     #[getter]
-    fn dt(&self) -> PyResult<f64> {
-        Ok(lock(&self.sim)?.dt())
+    fn dt(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.sim.lock(py)?.dt())
     }
 
     /// Gauge pressure of the gas, Pa.
     #[getter]
-    fn gauge_pressure(&self) -> PyResult<f64> {
-        Ok(lock(&self.sim)?.gauge_pressure())
+    fn gauge_pressure(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.sim.lock(py)?.gauge_pressure())
     }
 
     /// Enclosed gas volume, m^3.
     #[getter]
-    fn gas_volume(&self) -> PyResult<f64> {
-        Ok(lock(&self.sim)?.gas_volume())
+    fn gas_volume(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.sim.lock(py)?.gas_volume())
     }
 
     /// Changes the time step (s) of the following steps.
-    fn set_dt(&self, dt: f64) -> PyResult<()> {
-        lock(&self.sim)?.set_dt(dt).map_err(setter_err)
+    fn set_dt(&self, py: Python<'_>, dt: f64) -> PyResult<()> {
+        self.sim.lock(py)?.set_dt(dt).map_err(setter_err)
     }
 
     /// Sets the gauge pressure, Pa (held pressure of `gas="constant"`, the amount of the
     /// ideal gas at the rest volume, ...; an error for the pump).
-    fn set_pressure(&self, pressure: f64) -> PyResult<()> {
-        lock(&self.sim)?
+    fn set_pressure(&self, py: Python<'_>, pressure: f64) -> PyResult<()> {
+        self.sim
+            .lock(py)?
             .set_gauge_pressure(pressure)
             .map_err(setter_err)
     }
 
     /// Sets the pump rate, m^3/s of ambient air, of `gas="pump"` from now on.
-    fn set_pump_rate(&self, rate: f64) -> PyResult<()> {
-        lock(&self.sim)?.set_pump_rate(rate).map_err(setter_err)
+    fn set_pump_rate(&self, py: Python<'_>, rate: f64) -> PyResult<()> {
+        self.sim.lock(py)?.set_pump_rate(rate).map_err(setter_err)
     }
 
     /// Sets external forces, N: an (n, 3) array, one per vertex, applied in every following
     /// step; None removes them.
     #[pyo3(signature = (forces = None))]
-    fn set_external_forces(&self, forces: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
-        let mut sim = lock(&self.sim)?;
+    fn set_external_forces(
+        &self,
+        py: Python<'_>,
+        forces: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let mut sim = self.sim.lock(py)?;
         let f = match forces {
             Some(f) => Some(flat_points(f, sim.positions().len() / 3, "forces")?),
             None => None,
@@ -159,7 +166,11 @@ impl Shell {
 
     /// Replaces the anchor springs: a list of (vertex, (x, y, z), stiffness N/m), zero-length
     /// springs pulling the vertex to the fixed point (integrated implicitly); [] removes them.
-    fn set_anchor_springs(&self, springs: Vec<(usize, [f64; 3], f64)>) -> PyResult<()> {
+    fn set_anchor_springs(
+        &self,
+        py: Python<'_>,
+        springs: Vec<(usize, [f64; 3], f64)>,
+    ) -> PyResult<()> {
         let springs = springs
             .into_iter()
             .map(|(vertex, anchor, stiffness)| AnchorSpring {
@@ -168,7 +179,8 @@ impl Shell {
                 stiffness,
             })
             .collect();
-        lock(&self.sim)?
+        self.sim
+            .lock(py)?
             .set_anchor_springs(springs)
             .map_err(setter_err)
     }
@@ -182,7 +194,7 @@ impl Shell {
 /// surface), `time`, `set_external_forces`, `set_dt`.
 #[pyclass(module = "balloon._balloon", subclass)]
 pub(crate) struct Volumetric {
-    sim: Mutex<VolumetricSimulation>,
+    sim: Shared<VolumetricSimulation>,
 }
 
 #[pymethods]
@@ -201,13 +213,13 @@ impl Volumetric {
         };
         let built = detached(py, move || Ok(s.build(arrays)?))?;
         Ok(Self {
-            sim: Mutex::new(built.sim),
+            sim: Shared::new(built.sim),
         })
     }
 
     /// Advances one time step (GIL released) and returns its statistics as a dict.
     fn step<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let mut guard = lock(&self.sim)?;
+        let mut guard = self.sim.lock(py)?;
         let sim = &mut *guard;
         let stats = py
             .detach(|| Simulation::step(sim))
@@ -218,19 +230,19 @@ impl Volumetric {
     /// Lattice particle positions, m: an (n, 3) float64 array.
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        points_array(py, Simulation::positions(&*lock(&self.sim)?))
+        points_array(py, Simulation::positions(&*self.sim.lock(py)?))
     }
 
     /// Lattice particle velocities, m/s: an (n, 3) float64 array.
     #[getter]
     fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        points_array(py, Simulation::velocities(&*lock(&self.sim)?))
+        points_array(py, Simulation::velocities(&*self.sim.lock(py)?))
     }
 
     /// The embedded surface (the input soup deformed with the lattice), m: (k, 3).
     #[getter]
     fn surface_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let sim = lock(&self.sim)?;
+        let sim = self.sim.lock(py)?;
         let flat: Vec<f64> = sim
             .lattice()
             .embedding
@@ -244,36 +256,40 @@ impl Volumetric {
     /// The embedded surface's triangles: (m, 3) int64.
     #[getter]
     fn surface_triangles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        triangles_array(py, &lock(&self.sim)?.lattice().embedding.triangles)
+        triangles_array(py, &self.sim.lock(py)?.lattice().embedding.triangles)
     }
 
     /// Simulated time, s.
     #[getter]
-    fn time(&self) -> PyResult<f64> {
-        Ok(lock(&self.sim)?.time())
+    fn time(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.sim.lock(py)?.time())
     }
 
     /// Steps taken.
     #[getter]
-    fn steps(&self) -> PyResult<usize> {
-        Ok(Simulation::steps(&*lock(&self.sim)?))
+    fn steps(&self, py: Python<'_>) -> PyResult<usize> {
+        Ok(Simulation::steps(&*self.sim.lock(py)?))
     }
 
     /// The time step of the following steps, s.
     #[getter]
-    fn dt(&self) -> PyResult<f64> {
-        Ok(Simulation::dt(&*lock(&self.sim)?))
+    fn dt(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(Simulation::dt(&*self.sim.lock(py)?))
     }
 
     /// Changes the time step (s) of the following steps.
-    fn set_dt(&self, dt: f64) -> PyResult<()> {
-        Simulation::set_dt(&mut *lock(&self.sim)?, dt).map_err(setter_err)
+    fn set_dt(&self, py: Python<'_>, dt: f64) -> PyResult<()> {
+        Simulation::set_dt(&mut *self.sim.lock(py)?, dt).map_err(setter_err)
     }
 
     /// Sets external forces, N: an (n, 3) array, one per lattice particle; None removes them.
     #[pyo3(signature = (forces = None))]
-    fn set_external_forces(&self, forces: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
-        let mut sim = lock(&self.sim)?;
+    fn set_external_forces(
+        &self,
+        py: Python<'_>,
+        forces: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let mut sim = self.sim.lock(py)?;
         let f = match forces {
             Some(f) => {
                 let flat = flat_points(f, sim.positions().len(), "forces")?;
@@ -296,7 +312,7 @@ impl Volumetric {
 /// driven step by step: `step()`, `positions`, `time`, `set_drag`, `set_dt`.
 #[pyclass(module = "balloon._balloon", subclass)]
 pub(crate) struct TwoLayer {
-    sim: Mutex<TwoLayerSimulation>,
+    sim: Shared<TwoLayerSimulation>,
 }
 
 #[pymethods]
@@ -310,13 +326,13 @@ impl TwoLayer {
         };
         let sim = detached(py, move || Ok(s.build()?))?;
         Ok(Self {
-            sim: Mutex::new(sim),
+            sim: Shared::new(sim),
         })
     }
 
     /// Advances one time step (GIL released) and returns its statistics as a dict.
     fn step<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let mut guard = lock(&self.sim)?;
+        let mut guard = self.sim.lock(py)?;
         let sim = &mut *guard;
         let stats = py
             .detach(|| Simulation::step(sim))
@@ -327,36 +343,36 @@ impl TwoLayer {
     /// Particle positions, m: an (n, 3) float64 array.
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        points_array(py, Simulation::positions(&*lock(&self.sim)?))
+        points_array(py, Simulation::positions(&*self.sim.lock(py)?))
     }
 
     /// Particle velocities, m/s: an (n, 3) float64 array.
     #[getter]
     fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        points_array(py, Simulation::velocities(&*lock(&self.sim)?))
+        points_array(py, Simulation::velocities(&*self.sim.lock(py)?))
     }
 
     /// Simulated time, s.
     #[getter]
-    fn time(&self) -> PyResult<f64> {
-        Ok(lock(&self.sim)?.time())
+    fn time(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.sim.lock(py)?.time())
     }
 
     /// Steps taken.
     #[getter]
-    fn steps(&self) -> PyResult<usize> {
-        Ok(Simulation::steps(&*lock(&self.sim)?))
+    fn steps(&self, py: Python<'_>) -> PyResult<usize> {
+        Ok(Simulation::steps(&*self.sim.lock(py)?))
     }
 
     /// The time step of the following steps, s.
     #[getter]
-    fn dt(&self) -> PyResult<f64> {
-        Ok(Simulation::dt(&*lock(&self.sim)?))
+    fn dt(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(Simulation::dt(&*self.sim.lock(py)?))
     }
 
     /// Changes the time step (s) of the following steps.
-    fn set_dt(&self, dt: f64) -> PyResult<()> {
-        Simulation::set_dt(&mut *lock(&self.sim)?, dt).map_err(setter_err)
+    fn set_dt(&self, py: Python<'_>, dt: f64) -> PyResult<()> {
+        Simulation::set_dt(&mut *self.sim.lock(py)?, dt).map_err(setter_err)
     }
 
     /// Drags the body ("mouse"): a spring of `stiffness` N/m and `damping` N s/m from the
@@ -364,6 +380,7 @@ impl TwoLayer {
     #[pyo3(signature = (point = None, stiffness = 10.0, damping = 0.1))]
     fn set_drag(
         &self,
+        py: Python<'_>,
         point: Option<[f64; 3]>,
         stiffness: f64,
         damping: f64,
@@ -374,6 +391,6 @@ impl TwoLayer {
             damping,
             rest_length: 0.0,
         });
-        lock(&self.sim)?.set_drag(target).map_err(setter_err)
+        self.sim.lock(py)?.set_drag(target).map_err(setter_err)
     }
 }

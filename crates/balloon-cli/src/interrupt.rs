@@ -6,15 +6,13 @@
 //! `balloon_run::interrupt`.
 
 use signal_hook::consts::{SIGINT, SIGTERM};
-use signal_hook::flag;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use signal_hook::iterator::Signals;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 pub use balloon_run::interrupt::Interrupted;
 
 /// The signal received (0: none).
 static SIGNAL: AtomicUsize = AtomicUsize::new(0);
-/// Set by the first signal: the next one terminates at once.
-static ARMED: AtomicBool = AtomicBool::new(false);
 
 /// The signal received so far, if any.
 fn received() -> Option<i32> {
@@ -25,14 +23,24 @@ fn received() -> Option<i32> {
 }
 
 /// Installs the handlers for SIGINT and SIGTERM and tells the run loop to ask them (call
-/// once, before the run).
+/// once, before the run). The signals are taken by a thread of their own: the first is recorded
+/// for the run loop; a second removes the temporary files of the output folder (a GIF being
+/// encoded, a frame being written) and ends the process at once.
 pub fn install() -> std::io::Result<()> {
-    for sig in [SIGINT, SIGTERM] {
-        // Order matters: the shutdown check must run before the flag that arms it is set.
-        flag::register_conditional_shutdown(sig, 128 + sig, &ARMED)?;
-        flag::register_usize(sig, &SIGNAL, sig as usize)?;
-        flag::register(sig, &ARMED)?;
-    }
+    let mut signals = Signals::new([SIGINT, SIGTERM])?;
+    std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || {
+            for sig in signals.forever() {
+                if SIGNAL
+                    .compare_exchange(0, sig as usize, Ordering::SeqCst, Ordering::SeqCst)
+                    .is_err()
+                {
+                    balloon_run::interrupt::remove_temp_files();
+                    std::process::exit(128 + sig);
+                }
+            }
+        })?;
     balloon_run::interrupt::set_checker(received);
     Ok(())
 }

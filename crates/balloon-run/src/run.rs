@@ -365,8 +365,14 @@ where
     } else if plan.json {
         print_json_line(&record)?;
     } else if !failed || hooks.print_after_failure() {
+        // After a write failure the folder is not named as "written".
+        let written = if output_error.is_some() || finish_error.is_some() {
+            None
+        } else {
+            out.as_ref()
+        };
         let mut stdout = std::io::stdout().lock();
-        hooks.print(&summary, out.as_ref(), &mut stdout)?;
+        hooks.print(&summary, written, &mut stdout)?;
         stdout.flush()?;
     }
     if let Some(e) = run.failure.take() {
@@ -376,6 +382,9 @@ where
         return Err(hooks.failure(e, run.steps + 1));
     }
     if let Some(e) = output_error {
+        if let Some(f) = &finish_error {
+            eprintln!("warning: {f:#}");
+        }
         return Err(e);
     }
     if let Some(msg) = stalled {

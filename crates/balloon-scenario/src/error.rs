@@ -16,6 +16,17 @@ pub enum ScenarioError {
         #[source]
         source: std::io::Error,
     },
+    /// The file holds no key at all (empty or only comments), which would run every default.
+    /// Fix: the file's path, or give at least the mesh.
+    #[error(
+        "the scenario {} is empty (no key at all); a scenario file names at least its mesh \
+         (`[mesh] path = ...`) or its system",
+        path.display()
+    )]
+    Empty {
+        /// The scenario file.
+        path: PathBuf,
+    },
     /// The file is not valid TOML. Fix: the line named.
     #[error("{}:{line}: not valid TOML: {message}", path.display())]
     Syntax {

@@ -5,6 +5,7 @@ mod connect;
 mod design;
 mod gas_laws;
 mod help;
+mod hostile;
 mod inflate;
 mod loads;
 mod membrane;

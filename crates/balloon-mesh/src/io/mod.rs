@@ -11,6 +11,7 @@
 //! readers are hand-written so that every error names the file and the line (text) or byte
 //! offset (binary); the `parse_*` functions read from memory. See `docs/mesh-io.md`.
 
+mod input;
 pub mod obj;
 pub mod off;
 pub mod ply;
@@ -20,6 +21,7 @@ mod text;
 pub mod vtk;
 pub mod vtp;
 
+pub use input::{InputFileError, MAX_TEXT_INPUT_BYTES, read_input_file, read_input_text, was_read};
 pub use obj::parse_obj;
 pub use off::parse_off;
 pub use ply::{PlyProperty, parse_ply, parse_ply_with_property};
@@ -42,62 +44,18 @@ fn io_err(path: &Path, source: std::io::Error) -> MeshError {
 /// a larger file is refused before it is read instead of exhausting memory).
 pub const MAX_MESH_FILE_BYTES: u64 = 1 << 30;
 
-/// Reads a whole mesh file after checking what it is: only regular files (a symlink is followed)
-/// of at most [`MAX_MESH_FILE_BYTES`] are read, so a device (`/dev/zero`), a FIFO or a directory
-/// is refused by its type and a huge (or sparse) file by its size, before any allocation. The
-/// read itself is capped too, in case the file grows between the check and the read.
+/// Reads a whole mesh file after checking what it is ([`read_input_file`]): only regular files
+/// (a symlink is followed) of at most [`MAX_MESH_FILE_BYTES`] are read, so a device
+/// (`/dev/zero`), a FIFO or a directory is refused by its type and a huge (or sparse) file by its
+/// size, before any allocation.
 fn read_bytes(path: &Path) -> Result<Vec<u8>, MeshError> {
-    use std::io::Read;
-    let meta = std::fs::metadata(path).map_err(|e| io_err(path, e))?;
-    let kind = meta.file_type();
-    if !kind.is_file() {
-        return Err(MeshError::NotAFile {
-            path: path.to_path_buf(),
-            kind: file_kind(&kind),
-        });
-    }
-    let too_big = |size: u64| MeshError::FileTooLarge {
-        path: path.to_path_buf(),
-        size,
-        limit: MAX_MESH_FILE_BYTES,
-    };
-    if meta.len() > MAX_MESH_FILE_BYTES {
-        return Err(too_big(meta.len()));
-    }
-    let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
-    file.take(MAX_MESH_FILE_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| io_err(path, e))?;
-    if bytes.len() as u64 > MAX_MESH_FILE_BYTES {
-        return Err(too_big(bytes.len() as u64));
-    }
-    Ok(bytes)
-}
-
-/// A name for a file type that is not a regular file.
-fn file_kind(kind: &std::fs::FileType) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if kind.is_char_device() {
-            return "a character device";
+    read_input_file(path, MAX_MESH_FILE_BYTES).map_err(|e| match e {
+        InputFileError::Io { path, source } => MeshError::Io { path, source },
+        InputFileError::NotAFile { path, kind } => MeshError::NotAFile { path, kind },
+        InputFileError::TooLarge { path, size, limit } => {
+            MeshError::FileTooLarge { path, size, limit }
         }
-        if kind.is_block_device() {
-            return "a block device";
-        }
-        if kind.is_fifo() {
-            return "a FIFO (named pipe)";
-        }
-        if kind.is_socket() {
-            return "a socket";
-        }
-    }
-    if kind.is_dir() {
-        "a directory"
-    } else {
-        "not a regular file"
-    }
+    })
 }
 
 fn extension(path: &Path) -> String {

@@ -515,15 +515,19 @@ pub fn run(
         .check_pictures("connect", SHELL_COLORS)
         .map_err(anyhow::Error::msg)?;
     if let Some(dir) = &shell.output.out {
-        crate::output::prepare_out_dir(dir, shell.output.overwrite)?;
+        crate::output::check_out_dir(dir, shell.output.overwrite)?;
     }
     let (mut sim, layout) = args.build()?;
     let out = match &shell.output.out {
-        Some(dir) => Some(OutputDir::create(dir, shell.output.format)?.with_pictures(
-            &shell.output,
-            render_spec,
-            style(),
-        )?),
+        Some(dir) => {
+            // The earlier run's files go only now that this run is set up.
+            crate::output::prepare_out_dir(dir, shell.output.overwrite)?;
+            Some(OutputDir::create(dir, shell.output.format)?.with_pictures(
+                &shell.output,
+                render_spec,
+                style(),
+            )?)
+        }
         None => None,
     };
     // Resolved like a shell run's record: the material's defaults and the projection made

@@ -283,15 +283,19 @@ pub fn run(
         .check_pictures("inflate", SHELL_COLORS)
         .map_err(anyhow::Error::msg)?;
     if let Some(dir) = &args.output.out {
-        crate::output::prepare_out_dir(dir, args.output.overwrite)?;
+        crate::output::check_out_dir(dir, args.output.overwrite)?;
     }
     let (mut sim, loads) = args.build(mesh)?;
     let out = match &args.output.out {
-        Some(dir) => Some(OutputDir::create(dir, args.output.format)?.with_pictures(
-            &args.output,
-            render_spec,
-            style(),
-        )?),
+        Some(dir) => {
+            // The earlier run's files go only now that this run is set up.
+            crate::output::prepare_out_dir(dir, args.output.overwrite)?;
+            Some(OutputDir::create(dir, args.output.format)?.with_pictures(
+                &args.output,
+                render_spec,
+                style(),
+            )?)
+        }
         None => None,
     };
     let record =

@@ -133,6 +133,14 @@ pub fn run<M: ShellMaterial>(
     record_text: Option<&str>,
 ) -> Result<StaticRun> {
     let ratios = args.static_points().map_err(anyhow::Error::msg)?;
+    if ratios.is_empty() {
+        // A range whose step underflows (or whose end is not reached) would run "0 points,
+        // converged".
+        anyhow::bail!(
+            "`volume_ratios` gives no point to solve (an empty range, or a step too small to \
+             leave its start); give START:END:STEP with a step that reaches END"
+        );
+    }
     let mut options = args.static_options();
     let mut summary = StaticSummary {
         mesh: args.mesh.path.clone(),
@@ -149,6 +157,8 @@ pub fn run<M: ShellMaterial>(
         summary.frames += 1;
     }
     let mut failure = None;
+    // An output that could not be written (a full disk) ends the run too, after the summary.
+    let mut output_error: Option<anyhow::Error> = None;
     let mut interrupted = None;
     // (V / V0, gauge pressure) of every converged point, for the pressure-volume plot.
     let mut curve = Vec::new();
@@ -184,10 +194,17 @@ pub fn run<M: ShellMaterial>(
                 let point = StaticPoint::new(i, *ratio, &report);
                 points.push(serde_json::to_value(&point)?);
                 if let Some(o) = &mut out {
-                    o.append_stats(&point)?;
-                    if ratios.len() > 1 {
-                        o.frame(&shell_frame(sim, i + 1)?, true)?;
-                        summary.frames += 1;
+                    let written = o.append_stats(&point).and_then(|()| {
+                        if ratios.len() > 1 {
+                            o.frame(&shell_frame(sim, i + 1)?, true)?;
+                            summary.frames += 1;
+                        }
+                        Ok(())
+                    });
+                    if let Err(e) = written {
+                        summary.converged = false;
+                        output_error = Some(e);
+                        break;
                     }
                 }
             }
@@ -204,26 +221,38 @@ pub fn run<M: ShellMaterial>(
     summary.final_thickness_mean = th.iter().sum::<f64>() / th.len() as f64;
     summary.final_thickness_min = th.iter().copied().fold(f64::INFINITY, f64::min);
     summary.final_thickness_max = th.iter().copied().fold(0.0, f64::max);
-    summary.error = failure.as_ref().map(|e| e.to_string());
+    summary.error = failure
+        .as_ref()
+        .map(|e| e.to_string())
+        .or_else(|| output_error.as_ref().map(|e| format!("{e:#}")));
     summary.interrupted = interrupted.is_some();
     let mut record = serde_json::to_value(&summary)?;
     if let Some(text) = record_text {
         crate::run::insert_scenario(&mut record, text);
     }
-    if let Some(o) = &mut out
-        && ratios.len() > 1
-        && curve.len() > 1
-    {
-        write_pressure_volume_plot(o, &args.mesh.path, &curve)?;
-    }
+    // Everything below is attempted even when a part fails (the summary above all); the first
+    // error is kept, later ones are warnings.
+    let failed = failure.is_some() || output_error.is_some();
     if let Some(o) = &mut out {
+        let mut keep = |r: Result<()>| {
+            if let Err(e) = r {
+                if output_error.is_none() {
+                    output_error = Some(e);
+                } else {
+                    eprintln!("warning: {e:#}");
+                }
+            }
+        };
+        if ratios.len() > 1 && curve.len() > 1 {
+            keep(write_pressure_volume_plot(o, &args.mesh.path, &curve));
+        }
         let last = shell_frame(sim, summary.points.max(1))?;
-        o.write_named_frame("final", &last)?;
-        o.write_json("summary.json", &record)?;
-        match o.finish(&last, failure.is_some()) {
+        keep(o.write_named_frame("final", &last).map(drop));
+        keep(o.write_json("summary.json", &record).map(drop));
+        match o.finish(&last, failed) {
             Ok(warnings) => warnings.iter().for_each(|w| eprintln!("warning: {w}")),
-            Err(e) if failure.is_some() => eprintln!("warning: {e:#}"),
-            Err(e) => return Err(e),
+            Err(e) if failed => eprintln!("warning: {e:#}"),
+            Err(e) => keep(Err(e)),
         }
     }
     if quiet {
@@ -244,10 +273,18 @@ pub fn run<M: ShellMaterial>(
             summary.solve_ms,
             if summary.converged { ", converged" } else { "" }
         )?;
-        if let Some(o) = &out {
+        if let Some(o) = &out
+            && output_error.is_none()
+        {
             writeln!(w, "output written to {}", o.path().display())?;
         }
         w.flush()?;
+    }
+    if let Some(e) = output_error {
+        if let Some(f) = &failure {
+            eprintln!("warning: {f}");
+        }
+        return Err(e);
     }
     match failure {
         Some(e) => Err(anyhow::Error::new(e).context(format!(

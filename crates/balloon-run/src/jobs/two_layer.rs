@@ -189,17 +189,21 @@ pub fn run(
         .check_pictures("two-layer", TWO_LAYER_COLORS)
         .map_err(anyhow::Error::msg)?;
     if let Some(dir) = &args.output.out {
-        crate::output::prepare_out_dir(dir, args.output.overwrite)?;
+        crate::output::check_out_dir(dir, args.output.overwrite)?;
     }
     let drag = args.drag().map_err(anyhow::Error::msg)?;
     let mut sim = args.build()?;
     let rest = sim.positions().to_vec();
     let out = match &args.output.out {
-        Some(dir) => Some(OutputDir::create(dir, args.output.format)?.with_pictures(
-            &args.output,
-            render_spec,
-            style(dim),
-        )?),
+        Some(dir) => {
+            // The earlier run's files go only now that this run is set up.
+            crate::output::prepare_out_dir(dir, args.output.overwrite)?;
+            Some(OutputDir::create(dir, args.output.format)?.with_pictures(
+                &args.output,
+                render_spec,
+                style(dim),
+            )?)
+        }
         None => None,
     };
     if let (Some(o), Some(text)) = (&out, record) {

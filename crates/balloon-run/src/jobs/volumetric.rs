@@ -300,7 +300,7 @@ pub fn run(
         .check_pictures("volumetric", VOLUMETRIC_COLORS)
         .map_err(anyhow::Error::msg)?;
     if let Some(dir) = &args.output.out {
-        crate::output::prepare_out_dir(dir, args.output.overwrite)?;
+        crate::output::check_out_dir(dir, args.output.overwrite)?;
     }
     let VolumetricBuild {
         mut sim,
@@ -322,11 +322,15 @@ pub fn run(
         .flat_map(|q| [q.x, q.y, q.z])
         .collect();
     let out = match &args.output.out {
-        Some(dir) => Some(OutputDir::create(dir, args.output.format)?.with_pictures(
-            &args.output,
-            render_spec,
-            style(),
-        )?),
+        Some(dir) => {
+            // The earlier run's files go only now that this run is set up.
+            crate::output::prepare_out_dir(dir, args.output.overwrite)?;
+            Some(OutputDir::create(dir, args.output.format)?.with_pictures(
+                &args.output,
+                render_spec,
+                style(),
+            )?)
+        }
         None => None,
     };
     if let (Some(o), Some(text)) = (&out, record) {

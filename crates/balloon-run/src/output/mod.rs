@@ -27,14 +27,17 @@ use pictures::{Pictures, keep_for_gif, render_options, render_png, write_gif};
 use serde::Serialize;
 use std::collections::BTreeSet;
 use std::fs::File;
-use std::io::{BufWriter, IsTerminal, Write};
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 /// An output folder for one run.
 pub struct OutputDir {
     dir: PathBuf,
     format: FrameFormat,
-    stats: Option<BufWriter<File>>,
+    /// `stats.jsonl`, written a whole line at a time (see [`append_whole_line`]).
+    stats: Option<File>,
+    /// Bytes of complete lines in `stats.jsonl`.
+    stats_len: u64,
     pvd: Option<PvdWriter>,
     pictures: Option<Pictures>,
     /// The floor file (`floor.<ext>`) is written (once: the floor does not move).
@@ -95,14 +98,51 @@ fn is_run_file(name: &str) -> bool {
         || named("input_soup", &frames)
 }
 
+/// Whether `name` is a temporary file this program writes into an output folder (a file it
+/// writes, as `.NAME.tmp` or, for OBJ / PLY frames, `NAME.tmp`; a render `.frame_N.png.tmp`).
+pub(crate) fn is_temp_file(name: &str) -> bool {
+    name.ends_with(".tmp")
+        && (is_run_file(name)
+            || name == ".pressure_volume.png.tmp"
+            || name
+                .strip_prefix(".frame_")
+                .and_then(|n| n.strip_suffix(".png.tmp"))
+                .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit())))
+}
+
 /// Checks the output folder before any work: a path that exists but is not a folder is refused,
 /// and so is a folder holding an earlier run's files (they would mix with this run's: a shorter
-/// run leaves the old frames beyond its end) unless `overwrite`, which removes exactly those
-/// files (see `is_run_file`; `renders/frame_*.png` too) and nothing else.
+/// run leaves the old frames beyond its end) unless `overwrite`, and a folder where one of those
+/// files is an input this process has read (e.g. `out = "."` beside the scenario file
+/// `scenario.toml`: it would be replaced). Removes nothing: [`prepare_out_dir`] does, once the
+/// run is set up.
+pub fn check_out_dir(dir: &Path, overwrite: bool) -> Result<()> {
+    old_run_files(dir, overwrite).map(drop)
+}
+
+/// Checks the output folder as [`check_out_dir`] does and, with `overwrite`, removes the earlier
+/// run's files (see `is_run_file`; `renders/frame_*.png` too) and nothing else. Called once the
+/// new run is set up (its mesh and inputs read, its parameters valid), so a run that cannot
+/// start leaves the earlier one in place; an input of the run is never removed.
 pub fn prepare_out_dir(dir: &Path, overwrite: bool) -> Result<()> {
+    let old = old_run_files(dir, overwrite)?;
+    for f in &old {
+        std::fs::remove_file(f).with_context(|| format!("cannot remove {}", f.display()))?;
+    }
+    // The renders folder goes too when nothing else is in it.
+    let renders = dir.join("renders");
+    if !old.is_empty() && renders.is_dir() {
+        let _ = std::fs::remove_dir(&renders);
+    }
+    Ok(())
+}
+
+/// The earlier run's files in `dir` (refused unless `overwrite`; an input of this process is
+/// refused always).
+fn old_run_files(dir: &Path, overwrite: bool) -> Result<Vec<PathBuf>> {
     let meta = match std::fs::metadata(dir) {
         Ok(m) => m,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
         Err(e) => {
             return Err(e).with_context(|| format!("cannot read `out` = {}", dir.display()));
         }
@@ -136,11 +176,19 @@ pub fn prepare_out_dir(dir: &Path, overwrite: bool) -> Result<()> {
     if renders.is_dir() {
         list(&renders, true, &mut old)?;
     }
+    old.sort();
+    if let Some(input) = old.iter().find(|f| balloon::mesh::io::was_read(f)) {
+        bail!(
+            "`out` = {} holds {}, an input of this run, where the run writes its own file of \
+             that name; choose another output folder",
+            dir.display(),
+            input.display()
+        );
+    }
     if old.is_empty() {
-        return Ok(());
+        return Ok(old);
     }
     if !overwrite {
-        old.sort();
         bail!(
             "`out` = {} already holds the files of an earlier run ({} file(s), e.g. {}); choose \
              another folder or add `overwrite` to remove them first",
@@ -151,14 +199,7 @@ pub fn prepare_out_dir(dir: &Path, overwrite: bool) -> Result<()> {
                 .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
         );
     }
-    for f in &old {
-        std::fs::remove_file(f).with_context(|| format!("cannot remove {}", f.display()))?;
-    }
-    // The renders folder goes too when nothing else is in it.
-    if renders.is_dir() {
-        let _ = std::fs::remove_dir(&renders);
-    }
-    Ok(())
+    Ok(old)
 }
 
 /// Writes a file at `path` through `tmp` and a rename; on any failure `tmp` is removed, so a
@@ -180,6 +221,7 @@ impl OutputDir {
     pub fn create(dir: &Path, format: FrameFormat) -> Result<Self> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create output folder {}", dir.display()))?;
+        crate::interrupt::watch_out_dir(dir);
         let path = dir.join("stats.jsonl");
         let f = File::create(&path).with_context(|| format!("cannot create {}", path.display()))?;
         let pvd = match format {
@@ -195,7 +237,8 @@ impl OutputDir {
         Ok(Self {
             dir: dir.to_path_buf(),
             format,
-            stats: Some(BufWriter::new(f)),
+            stats: Some(f),
+            stats_len: 0,
             pvd,
             pictures: None,
             floor_written: false,
@@ -480,21 +523,24 @@ impl OutputDir {
         })
     }
 
-    /// Appends one JSON object as a line of `stats.jsonl` and flushes it.
+    /// Appends one JSON object as a line of `stats.jsonl`, whole or not at all: the line is
+    /// written with one unbuffered write, and a failed write (a full disk) cuts the file back to
+    /// its last complete line before the error is returned.
     pub fn append_stats<T: Serialize>(&mut self, row: &T) -> Result<()> {
+        let path = self.dir.join("stats.jsonl");
         if self.stats.is_none() {
-            let path = self.dir.join("stats.jsonl");
             let f =
                 File::create(&path).with_context(|| format!("cannot create {}", path.display()))?;
-            self.stats = Some(BufWriter::new(f));
+            self.stats = Some(f);
+            self.stats_len = 0;
         }
-        let path = self.dir.join("stats.jsonl");
-        let w = self.stats.as_mut().expect("stats writer exists");
-        serde_json::to_writer(&mut *w, row)
-            .map_err(std::io::Error::from)
-            .and_then(|()| w.write_all(b"\n"))
-            .and_then(|()| w.flush())
-            .with_context(|| format!("cannot write {}", path.display()))
+        let mut line = serde_json::to_vec(row)?;
+        line.push(b'\n');
+        let f = self.stats.as_mut().expect("stats writer exists");
+        append_whole_line(f, self.stats_len, &line)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        self.stats_len += line.len() as u64;
+        Ok(())
     }
 
     /// Writes `text` to `name` (e.g. `scenario.toml`) atomically.
@@ -525,6 +571,40 @@ impl OutputDir {
         let bytes = serde_json::to_vec_pretty(value)?;
         write_via_tmp(&path, &tmp, |tmp| Ok(std::fs::write(tmp, &bytes)?))?;
         Ok(path)
+    }
+}
+
+/// A file that can be cut back to a length (a [`File`]; tests inject failing ones).
+pub(crate) trait Truncate: Write {
+    /// Cuts the file to `len` bytes and puts the write position there.
+    fn truncate_to(&mut self, len: u64) -> std::io::Result<()>;
+}
+
+impl Truncate for File {
+    fn truncate_to(&mut self, len: u64) -> std::io::Result<()> {
+        use std::io::{Seek, SeekFrom};
+        self.set_len(len)?;
+        self.seek(SeekFrom::Start(len)).map(drop)
+    }
+}
+
+/// Writes `line` (ending in a newline) at the end of `w`, which holds `len` bytes of complete
+/// lines: on a failed write, `w` is cut back to `len`, so it never ends in part of a line (if
+/// even the cut fails, its error is added to the write's).
+pub(crate) fn append_whole_line(
+    w: &mut impl Truncate,
+    len: u64,
+    line: &[u8],
+) -> std::io::Result<()> {
+    match w.write_all(line).and_then(|()| w.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) => match w.truncate_to(len) {
+            Ok(()) => Err(e),
+            Err(cut) => Err(std::io::Error::new(
+                e.kind(),
+                format!("{e}; the partial line could not be removed either: {cut}"),
+            )),
+        },
     }
 }
 

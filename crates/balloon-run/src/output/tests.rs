@@ -88,3 +88,110 @@ fn stretch_of_a_soup_with_a_degenerate_triangle_is_nan_there() {
     let s = &f.cell_data[0].values;
     assert!((s[0] - 2.0).abs() < 1e-12 && s[1].is_nan());
 }
+
+/// A file on a disk with `room` bytes left: writes fill it, then fail as a full disk does.
+struct FullDisk {
+    bytes: Vec<u8>,
+    room: usize,
+}
+
+impl Write for FullDisk {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = buf.len().min(self.room - self.bytes.len());
+        if n == 0 {
+            return Err(std::io::Error::from(std::io::ErrorKind::StorageFull));
+        }
+        self.bytes.extend_from_slice(&buf[..n]);
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Truncate for FullDisk {
+    fn truncate_to(&mut self, len: u64) -> std::io::Result<()> {
+        self.bytes.truncate(len as usize);
+        Ok(())
+    }
+}
+
+#[test]
+fn a_full_disk_leaves_stats_ending_at_the_last_whole_line() {
+    let mut disk = FullDisk {
+        bytes: Vec::new(),
+        room: 40,
+    };
+    let mut len = 0;
+    let mut written = 0;
+    for step in 1..10 {
+        let line = format!("{{\"step\":{step},\"x\":1.5}}\n");
+        match append_whole_line(&mut disk, len, line.as_bytes()) {
+            Ok(()) => {
+                len += line.len() as u64;
+                written += 1;
+            }
+            Err(e) => {
+                assert_eq!(e.kind(), std::io::ErrorKind::StorageFull);
+                break;
+            }
+        }
+    }
+    // Two lines of 19 bytes fit in 40; the third was cut back off.
+    assert_eq!(written, 2);
+    let text = String::from_utf8(disk.bytes).unwrap();
+    assert!(text.ends_with('\n'), "{text:?}");
+    assert_eq!(text.lines().count(), 2);
+    for line in text.lines() {
+        serde_json::from_str::<serde_json::Value>(line).unwrap();
+    }
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_failing_stats_file_is_an_error_naming_it() {
+    // `/dev/full` fails every write with "no space left on device".
+    let dir = tempfile::tempdir().unwrap();
+    let mut out = OutputDir::create(dir.path(), FrameFormat::Obj).unwrap();
+    out.stats = Some(File::options().write(true).open("/dev/full").unwrap());
+    let e = out
+        .append_stats(&serde_json::json!({"step": 1}))
+        .unwrap_err();
+    let text = format!("{e:#}");
+    assert!(text.contains("stats.jsonl"), "{text}");
+}
+
+#[test]
+fn temp_files_are_recognised_and_removed_on_request() {
+    for tmp in [
+        ".run.gif.tmp",
+        ".summary.json.tmp",
+        "frame_00002.tmp",
+        ".frame_00003.vtp.tmp",
+        ".frame_00004.png.tmp",
+        ".pressure_volume.png.tmp",
+    ] {
+        assert!(is_temp_file(tmp), "{tmp}");
+    }
+    for not in ["run.gif", "notes.tmp", ".notes.txt.tmp", "frame_00001.obj"] {
+        assert!(!is_temp_file(not), "{not}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = OutputDir::create(dir.path(), FrameFormat::Obj).unwrap();
+    std::fs::write(out.path().join(".run.gif.tmp"), "partial").unwrap();
+    std::fs::write(out.path().join("notes.tmp"), "the user's").unwrap();
+    assert!(crate::interrupt::remove_temp_files() >= 1);
+    assert!(!out.path().join(".run.gif.tmp").exists());
+    assert!(out.path().join("notes.tmp").exists());
+}
+
+#[test]
+fn an_input_of_the_run_is_never_removed_by_overwrite() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("scenario.toml");
+    std::fs::write(&scenario, "[mesh]\npath = \"builtin:sphere\"\n").unwrap();
+    balloon::mesh::io::read_input_text(&scenario, 1000).unwrap();
+    let e = prepare_out_dir(dir.path(), true).unwrap_err().to_string();
+    assert!(e.contains("an input of this run"), "{e}");
+    assert!(scenario.exists());
+}

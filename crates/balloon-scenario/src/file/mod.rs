@@ -217,10 +217,13 @@ type Parsed = (String, Option<Vec<usize>>, toml_edit::Document<String>);
 
 /// Reads and parses a scenario file.
 fn parse(path: &Path) -> Result<Parsed, ScenarioError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    // A FIFO, a device or a directory is refused before it is opened, a file over the limit
+    // before it is read.
+    let text = balloon::mesh::io::read_input_text(path, balloon::mesh::io::MAX_TEXT_INPUT_BYTES)
+        .map_err(|e| ScenarioError::Read {
+            path: path.to_path_buf(),
+            source: e.into_io(),
+        })?;
     let is_json = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
@@ -244,6 +247,13 @@ fn parse(path: &Path) -> Result<Parsed, ScenarioError> {
         line: src.line(e.span()),
         message: e.message().trim().to_owned(),
     })?;
+    // An empty file (or only comments) would run every default: refused, it is surely a
+    // mistake (a truncated or wrong file).
+    if doc.as_table().is_empty() {
+        return Err(ScenarioError::Empty {
+            path: path.to_path_buf(),
+        });
+    }
     Ok((text, lines, doc))
 }
 

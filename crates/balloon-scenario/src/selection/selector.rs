@@ -355,10 +355,13 @@ fn ply_group(path: &Path, property: &str, vertices: usize) -> Result<Vec<usize>,
 
 /// The non-empty, non-comment lines of a text file with their 1-based numbers.
 pub(crate) fn data_lines(path: &Path) -> Result<Vec<(usize, String)>, SelectionError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SelectionError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    // A FIFO, a device or a directory is refused before it is opened, a file over the limit
+    // before it is read.
+    let text = balloon::mesh::io::read_input_text(path, balloon::mesh::io::MAX_TEXT_INPUT_BYTES)
+        .map_err(|e| SelectionError::Read {
+            path: path.to_path_buf(),
+            source: e.into_io(),
+        })?;
     Ok(text
         .lines()
         .enumerate()
