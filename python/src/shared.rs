@@ -7,7 +7,7 @@
 use crate::errors::BalloonError;
 use pyo3::prelude::*;
 use std::ops::{Deref, DerefMut};
-use std::sync::{Condvar, Mutex, MutexGuard, TryLockError};
+use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::Duration;
 
 /// How often a waiting thread runs Python's signal handlers.
@@ -66,10 +66,7 @@ impl<T> Shared<T> {
             }
         }
         // Only the ticket being served locks `data`: it is free (or poisoned).
-        let guard = match self.data.try_lock() {
-            Ok(g) => Some(g),
-            Err(TryLockError::Poisoned(_) | TryLockError::WouldBlock) => None,
-        };
+        let guard = self.data.try_lock().ok();
         let turn = Turn { guard, owner: self };
         if let Some(e) = interrupted {
             return Err(e);
