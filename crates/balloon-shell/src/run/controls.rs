@@ -105,9 +105,25 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// ([`ShellSimulation::solve_static`]) keeps them in place too.
     ///
     /// ```
-    /// use balloon::shell::ShellBalloon;
-    /// let mesh = balloon::mesh::generate::icosphere(0.1, 2)?;
-    /// let mut sim = ShellBalloon::new(mesh).build()?;
+    /// use balloon_constraint::shell_volume::{ShellVolumeParams, ShellVolumeProjection};
+    /// use balloon_gas::{IdealGas, PressureLoad};
+    /// use balloon_integrate::implicit::{BackwardEuler, BackwardEulerParams};
+    /// use balloon_material::{Lame, StVenantKirchhoff};
+    /// use balloon_shell::{ShellSimulation, ShellSystem};
+    ///
+    /// let mesh = balloon_mesh::generate::icosphere(0.1, 2)?;
+    /// let x = mesh.positions_flat();
+    /// let v0 = balloon_gas::enclosed_volume(&x, &mesh.triangles)?;
+    /// let gas = PressureLoad::new(IdealGas::try_new(104_325.0, v0)?)
+    ///     .with_ambient_pressure(101_325.0)?;
+    /// let material = StVenantKirchhoff::new(Lame::try_from_young_poisson(1e6, 0.45)?);
+    /// let thickness = vec![3e-4; mesh.num_triangles()];
+    /// let system =
+    ///     ShellSystem::from_rest_shape(&x, mesh.triangles.clone(), thickness, 950.0, material, gas)?;
+    /// let integrator = BackwardEuler::new(BackwardEulerParams::default())?;
+    /// let projection = ShellVolumeProjection::new(ShellVolumeParams::default());
+    /// let mut sim =
+    ///     ShellSimulation::new(system, x, 950.0, integrator, Some(Box::new(projection)), 0.01, 10)?;
     /// let bottom: Vec<usize> = (0..sim.positions().len() / 3)
     ///     .filter(|&v| sim.positions()[3 * v + 2] < -0.09)
     ///     .collect();
