@@ -12,8 +12,7 @@
 //! assert!(i.to_string().starts_with("interrupted by SIGINT after 7 completed step(s)"));
 //! ```
 
-use std::path::{Path, PathBuf};
-use std::sync::{Mutex, OnceLock};
+use std::sync::OnceLock;
 
 /// The function [`pending`] asks (set once per process).
 static CHECKER: OnceLock<fn() -> Option<i32>> = OnceLock::new();
@@ -30,46 +29,7 @@ pub fn pending() -> Option<i32> {
     CHECKER.get().and_then(|check| check())
 }
 
-/// The output folders of the runs in this process, whose temporary files
-/// [`remove_temp_files`] removes.
-static OUT_DIRS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
-
-/// Records `dir` as an output folder being written (done by `OutputDir::create`).
-pub fn watch_out_dir(dir: &Path) {
-    if let Ok(mut dirs) = OUT_DIRS.lock()
-        && !dirs.iter().any(|d| d == dir)
-    {
-        dirs.push(dir.to_path_buf());
-    }
-}
-
-/// Removes the temporary files (`.NAME.tmp`, `frame_N.tmp`, in the folder and its `renders/`)
-/// of every output folder being written: what a front end does before it ends the process at
-/// once (a second Ctrl-C while a GIF is encoded), so that no temporary file survives. Returns
-/// how many were removed.
-pub fn remove_temp_files() -> usize {
-    let dirs = match OUT_DIRS.lock() {
-        Ok(d) => d.clone(),
-        Err(_) => return 0,
-    };
-    let mut removed = 0;
-    for dir in dirs.iter().flat_map(|d| [d.clone(), d.join("renders")]) {
-        let Ok(entries) = std::fs::read_dir(&dir) else {
-            continue;
-        };
-        for entry in entries.flatten() {
-            let name = entry.file_name();
-            let name = name.to_string_lossy();
-            if crate::output::is_temp_file(&name)
-                && entry.file_type().is_ok_and(|t| t.is_file())
-                && std::fs::remove_file(entry.path()).is_ok()
-            {
-                removed += 1;
-            }
-        }
-    }
-    removed
-}
+pub use crate::output::temp::{remove_temp_files, watch_out_dir};
 
 /// SIGINT's number.
 const SIGINT: i32 = 2;

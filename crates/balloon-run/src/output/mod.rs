@@ -11,6 +11,7 @@
 
 pub mod frame;
 pub mod pictures;
+pub mod temp;
 pub mod usd;
 
 pub use balloon_scenario::output::ColorField;
@@ -221,7 +222,7 @@ impl OutputDir {
     pub fn create(dir: &Path, format: FrameFormat) -> Result<Self> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create output folder {}", dir.display()))?;
-        crate::interrupt::watch_out_dir(dir);
+        temp::watch_out_dir(dir);
         let path = dir.join("stats.jsonl");
         let f = File::create(&path).with_context(|| format!("cannot create {}", path.display()))?;
         let pvd = match format {

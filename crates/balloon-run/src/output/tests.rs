@@ -180,7 +180,7 @@ fn temp_files_are_recognised_and_removed_on_request() {
     let out = OutputDir::create(dir.path(), FrameFormat::Obj).unwrap();
     std::fs::write(out.path().join(".run.gif.tmp"), "partial").unwrap();
     std::fs::write(out.path().join("notes.tmp"), "the user's").unwrap();
-    assert!(crate::interrupt::remove_temp_files() >= 1);
+    assert!(super::temp::remove_temp_files() >= 1);
     assert!(!out.path().join(".run.gif.tmp").exists());
     assert!(out.path().join("notes.tmp").exists());
 }
