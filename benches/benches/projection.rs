@@ -11,7 +11,7 @@ use balloon_mesh::generate::icosphere;
 use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
 
 fn bench_projection(c: &mut Criterion) {
-    for subdivisions in [4u32, 5] {
+    for &subdivisions in subdivision_levels() {
         let mesh = icosphere(0.1, subdivisions).expect("icosphere");
         let x0 = mesh.positions_flat();
         let tris = mesh.triangles.clone();
@@ -50,3 +50,12 @@ fn bench_projection(c: &mut Criterion) {
 
 criterion_group!(benches, bench_projection);
 criterion_main!(benches);
+
+/// The icosphere levels measured (2562 and 10242 vertices); level 4 alone in test mode.
+fn subdivision_levels() -> &'static [u32] {
+    if balloon_benches::test_mode() {
+        &[4]
+    } else {
+        &[4, 5]
+    }
+}

@@ -63,7 +63,7 @@ enum Task {
         #[arg(long)]
         no_write: bool,
         /// Run one group only (shell, membrane, connected, tube, volumetric, drop-sphere, two-layer,
-        /// meshes); leaves docs/ unchanged, draws the group's figures into
+        /// floppy, meshes); leaves docs/ unchanged, draws the group's figures into
         /// target/validate-figures/.
         #[arg(long)]
         only: Option<String>,

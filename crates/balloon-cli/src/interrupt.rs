@@ -3,7 +3,9 @@
 //! process exits with 128 + the signal number (130 for SIGINT, 143 for SIGTERM), as a shell
 //! reports a process killed by it. A second signal while the records are written ends the
 //! process at once with the same status. The run loop asks for the signal through
-//! `balloon_run::interrupt`.
+//! `balloon_run::interrupt`, every Newton iteration through
+//! `balloon::integrate::newton::set_cancel_check` (the step or static point in progress is
+//! then abandoned at its last accepted state).
 
 use signal_hook::consts::{SIGINT, SIGTERM};
 use signal_hook::iterator::Signals;
@@ -42,5 +44,8 @@ pub fn install() -> std::io::Result<()> {
             }
         })?;
     balloon_run::interrupt::set_checker(received);
+    // The solves ask too, once per Newton iteration: a stalling static solve or a step on tiny
+    // sub-steps stops within one iteration instead of when it gives up.
+    balloon::integrate::newton::set_cancel_check(|| received().is_some());
     Ok(())
 }

@@ -300,7 +300,10 @@ pub trait ForceSystem {
     /// forces at the last [`ForceSystem::forces`] call, summed over parts that may cancel each
     /// other (e.g. the elastic and the pressure forces of an inflated balloon at rest, which
     /// balance). Used only to scale Newton's relative residual; the default `None` uses the norm
-    /// of the total force.
+    /// of the total force. A system whose forces include loads that its elastic forces balance
+    /// at equilibrium (gravity, a pressure) must give it: with the default the static solve's
+    /// residual is measured against the (vanishing) total force itself and never falls below
+    /// the tolerance.
     fn force_scale(&self) -> Option<f64> {
         None
     }

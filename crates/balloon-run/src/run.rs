@@ -217,7 +217,12 @@ where
         let stats = match result {
             Ok(s) => s,
             Err(e) => {
-                run.failure = Some(e);
+                // A step abandoned because a signal arrived during its Newton iterations is an
+                // interruption, not a failure (the state is the last accepted one).
+                match interrupt::pending() {
+                    Some(sig) => run.interrupted = Some(sig),
+                    None => run.failure = Some(e),
+                }
                 break;
             }
         };

@@ -4,6 +4,7 @@
 
 mod connected;
 mod drop_sphere;
+mod floppy;
 mod membrane;
 pub mod meshes;
 mod shell;
@@ -27,7 +28,7 @@ pub struct Options {
     /// Write docs/validation.md and docs/figures.
     pub write: bool,
     /// Run only this group ("shell", "membrane", "connected", "tube", "volumetric",
-    /// "drop-sphere", "two-layer", "meshes"); nothing is written.
+    /// "drop-sphere", "two-layer", "floppy", "meshes"); nothing is written.
     pub only: Option<String>,
 }
 
@@ -145,6 +146,9 @@ pub fn run(opts: &Options) -> Result<()> {
     }
     if want("two-layer") {
         cases.extend(two_layer::cases(opts, &mut figs));
+    }
+    if want("floppy") {
+        cases.extend(floppy::cases());
     }
     let steps = if opts.quick { 10 } else { 40 };
     if opts.quick {

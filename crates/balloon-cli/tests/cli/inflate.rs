@@ -393,3 +393,44 @@ fn diverging_run_fails_naming_the_step_and_keeps_its_output() {
     }
     balloon_mesh::io::read_mesh(&out_dir.join("final.obj")).unwrap();
 }
+
+#[test]
+fn a_newton_cap_too_low_for_the_tolerance_is_a_warning_in_the_summary() {
+    // With the residual test on, `--newton-iters 1` cannot converge a step: the steps are
+    // split into sub-steps, which the summary says, pointing at the paper's mode.
+    let out = run_balloon(&[
+        "inflate",
+        "builtin:icosphere",
+        "--newton-iters",
+        "1",
+        "--steps",
+        "3",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s = last_json_line(&out);
+    assert!(s["split_steps"].as_u64().unwrap() > 0, "{s}");
+    let warnings = s["warnings"].as_array().unwrap();
+    assert_eq!(warnings.len(), 1, "{s}");
+    let w = warnings[0].as_str().unwrap();
+    assert!(
+        w.contains("newton_iters") && w.contains("= 1") && w.contains("newton_tol` = 0"),
+        "{w}"
+    );
+    // The paper's mode (no residual test) and the default cap give no warning.
+    for args in [
+        &["--newton-iters", "1", "--newton-tol", "0"][..],
+        &["--newton-iters", "50"][..],
+    ] {
+        let mut all = vec!["inflate", "builtin:icosphere", "--steps", "3", "--json"];
+        all.extend_from_slice(args);
+        let out = run_balloon(&all);
+        assert!(out.status.success());
+        let s = last_json_line(&out);
+        assert_eq!(s["warnings"], serde_json::json!([]), "{args:?}: {s}");
+    }
+}

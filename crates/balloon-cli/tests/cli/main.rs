@@ -7,6 +7,7 @@ mod gas_laws;
 mod help;
 mod hostile;
 mod inflate;
+mod interrupt_solve;
 mod loads;
 mod membrane;
 mod mesh;

@@ -94,6 +94,13 @@ pub enum NewtonError {
         "the force system has no potential energy; the static solve needs one (a gas model without a potential cannot be solved statically)"
     )]
     NoPotential,
+    /// The process asked the solves to stop (a signal caught by the front end; see
+    /// [`crate::newton::set_cancel_check`]). Not recoverable: no retry with a smaller step.
+    #[error("interrupted in Newton iteration {iteration} (a stop was requested)")]
+    Interrupted {
+        /// Newton iteration (0-based) at which the request was seen.
+        iteration: usize,
+    },
     /// Newton did not bring the relative residual down to the tolerance within the allowed
     /// iterations, stalled (the residual did not halve over
     /// [`crate::newton::NEWTON_STALL_WINDOW`] iterations), or the line search found no
@@ -133,6 +140,7 @@ impl NewtonError {
                 | Self::NonFiniteInput { .. }
                 | Self::InvalidMass { .. }
                 | Self::NoPotential
+                | Self::Interrupted { .. }
         )
     }
 }

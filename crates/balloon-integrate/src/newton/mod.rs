@@ -16,6 +16,7 @@
 //! and records what it did ([`NewtonRecord`]). A new globalisation, regularisation or
 //! convergence test is written here once and serves both solvers.
 
+mod cancel;
 pub mod convergence;
 mod error;
 pub mod line_search;
@@ -23,6 +24,7 @@ mod linear;
 mod objective;
 pub mod regularization;
 
+pub use cancel::{cancel_requested, set_cancel_check};
 pub use convergence::{MAX_NEWTON_ITERATIONS, NEWTON_STALL_WINDOW, Residual};
 pub use error::NewtonError;
 pub(crate) use error::check_parameter;
@@ -203,6 +205,9 @@ impl NewtonCore {
             {
                 converged = true;
                 break;
+            }
+            if cancel_requested() {
+                return Err(NewtonError::Interrupted { iteration: k });
             }
             record.iterations += 1;
             if !settings.fixed_steps {

@@ -13,7 +13,7 @@ use balloon_render::UpAxis;
 use balloon_scenario::file::resolve_shell_record;
 use balloon_scenario::gas::GasControl;
 use balloon_scenario::selection::ShellLoads;
-use balloon_scenario::shell::{SHELL_COLORS, ShellScenario, ShellSim};
+use balloon_scenario::shell::{SHELL_COLORS, ShellRun, ShellScenario, ShellSim};
 use serde::Serialize;
 
 /// The run summary (`summary.json`, and the `json` line).
@@ -81,6 +81,9 @@ pub struct InflateSummary {
     pub follower_term: bool,
     /// The error that stopped the run, if any.
     pub error: Option<String>,
+    /// Settings the run suggests changing, in words (e.g. a `newton_iters` cap too low for
+    /// `newton_tol`, which splits steps into sub-steps); also printed after the run.
+    pub warnings: Vec<String>,
 }
 
 /// How shell balloons are drawn: the mesh's +y is up (the teddy stands along +y).
@@ -184,6 +187,9 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
             final_thickness_min: th.iter().copied().fold(f64::INFINITY, f64::min),
             final_thickness_max: th.iter().copied().fold(0.0, f64::max),
             error: run.failure.as_ref().map(|e| e.to_string()),
+            warnings: newton_cap_warning(&self.args.run, &self.summary, run.steps)
+                .into_iter()
+                .collect(),
             ..self.summary
         }
     }
@@ -243,6 +249,9 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
             summary.mean_step_ms,
             if summary.converged { ", converged" } else { "" }
         )?;
+        for warning in &summary.warnings {
+            writeln!(w, "warning: {warning}")?;
+        }
         if let Some(o) = out {
             writeln!(w, "output written to {}", o.path().display())?;
         }
@@ -350,4 +359,22 @@ pub fn run(
         },
         Vec::new(),
     ))
+}
+
+/// The summary's warning when a `newton_iters` cap below the default, with a residual test
+/// (`newton_tol` > 0), made steps split into sub-steps: Newton stopped at the cap before the
+/// tolerance, so the step was retried with a halved `dt`. (The paper's mode, exactly
+/// `newton_iters` full Newton steps whatever the residual, is `newton_tol` = 0.)
+fn newton_cap_warning(run: &ShellRun, summary: &InflateSummary, steps: usize) -> Option<String> {
+    let default_cap = ShellRun::default().newton_iters;
+    (run.newton_tol > 0.0 && run.newton_iters < default_cap && summary.split_steps > 0).then(|| {
+        format!(
+            "`newton_iters` = {} caps Newton below what `newton_tol` = {:e} needs: {} of {} \
+             steps were split into sub-steps (the smallest {:.3e} s), which costs more than the \
+             iterations saved. Raise `newton_iters` (default {default_cap}), or for the paper's \
+             mode (exactly `newton_iters` full Newton steps, no residual test) set \
+             `newton_tol` = 0",
+            run.newton_iters, run.newton_tol, summary.split_steps, steps, summary.min_dt_used,
+        )
+    })
 }

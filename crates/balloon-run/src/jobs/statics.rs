@@ -210,7 +210,12 @@ pub fn run<M: ShellMaterial>(
             }
             Err(e) => {
                 summary.converged = false;
-                failure = Some(e);
+                // A solve stopped by a signal during its Newton iterations is an interruption
+                // (the point is not reached; the state is the last accepted iterate).
+                match crate::interrupt::pending() {
+                    Some(sig) => interrupted = Some(sig),
+                    None => failure = Some(e),
+                }
                 break;
             }
         }
