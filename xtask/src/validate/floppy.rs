@@ -4,9 +4,11 @@
 //! deterministic (they do not depend on the machine's speed), so their bounds catch a solver
 //! change that makes this phase costlier without timing anything.
 //!
-//! The bounds are 10 % above what the solver does today (measured on main: 298 Newton
-//! iterations and 30 sub-steps over the first 5 steps); the aim of issue 30 is at most 3
-//! Newton iterations and 2 sub-steps per step. Lower the bounds with the solver.
+//! The bounds are about 20 % above what the solver does today (308 Newton iterations, 32
+//! sub-steps and 190 factorisations over the first 5 steps; `cargo xtask validate --only
+//! floppy`), with room for round-off differences of the parallel assembly between machines;
+//! the aim of issue 30 is at most 3 Newton iterations and 2 sub-steps per step. Lower the bounds
+//! with the solver.
 
 use crate::report::Case;
 use crate::validate::meshes;
@@ -17,9 +19,9 @@ const G: &str = "floppy";
 /// Steps of the run (the same in quick and full mode: the counts are per run).
 const STEPS: usize = 5;
 /// Most Newton iterations over the [`STEPS`] steps.
-const MAX_NEWTON: usize = 330;
+const MAX_NEWTON: usize = 370;
 /// Most sub-steps over the [`STEPS`] steps.
-const MAX_SUBSTEPS: usize = 33;
+const MAX_SUBSTEPS: usize = 40;
 
 /// The bunny's longest side in the shared file, m (so `scale` gives 0.1 m).
 fn scale_to(path: &std::path::Path, size: f64) -> anyhow::Result<f64> {
