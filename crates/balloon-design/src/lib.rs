@@ -38,6 +38,7 @@
 mod error;
 mod forward;
 mod inverse;
+mod normal;
 mod problem;
 
 pub use error::DesignError;

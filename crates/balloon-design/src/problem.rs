@@ -206,6 +206,35 @@ impl DesignProblem {
             .map(|(r, j)| (r, j.expect("asked for the Jacobian")))
     }
 
+    /// The residual into `r` and the blocks of `J` into `j` (laid out by `pattern`), for the
+    /// inverse solve's fixed-pattern normal equations.
+    pub(crate) fn evaluate_blocks(
+        &self,
+        rest: &[f64],
+        load: f64,
+        pattern: &crate::normal::NormalPattern,
+        r: &mut [f64],
+        j: &mut [nalgebra::Matrix3<f64>],
+    ) -> Result<(), DesignError> {
+        for (ri, f) in r.iter_mut().zip(&self.pressure_forces) {
+            *ri = load * f;
+        }
+        j.fill(nalgebra::Matrix3::zeros());
+        for (e, t) in self.triangles.iter().enumerate() {
+            let (f, jac) = self.element(e, rest)?;
+            for (a, &va) in t.iter().enumerate() {
+                for k in 0..3 {
+                    r[3 * va + k] += f[a][k];
+                }
+            }
+            pattern.add_element(e, &jac, j);
+        }
+        if r.iter().any(|v| !v.is_finite()) || j.iter().any(|b| !b.iter().all(|v| v.is_finite())) {
+            return Err(DesignError::NonFinite("the equilibrium residual"));
+        }
+        Ok(())
+    }
+
     fn evaluate(
         &self,
         rest: &[f64],
