@@ -70,6 +70,9 @@ const TWO_LAYER_CONTROLS: &[NumberControl] = &[
     ("dt", "Time step", (1e-5, 0.01, 1e-5), "s"),
 ];
 
+/// Connected balloons whose pressure and stretch the statistics list one by one.
+const MAX_LISTED_BALLOONS: usize = 8;
+
 /// An error and its causes joined by `: ` (a cause the text already holds is skipped).
 fn chain(e: &dyn std::error::Error) -> String {
     let mut text = e.to_string();
@@ -325,14 +328,18 @@ impl ViewSystem for ScenarioView {
                     "volume_ratio": s.gas_volume() / s.rest_gas_volume(),
                 }),
             ),
-            Running::Connect(s) => (
-                Simulation::kinetic_energy(s.as_ref()),
-                json!({
-                    "balloons": s.balloons().len(),
-                    "gauge_pressures": s.gauge_pressures(),
-                    "stretches": s.stretches(),
-                }),
-            ),
+            Running::Connect(s) => {
+                // One number per entry (the page's panel shows numbers): each balloon's gauge
+                // pressure and stretch, numbered from 1.
+                let mut per = Map::new();
+                per.insert("balloons".into(), json!(s.balloons().len()));
+                let (p, l) = (s.gauge_pressures(), s.stretches());
+                for (i, (p, l)) in p.iter().zip(&l).enumerate().take(MAX_LISTED_BALLOONS) {
+                    per.insert(format!("gauge_pressure_{}", i + 1), json!(p));
+                    per.insert(format!("stretch_{}", i + 1), json!(l));
+                }
+                (Simulation::kinetic_energy(s.as_ref()), Value::Object(per))
+            }
             Running::Volumetric(s, _) => (
                 Simulation::kinetic_energy(s.as_ref()),
                 json!({"volume_ratio": s.total_volume() / s.body().rest_volume()}),

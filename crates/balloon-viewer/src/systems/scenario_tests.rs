@@ -142,6 +142,10 @@ mass_damping = 5.0
     assert!(d <= 1e-12, "the viewer and `balloon run` differ by {d} m");
     let stats = view.stats();
     assert_eq!(stats["balloons"], 2);
+    let pressures = done.sim.gauge_pressures();
+    assert_eq!(stats["gauge_pressure_1"], pressures[0]);
+    assert_eq!(stats["gauge_pressure_2"], pressures[1]);
+    assert!(stats.get("gauge_pressure_3").is_none());
 }
 
 #[test]
