@@ -28,6 +28,11 @@
 //!   itself, messages and frames over 64 KiB are refused by the transport, at most
 //!   [`access::MAX_CONNECTIONS`] connections are served at a time (the next gets a 503), and a
 //!   failing `accept` backs off instead of spinning.
+//! * Any scenario runs too ([`ViewerOptions::scenario`], `balloon view SCENARIO.toml`, and the
+//!   built-in `connect`, [`builtin_connect`]): [`ScenarioView`] builds it with
+//!   `balloon-scenario` as `balloon run` does (anchors, pins and scheduled loads included), its
+//!   controls edit the scenario's keys, and `/api/scenario` serves the scenario file of the
+//!   current set-up, which `balloon run` repeats.
 //! * Every failure is a [`ViewerError`].
 //!
 //! **What it is for:** looking at and playing with one simulation live, from a browser on the
