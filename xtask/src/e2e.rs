@@ -30,7 +30,8 @@ const STAMP: &str = ".balloon-installed-lock.json";
 /// Options of `cargo xtask e2e`.
 #[derive(Debug, Clone, Default)]
 pub struct Options {
-    /// Comma-separated systems to test (default: all three).
+    /// Comma-separated systems to test, and scenario files (relative to the workspace) to view
+    /// (default: shell, volumetric, two-layer, connect and `examples/pinned-neck/pinned-neck.toml`).
     pub systems: Option<String>,
 }
 

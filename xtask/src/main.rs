@@ -93,7 +93,8 @@ enum Task {
     Python,
     /// The live viewer's end-to-end test: `balloon view` driven in headless Chromium.
     E2e {
-        /// Comma-separated systems to test (default: shell,volumetric,two-layer).
+        /// Comma-separated systems and scenario files to test (default:
+        /// shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml).
         #[arg(long)]
         systems: Option<String>,
     },

@@ -3,17 +3,21 @@
 // mouse and check in the server's own state (GET /api/state) that the body moved, pause and
 // resume, type an invalid control value and expect a visible error, and save a screenshot per
 // system to target/e2e/viewer-<system>.png. Run by `cargo xtask e2e` (which builds the binary).
+// A scenario run (a scenario file given in --systems, relative to the workspace, and the
+// built-in `connect`) is watched rather than dragged: for those the page must offer no drag,
+// and a value changed on the page must be in the scenario the "save scenario" link downloads,
+// which `balloon run` must accept.
 //
-//   node e2e.mjs [--balloon PATH] [--systems shell,volumetric,two-layer] [--out DIR]
-//                [--chromium PATH] [--mock]
+//   node e2e.mjs [--balloon PATH] [--systems shell,volumetric,two-layer,connect,FILE.toml]
+//                [--out DIR] [--chromium PATH] [--mock]
 //
 // --mock runs the page against mock-server.mjs instead of the binary (page development only).
 // Prints one line per system and closes with "N passed, M failed"; exits 1 on any failure.
 
 import { chromium } from 'playwright-core';
-import { spawn } from 'node:child_process';
-import { mkdirSync, rmSync } from 'node:fs';
-import { dirname, join, resolve } from 'node:path';
+import { spawn, spawnSync } from 'node:child_process';
+import { mkdirSync, readFileSync, rmSync } from 'node:fs';
+import { basename, dirname, extname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
 
 const here = dirname(fileURLToPath(import.meta.url));
@@ -24,7 +28,12 @@ const opt = (name, dflt) => {
 };
 const mock = process.argv.includes('--mock');
 const balloon = resolve(opt('balloon', join(root, 'target', 'debug', 'balloon')));
-const systems = opt('systems', 'shell,volumetric,two-layer').split(',').filter(Boolean);
+const systems = opt('systems', 'shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml')
+  .split(',').filter(Boolean);
+/** A --systems entry that is a scenario file (a path ending in .toml or .json). */
+const isFile = (system) => /\.(toml|json)$/i.test(system);
+/** The name of an entry in file names and lines: a scenario file's base name. */
+const label = (system) => (isFile(system) ? basename(system, extname(system)) : system);
 const outDir = resolve(opt('out', join(root, 'target', 'e2e')));
 const chromiumPath = opt('chromium', '/usr/bin/chromium');
 // Software WebGL: headless without a GPU (SwiftShader through ANGLE).
@@ -66,7 +75,7 @@ function startServer(system) {
   const cmd = mock ? process.execPath : balloon;
   // --exit-after: a server the test fails to kill still goes away by itself.
   const args = mock ? [join(here, 'mock-server.mjs'), system]
-    : ['view', system, '--no-open', '--port', '0', '--exit-after', '120'];
+    : ['view', isFile(system) ? resolve(root, system) : system, '--no-open', '--port', '0', '--exit-after', '120'];
   const child = spawn(cmd, args, { stdio: ['ignore', 'pipe', 'pipe'] });
   servers.add(child);
   child.on('exit', () => servers.delete(child));
@@ -113,9 +122,10 @@ async function pointOverBody(page, box) {
 
 /** One system: everything a person would try. Returns a one-line summary. */
 async function testSystem(browser, system) {
-  for (const f of [`viewer-${system}.png`, `viewer-${system}-failed.png`]) rmSync(join(outDir, f), { force: true });
+  const name = label(system);
+  for (const f of [`viewer-${name}.png`, `viewer-${name}-failed.png`]) rmSync(join(outDir, f), { force: true });
   const { child, url, stderr } = await startServer(system);
-  const context = await browser.newContext({ viewport: { width: 1200, height: 760 } });
+  const context = await browser.newContext({ viewport: { width: 1200, height: 760 }, acceptDownloads: true });
   const page = await context.newPage();
   const problems = [];
   page.on('console', (m) => { if (m.type() === 'error') problems.push(`console error: ${m.text()}`); });
@@ -148,11 +158,24 @@ async function testSystem(browser, system) {
     //    along the view direction, which the drag plane is perpendicular to. The body may follow
     //    as a whole (a free body does), so this is not measured relative to the centroid.
     const box = await page.locator('#canvas').boundingBox();
+    const draggable = !(await page.locator('#drag-row').isHidden());
+    if (!draggable) {
+      // A scenario run: no drag on offer, a press on the body orbits instead of grabbing it.
+      check(isFile(system) || system === 'connect', `${system} offers no drag`);
+      await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+      await page.mouse.down();
+      await page.mouse.move(box.x + box.width / 2 + 40, box.y + box.height / 2 - 40, { steps: 4 });
+      await sleep(300);
+      check((await state(url)).drag === null, 'a press on a scenario run started a drag');
+      await page.mouse.up();
+      await page.screenshot({ path: join(outDir, `viewer-${name}.png`) });
+      notes.push('no drag (scenario run)');
+    }
     // A falling or toppling body (volumetric) can leave the point between the hover test and the
     // press, and a press off the body orbits instead: like a person, release and try again.
     let start;
     let grabbed = null;
-    for (let attempt = 1; !grabbed; attempt++) {
+    for (let attempt = 1; draggable && !grabbed; attempt++) {
       start = await pointOverBody(page, box);
       await page.mouse.down();
       grabbed = await until('the drag to reach the server (/api/state drag)',
@@ -162,6 +185,7 @@ async function testSystem(browser, system) {
       });
       if (!grabbed) await page.mouse.up();
     }
+    if (draggable) {
     const vertex = grabbed.vertex;
     const s0 = await state(url, vertex);
     const p0 = s0.vertex.position;
@@ -184,7 +208,7 @@ async function testSystem(browser, system) {
       return moved > 0.02 * size;
     }, 20000, 200);
     notes.push(`drag moved vertex ${vertex} ${mm(moved)} towards the target (body ${mm(size)})`);
-    await page.screenshot({ path: join(outDir, `viewer-${system}.png`) });
+    await page.screenshot({ path: join(outDir, `viewer-${name}.png`) });
     await page.mouse.up();
     await until('the drag to be released', async () => (await state(url)).drag === null, 5000);
 
@@ -200,6 +224,7 @@ async function testSystem(browser, system) {
       await until('the pinch to be released', async () => (await state(url)).drag === null, 5000);
       await page.selectOption('#drag-mode', 'grab');
       notes.push('pinch ok');
+    }
     }
 
     // 4. An invalid control value shows an error naming the control; the server keeps its value.
@@ -219,6 +244,31 @@ async function testSystem(browser, system) {
     check((await state(url)).controls[control.name] !== bad, `the server accepted ${control.name} = ${bad}`);
     notes.push(`invalid ${control.name}=${bad}: "${message}"`);
 
+    // 4b. A scenario run saves its set-up: a value changed on the page is in the file the
+    //     "save scenario" link downloads, and `balloon run` accepts that file.
+    const saveShown = !(await page.locator('#save').isHidden());
+    check(saveShown === !draggable, `the save link is ${saveShown ? 'shown' : 'hidden'} for ${system}`);
+    if (saveShown && !mock) {
+      const dt = (await state(url)).controls.dt;
+      check(typeof dt === 'number', 'the scenario run has no dt control');
+      const want = dt / 2;
+      await page.fill('#control-dt', String(want));
+      await page.press('#control-dt', 'Enter');
+      await until(`dt = ${want} on the server`, async () => (await state(url)).controls.dt === want, 10000);
+      const [download] = await Promise.all([page.waitForEvent('download', { timeout: 10000 }), page.click('#save')]);
+      const saved = join(outDir, `viewer-${name}-scenario.toml`);
+      await download.saveAs(saved);
+      const text = readFileSync(saved, 'utf8');
+      check(new RegExp(`^dt = ${want}$`, 'm').test(text), `the saved scenario has no line "dt = ${want}"`);
+      if (isFile(system)) {
+        const original = readFileSync(resolve(root, system), 'utf8');
+        if (/\[\[anchors\]\]/.test(original)) check(/\[\[anchors\]\]/.test(text), 'the saved scenario lost the anchors');
+      }
+      const run = spawnSync(balloon, ['run', saved, '--steps', '2'], { encoding: 'utf8', timeout: 120000 });
+      check(run.status === 0, `balloon run ${saved} --steps 2 failed (${run.status}): ${run.stderr}`);
+      notes.push(`saved dt=${want}; balloon run of it ok`);
+    }
+
     // 5. Another colour field: the legend follows the server.
     const fields = await page.$$eval('#scalar option', (os) => os.map((o) => o.value));
     const shown = await page.textContent('#legend-name');
@@ -237,7 +287,7 @@ async function testSystem(browser, system) {
     check(problems.length === 0, problems.join('\n'));
     return notes.join('; ');
   } catch (e) {
-    await page.screenshot({ path: join(outDir, `viewer-${system}-failed.png`) }).catch(() => {});
+    await page.screenshot({ path: join(outDir, `viewer-${name}-failed.png`) }).catch(() => {});
     if (problems.length) e.message += `\n${problems.join('\n')}`;
     const last = await state(url).catch(() => null);
     if (last) e.message += `\nserver state: frame ${last.frame}, time ${last.time}, paused ${last.paused}, last_error ${JSON.stringify(last.last_error)}`;
@@ -260,10 +310,10 @@ async function main() {
       const t = Date.now();
       try {
         const summary = await testSystem(browser, system);
-        console.log(`e2e ${system}: ok in ${((Date.now() - t) / 1000).toFixed(1)} s (${summary})`);
+        console.log(`e2e ${label(system)}: ok in ${((Date.now() - t) / 1000).toFixed(1)} s (${summary})`);
         passed += 1;
       } catch (e) {
-        console.log(`e2e ${system}: FAILED in ${((Date.now() - t) / 1000).toFixed(1)} s: ${e.message}`);
+        console.log(`e2e ${label(system)}: FAILED in ${((Date.now() - t) / 1000).toFixed(1)} s: ${e.message}`);
         failed += 1;
       }
     }

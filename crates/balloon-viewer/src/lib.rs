@@ -28,6 +28,11 @@
 //!   itself, messages and frames over 64 KiB are refused by the transport, at most
 //!   [`access::MAX_CONNECTIONS`] connections are served at a time (the next gets a 503), and a
 //!   failing `accept` backs off instead of spinning.
+//! * Any scenario runs too ([`ViewerOptions::scenario`], `balloon view SCENARIO.toml`, and the
+//!   built-in `connect`, [`builtin_connect`]): [`ScenarioView`] builds it with
+//!   `balloon-scenario` as `balloon run` does (anchors, pins and scheduled loads included), its
+//!   controls edit the scenario's keys, and `/api/scenario` serves the scenario file of the
+//!   current set-up, which `balloon run` repeats.
 //! * Every failure is a [`ViewerError`].
 //!
 //! **What it is for:** looking at and playing with one simulation live, from a browser on the
@@ -54,7 +59,8 @@ mod server;
 mod systems;
 
 pub use systems::{
-    DragRequest, ShellView, TwoLayerView, ViewSystem, ViewedSimulation, VolumetricView,
+    DragRequest, ScenarioView, ShellView, TwoLayerView, ViewSystem, ViewedSimulation,
+    VolumetricView, builtin_connect,
 };
 
 use access::{Access, MAX_CONNECTIONS, RefusalLog};
@@ -79,6 +85,9 @@ pub enum SystemKind {
     Volumetric,
     /// Two-layer elastic sphere (Song 2009).
     TwoLayer,
+    /// Shell balloons joined by a tube (`balloon connect`): the viewer's built-in pair,
+    /// [`builtin_connect`].
+    Connect,
 }
 
 impl SystemKind {
@@ -88,6 +97,7 @@ impl SystemKind {
             Self::Shell => "shell",
             Self::Volumetric => "volumetric",
             Self::TwoLayer => "two-layer",
+            Self::Connect => "connect",
         }
     }
 }
@@ -99,6 +109,7 @@ impl FromStr for SystemKind {
             "shell" => Ok(Self::Shell),
             "volumetric" => Ok(Self::Volumetric),
             "two-layer" | "two_layer" | "twolayer" => Ok(Self::TwoLayer),
+            "connect" => Ok(Self::Connect),
             _ => Err(ViewerError::UnknownSystem(s.to_string())),
         }
     }
@@ -108,7 +119,7 @@ impl FromStr for SystemKind {
 #[derive(Debug, Error)]
 pub enum ViewerError {
     /// Unknown system name.
-    #[error("unknown system `{0}` (expected shell, volumetric or two-layer)")]
+    #[error("unknown system `{0}` (expected shell, volumetric, two-layer or connect)")]
     UnknownSystem(String),
     /// The port is taken.
     #[error("port {port} on {host} is already in use; pass another --port (or --port 0)")]
@@ -167,6 +178,13 @@ pub enum ViewerError {
         /// What failed.
         source: Box<ViewerError>,
     },
+    /// A scenario that cannot be run: its check or its build failed, or a control's value is
+    /// refused by the scenario's own check (the text names the parameter).
+    #[error("{0}")]
+    Scenario(String),
+    /// A scenario run takes its mesh from the scenario.
+    #[error("the scenario names its own mesh (`mesh`); drop the MESH argument (got `{0}`)")]
+    MeshWithScenario(String),
     /// The two-layer system takes no mesh.
     #[error("the two-layer viewer simulates its own sphere and takes no MESH (got `{0}`)")]
     MeshNotUsed(String),
@@ -286,8 +304,11 @@ impl From<balloon::two_layer::TwoLayerError> for ViewerError {
 /// Where and what to serve.
 #[derive(Clone, Debug)]
 pub struct ViewerOptions {
-    /// The simulation.
+    /// The simulation (ignored when `scenario` is given).
     pub system: SystemKind,
+    /// A scenario to run instead of a built-in system (`balloon view SCENARIO.toml`: its
+    /// mesh, material, gas, anchors and loads); `None` for the built-in `system`.
+    pub scenario: Option<balloon_scenario::Scenario>,
     /// Mesh spec (file or `builtin:NAME`), `None` for the default of the system.
     pub mesh: Option<String>,
     /// Bind address (default `127.0.0.1`).
@@ -304,6 +325,7 @@ impl ViewerOptions {
     pub fn new(system: SystemKind) -> Self {
         Self {
             system,
+            scenario: None,
             mesh: None,
             host: "127.0.0.1".into(),
             port: 0,
@@ -331,11 +353,41 @@ pub fn default_mesh(system: SystemKind) -> Result<TriMesh, balloon_mesh::MeshErr
             Ok(m)
         }
         SystemKind::TwoLayer => balloon_mesh::generate::icosphere(1.0, 0),
+        // One of the built-in pair's balloons (`builtin_connect`).
+        SystemKind::Connect => balloon_mesh::builtin::load("builtin:icosphere"),
     }
 }
 
 /// Builds the simulation of `options` (no server).
 pub fn build_system(options: &ViewerOptions) -> Result<Box<dyn ViewSystem>, ViewerError> {
+    let scenario = match (&options.scenario, options.system) {
+        (Some(s), _) => Some(s.clone()),
+        (None, SystemKind::Connect) => {
+            let mut s = builtin_connect();
+            if let Some(spec) = &options.mesh {
+                s.shell.mesh.path = spec.clone();
+            }
+            Some(balloon_scenario::Scenario::Connect(s))
+        }
+        (None, _) => None,
+    };
+    if let Some(scenario) = scenario {
+        if let (Some(spec), Some(_)) = (&options.mesh, &options.scenario) {
+            return Err(ViewerError::MeshWithScenario(spec.clone()));
+        }
+        let name = match scenario.kind() {
+            balloon_scenario::SystemKind::Shell => "shell",
+            balloon_scenario::SystemKind::Connect => "connect",
+            balloon_scenario::SystemKind::Volumetric => "volumetric",
+            balloon_scenario::SystemKind::TwoLayer => "two-layer",
+        };
+        return ScenarioView::new(scenario)
+            .map(|s| Box::new(s) as _)
+            .map_err(|source| ViewerError::Build {
+                system: name,
+                source: Box::new(source),
+            });
+    }
     let mesh = match (&options.mesh, options.system) {
         (Some(spec), SystemKind::TwoLayer) => return Err(ViewerError::MeshNotUsed(spec.clone())),
         (Some(spec), _) => {
@@ -359,6 +411,11 @@ pub fn build_system(options: &ViewerOptions) -> Result<Box<dyn ViewSystem>, View
         SystemKind::Shell => build(ShellView::new(mesh).map(|s| Box::new(s) as _)),
         SystemKind::Volumetric => build(VolumetricView::new(mesh).map(|s| Box::new(s) as _)),
         SystemKind::TwoLayer => build(TwoLayerView::new().map(|s| Box::new(s) as _)),
+        // Built as a scenario run above; kept for a complete match.
+        SystemKind::Connect => build(
+            ScenarioView::new(balloon_scenario::Scenario::Connect(builtin_connect()))
+                .map(|s| Box::new(s) as _),
+        ),
     }
 }
 
@@ -403,6 +460,7 @@ pub fn bind(host: &str, port: u16, allow_remote: bool) -> Result<TcpListener, Vi
 pub struct Viewer {
     listener: TcpListener,
     url: String,
+    system: &'static str,
     context: Arc<Context>,
     sim_thread: Option<JoinHandle<()>>,
 }
@@ -445,6 +503,7 @@ impl Viewer {
             })?
             .port();
         let system = build_system(options)?;
+        let name = system.name();
         let shared = Arc::new(Shared::default());
         let runner = Runner::new(system, shared.clone());
         let (tx, rx) = mpsc::channel();
@@ -464,6 +523,7 @@ impl Viewer {
         Ok(Self {
             listener,
             url: format!("http://{host}:{port}/"),
+            system: name,
             context: Arc::new(Context {
                 shared,
                 commands: tx,
@@ -472,6 +532,12 @@ impl Viewer {
             }),
             sim_thread: Some(sim_thread),
         })
+    }
+
+    /// The name of the system served (`shell`, `volumetric`, `two-layer`, `connect`; a scenario
+    /// file's system).
+    pub fn system(&self) -> &'static str {
+        self.system
     }
 
     /// The page's URL, `http://HOST:PORT/`.
@@ -638,6 +704,107 @@ mod tests {
             v.accepted_names(),
             ["127.0.0.1", "[::1]", "localhost", "mybox.lan"]
         );
+    }
+
+    /// Sends `request` to `addr` and reads the whole answer: (status, body). A reset
+    /// connection fails the test.
+    fn ask(addr: &str, request: &[u8]) -> (u16, String) {
+        use std::io::{Read, Write};
+        let mut s = TcpStream::connect(addr).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        s.write_all(request).unwrap();
+        let mut buf = Vec::new();
+        s.read_to_end(&mut buf)
+            .unwrap_or_else(|e| panic!("no answer but {e}"));
+        let text = String::from_utf8_lossy(&buf).to_string();
+        let status = text
+            .split(' ')
+            .nth(1)
+            .and_then(|c| c.parse().ok())
+            .unwrap_or_else(|| panic!("no status in `{text}`"));
+        let body = text.split_once("\r\n\r\n").map_or("", |(_, b)| b);
+        (status, body.to_string())
+    }
+
+    #[test]
+    fn oversized_requests_get_an_answer_instead_of_a_reset() {
+        let v = Viewer::start(&ViewerOptions::new(SystemKind::TwoLayer)).unwrap();
+        let addr = v.url()["http://".len()..].trim_end_matches('/').to_string();
+        // Left serving when the test ends (the deadline stops it).
+        std::thread::spawn(move || v.serve(Some(Duration::from_secs(60))));
+        let long = "a".repeat(20_000);
+        let (status, body) = ask(
+            &addr,
+            format!("GET /?q={long} HTTP/1.1\r\nHost: {addr}\r\n\r\n").as_bytes(),
+        );
+        assert_eq!(status, 414, "{body}");
+        assert!(
+            body.contains("request line longer than 16384 bytes"),
+            "{body}"
+        );
+        let (status, body) = ask(
+            &addr,
+            format!("GET / HTTP/1.1\r\nHost: {addr}\r\nX-Long: {long}\r\n\r\n").as_bytes(),
+        );
+        assert_eq!(status, 431, "{body}");
+        // A huge body is announced and (partly) sent: refused without reading it.
+        let mut request = format!(
+            "POST /api/state HTTP/1.1\r\nHost: {addr}\r\nContent-Length: 99999999999\r\n\r\n"
+        )
+        .into_bytes();
+        request.extend(std::iter::repeat_n(b'x', 100_000));
+        let (status, body) = ask(&addr, &request);
+        assert_eq!(status, 413, "{body}");
+        assert!(body.contains("a body of 99999999999 bytes"), "{body}");
+        let (status, _) = ask(
+            &addr,
+            format!("GET / HTTP/1.1\r\nHost: {addr}\r\nContent-Length: 123456789012345678901234567890\r\n\r\n").as_bytes(),
+        );
+        assert_eq!(status, 413);
+        let (status, _) = ask(
+            &addr,
+            format!("GET / HTTP/1.1\r\nHost: {addr}\r\nTransfer-Encoding: chunked\r\n\r\n")
+                .as_bytes(),
+        );
+        assert_eq!(status, 413);
+        let (status, body) = ask(
+            &addr,
+            format!("GET / HTTP/1.1\r\nHost: {addr}\r\nContent-Length: lots\r\n\r\n").as_bytes(),
+        );
+        assert_eq!(status, 400);
+        assert!(body.contains("malformed Content-Length"), "{body}");
+        // The server still answers, and a built-in system has no scenario to save.
+        let get = |path: &str| format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n");
+        assert_eq!(ask(&addr, get("/api/state").as_bytes()).0, 200);
+        let (status, body) = ask(&addr, get("/api/scenario").as_bytes());
+        assert_eq!(status, 404);
+        assert!(body.contains("built-in system"), "{body}");
+    }
+
+    #[test]
+    fn a_scenario_run_serves_its_scenario() {
+        let mut o = ViewerOptions::new(SystemKind::Shell);
+        let mut s = balloon_scenario::Scenario::new(balloon_scenario::SystemKind::TwoLayer);
+        s.set("level", &balloon_scenario::value::Value::Int(1))
+            .unwrap();
+        o.scenario = Some(s);
+        let v = Viewer::start(&o).unwrap();
+        assert_eq!(v.system(), "two-layer");
+        let addr = v.url()["http://".len()..].trim_end_matches('/').to_string();
+        std::thread::spawn(move || v.serve(Some(Duration::from_secs(60))));
+        let (status, body) = ask(
+            &addr,
+            format!("GET /api/scenario HTTP/1.1\r\nHost: {addr}\r\n\r\n").as_bytes(),
+        );
+        assert_eq!(status, 200, "{body}");
+        assert!(
+            body.contains("kind = \"two-layer\"") && body.contains("level = 1"),
+            "{body}"
+        );
+        // A mesh with a scenario is refused (the scenario names its own).
+        o.mesh = Some("builtin:box".into());
+        let e = build_system(&o).err().unwrap().to_string();
+        assert!(e.contains("the scenario names its own mesh"), "{e}");
     }
 
     #[test]

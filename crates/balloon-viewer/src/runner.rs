@@ -81,6 +81,9 @@ pub struct Published {
     pub scalar_fields: Vec<&'static str>,
     /// How many connections chose each colour field: the frames carry these and the default.
     pub scalar_interest: BTreeMap<&'static str, usize>,
+    /// The scenario file of the current set-up (`/api/scenario`), when the system runs a
+    /// scenario ([`ViewSystem::scenario_text`]).
+    pub scenario: Option<Arc<String>>,
 }
 
 /// State shared by the simulation thread, the accept loop and the connections.
@@ -196,6 +199,7 @@ impl Runner {
             "drag_modes": self.system.drag_modes(),
             "up": self.system.up(),
             "dt": self.system.dt(),
+            "scenario": self.system.scenario_text().is_some(),
         });
         // Published together with the next frame (see `publish_frame`), so a client never sees
         // a new hello with an old frame or the reverse.
@@ -319,7 +323,9 @@ impl Runner {
             "last_error": self.last_error,
             "stats": good.stats,
         });
+        let scenario = self.system.scenario_text().map(Arc::new);
         let mut p = self.shared.lock();
+        p.scenario = scenario;
         if let Some(hello) = self.pending_hello.take() {
             p.hello = Arc::new(hello);
             p.hello_generation += 1;

@@ -21,8 +21,14 @@ use tungstenite::{Message, WebSocket};
 /// The page's files (index.html, app.js, style.css, vendor/...), embedded at build time.
 static WEB: Dir<'_> = include_dir!("$CARGO_MANIFEST_DIR/web");
 
-/// Largest accepted HTTP request head, bytes.
+/// Largest accepted HTTP request head, bytes: a longer request line is answered 414, longer
+/// headers 431.
 const MAX_HEAD: usize = 16 * 1024;
+
+/// After an error answer, how long and how much of the rest of the request is read and
+/// dropped before the connection is closed, so that closing with unread input does not reset
+/// the connection before the client has read the answer.
+const LINGER: (Duration, usize) = (Duration::from_secs(1), 1 << 20);
 
 /// The content type of a served file, by extension.
 pub fn content_type(path: &str) -> &'static str {
@@ -69,8 +75,32 @@ pub struct RequestHead {
     /// Values of its `Origin` headers (browsers send one with WebSocket handshakes and
     /// cross-origin requests).
     pub origins: Vec<String>,
+    /// Its `Content-Length` (`u64::MAX` for a longer number), if it gives one.
+    pub content_length: Option<u64>,
+    /// Whether it has a `Transfer-Encoding` header (a body of unknown length).
+    pub transfer_encoding: bool,
     /// Length of the head in bytes (up to and including the blank line).
     pub length: usize,
+}
+
+impl RequestHead {
+    /// Whether the request announces a body (the viewer never reads one).
+    pub fn has_body(&self) -> bool {
+        self.transfer_encoding || self.content_length.is_some_and(|n| n > 0)
+    }
+}
+
+/// The status of a request head that [`parse_head`] refuses (`buf`: what was read of it):
+/// `414 URI Too Long` when its request line alone fills [`MAX_HEAD`], `431 Request Header
+/// Fields Too Large` when its headers do, `400 Bad Request` otherwise.
+pub fn head_error_status(buf: &[u8]) -> &'static str {
+    if buf.len() < MAX_HEAD || buf.windows(4).any(|w| w == b"\r\n\r\n") {
+        "400 Bad Request"
+    } else if buf.windows(2).any(|w| w == b"\r\n") {
+        "431 Request Header Fields Too Large"
+    } else {
+        "414 URI Too Long"
+    }
 }
 
 /// Parses an HTTP/1.x request head from `buf`. `Ok(None)`: incomplete; `Err`: malformed (the
@@ -97,6 +127,7 @@ pub fn parse_head(buf: &[u8]) -> Result<Option<RequestHead>, String> {
     }
     let (path, query) = target.split_once('?').unwrap_or((target, ""));
     let mut upgrade = false;
+    let (mut content_length, mut transfer_encoding) = (None, false);
     let (mut hosts, mut origins) = (Vec::new(), Vec::new());
     for h in lines {
         let Some((k, v)) = h.split_once(':') else {
@@ -109,6 +140,13 @@ pub fn parse_head(buf: &[u8]) -> Result<Option<RequestHead>, String> {
             hosts.push(v.to_string());
         } else if k.eq_ignore_ascii_case("origin") {
             origins.push(v.to_string());
+        } else if k.eq_ignore_ascii_case("content-length") {
+            if v.is_empty() || !v.bytes().all(|b| b.is_ascii_digit()) {
+                return Err(format!("malformed Content-Length `{}`", shown(v)));
+            }
+            content_length = Some(v.parse().unwrap_or(u64::MAX));
+        } else if k.eq_ignore_ascii_case("transfer-encoding") {
+            transfer_encoding = true;
         }
     }
     Ok(Some(RequestHead {
@@ -118,13 +156,21 @@ pub fn parse_head(buf: &[u8]) -> Result<Option<RequestHead>, String> {
         upgrade,
         hosts,
         origins,
+        content_length,
+        transfer_encoding,
         length: end + 4,
     }))
 }
 
 fn respond(stream: &mut TcpStream, status: &str, ctype: &str, body: &[u8]) {
+    respond_with(stream, status, ctype, &[], body);
+}
+
+/// Answers with `status`, the body and the extra header lines `headers` (without line ends).
+fn respond_with(stream: &mut TcpStream, status: &str, ctype: &str, headers: &[&str], body: &[u8]) {
+    let extra: String = headers.iter().map(|h| format!("{h}\r\n")).collect();
     let head = format!(
-        "HTTP/1.1 {status}\r\nContent-Type: {ctype}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n",
+        "HTTP/1.1 {status}\r\nContent-Type: {ctype}\r\nContent-Length: {}\r\n{extra}Cache-Control: no-store\r\nConnection: close\r\n\r\n",
         body.len()
     );
     let _ = stream
@@ -136,6 +182,30 @@ fn respond(stream: &mut TcpStream, status: &str, ctype: &str, body: &[u8]) {
 fn respond_error(stream: &mut TcpStream, status: &str, message: &str) {
     let body = serde_json::json!({"error": message}).to_string();
     respond(stream, status, "application/json", body.as_bytes());
+}
+
+/// Answers an error and closes politely: the answer is sent, the writing half shut, and what
+/// the client still sends (the rest of a long head, a body) is read and dropped for up to
+/// [`LINGER`], so that the client reads the answer instead of a reset connection.
+fn reject(stream: &mut TcpStream, status: &str, message: &str) {
+    respond_error(stream, status, message);
+    linger(stream);
+}
+
+fn linger(stream: &mut TcpStream) {
+    let _ = stream.shutdown(std::net::Shutdown::Write);
+    let _ = stream.set_read_timeout(Some(Duration::from_millis(100)));
+    let deadline = Instant::now() + LINGER.0;
+    let mut chunk = [0u8; 8192];
+    let mut dropped = 0;
+    while Instant::now() < deadline && dropped < LINGER.1 {
+        match stream.read(&mut chunk) {
+            Ok(0) => return,
+            Ok(n) => dropped += n,
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+            Err(_) => return,
+        }
+    }
 }
 
 /// The `/api/state` body for `query` (`vertex=I` adds that vertex), or a 400 message.
@@ -262,14 +332,24 @@ pub fn handle_connection(mut stream: TcpStream, context: &Context) {
             }
             Ok(None) => {
                 let _ = stream.read(&mut buf[..n]);
-                respond_error(&mut stream, "400 Bad Request", "incomplete request head");
+                reject(&mut stream, "400 Bad Request", "incomplete request head");
                 return;
             }
             Err(e) => {
-                // Consume what was peeked, so closing does not reset the connection before the
-                // client reads the answer.
+                // Consume what was peeked (and, in `reject`, what follows), so closing does not
+                // reset the connection before the client reads the answer.
+                let status = head_error_status(&buf[..n]);
                 let _ = stream.read(&mut buf[..n]);
-                respond_error(&mut stream, "400 Bad Request", &e);
+                let message = match status {
+                    "414 URI Too Long" => format!(
+                        "request line longer than {MAX_HEAD} bytes (the viewer's URLs are short)"
+                    ),
+                    "431 Request Header Fields Too Large" => {
+                        format!("request headers longer than {MAX_HEAD} bytes")
+                    }
+                    _ => e,
+                };
+                reject(&mut stream, status, &message);
                 return;
             }
         }
@@ -284,12 +364,26 @@ pub fn handle_connection(mut stream: TcpStream, context: &Context) {
     {
         let _ = stream.read_exact(&mut buf[..head.length]);
         context.refuse(&mut stream, "403 Forbidden", &refusal);
+        linger(&mut stream);
+        return;
+    }
+    if head.has_body() {
+        let _ = stream.read_exact(&mut buf[..head.length]);
+        let size = match (head.transfer_encoding, head.content_length) {
+            (false, Some(n)) => format!("a body of {n} bytes"),
+            _ => "a body".to_string(),
+        };
+        reject(
+            &mut stream,
+            "413 Payload Too Large",
+            &format!("the request has {size}; the viewer takes none (use GET)"),
+        );
         return;
     }
     if head.path == "/ws" {
         if !head.upgrade || head.method != "GET" {
             let _ = stream.read_exact(&mut buf[..head.length]);
-            respond_error(
+            reject(
                 &mut stream,
                 "400 Bad Request",
                 "/ws expects a WebSocket upgrade (GET with `Upgrade: websocket`)",
@@ -304,11 +398,33 @@ pub fn handle_connection(mut stream: TcpStream, context: &Context) {
     }
     let _ = stream.read_exact(&mut buf[..head.length]);
     if head.method != "GET" && head.method != "HEAD" {
-        respond_error(
+        reject(
             &mut stream,
             "405 Method Not Allowed",
             &format!("method {} is not supported (use GET)", shown(&head.method)),
         );
+        return;
+    }
+    if head.path == "/api/scenario" {
+        let scenario = context.shared.lock().scenario.clone();
+        match scenario {
+            Some(text) => respond_with(
+                &mut stream,
+                "200 OK",
+                "application/toml; charset=utf-8",
+                &["Content-Disposition: attachment; filename=\"scenario.toml\""],
+                if head.method == "HEAD" {
+                    &[][..]
+                } else {
+                    text.as_bytes()
+                },
+            ),
+            None => respond_error(
+                &mut stream,
+                "404 Not Found",
+                "this view runs a built-in system, not a scenario: start it with `balloon view SCENARIO.toml` (or `balloon view connect`) to save its scenario",
+            ),
+        }
         return;
     }
     if head.path == "/api/state" {
@@ -589,6 +705,32 @@ mod tests {
         }
         let long = vec![b'a'; MAX_HEAD];
         assert!(parse_head(&long).unwrap_err().contains("longer"));
+    }
+
+    #[test]
+    fn long_heads_and_bodies_are_told_apart() {
+        assert_eq!(head_error_status(b"GARBAGE\r\n\r\n"), "400 Bad Request");
+        let mut line = b"GET /".to_vec();
+        line.resize(MAX_HEAD, b'a');
+        assert_eq!(head_error_status(&line), "414 URI Too Long");
+        let mut headers = b"GET / HTTP/1.1\r\nX: ".to_vec();
+        headers.resize(MAX_HEAD, b'a');
+        assert_eq!(
+            head_error_status(&headers),
+            "431 Request Header Fields Too Large"
+        );
+        let h = parse_head(b"GET / HTTP/1.1\r\nContent-Length: 0\r\n\r\n")
+            .unwrap()
+            .unwrap();
+        assert_eq!(h.content_length, Some(0));
+        assert!(!h.has_body());
+        let h = parse_head(b"GET / HTTP/1.1\r\ncontent-length: 99999999999999999999999\r\n\r\n")
+            .unwrap()
+            .unwrap();
+        assert_eq!(h.content_length, Some(u64::MAX));
+        assert!(h.has_body());
+        let e = parse_head(b"GET / HTTP/1.1\r\nContent-Length: -1\r\n\r\n").unwrap_err();
+        assert!(e.contains("malformed Content-Length `-1`"), "{e}");
     }
 
     #[test]

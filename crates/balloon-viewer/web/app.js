@@ -121,7 +121,7 @@ canvas.addEventListener('dblclick', fitCamera);
 let ws = null;
 let retryMs = 500;
 let fitPending = true; // fit the camera on the first frame after (re)connecting
-const view = { frame: null, time: null, paused: false, connected: false, system: null };
+const view = { frame: null, time: null, paused: false, connected: false, system: null, draggable: true };
 window.balloonView = view; // read-only state for scripts and the end-to-end test
 
 function setStatus(text, cls) {
@@ -214,6 +214,14 @@ function onHello(h) {
   if ((h.scalar_fields || []).includes(chosen)) $('scalar').value = chosen;
   else if (h.scalar && (h.scalar_fields || []).includes(h.scalar)) $('scalar').value = h.scalar;
   fillSelect($('drag-mode'), h.drag_modes || []);
+  // A scenario run is watched, not dragged (its anchors and loads own the forces), and can be
+  // saved as a scenario file.
+  view.draggable = (h.drag_modes || []).length > 0;
+  $('drag-row').hidden = !view.draggable;
+  $('hint').textContent = view.draggable
+    ? 'drag the body to pull it · drag the background or Alt+drag to orbit · wheel to zoom'
+    : 'drag or Alt+drag to orbit · wheel to zoom';
+  $('save').hidden = !h.scenario;
   buildControls(h.controls || []);
   requestRender();
 }
@@ -434,7 +442,7 @@ function vertexPosition(i, out = new THREE.Vector3()) {
 }
 
 function onPointerDown(ev) {
-  if (ev.button !== 0 || ev.altKey || !view.connected) return; // leave it to OrbitControls
+  if (ev.button !== 0 || ev.altKey || !view.connected || !view.draggable) return; // leave it to OrbitControls
   const hit = castFrom(ev);
   if (!hit) return;
   let best = -1;

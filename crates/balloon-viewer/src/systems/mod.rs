@@ -1,16 +1,20 @@
-//! The three simulations behind one interface: controls, stepping, positions, scalar fields and
-//! drags, as the server needs them; one file per system ([`shell`], [`volumetric`],
-//! [`two_layer`]).
+//! The simulations behind one interface: controls, stepping, positions, scalar fields and
+//! drags, as the server needs them; one file per built-in system ([`shell`], [`volumetric`],
+//! [`two_layer`]) and one for any scenario ([`scenario`]: scenario files and `connect`).
 
+mod scenario;
 mod shell;
 mod two_layer;
 mod view;
 mod volumetric;
 
+pub use scenario::{ScenarioView, builtin_connect};
 pub use shell::ShellView;
 pub use two_layer::TwoLayerView;
 pub use view::{DragRequest, ViewSystem, ViewedSimulation, first_non_finite};
 pub use volumetric::VolumetricView;
 
+#[cfg(test)]
+mod scenario_tests;
 #[cfg(test)]
 mod tests;

@@ -79,6 +79,26 @@ fn volumetric_view_springs_use_the_cli_defaults() {
 }
 
 #[test]
+fn volumetric_view_settings_are_the_cli_defaults() {
+    // Tolerance, solver, correction, density, restitution and gravity of `balloon volumetric`
+    // (`VolumetricScenario::default()`), not constants of the viewer.
+    let cli = balloon_scenario::volumetric::VolumetricScenario::default();
+    let soup = crate::default_mesh(crate::SystemKind::Volumetric).unwrap();
+    let v = VolumetricView::new(soup).unwrap();
+    let p = &v.sim.body().params;
+    let want = cli.volume_params();
+    assert_eq!(p.volume.tolerance, want.tolerance);
+    assert_eq!(p.volume.solver, want.solver);
+    assert_eq!(p.volume.correction, want.correction);
+    assert_eq!(p.volume.max_sweeps, want.max_sweeps);
+    assert_eq!(p.density, cli.body.density);
+    assert_eq!(p.restitution, cli.run.restitution);
+    assert_eq!(p.lattice.voxels_per_cell, cli.lattice.voxels_per_cell);
+    let g: f64 = p.gravity.iter().map(|g| g * g).sum::<f64>().sqrt();
+    assert_eq!(g, cli.run.gravity.abs());
+}
+
+#[test]
 fn volumetric_view_lands_without_failing() {
     let soup = crate::default_mesh(crate::SystemKind::Volumetric).unwrap();
     let mut v = VolumetricView::new(soup).unwrap();

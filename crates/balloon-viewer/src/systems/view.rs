@@ -97,6 +97,11 @@ pub trait ViewSystem: Send {
     }
     /// Sets (or removes) the drag; called again before every step so forces follow the body.
     fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError>;
+    /// The scenario file (TOML) of the current set-up, with the values changed on the page,
+    /// when the system runs a scenario (`balloon run` of it repeats the run); `None` otherwise.
+    fn scenario_text(&self) -> Option<String> {
+        None
+    }
 
     /// Triangles of the drawn surface.
     fn triangles(&self) -> Vec<[usize; 3]> {

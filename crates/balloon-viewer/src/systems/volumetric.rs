@@ -8,7 +8,8 @@ use balloon::constraint::cell_volume::{CellCorrection, CellSolver};
 use balloon::fields;
 use balloon::mesh::TriMesh;
 use balloon::mesh::lattice::LatticeParams;
-use balloon::volumetric::{VolumetricBody, VolumetricParams, VolumetricSimulation};
+use balloon::volumetric::{MassModel, VolumetricBody, VolumetricParams, VolumetricSimulation};
+use balloon_scenario::volumetric::{Correction, VolumeSolver, VolumetricScenario};
 use nalgebra::{Point3, Vector3};
 use serde_json::{Map, Value, json};
 
@@ -72,22 +73,30 @@ pub struct VolumetricView {
 /// picked surface point (see `apply_drag`; explicit, so far below the stability limit 4).
 const VOLUMETRIC_DRAG_GAIN: f64 = 0.05;
 
-/// Relative cell-volume tolerance of the volumetric view.
-const VOLUME_TOLERANCE: f64 = 1e-6;
-/// Lattice resolution (voxels along the longest side) and voxels per cell of the volumetric view.
-const LATTICE: (usize, usize) = (36, 3);
+/// Lattice resolution of the volumetric view (voxels along the longest side: a coarse body that
+/// steps interactively); everything else of the lattice is `balloon volumetric`'s default.
+const LATTICE_RESOLUTION: usize = 36;
+
+/// The defaults of `balloon volumetric` (`VolumetricScenario::default()`), where the view takes
+/// its settings from.
+fn cli_defaults() -> VolumetricScenario {
+    VolumetricScenario::default()
+}
 
 impl VolumetricView {
-    /// A volumetric view of the soup `soup` (m) with the default controls.
+    /// A volumetric view of the soup `soup` (m) with the default controls: the correction,
+    /// the cell-volume solver and its tolerance, gravity, density, restitution, the lattice
+    /// generator and the spring stiffness and damping are those of `balloon volumetric`
+    /// (`VolumetricScenario::default()`); only the lattice resolution and the time step are the
+    /// viewer's own (an interactive size).
     pub fn new(soup: TriMesh) -> Result<Self, ViewerError> {
+        let cli = cli_defaults();
+        let volume = cli.volume_params();
         let settings = VolumetricSettings {
             stiffness: balloon::volumetric::DEFAULT_SPRING_STIFFNESS,
-            // The paper's scaling correction gains energy on the floor and inverts cells of the
-            // coarse teddy within a second; the gradient correction does not (measured with the
-            // `volumetric_view_*` tests).
-            correction: CellCorrection::Gradient,
-            solver: CellSolver::Global,
-            gravity: 9.81,
+            correction: volume.correction,
+            solver: volume.solver,
+            gravity: cli.run.gravity.abs(),
             dt: 5e-4,
         };
         let sim = Self::build(&soup, &settings)?;
@@ -99,25 +108,49 @@ impl VolumetricView {
     }
 
     fn build(soup: &TriMesh, s: &VolumetricSettings) -> Result<VolumetricSimulation, ViewerError> {
-        let mut params = VolumetricParams {
+        let cli = cli_defaults();
+        let l = &cli.lattice;
+        // The CLI's cell-volume settings for the correction and solver chosen on the page.
+        let mut chosen = cli.clone();
+        chosen.run.correction = match s.correction {
+            CellCorrection::Scaling => Correction::Scaling,
+            CellCorrection::Gradient => Correction::Gradient,
+        };
+        chosen.run.volume_solver = match s.solver {
+            CellSolver::GaussSeidel => VolumeSolver::GaussSeidel,
+            CellSolver::Global => VolumeSolver::Global,
+        };
+        let volume = chosen.volume_params();
+        let params = VolumetricParams {
             lattice: LatticeParams {
-                resolution: LATTICE.0,
-                voxels_per_cell: LATTICE.1,
-                ..LatticeParams::default()
+                resolution: LATTICE_RESOLUTION,
+                voxels_per_cell: l.voxels_per_cell,
+                rays: l.rays,
+                band_voxels: l.band_voxels,
+                p_in: l.p_in,
+                p_subs: l.p_subs,
+                density_threshold: l.density_threshold,
+                fill_iterations: l.fill_iterations,
+                smoothing_iterations: l.smoothing_iterations,
+                smoothing_weight: l.smoothing_weight,
+            },
+            volume,
+            density: cli.body.density,
+            mass_model: if cli.body.lumped_masses {
+                MassModel::Lumped
+            } else {
+                MassModel::Equal
             },
             gravity: [0.0, -s.gravity, 0.0],
             dt: s.dt,
+            restitution: cli.run.restitution,
             ..VolumetricParams::default()
         };
-        // Interactive rates: cells within 1e-6 of their rest volume (the library's 1e-10 costs
-        // many more Gauss-Seidel sweeps per step).
-        params.volume.tolerance = VOLUME_TOLERANCE;
-        params.volume.correction = s.correction;
-        params.volume.solver = s.solver;
         let body = VolumetricBody::build(soup, params).map_err(ViewerError::from)?;
         // Springs relative to the particle mass and the time step with `balloon volumetric`'s
         // damping: `k = s m / dt^2` (explicit, stable for s well below 1), damping
-        // `DEFAULT_SPRING_DAMPING m / dt`.
+        // `DEFAULT_SPRING_DAMPING m / dt` (the CLI's `damping` left unset), diagonals as stiff
+        // as the edges (the CLI's `soft_diagonals = false`).
         let springs = body.default_springs(s.stiffness);
         let body = body.with_springs(springs).map_err(ViewerError::from)?;
         let sim = VolumetricSimulation::new(body);

@@ -1,0 +1,407 @@
+//! A run of any scenario (`balloon view SCENARIO.toml`, and the built-in `connect`): the
+//! simulation is built by `balloon-scenario` exactly as `balloon run` builds it (mesh,
+//! material, gas, anchors, pins and scheduled loads included), stepped with its loads, and the
+//! page's controls edit the scenario's own keys, so that the scenario saved from the page
+//! ([`ScenarioView::scenario_text`]) is what is running.
+
+use super::view::*;
+use crate::ViewerError;
+use crate::protocol::{ControlSpec, ControlValue};
+use balloon::Simulation;
+use balloon::two_layer::{DragTarget, TwoLayerSimulation};
+use balloon::volumetric::VolumetricSimulation;
+use balloon_scenario::connect::{ConnectScenario, ConnectSim};
+use balloon_scenario::gas::GasControl;
+use balloon_scenario::keys::{Literals, Recorded};
+use balloon_scenario::selection::apply::{two_layer_loads, volumetric_loads};
+use balloon_scenario::selection::{ShellLoads, TwoLayerLoads, VolumetricLoads};
+use balloon_scenario::shell::ShellSim;
+use balloon_scenario::two_layer::DragSpec;
+use balloon_scenario::value::{SetError, Value as KeyValue};
+use balloon_scenario::{Scenario, SystemKind};
+use serde_json::{Map, Value, json};
+
+/// The simulation of a scenario with what steps it besides the simulation itself.
+enum Running {
+    /// A shell balloon with its anchors and scheduled loads.
+    Shell(Box<ShellSim>, ShellLoads),
+    /// Connected balloons.
+    Connect(Box<ConnectSim>),
+    /// A volumetric body with its spring anchors and loads.
+    Volumetric(Box<VolumetricSimulation>, VolumetricLoads),
+    /// A two-layer body with its spring anchors, loads and scripted drag.
+    TwoLayer(Box<TwoLayerSimulation>, TwoLayerLoads, Option<DragSpec>),
+}
+
+/// A scenario's run in the viewer: the scenario (with the values changed on the page) and its
+/// simulation.
+pub struct ScenarioView {
+    scenario: Scenario,
+    running: Running,
+    /// Drawn positions at the start (for the `displacement` field).
+    start: Vec<f64>,
+}
+
+/// A number control of a scenario: (parameter name, label, (min, max, step), unit). Its value
+/// is the scenario's key of that name; ranges are the page's sliders (the scenario's own range
+/// check still applies).
+type NumberControl = (&'static str, &'static str, (f64, f64, f64), &'static str);
+
+const SHELL_CONTROLS: &[NumberControl] = &[
+    (
+        "pressure",
+        "Gauge pressure (initial for ideal, fixed for constant gas)",
+        (-1e5, 1e5, 10.0),
+        "Pa",
+    ),
+    ("thickness", "Rest thickness", (1e-5, 1e-2, 1e-5), "m"),
+    ("dt", "Time step", (1e-5, 0.1, 1e-4), "s"),
+];
+const CONNECT_CONTROLS: &[NumberControl] = &[
+    ("thickness", "Rest thickness", (1e-5, 1e-2, 1e-5), "m"),
+    ("dt", "Time step", (1e-5, 0.1, 1e-4), "s"),
+];
+const VOLUMETRIC_CONTROLS: &[NumberControl] = &[
+    ("gravity", "Gravity along z", (-30.0, 30.0, 0.1), "m/s^2"),
+    ("dt", "Time step", (1e-5, 1e-3, 1e-5), "s"),
+];
+const TWO_LAYER_CONTROLS: &[NumberControl] = &[
+    ("pressure", "Gas pressure", (0.0, 1e4, 1.0), "Pa"),
+    ("dt", "Time step", (1e-5, 0.01, 1e-5), "s"),
+];
+
+/// Connected balloons whose pressure and stretch the statistics list one by one.
+const MAX_LISTED_BALLOONS: usize = 8;
+
+/// An error and its causes joined by `: ` (a cause the text already holds is skipped).
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let t = s.to_string();
+        if !text.contains(&t) {
+            text = format!("{text}: {t}");
+        }
+        source = s.source();
+    }
+    text
+}
+
+fn scenario_error(e: &dyn std::error::Error) -> ViewerError {
+    ViewerError::Scenario(chain(e))
+}
+
+/// The built-in `connect` of the viewer: the two-balloon experiment of
+/// `examples/two-balloons` (two equal neo-Hookean rubber balloons, the built-in icosphere of
+/// radius 0.1 m, pre-inflated on opposite sides of their pressure maximum and joined by a tube
+/// of instant conductance), with the rest of `balloon connect`'s defaults.
+pub fn builtin_connect() -> ConnectScenario {
+    let mut s = Scenario::Connect(ConnectScenario::default());
+    let text = |t: &str| KeyValue::Text(t.into());
+    for (name, value) in [
+        ("mesh", text("builtin:icosphere")),
+        ("copies", KeyValue::Int(2)),
+        (
+            "stretches",
+            KeyValue::List(vec![KeyValue::Float(1.35), KeyValue::Float(1.6)]),
+        ),
+        ("conductance", text("instant")),
+        ("material", text("membrane-neo-hookean")),
+        ("mu", KeyValue::Float(4e5)),
+        ("thickness", KeyValue::Float(1e-3)),
+        ("dt", KeyValue::Float(0.01)),
+        ("mass_damping", KeyValue::Float(5.0)),
+    ] {
+        // Every key and value is one `balloon connect` takes (tested).
+        let _ = s.set(name, &value);
+    }
+    match s {
+        Scenario::Connect(c) => c,
+        _ => ConnectScenario::default(),
+    }
+}
+
+impl ScenarioView {
+    /// Checks `scenario` ([`Scenario::validate`]) and builds its simulation as `balloon run`
+    /// does; a `static` shell run is shown stepping dynamically.
+    pub fn new(mut scenario: Scenario) -> Result<Self, ViewerError> {
+        if let Scenario::Connect(c) = &mut scenario {
+            // What runs (and what the recorded scenario says): connected balloons hold the
+            // ideal gas whatever `gas` says.
+            c.shell.gas.model = GasControl::Ideal;
+        }
+        scenario
+            .validate()
+            .map_err(|e| ViewerError::Scenario(chain(&e)))?;
+        let running = build(&scenario)?;
+        let start = drawn(&running).positions();
+        Ok(Self {
+            scenario,
+            running,
+            start,
+        })
+    }
+
+    /// The scenario with the values changed on the page.
+    pub fn scenario(&self) -> &Scenario {
+        &self.scenario
+    }
+
+    /// The scenario file of the current set-up (TOML, every key resolved, as `balloon run`
+    /// records it): `balloon run` of it repeats this run from its start.
+    pub fn scenario_text(&self) -> String {
+        balloon_scenario::file::record(&self.scenario, &Literals::default())
+    }
+
+    fn number_controls(&self) -> &'static [NumberControl] {
+        match self.scenario.kind() {
+            SystemKind::Shell => SHELL_CONTROLS,
+            SystemKind::Connect => CONNECT_CONTROLS,
+            SystemKind::Volumetric => VOLUMETRIC_CONTROLS,
+            SystemKind::TwoLayer => TWO_LAYER_CONTROLS,
+        }
+    }
+
+    /// The scenario's value of parameter `name`, or the running one when the scenario leaves
+    /// it to the program (a volumetric `dt`).
+    fn value_of(&self, name: &str) -> f64 {
+        match self.scenario.recorded(name) {
+            Some(Recorded::Text(t)) => t.first().and_then(|v| v.parse().ok()),
+            _ => None,
+        }
+        .unwrap_or_else(|| match name {
+            "dt" => ViewSystem::dt(self),
+            _ => f64::NAN,
+        })
+    }
+}
+
+/// Builds the simulation of a validated scenario with its loads, as the run jobs do.
+fn build(scenario: &Scenario) -> Result<Running, ViewerError> {
+    Ok(match scenario {
+        Scenario::Shell(s) => {
+            let (sim, loads) = s.build(None).map_err(|e| scenario_error(&e))?;
+            Running::Shell(Box::new(sim), loads)
+        }
+        Scenario::Connect(s) => {
+            let (sim, _) = s.build().map_err(|e| scenario_error(&e))?;
+            Running::Connect(Box::new(sim))
+        }
+        Scenario::Volumetric(s) => {
+            let mut sim = s.build(None).map_err(|e| scenario_error(&e))?.sim;
+            let loads = volumetric_loads(&mut sim, &s.anchors, s.body.pin_stiffness, &s.loads)
+                .map_err(|e| scenario_error(&e))?;
+            Running::Volumetric(Box::new(sim), loads)
+        }
+        Scenario::TwoLayer(s) => {
+            let drag = s.drag().map_err(ViewerError::Scenario)?;
+            let mut sim = s.build().map_err(|e| scenario_error(&e))?;
+            let loads = two_layer_loads(&mut sim, &s.anchors, s.run.pin_stiffness, &s.loads)
+                .map_err(|e| scenario_error(&e))?;
+            Running::TwoLayer(Box::new(sim), loads, drag)
+        }
+    })
+}
+
+fn drawn(running: &Running) -> &dyn ViewedSimulation {
+    match running {
+        Running::Shell(s, _) => s.as_ref(),
+        Running::Connect(s) => s.as_ref(),
+        Running::Volumetric(s, _) => s.as_ref(),
+        Running::TwoLayer(s, ..) => s.as_ref(),
+    }
+}
+
+/// Switches the two-layer body's scripted drag (`drag = "X,Y,Z@T0:T1"`) on inside its window
+/// and off outside, as `balloon two-layer` does.
+fn two_layer_drag(
+    sim: &mut TwoLayerSimulation,
+    drag: &DragSpec,
+    scenario: &Scenario,
+) -> Result<(), ViewerError> {
+    let Scenario::TwoLayer(s) = scenario else {
+        return Ok(());
+    };
+    let active = sim.forces().drag().is_some();
+    let t = sim.time();
+    let inside = t >= drag.window.0 && t <= drag.window.1;
+    if inside && !active {
+        sim.set_drag(Some(DragTarget {
+            point: drag.point,
+            stiffness: s.run.drag_stiffness,
+            damping: s.run.drag_damping,
+            rest_length: 0.0,
+        }))?;
+    } else if !inside && active {
+        sim.set_drag(None)?;
+    }
+    Ok(())
+}
+
+impl ViewSystem for ScenarioView {
+    fn name(&self) -> &'static str {
+        match self.scenario.kind() {
+            SystemKind::Shell => "shell",
+            SystemKind::Connect => "connect",
+            SystemKind::Volumetric => "volumetric",
+            SystemKind::TwoLayer => "two-layer",
+        }
+    }
+
+    fn controls(&self) -> Vec<ControlSpec> {
+        self.number_controls()
+            .iter()
+            .map(|&(name, label, range, unit)| {
+                ControlSpec::number(name, label, self.value_of(name), range, unit, true)
+            })
+            .collect()
+    }
+
+    /// Sets the scenario's key (range-checked with the scenario's own check, the scenario
+    /// unchanged when refused); the simulation is rebuilt from the changed scenario.
+    fn set_control(&mut self, name: &str, value: &ControlValue) -> Result<bool, ViewerError> {
+        if !self.number_controls().iter().any(|c| c.0 == name) {
+            return Err(ViewerError::UnknownControl(name.to_string()));
+        }
+        let v = number(name, value)?;
+        let mut next = self.scenario.clone();
+        next.set(name, &KeyValue::Float(v)).map_err(|e| {
+            ViewerError::Rejected(match e {
+                SetError::Type(t) => format!("control `{name}`: {t}"),
+                SetError::Value(v) => format!("control `{name}`: {v}"),
+            })
+        })?;
+        next.validate()
+            .map_err(|e| ViewerError::Rejected(format!("control `{name}`: {}", chain(&e))))?;
+        self.scenario = next;
+        Ok(true)
+    }
+
+    fn rebuild(&mut self) -> Result<(), ViewerError> {
+        self.running = build(&self.scenario)?;
+        self.start = drawn(&self.running).positions();
+        Ok(())
+    }
+
+    fn simulation(&self) -> &dyn ViewedSimulation {
+        drawn(&self.running)
+    }
+
+    fn simulation_mut(&mut self) -> &mut dyn ViewedSimulation {
+        match &mut self.running {
+            Running::Shell(s, _) => s.as_mut(),
+            Running::Connect(s) => s.as_mut(),
+            Running::Volumetric(s, _) => s.as_mut(),
+            Running::TwoLayer(s, ..) => s.as_mut(),
+        }
+    }
+
+    /// Applies the scheduled loads (and the two-layer body's scripted drag) of the coming step,
+    /// then steps, as the run jobs' `before_step` does.
+    fn step(&mut self) -> Result<(), ViewerError> {
+        let loads = match &mut self.running {
+            Running::Shell(sim, loads) => loads.before_step(sim.as_mut()),
+            Running::Connect(_) => Ok(()),
+            Running::Volumetric(sim, loads) => loads.before_step(sim.as_mut()),
+            Running::TwoLayer(sim, loads, drag) => {
+                let applied = loads.before_step(sim.as_mut());
+                if applied.is_ok()
+                    && let Some(d) = drag
+                {
+                    two_layer_drag(sim.as_mut(), d, &self.scenario)?;
+                }
+                applied
+            }
+        };
+        loads.map_err(|e| scenario_error(&e))?;
+        self.simulation_mut().step()
+    }
+
+    fn stats(&self) -> Map<String, Value> {
+        let mut m = Map::new();
+        let sim = &self.running;
+        let (kinetic, extra) = match sim {
+            Running::Shell(s, _) => (
+                Simulation::kinetic_energy(s.as_ref()),
+                json!({
+                    "gauge_pressure": s.gauge_pressure(),
+                    "volume_ratio": s.gas_volume() / s.rest_gas_volume(),
+                }),
+            ),
+            Running::Connect(s) => {
+                // One number per entry (the page's panel shows numbers): each balloon's gauge
+                // pressure and stretch, numbered from 1.
+                let mut per = Map::new();
+                per.insert("balloons".into(), json!(s.balloons().len()));
+                let (p, l) = (s.gauge_pressures(), s.stretches());
+                for (i, (p, l)) in p.iter().zip(&l).enumerate().take(MAX_LISTED_BALLOONS) {
+                    per.insert(format!("gauge_pressure_{}", i + 1), json!(p));
+                    per.insert(format!("stretch_{}", i + 1), json!(l));
+                }
+                (Simulation::kinetic_energy(s.as_ref()), Value::Object(per))
+            }
+            Running::Volumetric(s, _) => (
+                Simulation::kinetic_energy(s.as_ref()),
+                json!({"volume_ratio": s.total_volume() / s.body().rest_volume()}),
+            ),
+            Running::TwoLayer(s, ..) => (Simulation::kinetic_energy(s.as_ref()), json!({})),
+        };
+        m.insert("kinetic_energy".into(), json!(kinetic));
+        m.insert("dt".into(), json!(ViewSystem::dt(self)));
+        if let Value::Object(extra) = extra {
+            m.extend(extra);
+        }
+        m
+    }
+
+    fn scalar_fields(&self) -> Vec<&'static str> {
+        vec!["displacement", "height"]
+    }
+
+    fn scalar(&self, name: &str) -> Result<Vec<f64>, ViewerError> {
+        let x = self.positions();
+        match name {
+            "displacement" => {
+                if self.start.len() != x.len() {
+                    return Err(ViewerError::UnknownField(name.to_string()));
+                }
+                Ok((0..vertex_count(&x))
+                    .map(|i| (p3(&x, i) - p3(&self.start, i)).norm())
+                    .collect())
+            }
+            "height" => {
+                let up = nalgebra::Vector3::from(self.up());
+                Ok((0..vertex_count(&x)).map(|i| p3(&x, i).dot(&up)).collect())
+            }
+            other => Err(ViewerError::UnknownField(other.to_string())),
+        }
+    }
+
+    /// Scenario runs are watched, not dragged: their anchors and loads own the forces.
+    fn drag_modes(&self) -> Vec<&'static str> {
+        Vec::new()
+    }
+
+    /// The volumetric body's and the two-layer body's gravity act along -z.
+    fn up(&self) -> [f64; 3] {
+        match self.scenario.kind() {
+            SystemKind::Volumetric | SystemKind::TwoLayer => [0.0, 0.0, 1.0],
+            SystemKind::Shell | SystemKind::Connect => [0.0, 1.0, 0.0],
+        }
+    }
+
+    fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
+        match drag {
+            None => Ok(()),
+            Some(_) => Err(ViewerError::DragMode {
+                mode: "grab",
+                system: self.name(),
+                available: "none: a scenario run is not dragged".into(),
+            }),
+        }
+    }
+
+    fn scenario_text(&self) -> Option<String> {
+        Some(ScenarioView::scenario_text(self))
+    }
+}
