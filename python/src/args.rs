@@ -124,7 +124,10 @@ pub(crate) fn index_array<'py>(x: &Bound<'py, PyAny>, what: &str) -> PyResult<Bo
         "i" | "u" => {}
         "f" => {
             let whole: bool = np
-                .call_method1("all", (np.call_method1("equal", (&a, np.call_method1("floor", (&a,))?))?,))?
+                .call_method1(
+                    "all",
+                    (np.call_method1("equal", (&a, np.call_method1("floor", (&a,))?))?,),
+                )?
                 .extract()?;
             if !whole {
                 return Err(InvalidOption::new_err(format!(

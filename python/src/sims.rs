@@ -1,7 +1,7 @@
 //! The step-wise simulations: `Shell`, `Volumetric`, `TwoLayer`.
 
-use crate::convert::{detached, flat_points, points_array, stats_dict, triangles_array};
 use crate::args;
+use crate::convert::{detached, flat_points, points_array, stats_dict, triangles_array};
 use crate::errors::{BalloonError, InvalidOption, setter_err, to_py_err};
 use crate::options::{Use, scenario_of};
 use crate::shared::Shared;

@@ -91,9 +91,11 @@ def test_gauge_pressure_before_the_first_step_is_the_true_one():
     assert ideal.gauge_pressure == pytest.approx(700.0, rel=1e-12)
     pump = balloon.Shell(SPHERE, gas="pump", pump_rate=1e-3)
     assert pump.gauge_pressure == pytest.approx(0.0, abs=1e-6)
-    # After a step it is the gas law's at the new volume (what the next step starts from).
+    # After a step it is the gas law's at the new volume (what the next step starts from); the
+    # step's own figure was taken at its last force evaluation, so the two differ by a few
+    # parts in 1e5 of the absolute pressure (ambient 101325 Pa).
     stats = ideal.step()
-    assert ideal.gauge_pressure == pytest.approx(stats["gauge_pressure"], rel=1e-3)
+    assert abs(ideal.gauge_pressure - stats["gauge_pressure"]) < 1e-4 * 101325.0
     assert ideal.gauge_pressure < 700.0  # the gas expanded
 
 

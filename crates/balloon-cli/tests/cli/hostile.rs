@@ -184,7 +184,10 @@ fn a_continuation_step_lost_in_rounding_is_refused() {
 
 #[test]
 fn pinning_every_vertex_is_refused_as_such() {
-    for extra in [&["--steps", "2"][..], &["--static", "--gas", "constant"][..]] {
+    for extra in [
+        &["--steps", "2"][..],
+        &["--static", "--gas", "constant"][..],
+    ] {
         let mut args = vec!["inflate", "builtin:icosphere", "--pin", "below:z:100"];
         args.extend_from_slice(extra);
         let err = refused(&args);
@@ -192,7 +195,10 @@ fn pinning_every_vertex_is_refused_as_such() {
             err.contains("--pin holds all") && err.contains("nothing can move"),
             "{err}"
         );
-        assert!(!err.contains("--cg-tol") && !err.contains("linear solver"), "{err}");
+        assert!(
+            !err.contains("--cg-tol") && !err.contains("linear solver"),
+            "{err}"
+        );
     }
     // Springs instead of hard pins may hold every vertex: the balloon still moves.
     let out = run_balloon(&[
@@ -222,7 +228,11 @@ fn a_negative_count_names_the_flag_or_key() {
     assert!(!err.contains("unexpected argument"), "{err}");
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("s.toml");
-    std::fs::write(&file, "[mesh]\npath = \"builtin:icosphere\"\n[run]\nsteps = -1\n").unwrap();
+    std::fs::write(
+        &file,
+        "[mesh]\npath = \"builtin:icosphere\"\n[run]\nsteps = -1\n",
+    )
+    .unwrap();
     let f = file.to_str().unwrap();
     let err = refused(&["run", f]);
     assert!(
@@ -260,7 +270,9 @@ fn a_wrong_transform_in_a_file_names_the_file_and_line() {
         let file = dir.path().join("t.toml");
         std::fs::write(
             &file,
-            format!("[mesh]\npath = \"builtin:icosphere\"\ntransform = {value}\n[run]\nsteps = 1\n"),
+            format!(
+                "[mesh]\npath = \"builtin:icosphere\"\ntransform = {value}\n[run]\nsteps = 1\n"
+            ),
         )
         .unwrap();
         let err = refused(&["run", file.to_str().unwrap()]);
@@ -342,7 +354,10 @@ fn a_full_disk_leaves_whole_lines_no_temporary_file_and_no_success_message() {
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "a full disk went unnoticed: {stdout}");
+    assert!(
+        !out.status.success(),
+        "a full disk went unnoticed: {stdout}"
+    );
     assert!(!stdout.contains("output written"), "{stdout}");
     assert!(
         stderr.contains("No space left") || stderr.contains("space"),
