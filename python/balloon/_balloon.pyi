@@ -102,10 +102,11 @@ class Shell:
         """Time step, s."""
     @property
     def gauge_pressure(self) -> float:
-        """Gauge pressure of the gas, Pa."""
+        """Gauge pressure of the gas, Pa, at the current volume and time (also before the
+        first step and after a failed step that was rolled back)."""
     @property
     def gas_volume(self) -> float:
-        """Enclosed gas volume, m^3."""
+        """Enclosed gas volume, m^3, of the current positions."""
     def set_dt(self, dt: float) -> None: ...
     def set_pressure(self, pressure: float) -> None:
         """Gauge pressure, Pa (not for the pump gas)."""

@@ -20,6 +20,7 @@
 //! ((2562, 3), 15)
 //! ```
 
+mod args;
 mod convert;
 mod errors;
 mod jobs;

@@ -251,8 +251,8 @@ fn mesh_spec(mesh: &Bound<'_, PyAny>) -> PyResult<MeshSpec> {
         }
         let v = as_array(&parts[0], "float64")
             .map_err(|e| MeshError::new_err(format!("vertices: {}", e.value(mesh.py()))))?;
-        let t = as_array(&parts[1], "int64")
-            .map_err(|e| MeshError::new_err(format!("triangles: {}", e.value(mesh.py()))))?;
+        let t = crate::args::index_array(&parts[1], "triangles")
+            .map_err(|e| MeshError::new_err(e.value(mesh.py()).to_string()))?;
         let v: PyReadonlyArray2<'_, f64> = v
             .extract()
             .map_err(|_| MeshError::new_err("vertices must be an (n, 3) array"))?;

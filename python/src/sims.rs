@@ -1,10 +1,12 @@
 //! The step-wise simulations: `Shell`, `Volumetric`, `TwoLayer`.
 
+use crate::args;
 use crate::convert::{detached, flat_points, points_array, stats_dict, triangles_array};
-use crate::errors::{BalloonError, setter_err, to_py_err};
+use crate::errors::{BalloonError, InvalidOption, setter_err, to_py_err};
 use crate::options::{Use, scenario_of};
 use crate::shared::Shared;
 use balloon::Simulation;
+use balloon::gas::GasModel;
 use balloon::shell::AnchorSpring;
 use balloon::two_layer::{DragTarget, TwoLayerSimulation};
 use balloon::volumetric::VolumetricSimulation;
@@ -22,6 +24,12 @@ use std::sync::{Mutex, MutexGuard};
 fn lock_loads(m: &Mutex<ShellLoads>) -> PyResult<MutexGuard<'_, ShellLoads>> {
     m.lock()
         .map_err(|_| BalloonError::new_err("the simulation is unusable after an internal error"))
+}
+
+/// The volume the shell's surface encloses now, m^3.
+fn current_volume(sim: &ShellSim) -> PyResult<f64> {
+    balloon::gas::enclosed_volume(sim.positions(), sim.triangles())
+        .map_err(|e| BalloonError::new_err(e.to_string()))
 }
 
 /// Shell(mesh="builtin", **options)
@@ -117,34 +125,44 @@ impl Shell {
         Ok(self.sim.lock(py)?.dt())
     }
 
-    /// Gauge pressure of the gas, Pa.
+    /// Gauge pressure of the gas, Pa: the gas law's at the current enclosed volume and time
+    /// (so it is the true pressure before the first step, and after a failed step that was
+    /// rolled back).
     #[getter]
     fn gauge_pressure(&self, py: Python<'_>) -> PyResult<f64> {
-        Ok(self.sim.lock(py)?.gauge_pressure())
+        let sim = self.sim.lock(py)?;
+        let volume = current_volume(&sim)?;
+        Ok(GasModel::absolute_pressure(sim.gas(), volume, sim.time()) - sim.ambient_pressure())
     }
 
-    /// Enclosed gas volume, m^3.
+    /// Enclosed gas volume, m^3, of the current positions (after a failed step that was
+    /// rolled back, the volume of the restored state).
     #[getter]
     fn gas_volume(&self, py: Python<'_>) -> PyResult<f64> {
-        Ok(self.sim.lock(py)?.gas_volume())
+        current_volume(&*self.sim.lock(py)?)
     }
 
-    /// Changes the time step (s) of the following steps.
-    fn set_dt(&self, py: Python<'_>, dt: f64) -> PyResult<()> {
+    /// Changes the time step (s) of the following steps (the range of `dt=`).
+    fn set_dt(&self, py: Python<'_>, dt: &Bound<'_, PyAny>) -> PyResult<()> {
+        let dt = args::ranged(SystemKind::Shell, dt, "dt")?;
         self.sim.lock(py)?.set_dt(dt).map_err(setter_err)
     }
 
     /// Sets the gauge pressure, Pa (held pressure of `gas="constant"`, the amount of the
     /// ideal gas at the rest volume, ...; an error for the pump).
-    fn set_pressure(&self, py: Python<'_>, pressure: f64) -> PyResult<()> {
+    /// The range is that of `pressure=`.
+    fn set_pressure(&self, py: Python<'_>, pressure: &Bound<'_, PyAny>) -> PyResult<()> {
+        let pressure = args::ranged(SystemKind::Shell, pressure, "pressure")?;
         self.sim
             .lock(py)?
             .set_gauge_pressure(pressure)
             .map_err(setter_err)
     }
 
-    /// Sets the pump rate, m^3/s of ambient air, of `gas="pump"` from now on.
-    fn set_pump_rate(&self, py: Python<'_>, rate: f64) -> PyResult<()> {
+    /// Sets the pump rate, m^3/s of ambient air, of `gas="pump"` from now on (the range of
+    /// `pump_rate=`).
+    fn set_pump_rate(&self, py: Python<'_>, rate: &Bound<'_, PyAny>) -> PyResult<()> {
+        let rate = args::ranged(SystemKind::Shell, rate, "pump_rate")?;
         self.sim.lock(py)?.set_pump_rate(rate).map_err(setter_err)
     }
 
@@ -166,19 +184,39 @@ impl Shell {
 
     /// Replaces the anchor springs: a list of (vertex, (x, y, z), stiffness N/m), zero-length
     /// springs pulling the vertex to the fixed point (integrated implicitly); [] removes them.
-    fn set_anchor_springs(
-        &self,
-        py: Python<'_>,
-        springs: Vec<(usize, [f64; 3], f64)>,
-    ) -> PyResult<()> {
-        let springs = springs
-            .into_iter()
-            .map(|(vertex, anchor, stiffness)| AnchorSpring {
-                vertex,
-                anchor,
-                stiffness,
+    /// Each entry is checked: a vertex that is not a whole number (a float is refused, not
+    /// truncated), a point that is not three numbers or a stiffness that is not a number is an
+    /// `InvalidOption` naming the entry.
+    fn set_anchor_springs(&self, py: Python<'_>, springs: &Bound<'_, PyAny>) -> PyResult<()> {
+        let entries: Vec<Bound<'_, PyAny>> = springs
+            .try_iter()
+            .and_then(|it| it.collect::<PyResult<_>>())
+            .map_err(|_| {
+                InvalidOption::new_err(
+                    "anchor springs must be a list of (vertex, (x, y, z), stiffness)",
+                )
+            })?;
+        let springs = entries
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let parts: Vec<Bound<'_, PyAny>> = e
+                    .try_iter()
+                    .and_then(|it| it.collect::<PyResult<_>>())
+                    .ok()
+                    .filter(|p: &Vec<_>| p.len() == 3)
+                    .ok_or_else(|| {
+                        InvalidOption::new_err(format!(
+                            "anchor spring {i} must be (vertex, (x, y, z), stiffness)"
+                        ))
+                    })?;
+                Ok(AnchorSpring {
+                    vertex: args::index(&parts[0], &format!("the vertex of anchor spring {i}"))?,
+                    anchor: args::point(&parts[1], &format!("the point of anchor spring {i}"))?,
+                    stiffness: args::real(&parts[2], "stiffness")?,
+                })
             })
-            .collect();
+            .collect::<PyResult<Vec<_>>>()?;
         self.sim
             .lock(py)?
             .set_anchor_springs(springs)
@@ -278,7 +316,8 @@ impl Volumetric {
     }
 
     /// Changes the time step (s) of the following steps.
-    fn set_dt(&self, py: Python<'_>, dt: f64) -> PyResult<()> {
+    fn set_dt(&self, py: Python<'_>, dt: &Bound<'_, PyAny>) -> PyResult<()> {
+        let dt = args::ranged(SystemKind::Volumetric, dt, "dt")?;
         Simulation::set_dt(&mut *self.sim.lock(py)?, dt).map_err(setter_err)
     }
 
@@ -371,20 +410,28 @@ impl TwoLayer {
     }
 
     /// Changes the time step (s) of the following steps.
-    fn set_dt(&self, py: Python<'_>, dt: f64) -> PyResult<()> {
+    fn set_dt(&self, py: Python<'_>, dt: &Bound<'_, PyAny>) -> PyResult<()> {
+        let dt = args::ranged(SystemKind::TwoLayer, dt, "dt")?;
         Simulation::set_dt(&mut *self.sim.lock(py)?, dt).map_err(setter_err)
     }
 
     /// Drags the body ("mouse"): a spring of `stiffness` N/m and `damping` N s/m from the
     /// nearest particle to `point` (x, y, z), m; None releases it. Returns the dragged particle.
-    #[pyo3(signature = (point = None, stiffness = 10.0, damping = 0.1))]
+    #[pyo3(signature = (point = None, stiffness = None, damping = None))]
     fn set_drag(
         &self,
         py: Python<'_>,
-        point: Option<[f64; 3]>,
-        stiffness: f64,
-        damping: f64,
+        point: Option<&Bound<'_, PyAny>>,
+        stiffness: Option<&Bound<'_, PyAny>>,
+        damping: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Option<usize>> {
+        let point = point
+            .filter(|p| !p.is_none())
+            .map(|p| args::point(p, "the drag point"))
+            .transpose()?;
+        // Defaults: 10 N/m and 0.1 N s/m.
+        let stiffness = stiffness.map_or(Ok(10.0), |k| args::real(k, "stiffness"))?;
+        let damping = damping.map_or(Ok(0.1), |c| args::real(c, "damping"))?;
         let target = point.map(|p| DragTarget {
             point: Point3::new(p[0], p[1], p[2]),
             stiffness,

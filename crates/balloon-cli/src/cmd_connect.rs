@@ -33,7 +33,8 @@ pub struct ConnectArgs {
     #[arg(long, value_parser = parse_whole)]
     pub copies: Option<usize>,
     /// Pre-inflate each balloon statically to this linear stretch (V / V0)^(1/3), each in
-    /// (0, 10], comma-separated, one per balloon; it then holds that gas.
+    /// [1, 10] (below 1 the membrane would crumple), comma-separated, one per balloon; it then
+    /// holds that gas.
     #[arg(long, value_delimiter = ',', num_args = 1, conflicts_with = "pressures",
           value_parser = parse_real)]
     pub stretches: Option<Vec<f64>>,

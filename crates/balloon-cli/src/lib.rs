@@ -37,3 +37,17 @@ pub mod scenario_cli;
 pub mod selection;
 
 pub use scenario_cli::error_chain;
+
+/// `cmd` (and its subcommands) with every flag that takes a value accepting a negative number
+/// as that value, so `--steps -1` reaches the flag's own parser and is refused with the flag's
+/// range, instead of clap reading `-1` as an unknown flag ("unexpected argument '-1'").
+pub fn negative_values(cmd: clap::Command) -> clap::Command {
+    cmd.mut_args(|a| {
+        if a.get_action().takes_values() && !a.is_positional() {
+            a.allow_negative_numbers(true)
+        } else {
+            a
+        }
+    })
+    .mut_subcommands(negative_values)
+}

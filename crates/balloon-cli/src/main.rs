@@ -48,7 +48,7 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
-    let matches = Cli::command().get_matches();
+    let matches = balloon_cli::negative_values(Cli::command()).get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     // The subcommand's matches: the values as typed, for the recorded scenario and errors.
     let sub = |name: &str| {

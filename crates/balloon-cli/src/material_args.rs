@@ -34,7 +34,7 @@ pub struct MaterialArgs {
     /// Mooney-Rivlin c2, Pa (>= 0, at most 1e12) [default: 0].
     #[arg(long, allow_hyphen_values = true, value_parser = parse_real)]
     pub c2: Option<f64>,
-    /// Gent's limit Jm of I1 - 3 (> 0, at most 1e6; rubber about 30-100).
+    /// Gent's limit Jm of I1 - 3, in [1e-6, 1e6] (rubber about 30-100).
     #[arg(long, allow_hyphen_values = true, value_parser = parse_real)]
     pub jm: Option<f64>,
     /// Ogden moduli mu_p, Pa, comma-separated (one per --ogden-alpha; sum mu_p alpha_p / 2 > 0;

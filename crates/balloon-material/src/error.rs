@@ -2,6 +2,17 @@
 
 use thiserror::Error;
 
+/// `value` as a message shows it: plain (`-1`, `0.45`) unless very small or large, then in
+/// exponent form (`1e-300`, not three hundred zeros).
+pub(crate) fn number(value: f64) -> String {
+    let a = value.abs();
+    if a != 0.0 && a.is_finite() && !(1e-4..1e16).contains(&a) {
+        format!("{value:e}")
+    } else {
+        format!("{value}")
+    }
+}
+
 /// What can go wrong when building a material from user parameters.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum MaterialError {
@@ -10,7 +21,10 @@ pub enum MaterialError {
     /// Happens for example for a non-positive Young's modulus, a Poisson ratio outside
     /// `(-1, 0.5)`, or Lame parameters whose bulk modulus `lambda + 2 mu / 3` is not positive.
     /// Fix: pass a value inside `allowed`.
-    #[error("invalid material parameter `{name}` = {value}: allowed range is {allowed}")]
+    #[error(
+        "invalid material parameter `{name}` = {}: allowed range is {allowed}",
+        number(*value)
+    )]
     InvalidParameter {
         /// Name of the parameter (`young`, `poisson`, `mu`, `lambda`, and for the membranes
         /// `c1`, `c2`, `c3`, `jm`, `ogden_mu`, `ogden_alpha`, `radius`, `thickness`, ...).

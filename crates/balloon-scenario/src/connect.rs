@@ -93,7 +93,8 @@ pub struct ConnectTable {
     /// Connect this many copies of the mesh, side by side along x; `None`: the balloons are the
     /// mesh's connected components.
     pub copies: Option<usize>,
-    /// Pre-inflate each balloon statically to this linear stretch `(V / V0)^(1/3)`.
+    /// Pre-inflate each balloon statically to this linear stretch `(V / V0)^(1/3)`, each in
+    /// [1, 10] (below 1 the membrane would be squeezed and crumple, so it is refused).
     pub stretches: Option<Vec<f64>>,
     /// Start each balloon at rest holding the ideal gas at this gauge pressure, Pa.
     pub pressures: Option<Vec<f64>>,
@@ -273,6 +274,21 @@ impl ConnectScenario {
         ];
         if let Some((_, name, hint)) = refused.iter().find(|(given, ..)| *given) {
             return Err(format!("`{name}`: not used by connected balloons{hint}"));
+        }
+        if let Some((i, l)) = self
+            .connect
+            .stretches
+            .iter()
+            .flatten()
+            .enumerate()
+            .find(|(_, l)| **l < 1.0)
+        {
+            return Err(format!(
+                "`stretches`: balloon {i} has the stretch {l}, below 1: pre-inflating to less \
+                 than the rest volume squeezes the membrane, which holds no compression and \
+                 crumples; give stretches of at least 1 (1 is the rest shape), or `pressures` \
+                 (a negative gauge pressure) to start a balloon deflating"
+            ));
         }
         match (&self.connect.stretches, &self.connect.pressures) {
             (None, None) => Err(

@@ -164,10 +164,18 @@ impl FromStr for VolumeRatios {
         if !(finite && start > 0.0 && end > 0.0 && step != 0.0) || (end - start) * step < 0.0 {
             return Err(bad());
         }
-        let count = ((end - start) / step + 1e-9).floor() as usize + 1;
-        if count > 100_000 {
+        if step.abs() < 1e-9 * start.max(end) {
+            return Err(format!(
+                "`{s}`: the step {step} is below 1e-9 of the ratios, so the points would not \
+                 differ (or not beyond the solver's tolerance); give a larger STEP"
+            ));
+        }
+        // Counted in f64 first: a tiny step must not overflow the count.
+        let count = ((end - start) / step + 1e-9).floor() + 1.0;
+        if count > 100_000.0 {
             return Err(format!("`{s}` asks for {count} points; at most 100000"));
         }
+        let count = count as usize;
         Ok(Self((0..count).map(|i| start + i as f64 * step).collect()))
     }
 }
@@ -211,6 +219,12 @@ mod tests {
         for bad in ["1:2", "1:2:0", "2:1:0.5", "0:1:0.1", "a:b:c", "1:2:inf"] {
             assert!(p(bad).is_err(), "{bad}");
         }
+        // A step that underflows: no overflowing count, no run of identical points.
+        for tiny in ["1:2:1e-300", "1:1.0000000000000002:1e-17", "2:1:-1e-12"] {
+            let e = p(tiny).unwrap_err();
+            assert!(e.contains("would not differ"), "{tiny}: {e}");
+        }
+        assert!(p("1:3:1e-6").unwrap_err().contains("at most 100000"));
     }
 
     #[test]

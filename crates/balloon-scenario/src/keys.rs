@@ -500,3 +500,40 @@ macro_rules! mesh_path {
     };
 }
 pub(crate) use mesh_path;
+
+/// The `[mesh] transform` key: its numbers in [`TRANSFORM`], and the map itself checked on its
+/// own (12 numbers, orientation kept), so a scenario file's error names its line.
+macro_rules! mesh_transform {
+    ($($f:ident).+) => {
+        $crate::keys::Key {
+            check: |s| match &s.$($f).+ {
+                Some(x) => {
+                    $crate::keys::TRANSFORM.check_all("transform", x)?;
+                    $crate::keys::check_transform_map(x)
+                }
+                None => Ok(()),
+            },
+            ..$crate::keys::reals_opt!(
+                "mesh", "transform", "transform", $crate::keys::TRANSFORM, $($f).+
+            )
+        }
+    };
+}
+pub(crate) use mesh_transform;
+
+/// The map of a `transform` (12 numbers, a positive determinant) as a key's check.
+pub(crate) fn check_transform_map(m: &[f64]) -> Result<(), ValueError> {
+    let spec = crate::mesh::MeshSpec {
+        transform: Some(m.to_vec()),
+        ..crate::mesh::MeshSpec::default()
+    };
+    spec.check_transform().map_err(|why| {
+        let why = why
+            .strip_prefix("`transform`: ")
+            .or_else(|| why.strip_prefix("`transform` "))
+            .unwrap_or(&why)
+            .to_owned();
+        let text: Vec<String> = m.iter().map(|v| crate::range::real_text(*v)).collect();
+        ValueError::new("transform", text.join(","), Some(why))
+    })
+}

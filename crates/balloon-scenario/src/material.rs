@@ -302,7 +302,15 @@ impl MaterialSpec {
                     format!("`ogden_alpha` = {}", listed(&self.ogden_alpha))
                 }
                 (MembraneKind::Ogden, _) => both(),
-                (_, name) => format!("`{name}` = {value}"),
+                (_, name) => {
+                    // Plain unless tiny or huge (no three hundred zeros for 1e-300).
+                    let a = value.abs();
+                    if a != 0.0 && a.is_finite() && !(1e-4..1e16).contains(&a) {
+                        format!("`{name}` = {value:e}")
+                    } else {
+                        format!("`{name}` = {value}")
+                    }
+                }
             },
             _ => both(),
         }

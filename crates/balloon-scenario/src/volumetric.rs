@@ -19,7 +19,7 @@ use crate::error::ScenarioError;
 use crate::keys::{
     Key, Kind, Recorded, anchor_keys, flag, output_keys, real, real_opt, whole, whole_opt,
 };
-use crate::keys::{PIN_STIFFNESS, SCALE, STEPS, TRANSFORM, mesh_path};
+use crate::keys::{PIN_STIFFNESS, SCALE, STEPS, mesh_path, mesh_transform};
 use crate::mesh::MeshSpec;
 use crate::output::{ColorField, Output, choices};
 use crate::range::End::{Closed, Open};
@@ -315,7 +315,7 @@ pub static VOLUMETRIC_KEYS: &[Key<VolumetricScenario>] = &{
     [
         mesh_path!(VolumetricScenario, mesh.path),
         real!("mesh", "scale", "scale", SCALE, mesh.scale),
-        crate::keys::reals_opt!("mesh", "transform", "transform", TRANSFORM, mesh.transform),
+        mesh_transform!(mesh.transform),
         whole_opt!(
             "lattice",
             "resolution",

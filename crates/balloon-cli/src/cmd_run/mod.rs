@@ -97,28 +97,28 @@ fn overrides_of(
     let fail = |e: clap::Error| OverrideError(clap_message(&e));
     let (scenario, matches) = match kind {
         SystemKind::Shell => {
-            let m = ShellCli::command()
+            let m = crate::negative_values(ShellCli::command())
                 .try_get_matches_from(argv)
                 .map_err(fail)?;
             let a = ShellCli::from_arg_matches(&m).map_err(fail)?;
             (Scenario::Shell(a.args.scenario()), m)
         }
         SystemKind::Connect => {
-            let m = ConnectCli::command()
+            let m = crate::negative_values(ConnectCli::command())
                 .try_get_matches_from(argv)
                 .map_err(fail)?;
             let a = ConnectCli::from_arg_matches(&m).map_err(fail)?;
             (Scenario::Connect(a.args.scenario()), m)
         }
         SystemKind::Volumetric => {
-            let m = VolumetricCli::command()
+            let m = crate::negative_values(VolumetricCli::command())
                 .try_get_matches_from(argv)
                 .map_err(fail)?;
             let a = VolumetricCli::from_arg_matches(&m).map_err(fail)?;
             (Scenario::Volumetric(a.args.scenario()), m)
         }
         SystemKind::TwoLayer => {
-            let m = TwoLayerCli::command()
+            let m = crate::negative_values(TwoLayerCli::command())
                 .try_get_matches_from(argv)
                 .map_err(fail)?;
             let a = TwoLayerCli::from_arg_matches(&m).map_err(fail)?;

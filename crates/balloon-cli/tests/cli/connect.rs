@@ -268,6 +268,10 @@ fn refusals_name_the_flag() {
         ),
         (&[m, "--copies", "2", "--stretches", "1.2,0"], "--stretches"),
         (
+            &[m, "--copies", "2", "--stretches", "0.5,1.2"],
+            "--stretches: balloon 0 has the stretch 0.5, below 1",
+        ),
+        (
             &[
                 m,
                 "--copies",

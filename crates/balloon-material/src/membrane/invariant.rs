@@ -296,8 +296,8 @@ impl_membrane_material!(MembraneMooneyRivlin, |m| 2.0 * (m.c1 + m.c2));
 /// the energy becomes infinite as `I1 - 3 -> jm`, so the sphere's pressure curve has a maximum
 /// and then, for the usual `jm` (tens to about a hundred), a minimum followed by steep
 /// stiffening. States with `I1 - 3 >= jm` are inadmissible (energy `+infinity`, NaN stress). As
-/// `jm -> infinity` the model tends to neo-Hookean. Parameters: `mu > 0` (Pa), `jm > 0`
-/// (dimensionless).
+/// `jm -> infinity` the model tends to neo-Hookean. Parameters: `mu > 0` (Pa), `jm` at least
+/// [`MembraneGent::MIN_JM`] (dimensionless).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "RawGent")]
 pub struct MembraneGent {
@@ -319,15 +319,29 @@ impl TryFrom<RawGent> for MembraneGent {
 }
 
 impl MembraneGent {
+    /// The smallest accepted extensibility limit `jm`. Near the rest shape `I1 - 3` is about
+    /// `12 e^2` for an equibiaxial stretch `1 + e`, so `jm = 1e-6` still lets the membrane stretch
+    /// by about 0.03 %; a much smaller `jm` is swamped by the rounding of `I1 - 3` (about
+    /// `1e-15`), which makes even the rest shape inadmissible (infinite energy) and leaves a
+    /// solver nothing honest to report.
+    pub const MIN_JM: f64 = 1e-6;
+
     /// The model with shear modulus `mu` (Pa) and extensibility limit `jm` (dimensionless).
     ///
     /// # Errors
-    /// [`MaterialError::InvalidParameter`] naming `mu` or `jm` unless finite and `> 0`.
+    /// [`MaterialError::InvalidParameter`] naming `mu` unless finite and `> 0`, or `jm` unless
+    /// finite and at least [`MembraneGent::MIN_JM`].
     pub fn try_new(mu: f64, jm: f64) -> Result<Self, MaterialError> {
-        Ok(Self {
-            mu: positive("mu", mu)?,
-            jm: positive("jm", jm)?,
-        })
+        let mu = positive("mu", mu)?;
+        if !(jm.is_finite() && jm >= Self::MIN_JM) {
+            return Err(MaterialError::InvalidParameter {
+                name: "jm",
+                value: jm,
+                allowed: "finite and at least 1e-6 (> 0; a smaller limit leaves the membrane no \
+                          stretch beyond rounding; rubber is about 30-100)",
+            });
+        }
+        Ok(Self { mu, jm })
     }
 
     /// Shear modulus `mu` (Pa).

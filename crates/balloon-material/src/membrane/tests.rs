@@ -292,6 +292,13 @@ fn parameters_are_validated_naming_them() {
         e.to_string().contains("jm") && e.to_string().contains("> 0"),
         "{e}"
     );
+    // A vanishing limit: even the rest shape's rounding of I1 - 3 would exceed it.
+    for tiny in [1e-300, 1e-20, 1e-7] {
+        let e = MembraneGent::try_new(1.0, tiny).unwrap_err();
+        assert_eq!(param_name(e.clone()), "jm");
+        assert!(e.to_string().contains("at least 1e-6"), "{e}");
+    }
+    assert!(MembraneGent::try_new(1.0, MembraneGent::MIN_JM).is_ok());
     assert_eq!(
         param_name(MembraneYeoh::try_new(0.0, 1.0, 1.0).unwrap_err()),
         "c1"

@@ -102,19 +102,31 @@ pub fn read_stl_with_tolerance(path: &Path, tolerance: f64) -> Result<TriMesh, M
 /// case-insensitive).
 ///
 /// # Errors
-/// [`MeshError::UnsupportedFormat`] for another extension, [`MeshError::Io`] when the file cannot
-/// be read, [`MeshError::Parse`] (file and line or byte) when it is malformed.
+/// [`MeshError::UnsupportedFormat`] for another extension, [`MeshError::NotAFile`] for a
+/// directory or special file, [`MeshError::Io`] when the file cannot be read,
+/// [`MeshError::Parse`] (file and line or byte) when it is malformed.
 pub fn read_mesh(path: &Path) -> Result<TriMesh, MeshError> {
     match extension(path).as_str() {
         "obj" => read_obj(path),
         "off" => read_off(path),
         "ply" => read_ply(path),
         "stl" => read_stl(path),
-        ext => Err(MeshError::UnsupportedFormat {
-            path: path.to_path_buf(),
-            extension: ext.to_string(),
-            supported: ".obj, .off, .ply, .stl",
-        }),
+        ext => {
+            // A directory (`.`, `meshes/`) has no extension either: say what it is.
+            if let Ok(meta) = std::fs::metadata(path)
+                && !meta.is_file()
+            {
+                return Err(MeshError::NotAFile {
+                    path: path.to_path_buf(),
+                    kind: input::file_kind(&meta.file_type()),
+                });
+            }
+            Err(MeshError::UnsupportedFormat {
+                path: path.to_path_buf(),
+                extension: ext.to_string(),
+                supported: ".obj, .off, .ply, .stl",
+            })
+        }
     }
 }
 

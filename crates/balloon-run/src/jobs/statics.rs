@@ -226,9 +226,9 @@ pub fn run<M: ShellMaterial>(
     summary.final_thickness_mean = th.iter().sum::<f64>() / th.len() as f64;
     summary.final_thickness_min = th.iter().copied().fold(f64::INFINITY, f64::min);
     summary.final_thickness_max = th.iter().copied().fold(0.0, f64::max);
+    let failure = failure.map(|e| failure_message(&e, args));
     summary.error = failure
-        .as_ref()
-        .map(|e| e.to_string())
+        .clone()
         .or_else(|| output_error.as_ref().map(|e| format!("{e:#}")));
     summary.interrupted = interrupted.is_some();
     let mut record = serde_json::to_value(&summary)?;
@@ -292,7 +292,7 @@ pub fn run<M: ShellMaterial>(
         return Err(e);
     }
     match failure {
-        Some(e) => Err(anyhow::Error::new(e).context(format!(
+        Some(e) => Err(anyhow::Error::msg(e).context(format!(
             "the static solve of `{}` did not converge (the simulation is left at the last converged point)",
             args.mesh.path
         ))),
@@ -307,6 +307,58 @@ pub fn run<M: ShellMaterial>(
                 points,
             }),
         },
+    }
+}
+
+/// The message of a failed static solve, with the hints that fit the scenario: no
+/// `tangent` = projected when it was the tangent used, and, under a pressure (not volume)
+/// control, that the pressure may exceed the largest the balloon can hold (rubber's pressure
+/// has a maximum, the limit point, above which no equilibrium exists), with the volume
+/// control that passes it.
+fn failure_message(e: &balloon::shell::ShellError, args: &ShellScenario) -> String {
+    use balloon::integrate::TangentKind;
+    use balloon::shell::ShellError;
+    use balloon_scenario::gas::GasControl;
+    let limit_hint = (args.gas.model != GasControl::Volume).then(|| {
+        let pressure = match args.gas.model {
+            GasControl::Constant | GasControl::Ideal | GasControl::Polytropic => {
+                format!("the gauge pressure {} Pa", args.gas.pressure)
+            }
+            _ => "the load".to_owned(),
+        };
+        format!(
+            "{pressure} may exceed the largest the balloon can hold (a rubber balloon's pressure \
+             has a maximum, the limit point): above it no equilibrium exists at that pressure, \
+             whatever the solver settings; solve under volume control instead (`gas` = volume \
+             with `volume_ratio` R, or `volume_ratios` START:END:STEP to trace the pressure \
+             through its maximum), or give a smaller pressure"
+        )
+    });
+    match e {
+        ShellError::Static { outer, source } => {
+            let mut tries = vec!["a looser `newton_tol`"];
+            if args.run.tangent != TangentKind::Projected {
+                tries.push("`tangent` = projected");
+            }
+            tries.push("the dynamic run (`until_converged`)");
+            let tries = format!(
+                "{} or {}",
+                tries[..tries.len() - 1].join(", "),
+                tries[tries.len() - 1]
+            );
+            match limit_hint {
+                Some(hint) => format!(
+                    "static solve (outer iteration {outer}): {source}; {hint}. If it is below \
+                     that maximum, try {tries}"
+                ),
+                None => format!("static solve (outer iteration {outer}): {source}; try {tries}"),
+            }
+        }
+        ShellError::StaticNotConverged { .. } => match limit_hint {
+            Some(hint) => format!("{e}; {hint}"),
+            None => e.to_string(),
+        },
+        e => e.to_string(),
     }
 }
 

@@ -431,12 +431,14 @@ fn read_tables(
     Ok(())
 }
 
-/// The text of element `index` (or the only one) of a key's texts.
+/// The text of element `index` (or the only one) of a key's texts; `None` for an error about
+/// a whole list of several values (its own value then shows them all).
 fn literals_for(texts: &Option<Vec<String>>, index: Option<usize>) -> Option<&str> {
-    texts
-        .as_ref()
-        .and_then(|t| t.get(index.unwrap_or(0)))
-        .map(String::as_str)
+    let texts = texts.as_ref()?;
+    if index.is_none() && texts.len() > 1 {
+        return None;
+    }
+    texts.get(index.unwrap_or(0)).map(String::as_str)
 }
 
 #[cfg(test)]

@@ -50,6 +50,12 @@ pub fn shell_anchors<M: ShellMaterial>(
         }
     }
     if !hard.is_empty() {
+        hard.sort_unstable();
+        hard.dedup();
+        let vertices = rest.len() / 3;
+        if hard.len() >= vertices {
+            return Err(SelectionError::AllPinned { vertices });
+        }
         sim.set_pinned_vertices(hard)?;
     }
     let loads = select_loads(loads, &rest, Selector::select)?;

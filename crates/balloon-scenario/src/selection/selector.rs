@@ -95,6 +95,17 @@ pub enum SelectionError {
         #[source]
         source: balloon::mesh::MeshError,
     },
+    /// Hard pins hold every vertex of the mesh: nothing can move, so a run or a static solve
+    /// would "converge" on the unchanged shape. Pin fewer vertices, or anchor them with springs.
+    #[error(
+        "`pin` holds all {vertices} vertices of the mesh, so nothing can move and the shape \
+         would stay as it is; pin fewer vertices, or give the pins a stiffness (`pin_stiffness`, \
+         or `@K` on a pin) to hold them with springs"
+    )]
+    AllPinned {
+        /// Vertices of the mesh (all of them pinned).
+        vertices: usize,
+    },
     /// What this system does not support.
     #[error("{0}")]
     Unsupported(String),

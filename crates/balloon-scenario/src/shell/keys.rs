@@ -6,7 +6,7 @@ use crate::keys::{
     Key, Kind, Recorded, anchor_keys, choice, choice_opt, flag, no_check, output_keys, path_opt,
     real, real_opt, reals_opt, whole,
 };
-use crate::keys::{PIN_STIFFNESS, SCALE, STEPS, TRANSFORM, mesh_path};
+use crate::keys::{PIN_STIFFNESS, SCALE, STEPS, mesh_path, mesh_transform};
 use crate::range::End::{Closed, Open};
 use crate::range::{Real, ValueError, Whole};
 use crate::value::{SetError, Value, parse_choice};
@@ -78,7 +78,7 @@ pub static SHELL_KEYS: &[Key<ShellScenario>] = &{
     [
         mesh_path!(ShellScenario, mesh.path),
         real!("mesh", "scale", "scale", SCALE, mesh.scale),
-        reals_opt!("mesh", "transform", "transform", TRANSFORM, mesh.transform),
+        mesh_transform!(mesh.transform),
         choice_opt!(
             "shell",
             "material",
