@@ -21,7 +21,9 @@ pub(crate) struct ShellSubsteps<'a, M: ShellMaterial, G: GasModel> {
 }
 
 impl<M: ShellMaterial, G: GasModel> Substepper for ShellSubsteps<'_, M, G> {
-    type State = (Vec<f64>, Vec<f64>, Vec<f64>);
+    /// Positions, velocities, thickness and the enclosed gas volume (so a rolled-back step
+    /// reports the volume of the state it is back at, not the failed attempt's).
+    type State = (Vec<f64>, Vec<f64>, Vec<f64>, f64);
     type Info = (StepInfo, usize);
     type Error = ShellError;
 
@@ -30,11 +32,13 @@ impl<M: ShellMaterial, G: GasModel> Substepper for ShellSubsteps<'_, M, G> {
             self.sim.x.clone(),
             self.sim.v.clone(),
             self.sim.system.thickness.clone(),
+            self.sim.gas_volume,
         )
     }
 
-    fn restore(&mut self, (x, v, thickness): Self::State) {
+    fn restore(&mut self, (x, v, thickness, gas_volume): Self::State) {
         (self.sim.x, self.sim.v, self.sim.system.thickness) = (x, v, thickness);
+        self.sim.gas_volume = gas_volume;
     }
 
     fn substep(&mut self, time: f64, dt: f64) -> Result<Self::Info, ShellError> {
@@ -46,9 +50,17 @@ impl<M: ShellMaterial, G: GasModel> Substepper for ShellSubsteps<'_, M, G> {
         info.newton_iterations <= EASY_NEWTON_ITERATIONS && info.line_search_cuts == 0
     }
 
-    /// A physical runaway of the gas volume is not retried.
+    /// A physical runaway of the gas volume is not retried, nor a solve stopped by a request
+    /// ([`balloon_integrate::newton::set_cancel_check`]).
     fn may_retry(error: &ShellError) -> bool {
-        !matches!(error, ShellError::RunawayVolume { .. })
+        !matches!(
+            error,
+            ShellError::RunawayVolume { .. }
+                | ShellError::Integrate {
+                    source: IntegrateError::Interrupted { .. },
+                    ..
+                }
+        )
     }
 }
 
@@ -142,5 +154,34 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             },
             other => other,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A rolled-back sub-step leaves the simulation as it was, its enclosed gas volume included
+    /// (the volume is what `gas_volume()` reports after a failed step).
+    #[test]
+    fn a_rolled_back_substep_restores_the_gas_volume_with_the_positions() {
+        let (system, x, integrator) = super::super::tests::parts();
+        let mut sim =
+            ShellSimulation::new(system, x.clone(), 950.0, integrator, None, 0.01, 10).unwrap();
+        let v0 = sim.gas_volume();
+        let mut stepper = ShellSubsteps {
+            sim: &mut sim,
+            step: 1,
+        };
+        let start = stepper.save();
+        stepper.substep(0.0, 0.01).unwrap();
+        let moved = stepper.sim.gas_volume();
+        assert!(
+            (moved / v0 - 1.0).abs() > 1e-9,
+            "the sub-step moved the shell"
+        );
+        stepper.restore(start);
+        assert_eq!(sim.gas_volume(), v0);
+        assert_eq!(sim.positions(), &x[..]);
     }
 }

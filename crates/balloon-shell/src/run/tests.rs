@@ -7,7 +7,7 @@ use balloon_material::{Lame, StVenantKirchhoff};
 
 use crate::{ShellError, ShellSimulation, ShellSystem};
 
-fn parts() -> (ShellSystem<StVenantKirchhoff, Gas>, Vec<f64>, BackwardEuler) {
+pub(super) fn parts() -> (ShellSystem<StVenantKirchhoff, Gas>, Vec<f64>, BackwardEuler) {
     let mesh = balloon_mesh::generate::icosphere(0.1, 1).unwrap();
     let x = mesh.positions_flat();
     let v0 = balloon_gas::enclosed_volume(&x, &mesh.triangles).unwrap();
