@@ -138,6 +138,7 @@ mod continuation;
 mod info;
 mod params;
 mod solver;
+mod stability;
 #[cfg(test)]
 mod tests;
 
@@ -145,6 +146,7 @@ pub use anderson::{Anderson, AndersonParams};
 pub use info::StaticInfo;
 pub use params::{DEFAULT_STATIC_ITERATIONS, StaticParams};
 pub use solver::StaticSolver;
+pub use stability::{Stability, StabilityParams};
 
 /// Phase timings (moved to [`crate::timing`]; kept here under their old path).
 pub use crate::timing::PhaseTimes;

@@ -224,46 +224,12 @@ impl StaticSolver {
         }
     }
 
-    /// `mu_ref = |diag K| / |m|` at the current linearisation (the Rayleigh quotient of `K`
-    /// along the centred positions when the system gives no diagonal), and the force-scale
-    /// floor `1e-10 |diag K| L`.
+    /// `mu_ref = |diag K| / |m|` at the current linearisation ([`stiffness_norm`]) and the
+    /// force-scale floor `1e-10 |diag K| L`.
     fn set_scales<S: ForceSystem>(&mut self, system: &S, x: &[f64]) {
-        let n = x.len();
-        let mut diag = vec![0.0; n];
-        let m = norm(system.masses()).max(f64::MIN_POSITIVE);
-        let k = if system.add_stiffness_diagonal(&mut diag).is_ok() {
-            norm(&diag)
-        } else {
-            // Rayleigh quotient along x - centroid, scaled like a diagonal norm.
-            let mut c = [0.0; 3];
-            for p in x.chunks_exact(3) {
-                for d in 0..3 {
-                    c[d] += p[d] / (n / 3).max(1) as f64;
-                }
-            }
-            let probe: Vec<f64> = x
-                .iter()
-                .enumerate()
-                .map(|(i, v)| {
-                    if n.is_multiple_of(3) {
-                        v - c[i % 3]
-                    } else {
-                        *v
-                    }
-                })
-                .collect();
-            let mut kp = vec![0.0; n];
-            SystemStiffness(system).apply(&probe, &mut kp);
-            let pp: f64 = probe.iter().map(|v| v * v).sum();
-            let pkp: f64 = probe.iter().zip(&kp).map(|(a, b)| a * b).sum();
-            if pp > 0.0 {
-                (pkp / pp).abs() * (n as f64).sqrt()
-            } else {
-                0.0
-            }
-        };
+        let k = stiffness_norm(system, x);
         if let Regularization::LevenbergMarquardt { scale, .. } = &mut self.regularization {
-            *scale = if k > 0.0 && k.is_finite() { k / m } else { 1.0 };
+            *scale = stiffness_scale(system, k);
         }
         self.core.objective.scale_floor = STATIC_SCALE_FLOOR * k * extent(x);
     }
@@ -330,5 +296,50 @@ impl StaticSolver {
             tolerance: tol,
             load_factor: Some(1.0),
         })
+    }
+}
+
+/// `mu_ref = k / |m|` for the stiffness norm `k` ([`stiffness_norm`]), 1/s^2; 1 when that is
+/// not positive and finite.
+pub(super) fn stiffness_scale<S: ForceSystem + ?Sized>(system: &S, k: f64) -> f64 {
+    let m = norm(system.masses()).max(f64::MIN_POSITIVE);
+    if k > 0.0 && k.is_finite() { k / m } else { 1.0 }
+}
+
+/// `|diag K|` of `system` at its current linearisation (the Rayleigh quotient of `K` along the
+/// centred positions `x`, scaled like a diagonal norm, when the system gives no diagonal), N/m.
+pub(super) fn stiffness_norm<S: ForceSystem + ?Sized>(system: &S, x: &[f64]) -> f64 {
+    let n = x.len();
+    let mut diag = vec![0.0; n];
+    if system.add_stiffness_diagonal(&mut diag).is_ok() {
+        norm(&diag)
+    } else {
+        // Rayleigh quotient along x - centroid, scaled like a diagonal norm.
+        let mut c = [0.0; 3];
+        for p in x.chunks_exact(3) {
+            for d in 0..3 {
+                c[d] += p[d] / (n / 3).max(1) as f64;
+            }
+        }
+        let probe: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                if n.is_multiple_of(3) {
+                    v - c[i % 3]
+                } else {
+                    *v
+                }
+            })
+            .collect();
+        let mut kp = vec![0.0; n];
+        SystemStiffness(system).apply(&probe, &mut kp);
+        let pp: f64 = probe.iter().map(|v| v * v).sum();
+        let pkp: f64 = probe.iter().zip(&kp).map(|(a, b)| a * b).sum();
+        if pp > 0.0 {
+            (pkp / pp).abs() * (n as f64).sqrt()
+        } else {
+            0.0
+        }
     }
 }
