@@ -81,3 +81,59 @@ fn neo_hookean_sphere_passes_its_pressure_maximum_under_volume_control() {
     assert!((points[last].1 / analytic_last - 1.0).abs() < 0.03);
     assert!(spreads.iter().all(|s| *s < 0.05), "{spreads:?}");
 }
+
+/// The stability report (issue 30, item 6) against the analytic limit point: a neo-Hookean
+/// membrane sphere held at a volume is stable on both sides of its pressure maximum
+/// (`l = 7^(1/6)`, no aspherical bifurcation for this material), while the same equilibrium held
+/// at its pressure instead is stable before the maximum and unstable after it (`dp/dV < 0`:
+/// the smallest eigenvalue of the stiffness changes sign there). The sign is the only thing the
+/// analytic sphere fixes; its mode past the maximum is the uniform inflation.
+#[test]
+fn the_smallest_eigenvalue_changes_sign_at_the_pressure_maximum_under_pressure_control() {
+    let mesh = icosphere(0.1, 2).unwrap();
+    let (mu, h) = (4.0e5, 1.0e-3);
+    let mut sim = ShellBalloon::new(mesh)
+        .with_membrane(MembraneNeoHookean::try_new(mu).unwrap())
+        .with_thickness(h)
+        .with_gas(GasKind::Constant)
+        .with_gauge_pressure(0.0)
+        .build()
+        .unwrap();
+    let v0 = sim.rest_gas_volume();
+    let l_max = 7f64.powf(1.0 / 6.0);
+    for l in [1.25, 1.55] {
+        let held_volume = sim
+            .solve_static(&StaticOptions {
+                control: StaticControl::Volume {
+                    target: v0 * l * l * l,
+                },
+                stability: true,
+                ..Default::default()
+            })
+            .unwrap();
+        let by_volume = held_volume.stability.expect("asked for");
+        assert!(by_volume.residual < 1e-6, "{by_volume:?}");
+        assert!(
+            !by_volume.unstable() && by_volume.smallest_eigenvalue > 0.0,
+            "l = {l}, volume held: {by_volume:?}"
+        );
+        sim.set_gauge_pressure(held_volume.gauge_pressure).unwrap();
+        let held_pressure = sim
+            .solve_static(&StaticOptions {
+                stability: true,
+                ..Default::default()
+            })
+            .unwrap();
+        // The same shape (it was already in equilibrium at that pressure).
+        assert!((held_pressure.gas_volume / held_volume.gas_volume - 1.0).abs() < 1e-6);
+        let by_pressure = held_pressure.stability.expect("asked for");
+        assert!(by_pressure.residual < 1e-6, "{by_pressure:?}");
+        assert_eq!(
+            by_pressure.unstable(),
+            l > l_max,
+            "l = {l}, pressure held: {by_pressure:?}"
+        );
+        // Holding the volume can only stabilise: it removes one direction.
+        assert!(by_volume.smallest_eigenvalue >= by_pressure.smallest_eigenvalue);
+    }
+}

@@ -194,6 +194,12 @@ pub struct InflateArgs {
     /// Levenberg-Marquardt shift and load continuation) instead of stepping in time.
     #[arg(long = "static")]
     pub static_solve: bool,
+    /// With --static: report the smallest eigenvalue of each equilibrium's stiffness relative
+    /// to its mass (1/s^2; negative: unstable under the load as held). Along --volume-ratios a
+    /// sign change marks a limit point or a bifurcation (the aspherical inflation of Alexander
+    /// 1971); the summary warns about unstable points
+    #[arg(long)]
+    pub stability: bool,
     /// `--static --gas volume`: the enclosed volume over the rest volume, in (0, 1e3].
     #[arg(long, value_parser = parse_real)]
     pub volume_ratio: Option<f64>,
@@ -309,6 +315,7 @@ impl InflateArgs {
                 inexact_forcing: self.inexact_forcing,
                 cg_max_iters: self.cg_max_iters,
                 follower_term: self.follower_term,
+                stability: self.stability,
             },
             anchors: self.setup.pin.clone(),
             loads: self.setup.load.clone(),

@@ -121,6 +121,7 @@ pub const PARAMETERS: &[(&str, &str)] = &[
     ("soft_diagonals", "soft-diagonals"),
     ("speed_tol", "speed-tol"),
     ("sphere", "sphere"),
+    ("stability", "stability"),
     ("stacks", "stacks"),
     ("static", "static"),
     ("steps", "steps"),

@@ -151,7 +151,7 @@ mod rest_shape;
 #[cfg(test)]
 mod tests;
 
-pub use options::{OuterRecord, StaticControl, StaticOptions, StaticReport};
+pub use options::{OuterRecord, StabilityReport, StaticControl, StaticOptions, StaticReport};
 
 /// How the gas acts in the static energy (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]

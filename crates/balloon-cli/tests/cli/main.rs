@@ -16,6 +16,7 @@ mod readback;
 mod records;
 mod render;
 mod scenario;
+mod stability;
 mod transform;
 mod two_layer;
 mod view;

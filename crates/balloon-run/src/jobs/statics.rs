@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use balloon::integrate::PhaseTimes;
 use balloon::shell::ShellMaterial;
 use balloon::shell::ShellSimulation;
-use balloon::shell::statics::{StaticControl, StaticReport};
+use balloon::shell::statics::{StabilityReport, StaticControl, StaticReport};
 use balloon_scenario::shell::ShellScenario;
 use serde::Serialize;
 use std::io::Write;
@@ -48,6 +48,9 @@ struct StaticPoint {
     /// Where the point's time went, ms (forces, energies, assembly, factorisations, solves,
     /// projections).
     times: PhaseTimes,
+    /// With `stability`: the smallest eigenvalue of the equilibrium's stiffness.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stability: Option<StabilityReport>,
 }
 
 impl StaticPoint {
@@ -68,6 +71,7 @@ impl StaticPoint {
             load_steps: r.load_steps,
             solve_ms: r.solve_ms,
             times: r.times,
+            stability: r.stability,
         }
     }
 }
@@ -109,6 +113,12 @@ struct StaticSummary {
     frames: usize,
     /// Stopped by SIGINT / SIGTERM between two points.
     interrupted: bool,
+    /// With `stability`: the points whose equilibrium is unstable under the load as held.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    unstable_points: Option<Vec<usize>>,
+    /// What the user should know about a run that converged (printed too).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    warnings: Vec<String>,
     error: Option<String>,
 }
 
@@ -191,6 +201,12 @@ pub fn run<M: ShellMaterial>(
                     report.gas_volume / summary.initial_gas_volume,
                     report.gauge_pressure,
                 ));
+                if let Some(s) = &report.stability {
+                    let unstable = summary.unstable_points.get_or_insert_with(Vec::new);
+                    if s.unstable() {
+                        unstable.push(i);
+                    }
+                }
                 let point = StaticPoint::new(i, *ratio, &report);
                 points.push(serde_json::to_value(&point)?);
                 if let Some(o) = &mut out {
@@ -231,6 +247,9 @@ pub fn run<M: ShellMaterial>(
         .clone()
         .or_else(|| output_error.as_ref().map(|e| format!("{e:#}")));
     summary.interrupted = interrupted.is_some();
+    if let Some(unstable) = summary.unstable_points.as_ref().filter(|u| !u.is_empty()) {
+        summary.warnings.push(unstable_warning(unstable, &ratios));
+    }
     let mut record = serde_json::to_value(&summary)?;
     if let Some(text) = record_text {
         crate::run::insert_scenario(&mut record, text);
@@ -278,6 +297,9 @@ pub fn run<M: ShellMaterial>(
             summary.solve_ms,
             if summary.converged { ", converged" } else { "" }
         )?;
+        for warning in &summary.warnings {
+            writeln!(w, "warning: {warning}")?;
+        }
         if let Some(o) = &out
             && output_error.is_none()
         {
@@ -308,6 +330,41 @@ pub fn run<M: ShellMaterial>(
             }),
         },
     }
+}
+
+/// The warning for unstable equilibria (`unstable`: their point indices, not empty; `ratios`:
+/// the volume ratio of each point under volume control).
+fn unstable_warning(unstable: &[usize], ratios: &[Option<f64>]) -> String {
+    let at = |i: usize| match ratios.get(i).copied().flatten() {
+        Some(r) => format!("point {i} (V/V0 = {r})"),
+        None => format!("point {i}"),
+    };
+    let list = if unstable.len() <= 3 {
+        unstable.iter().map(|&i| at(i)).collect::<Vec<_>>().join(", ")
+    } else {
+        format!(
+            "{} points from {} to {}",
+            unstable.len(),
+            at(unstable[0]),
+            at(unstable[unstable.len() - 1])
+        )
+    };
+    let volume_held = unstable
+        .iter()
+        .any(|&i| ratios.get(i).copied().flatten().is_some());
+    let why = if volume_held {
+        "even with the volume held, so the branch followed has met a bifurcation: a real balloon \
+         leaves it for another shape (for a sphere, the aspherical inflation of Alexander 1971 and \
+         Haughton and Ogden 1978), and this branch is followed only because the mesh keeps its \
+         symmetry"
+    } else {
+        "so a real balloon held at this load leaves this shape (past a pressure maximum, or at a \
+         bifurcation); hold the volume (`gas` = volume) to follow a pressure maximum"
+    };
+    format!(
+        "unstable equilibrium at {list}: the smallest eigenvalue of the stiffness is negative \
+         (`stability` in stats.jsonl), {why}"
+    )
 }
 
 /// The message of a failed static solve, with the hints that fit the scenario: no
@@ -380,4 +437,25 @@ fn write_pressure_volume_plot(out: &OutputDir, mesh: &str, curve: &[(f64, f64)])
     plot.render(960, 640)
         .and_then(|img| img.write_png(&path))
         .with_context(|| format!("cannot write {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::unstable_warning;
+
+    #[test]
+    fn the_unstable_warning_names_the_points_and_what_to_do() {
+        let ratios = [Some(2.0), Some(3.0), Some(4.0), Some(5.0), Some(6.0)];
+        let few = unstable_warning(&[1, 2], &ratios);
+        assert!(few.contains("point 1 (V/V0 = 3)") && few.contains("point 2 (V/V0 = 4)"));
+        assert!(few.contains("bifurcation") && few.contains("Alexander 1971"), "{few}");
+        let pressure = unstable_warning(&[0], &[None]);
+        assert!(pressure.contains("`gas` = volume"), "{pressure}");
+        let many = unstable_warning(&[1, 2, 3, 4], &ratios);
+        assert!(
+            many.contains("4 points from point 1 (V/V0 = 3) to point 4 (V/V0 = 6)"),
+            "{many}"
+        );
+        assert!(unstable_warning(&[0], &[None]).contains("at point 0:"));
+    }
 }

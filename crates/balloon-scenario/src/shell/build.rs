@@ -71,6 +71,7 @@ impl ShellScenario {
         options.solver.solver.linear.kind = r.linear_solver;
         options.solver.solver.linear.max_iterations = r.cg_max_iters;
         options.solver.solver.pcg_preconditioner = r.pcg_preconditioner;
+        options.stability = r.stability;
         options
     }
 

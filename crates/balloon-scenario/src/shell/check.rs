@@ -31,6 +31,11 @@ impl ShellScenario {
         if !self.run.static_solve && gas == GasControl::Volume {
             return Err("`gas` = volume is a static control: add `static`".into());
         }
+        if !self.run.static_solve && self.run.stability {
+            return Err(
+                "`stability` reports the eigenvalues of a static equilibrium: add `static`".into(),
+            );
+        }
         self.gas.laws.params(gas)?;
         if self.run.static_solve {
             self.static_points()?;

@@ -234,6 +234,7 @@ pub static SHELL_KEYS: &[Key<ShellScenario>] = &{
         real!("run", "dt", "dt", Real::new(Open(0.0), Closed(1.0)), run.dt),
         whole!("run", "steps", "steps", STEPS, run.steps),
         flag!("run", "static", "static", run.static_solve),
+        flag!("run", "stability", "stability", run.stability),
         flag!(
             "run",
             "until_converged",

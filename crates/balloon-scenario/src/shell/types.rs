@@ -151,6 +151,10 @@ pub struct ShellRun {
     /// The pressure tangent's follower term (`None`: on with the residual test, off in the
     /// paper's mode).
     pub follower_term: Option<bool>,
+    /// `static`: report the smallest eigenvalue of each equilibrium's stiffness (whether it is
+    /// stable under the load as held; a sign change along a `volume_ratios` continuation marks a
+    /// limit point or a bifurcation).
+    pub stability: bool,
 }
 
 impl Default for ShellRun {
@@ -174,6 +178,7 @@ impl Default for ShellRun {
             inexact_forcing: integrator.inexact_forcing,
             cg_max_iters: integrator.linear.max_iterations,
             follower_term: None,
+            stability: false,
         }
     }
 }

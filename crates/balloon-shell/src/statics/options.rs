@@ -2,7 +2,7 @@
 //! held, [`StaticControl`], and the tolerances of the outer loop), [`StaticReport`] and one
 //! [`OuterRecord`] per outer iteration.
 
-use balloon_integrate::statics::{PhaseTimes, StaticInfo, StaticParams};
+use balloon_integrate::statics::{PhaseTimes, Stability, StaticInfo, StaticParams};
 use serde::{Deserialize, Serialize};
 
 #[cfg(doc)]
@@ -42,6 +42,12 @@ pub struct StaticOptions {
     /// Relative volume error `|V - V_t| / V_t` at which the volume control is met (default
     /// `1e-8`).
     pub volume_tolerance: f64,
+    /// Compute the smallest eigenvalue of the equilibrium's stiffness
+    /// ([`StaticReport::stability`], [`balloon_integrate::statics::StaticSolver::stability`]):
+    /// whether the equilibrium is stable under the load as held (the volume under volume
+    /// control, the gas otherwise). Default `false` (one more factorisation and a few tens of
+    /// linear solves on it).
+    pub stability: bool,
 }
 
 impl Default for StaticOptions {
@@ -53,6 +59,7 @@ impl Default for StaticOptions {
             max_outer_iterations: 60,
             thickness_tolerance: 1e-8,
             volume_tolerance: 1e-8,
+            stability: false,
         }
     }
 }
@@ -110,6 +117,48 @@ pub struct StaticReport {
     pub outer: Vec<OuterRecord>,
     /// The last solve's details (energies, residuals, shift, factorisations).
     pub last_solve: StaticInfo,
+    /// With [`StaticOptions::stability`]: the smallest eigenvalue of the stiffness at the
+    /// equilibrium (rigid motions removed when nothing is pinned; its mode left out of the
+    /// report, [`StabilityReport`]).
+    #[serde(default)]
+    pub stability: Option<StabilityReport>,
+}
+
+/// The stability of a static equilibrium as [`StaticReport`] carries it (the
+/// [`Stability`] without its mode).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StabilityReport {
+    /// The smallest eigenvalue `lambda` of `K y = lambda M y`, 1/s^2: negative when the
+    /// equilibrium is unstable (`sqrt(-lambda)` is the growth rate of its mode).
+    pub smallest_eigenvalue: f64,
+    /// `lambda` relative to the stiffness scale `|diag K| / |m|`.
+    pub relative_eigenvalue: f64,
+    /// The second smallest eigenvalue, 1/s^2, when resolved.
+    pub second_eigenvalue: Option<f64>,
+    /// Relative residual of the eigenpair on the operator.
+    pub residual: f64,
+    /// Linear solves (Lanczos steps).
+    pub steps: usize,
+}
+
+impl StabilityReport {
+    /// Whether the equilibrium is unstable: the smallest eigenvalue below `-1e-9` of the
+    /// stiffness scale (round-off of a neutral mode stays above).
+    pub fn unstable(&self) -> bool {
+        self.relative_eigenvalue < -1e-9
+    }
+}
+
+impl From<&Stability> for StabilityReport {
+    fn from(s: &Stability) -> Self {
+        Self {
+            smallest_eigenvalue: s.smallest_eigenvalue,
+            relative_eigenvalue: s.relative_eigenvalue,
+            second_eigenvalue: s.second_eigenvalue,
+            residual: s.residual,
+            steps: s.steps,
+        }
+    }
 }
 
 /// One outer iteration of [`ShellSimulation::solve_static`] (the `statics` module docs,

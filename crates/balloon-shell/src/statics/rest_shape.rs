@@ -10,7 +10,7 @@ use balloon_gas::GasModel;
 use balloon_integrate::ForceSystem;
 use balloon_integrate::decorators::Pinned;
 use balloon_integrate::statics::{
-    Anderson, AndersonParams, StaticError, StaticParams, StaticSolver,
+    Anderson, AndersonParams, StabilityParams, StaticError, StaticParams, StaticSolver,
 };
 
 use super::{GasTerm, OuterRecord, StaticControl, StaticOptions, StaticReport, StaticShell};
@@ -317,6 +317,25 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 && report.thickness_change <= options.thickness_tolerance
                 && record.tolerance <= final_tolerance
             {
+                if options.stability {
+                    let stability = {
+                        let mut shell =
+                            StaticShell::new(&mut self.system, gas, options.follower_term);
+                        let params = StabilityParams {
+                            rigid_modes: !pinned,
+                            ..StabilityParams::default()
+                        };
+                        if pinned {
+                            let mut held = Pinned::new(&mut shell, &mut self.pins.dofs)
+                                .map_err(|e| ShellError::from_decorator("pinned_vertices", e))?;
+                            solver.stability(&mut held, time, &x, &params)
+                        } else {
+                            solver.stability(&mut shell, time, &x, &params)
+                        }
+                        .map_err(|source| ShellError::Static { outer, source })?
+                    };
+                    report.stability = Some((&stability).into());
+                }
                 self.finish_static(x, &mut report, started);
                 return Ok(report);
             }
