@@ -307,9 +307,6 @@ impl NewtonCore {
                 }
             }
             let Some((cuts, e1, r)) = accepted else {
-                if std::env::var_os("BALLOON_TRACE").is_some() {
-                    eprintln!("TRACE k={k} NO STEP rel={:.3e} shift={:.3e}", res.relative(), regularization.current());
-                }
                 if chord {
                     // The line search would cut the chord step: go on from the same iterate
                     // with its own tangent (the next iteration), as if the matrix had not been
@@ -357,9 +354,6 @@ impl NewtonCore {
             chord_taken |= chord;
             chord = false;
             record.push_iterate(&res);
-            if std::env::var_os("BALLOON_TRACE").is_some() {
-                eprintln!("TRACE k={k} rel={:.3e} e={:?} shift={:.3e} cuts={cuts} lin={} chord={}", res.relative(), energy, regularization.current(), lin.iterations, chord_taken);
-            }
             if settings.stall_test && stalled(&record.relative_residuals, settings.tolerance) {
                 return Err(NewtonError::NotConverged {
                     iterations: record.iterations,

@@ -43,14 +43,7 @@ impl<M: ShellMaterial, G: GasModel> Substepper for ShellSubsteps<'_, M, G> {
 
     fn substep(&mut self, time: f64, dt: f64) -> Result<Self::Info, ShellError> {
         self.sim.x_prev.copy_from_slice(&self.sim.x);
-        if std::env::var_os("BALLOON_TRACE").is_some() {
-            eprintln!("TRACE substep t={time:.5} dt={dt:.5}");
-        }
-        let r = self.sim.step_inner(self.step, time, dt);
-        if std::env::var_os("BALLOON_TRACE").is_some() {
-            match &r { Ok((i, _)) => eprintln!("TRACE ok its={} fact={}", i.newton_iterations, i.factorizations), Err(e) => eprintln!("TRACE FAIL {e}") }
-        }
-        r
+        self.sim.step_inner(self.step, time, dt)
     }
 
     fn is_easy((info, _): &Self::Info) -> bool {
