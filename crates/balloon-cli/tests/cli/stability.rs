@@ -37,7 +37,11 @@ fn stability_reports_the_smallest_eigenvalue_of_each_point() {
     );
     let summary: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out_dir.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["unstable_points"], serde_json::json!([]), "{summary}");
+    assert_eq!(
+        summary["unstable_points"],
+        serde_json::json!([]),
+        "{summary}"
+    );
     assert!(summary.get("warnings").is_none(), "{summary}");
     let stats = std::fs::read_to_string(out_dir.join("stats.jsonl")).unwrap();
     assert_eq!(stats.lines().count(), 3);
@@ -70,7 +74,13 @@ fn stability_reports_the_smallest_eigenvalue_of_each_point() {
 
 #[test]
 fn stability_without_a_static_solve_is_refused() {
-    let out = run_balloon(&["inflate", "builtin:icosphere", "--stability", "--steps", "1"]);
+    let out = run_balloon(&[
+        "inflate",
+        "builtin:icosphere",
+        "--stability",
+        "--steps",
+        "1",
+    ]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(

@@ -155,7 +155,11 @@ fn rigid_basis(m: &[f64], x: &[f64]) -> Vec<Vec<f64>> {
             } else {
                 // e_a x r.
                 let a = d - 3;
-                let e = [(a == 0) as u8 as f64, (a == 1) as u8 as f64, (a == 2) as u8 as f64];
+                let e = [
+                    (a == 0) as u8 as f64,
+                    (a == 1) as u8 as f64,
+                    (a == 2) as u8 as f64,
+                ];
                 v[3 * i] = e[1] * r[2] - e[2] * r[1];
                 v[3 * i + 1] = e[2] * r[0] - e[0] * r[2];
                 v[3 * i + 2] = e[0] * r[1] - e[1] * r[0];
@@ -251,7 +255,8 @@ impl StaticSolver {
         let mut times = self.core.times;
         self.core.matrix.linearize(system, 0, &mut times)?;
         let masses = system.masses().to_vec();
-        let scale = super::solver::stiffness_scale(system, super::solver::stiffness_norm(system, x));
+        let scale =
+            super::solver::stiffness_scale(system, super::solver::stiffness_norm(system, x));
         let rigid = if params.rigid_modes && n.is_multiple_of(3) {
             rigid_basis(&masses, x)
         } else {
@@ -285,7 +290,12 @@ impl StaticSolver {
                     raises += 1;
                     self.core.matrix.solver.invalidate_factorization();
                 }
-                Err(source) => return Err(NewtonError::Linear { iteration: 0, source }),
+                Err(source) => {
+                    return Err(NewtonError::Linear {
+                        iteration: 0,
+                        source,
+                    });
+                }
             }
         }
         // Lanczos on T = A^-1 M in the M inner product (w = T q_0 already).
@@ -302,7 +312,10 @@ impl StaticSolver {
                 self.core
                     .matrix
                     .solve(&*system, sigma, 1.0, &rhs, &mut w, true, &mut times)
-                    .map_err(|source| NewtonError::Linear { iteration: j, source })?;
+                    .map_err(|source| NewtonError::Linear {
+                        iteration: j,
+                        source,
+                    })?;
             }
             if let Some(dof) = first_non_finite(&w) {
                 return Err(NewtonError::NonFinite {
@@ -453,7 +466,9 @@ mod tests {
     fn matrix(n: usize, shift: f64) -> DMatrix<f64> {
         let mut state = 12345u64;
         let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
         };
         let a = DMatrix::from_fn(n, n, |_, _| next());
@@ -493,7 +508,9 @@ mod tests {
                 rigid_modes: false,
                 ..StabilityParams::default()
             };
-            let s = solver.stability(&mut system, 0.0, &vec![0.0; n], &params).unwrap();
+            let s = solver
+                .stability(&mut system, 0.0, &vec![0.0; n], &params)
+                .unwrap();
             let scale = expected.iter().fold(0.0f64, |a, e| a.max(e.abs()));
             assert!(
                 (s.smallest_eigenvalue - expected[0]).abs() <= 1e-8 * scale,
@@ -502,10 +519,16 @@ mod tests {
                 expected[0]
             );
             if let Some(second) = s.second_eigenvalue {
-                assert!((second - expected[1]).abs() <= 1e-6 * scale, "{second} {expected:?}");
+                assert!(
+                    (second - expected[1]).abs() <= 1e-6 * scale,
+                    "{second} {expected:?}"
+                );
             }
             assert!(s.residual <= 1e-6, "{s:?}");
-            assert_eq!(s.smallest_eigenvalue < 0.0, shift < 0.0 && expected[0] < 0.0);
+            assert_eq!(
+                s.smallest_eigenvalue < 0.0,
+                shift < 0.0 && expected[0] < 0.0
+            );
             // K y = lambda M y, checked with the dense matrix.
             let y = DVector::from_column_slice(&s.mode);
             let ky = &k * &y;
@@ -555,7 +578,10 @@ mod tests {
         let m = vec![2.0; n];
         let expected = dense_eigenvalues(&k, &m);
         // Six (numerically) zero eigenvalues, then the shape's.
-        assert!(expected[5].abs() < 1e-10 && expected[6] > 1e-3, "{expected:?}");
+        assert!(
+            expected[5].abs() < 1e-10 && expected[6] > 1e-3,
+            "{expected:?}"
+        );
         let x: Vec<f64> = pts.iter().flatten().copied().collect();
         let mut system = Linear { k, masses: m };
         let mut solver = StaticSolver::default();

@@ -340,7 +340,11 @@ fn unstable_warning(unstable: &[usize], ratios: &[Option<f64>]) -> String {
         None => format!("point {i}"),
     };
     let list = if unstable.len() <= 3 {
-        unstable.iter().map(|&i| at(i)).collect::<Vec<_>>().join(", ")
+        unstable
+            .iter()
+            .map(|&i| at(i))
+            .collect::<Vec<_>>()
+            .join(", ")
     } else {
         format!(
             "{} points from {} to {}",
@@ -448,7 +452,10 @@ mod tests {
         let ratios = [Some(2.0), Some(3.0), Some(4.0), Some(5.0), Some(6.0)];
         let few = unstable_warning(&[1, 2], &ratios);
         assert!(few.contains("point 1 (V/V0 = 3)") && few.contains("point 2 (V/V0 = 4)"));
-        assert!(few.contains("bifurcation") && few.contains("Alexander 1971"), "{few}");
+        assert!(
+            few.contains("bifurcation") && few.contains("Alexander 1971"),
+            "{few}"
+        );
         let pressure = unstable_warning(&[0], &[None]);
         assert!(pressure.contains("`gas` = volume"), "{pressure}");
         let many = unstable_warning(&[1, 2, 3, 4], &ratios);
