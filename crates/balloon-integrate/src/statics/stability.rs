@@ -189,8 +189,10 @@ fn start_vector(n: usize) -> Vec<f64> {
 impl StaticSolver {
     /// The smallest eigenvalue of the stiffness of `system` at `x` (an equilibrium, typically
     /// the result of [`StaticSolver::solve`]) relative to its mass matrix, and its mode (module
-    /// docs). Uses the solver's linear solver and sparse pattern; the next solve refactorises
-    /// (its shift differs).
+    /// docs). `fixed`: one flag per degree of freedom held in place (empty: none), left out of
+    /// the eigenproblem (a pinned coordinate has no stiffness and would report a zero
+    /// eigenvalue). Uses the solver's linear solver and sparse pattern; the next solve
+    /// refactorises (its shift differs).
     ///
     /// ```
     /// use balloon_integrate::statics::{StabilityParams, StaticSolver};
@@ -221,14 +223,15 @@ impl StaticSolver {
     ///
     /// let mut solver = StaticSolver::default();
     /// let params = StabilityParams { rigid_modes: false, ..StabilityParams::default() };
-    /// let s = solver.stability(&mut Springs, 0.0, &[0.0, 0.0], &params)?;
+    /// let s = solver.stability(&mut Springs, 0.0, &[0.0, 0.0], &[], &params)?;
     /// assert!((s.smallest_eigenvalue - 4.0).abs() < 1e-8);
     /// assert!((s.second_eigenvalue.unwrap() - 9.0).abs() < 1e-8);
     /// # Ok::<(), balloon_integrate::statics::StaticError>(())
     /// ```
     ///
     /// # Errors
-    /// [`NewtonError::InvalidParameter`] for bad `params`, the input errors of
+    /// [`NewtonError::InvalidParameter`] for bad `params` or a `fixed` of the wrong length
+    /// (`fixed`), the input errors of
     /// [`StaticSolver::solve`], [`NewtonError::System`] when the system cannot be evaluated at
     /// `x`, and [`NewtonError::Linear`] when `K + sigma M` stays indefinite after
     /// [`MAX_SHIFT_RAISES`] tenfold raises of `sigma` (or the solve fails otherwise).
@@ -237,11 +240,26 @@ impl StaticSolver {
         system: &mut S,
         time: f64,
         x: &[f64],
+        fixed: &[bool],
         params: &StabilityParams,
     ) -> Result<Stability, StaticError> {
         params.validate()?;
         let n = system.num_dofs();
         Self::check_inputs(n, x, None)?;
+        check_parameter(
+            "fixed",
+            fixed.len() as f64,
+            fixed.is_empty() || fixed.len() == n,
+            "empty or one flag per degree of freedom",
+        )?;
+        // Vectors live on the free coordinates only.
+        let free = |v: &mut [f64]| {
+            for (v, &f) in v.iter_mut().zip(fixed) {
+                if f {
+                    *v = 0.0;
+                }
+            }
+        };
         system
             .set_tangent(self.params().tangent)
             .map_err(|source| NewtonError::System {
@@ -267,6 +285,7 @@ impl StaticSolver {
         self.core.matrix.solver.set_relative_tolerance(1e-12);
         self.core.matrix.solver.invalidate_factorization();
         let mut q = start_vector(n);
+        free(&mut q);
         m_orthogonalize(&masses, &rigid, &mut q);
         let norm = m_dot(&masses, &q, &q).sqrt();
         q.iter_mut().for_each(|v| *v /= norm);
@@ -325,6 +344,7 @@ impl StaticSolver {
                     iteration: j,
                 });
             }
+            free(&mut w);
             m_orthogonalize(&masses, &rigid, &mut w);
             let a = m_dot(&masses, &basis[j], &w);
             alpha.push(a);
@@ -378,6 +398,7 @@ impl StaticSolver {
         // The residual on the operator itself: |K y - lambda M y|_(M^-1) / (mu_ref |y|_M).
         let mut ky = vec![0.0; n];
         SystemStiffness(&*system).apply(&mode, &mut ky);
+        free(&mut ky);
         let r2: f64 = ky
             .iter()
             .zip(&mode)
@@ -509,7 +530,7 @@ mod tests {
                 ..StabilityParams::default()
             };
             let s = solver
-                .stability(&mut system, 0.0, &vec![0.0; n], &params)
+                .stability(&mut system, 0.0, &vec![0.0; n], &[], &params)
                 .unwrap();
             let scale = expected.iter().fold(0.0f64, |a, e| a.max(e.abs()));
             assert!(
@@ -586,7 +607,7 @@ mod tests {
         let mut system = Linear { k, masses: m };
         let mut solver = StaticSolver::default();
         let s = solver
-            .stability(&mut system, 0.0, &x, &StabilityParams::default())
+            .stability(&mut system, 0.0, &x, &[], &StabilityParams::default())
             .unwrap();
         assert!(
             (s.smallest_eigenvalue - expected[6]).abs() <= 1e-8 * expected[17],
@@ -600,6 +621,7 @@ mod tests {
                 &mut system,
                 0.0,
                 &x,
+                &[],
                 &StabilityParams {
                     rigid_modes: false,
                     ..StabilityParams::default()
@@ -607,6 +629,51 @@ mod tests {
             )
             .unwrap();
         assert!(s.smallest_eigenvalue.abs() <= 1e-6 * expected[17], "{s:?}");
+    }
+
+    /// Held coordinates (zero rows and columns in `K`, as the pins decorator leaves them) would
+    /// report a zero eigenvalue; given as `fixed` they are left out, and the eigenvalue is the
+    /// free block's.
+    #[test]
+    fn fixed_coordinates_are_left_out() {
+        let n = 12;
+        let m = masses(n);
+        let mut k = matrix(n, 0.5);
+        let fixed: Vec<bool> = (0..n).map(|i| i % 4 == 0).collect();
+        for i in (0..n).filter(|&i| fixed[i]) {
+            for j in 0..n {
+                k[(i, j)] = 0.0;
+                k[(j, i)] = 0.0;
+            }
+        }
+        let free: Vec<usize> = (0..n).filter(|&i| !fixed[i]).collect();
+        let block = DMatrix::from_fn(free.len(), free.len(), |r, c| k[(free[r], free[c])]);
+        let expected = dense_eigenvalues(&block, &free.iter().map(|&i| m[i]).collect::<Vec<_>>());
+        let mut system = Linear { k, masses: m };
+        let params = StabilityParams {
+            rigid_modes: false,
+            ..StabilityParams::default()
+        };
+        let mut solver = StaticSolver::default();
+        let s = solver
+            .stability(&mut system, 0.0, &vec![0.0; n], &fixed, &params)
+            .unwrap();
+        assert!(
+            (s.smallest_eigenvalue - expected[0]).abs() <= 1e-8 * expected[expected.len() - 1],
+            "{} against {expected:?}",
+            s.smallest_eigenvalue
+        );
+        assert!(s.mode.iter().zip(&fixed).all(|(y, f)| !f || *y == 0.0));
+        // Without them the held coordinates come first, at zero.
+        let s = solver
+            .stability(&mut system, 0.0, &vec![0.0; n], &[], &params)
+            .unwrap();
+        assert!(s.smallest_eigenvalue.abs() < 1e-6, "{s:?}");
+        // A wrong length is refused by name.
+        match solver.stability(&mut system, 0.0, &vec![0.0; n], &[true], &params) {
+            Err(NewtonError::InvalidParameter { name: "fixed", .. }) => {}
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]

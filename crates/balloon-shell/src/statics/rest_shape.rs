@@ -326,11 +326,12 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                             ..StabilityParams::default()
                         };
                         if pinned {
+                            let fixed = self.pins.dofs.pinned_dofs().to_vec();
                             let mut held = Pinned::new(&mut shell, &mut self.pins.dofs)
                                 .map_err(|e| ShellError::from_decorator("pinned_vertices", e))?;
-                            solver.stability(&mut held, time, &x, &params)
+                            solver.stability(&mut held, time, &x, &fixed, &params)
                         } else {
-                            solver.stability(&mut shell, time, &x, &params)
+                            solver.stability(&mut shell, time, &x, &[], &params)
                         }
                         .map_err(|source| ShellError::Static { outer, source })?
                     };
