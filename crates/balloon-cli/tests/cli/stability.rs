@@ -59,6 +59,8 @@ fn stability_reports_the_smallest_eigenvalue_of_each_point() {
         "builtin:icosphere",
         "--material",
         "membrane-neo-hookean",
+        "--mu",
+        "4e5",
         "--static",
         "--gas",
         "volume",
@@ -67,7 +69,11 @@ fn stability_reports_the_smallest_eigenvalue_of_each_point() {
         "--out",
         plain.to_str().unwrap(),
     ]);
-    assert!(out.status.success());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let stats = std::fs::read_to_string(plain.join("stats.jsonl")).unwrap();
     assert!(!stats.contains("stability"), "{stats}");
 }

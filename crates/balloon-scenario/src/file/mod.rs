@@ -12,7 +12,7 @@
 //! std::fs::write(&path, "[run]\nsteps = 5\ndtt = 0.1\n").unwrap();
 //! let e = balloon_scenario::file::read(&path, &[]).unwrap_err();
 //! assert!(e.to_string().ends_with("s.toml:3: `run.dtt`: unknown key (the keys of [run] are \
-//!     dt, steps, static, until_converged, speed_tol, volume_tol, mass_damping, \
+//!     dt, steps, static, stability, until_converged, speed_tol, volume_tol, mass_damping, \
 //!     stiffness_damping, newton_iters, newton_tol, linear_solver, tangent, \
 //!     pcg_preconditioner, cg_tol, inexact_forcing, cg_max_iters, follower_term)"));
 //! std::fs::write(&path, "[mesh]\npath = \"builtin:icosphere\"\n[run]\nsteps = 5\n").unwrap();
