@@ -7,10 +7,15 @@
 //! the check to the target, m) and `DIR/summary.json` (iterations, distance in m and over the
 //! bounding-box diagonal, pressure, volumes, times). Ctrl-C stops the design and keeps the best
 //! rest shape so far (then checked and written, and the process exits with 130).
+//!
+//! The forward check keeps a three-prism wall at its rest thickness; the summary prints (and
+//! records as `check_command`) the `balloon inflate ... --volume-projection off` command that
+//! repeats it from `rest.obj` (`docs/design.md`, "Repeating the check").
 
 use anyhow::{Context, Result, bail};
 use balloon_design::{DesignParams, DesignProblem, InverseParams, design};
 use balloon_mesh::TriMesh;
+use balloon_scenario::material::MaterialSpec;
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -81,6 +86,9 @@ pub struct DesignSummary {
     pub target_volume: f64,
     /// Enclosed volume of the rest shape, m^3.
     pub rest_volume: f64,
+    /// The `balloon inflate` command that repeats the forward check from the written
+    /// `rest.obj` (its enclosed volume is `check.volume`).
+    pub check_command: String,
 }
 
 /// The forward check in `summary.json`.
@@ -96,6 +104,65 @@ pub struct CheckSummary {
     pub volume: f64,
     /// Seconds.
     pub seconds: f64,
+}
+
+/// `text` quoted for a POSIX shell when it holds anything but plain path characters.
+fn shell_quoted(text: &str) -> String {
+    let plain = |c: char| c.is_ascii_alphanumeric() || "/._-+:=,@".contains(c);
+    if !text.is_empty() && text.chars().all(plain) {
+        text.to_string()
+    } else {
+        format!("'{}'", text.replace('\'', r"'\''"))
+    }
+}
+
+/// The material flags that give `spec` (the flags as the user gave them; numbers in their
+/// shortest exact form, so the command reproduces the values bit for bit).
+fn material_flags(spec: &MaterialSpec) -> Vec<String> {
+    let list = |v: &[f64]| v.iter().map(f64::to_string).collect::<Vec<_>>().join(",");
+    let mut flags = Vec::new();
+    let mut push = |flag: &str, value: Option<String>| {
+        if let Some(v) = value {
+            flags.push(format!("--{flag} {v}"));
+        }
+    };
+    push("material", spec.material.map(|m| m.to_string()));
+    push(
+        "material-preset",
+        spec.material_preset.map(|m| m.to_string()),
+    );
+    push("young", spec.young.map(|v| v.to_string()));
+    push("poisson", spec.poisson.map(|v| v.to_string()));
+    push("mu", spec.mu.map(|v| v.to_string()));
+    push("c1", spec.c1.map(|v| v.to_string()));
+    push("c2", spec.c2.map(|v| v.to_string()));
+    push("jm", spec.jm.map(|v| v.to_string()));
+    push("ogden-mu", spec.ogden_mu.as_deref().map(list));
+    push("ogden-alpha", spec.ogden_alpha.as_deref().map(list));
+    push("yeoh", spec.yeoh.as_deref().map(list));
+    flags
+}
+
+/// The `balloon inflate` command whose static solve is the design's forward check: the
+/// written rest shape (already in metres), the gauge pressure held constant, the wall at its
+/// rest thickness (`--volume-projection off`: the design's equations keep `h = H`, see
+/// `docs/design.md`), and the same material flags.
+pub fn check_command(
+    rest: &std::path::Path,
+    pressure: f64,
+    thickness: f64,
+    spec: &MaterialSpec,
+) -> String {
+    let mut words = vec![
+        "balloon inflate".to_string(),
+        shell_quoted(&rest.display().to_string()),
+        "--static --gas constant".to_string(),
+        format!("--pressure {pressure}"),
+        "--volume-projection off".to_string(),
+        format!("--thickness {thickness}"),
+    ];
+    words.extend(material_flags(spec));
+    words.join(" ")
 }
 
 fn load_target(spec: &str, scale: f64) -> Result<TriMesh> {
@@ -186,6 +253,12 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         bbox_diagonal: balloon_design::bbox_diagonal(problem.target()),
         target_volume: balloon_design::enclosed_volume(problem.target(), problem.triangles()),
         rest_volume: balloon_design::enclosed_volume(&result.rest, problem.triangles()),
+        check_command: check_command(
+            &args.out.join("rest.obj"),
+            args.pressure,
+            args.thickness,
+            &args.material.spec(),
+        ),
     };
     let path = args.out.join("summary.json");
     std::fs::write(&path, serde_json::to_string_pretty(&summary)? + "\n")
@@ -193,7 +266,7 @@ pub fn run(args: &DesignArgs) -> Result<()> {
     let dist = &result.check.distance;
     println!(
         "design {}: {} inverse iterations, forward check {} (max distance {:.3e} m = {:.3e} of the \
-         diagonal, RMS {:.3e} m); written to {}",
+         diagonal, RMS {:.3e} m, volume {:.4e} m^3); written to {}\nrepeat the check: {}",
         if result.inverse.converged {
             "converged"
         } else {
@@ -208,7 +281,9 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         dist.max,
         dist.max_relative,
         dist.rms,
-        args.out.display()
+        result.check.volume,
+        args.out.display(),
+        summary.check_command
     );
     if let Some(signal) = interrupted {
         return Err(balloon_run::interrupt::Interrupted {

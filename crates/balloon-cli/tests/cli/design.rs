@@ -66,3 +66,78 @@ fn design_errors_name_the_flag() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no-such-file.obj"));
 }
+
+/// The stated forward check can be repeated: the `balloon inflate` command that `design` prints
+/// (and records as `check_command`) inflates the written `rest.obj` to the volume the design's
+/// check reports, on a three-prism wall (whose default `inflate --static` thins the wall by the
+/// shell-volume projection, which the design does not model).
+#[test]
+fn design_check_is_repeated_by_the_printed_inflate_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let wall = [
+        "--material",
+        "neo-hookean",
+        "--young",
+        "1e6",
+        "--poisson",
+        "0.45",
+        "--thickness",
+        "1e-3",
+    ];
+    // A target that a prism wall at its rest thickness holds exactly: a sphere inflated so.
+    let made = dir.path().join("made");
+    let mut args = vec![
+        "inflate",
+        "builtin:icosphere",
+        "--static",
+        "--gas",
+        "constant",
+        "--pressure",
+        "2000",
+        "--volume-projection",
+        "off",
+        "--out",
+        made.to_str().unwrap(),
+    ];
+    args.extend(wall);
+    let o = run_balloon(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = dir.path().join("design");
+    let target = made.join("final.obj");
+    let mut args = vec![
+        "design",
+        target.to_str().unwrap(),
+        "--pressure",
+        "2000",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(wall);
+    let o = run_balloon(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let command = summary["check_command"]
+        .as_str()
+        .expect("summary.json has no check_command");
+    // The command is printed too.
+    assert!(String::from_utf8_lossy(&o.stdout).contains(command));
+    let words: Vec<&str> = command.split_whitespace().collect();
+    assert_eq!(&words[..2], ["balloon", "inflate"], "{command}");
+    assert!(!command.contains('\''), "{command}");
+    let mut args = words[1..].to_vec();
+    args.push("--json");
+    let o = run_balloon(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let inflated = crate::last_json_line(&o);
+    let repeated = inflated["final_gas_volume"].as_f64().unwrap();
+    let checked = summary["check"]["volume"].as_f64().unwrap();
+    assert!(
+        ((repeated - checked) / checked).abs() < 1e-6,
+        "design check {checked:e} m^3, `{command}` {repeated:e} m^3"
+    );
+    // And the check is the target (the design converged onto it).
+    let target_volume = summary["target_volume"].as_f64().unwrap();
+    assert!(((checked - target_volume) / target_volume).abs() < 1e-6);
+}
