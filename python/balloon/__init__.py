@@ -12,6 +12,7 @@ the CLI's flags and scenario files set too):
 
 Whole jobs: :func:`inflate`, :func:`volumetric`, :func:`two_layer`, :func:`connect`,
 :func:`run_scenario`.
+Inverse design (the rest shape that inflates to a given shape): :func:`design`.
 Step-wise simulations: :class:`Shell`, :class:`Volumetric`, :class:`TwoLayer`.
 Parameter sweeps over a dask.distributed cluster: :func:`sweep`, :func:`sweep_scenario`.
 Surfaces for other tools: :func:`mesh_arrays` (a ``(vertices, faces)`` pair for trimesh or
@@ -52,6 +53,7 @@ volumetric = _returns_result(_balloon.volumetric)
 two_layer = _returns_result(_balloon.two_layer)
 connect = _returns_result(_balloon.connect)
 run_scenario = _returns_result(_balloon.run_scenario)
+design = _balloon.design
 
 
 class Shell(_balloon.Shell, _MeshMethods):
@@ -80,6 +82,7 @@ __all__ = [
     "Volumetric",
     "__version__",
     "connect",
+    "design",
     "inflate",
     "mesh_arrays",
     "run_scenario",

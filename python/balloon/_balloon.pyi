@@ -70,6 +70,17 @@ def connect(mesh: Optional[Union[str, os.PathLike]] = None, **options: Option) -
     """Runs ``balloon connect``: balloons of ideal gas joined by tubes (``copies=2,
     stretches=[1.35, 1.6]``); balloon ``i`` is rows ``vertex_offsets[i]:vertex_offsets[i+1]``."""
 
+class DesignResult(TypedDict):
+    rest: npt.NDArray[np.float64]
+    inflated: npt.NDArray[np.float64]
+    summary: Dict[str, Any]
+
+def design(
+    target_vertices: npt.ArrayLike, faces: npt.ArrayLike, pressure: float, **options: Option
+) -> DesignResult:
+    """Designs the rest shape whose static equilibrium under ``pressure`` (Pa) is the target
+    (``balloon design``); check ``summary["converged"]``."""
+
 def run_scenario(path: Union[str, os.PathLike], **overrides: Option) -> Dict[str, Any]:
     """Runs a scenario file (``balloon run``); ``overrides`` replace the file's values."""
 

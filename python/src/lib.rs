@@ -22,6 +22,7 @@
 
 mod args;
 mod convert;
+mod design;
 mod errors;
 mod jobs;
 mod options;
@@ -48,6 +49,7 @@ fn _balloon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(two_layer, m)?)?;
     m.add_function(wrap_pyfunction!(connect, m)?)?;
     m.add_function(wrap_pyfunction!(run_scenario, m)?)?;
+    m.add_function(wrap_pyfunction!(design::design, m)?)?;
     m.add_class::<Shell>()?;
     m.add_class::<Volumetric>()?;
     m.add_class::<TwoLayer>()?;

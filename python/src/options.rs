@@ -233,7 +233,7 @@ pub(crate) fn as_array<'py>(x: &Bound<'py, PyAny>, dtype: &str) -> PyResult<Boun
 
 /// A `mesh` argument: a path or `builtin[:NAME]` (the scenario's `mesh.path`) or a
 /// `(vertices, triangles)` pair of arrays (built here; the summary's `mesh` is then `<arrays>`).
-enum MeshSpec {
+pub(crate) enum MeshSpec {
     Named(String),
     Arrays(balloon::mesh::TriMesh),
 }
@@ -241,7 +241,7 @@ enum MeshSpec {
 /// The mesh name of in-memory arrays in summaries.
 const ARRAYS_NAME: &str = "<arrays>";
 
-fn mesh_spec(mesh: &Bound<'_, PyAny>) -> PyResult<MeshSpec> {
+pub(crate) fn mesh_spec(mesh: &Bound<'_, PyAny>) -> PyResult<MeshSpec> {
     if mesh.is_instance_of::<PyTuple>() || mesh.is_instance_of::<PyList>() {
         let parts: Vec<Bound<'_, PyAny>> = mesh.try_iter()?.collect::<PyResult<_>>()?;
         if parts.len() != 2 {
@@ -311,7 +311,7 @@ fn mesh_spec(mesh: &Bound<'_, PyAny>) -> PyResult<MeshSpec> {
 
 impl MeshSpec {
     /// The scenario's mesh path and the in-memory mesh.
-    fn split(self) -> (String, Option<balloon::mesh::TriMesh>) {
+    pub(crate) fn split(self) -> (String, Option<balloon::mesh::TriMesh>) {
         match self {
             MeshSpec::Named(p) => (p, None),
             MeshSpec::Arrays(m) => (ARRAYS_NAME.to_owned(), Some(m)),

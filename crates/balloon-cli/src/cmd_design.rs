@@ -7,11 +7,15 @@
 //! the check to the target, m) and `DIR/summary.json` (iterations, distance in m and over the
 //! bounding-box diagonal, pressure, volumes, times). Ctrl-C stops the design and keeps the best
 //! rest shape so far (then checked and written, and the process exits with 130).
+//!
+//! The forward check keeps a three-prism wall at its rest thickness; the summary prints (and
+//! records as `check_command`) the `balloon inflate ... --volume-projection off` command that
+//! repeats it from `rest.obj` (`docs/design.md`, "Repeating the check").
 
 use anyhow::{Context, Result, bail};
-use balloon_design::{DesignParams, DesignProblem, InverseParams, design};
+use balloon_design::InverseParams;
 use balloon_mesh::TriMesh;
-use serde::Serialize;
+use balloon_run::jobs::design::{DesignJob, DesignRun};
 use std::path::PathBuf;
 
 use crate::material_args::MaterialArgs;
@@ -52,60 +56,16 @@ pub struct DesignArgs {
     pub quiet: bool,
 }
 
-/// `summary.json` of `balloon design`.
-#[derive(Debug, Serialize)]
-pub struct DesignSummary {
-    /// The target as given.
-    pub target: String,
-    /// Vertices and triangles.
-    pub vertices: usize,
-    /// Triangle count.
-    pub triangles: usize,
-    /// The material's name.
-    pub material: String,
-    /// Gauge pressure, Pa.
-    pub pressure: f64,
-    /// Rest wall thickness, m.
-    pub thickness: f64,
-    /// Whether the inverse solve reached the full pressure and the tolerance.
-    pub converged: bool,
-    /// Whether Ctrl-C stopped the design.
-    pub interrupted: bool,
-    /// The inverse solve's record (iterations, stages, residual, seconds).
-    pub inverse: balloon_design::InverseInfo,
-    /// The forward check: converged, iterations, distance to the target (m and relative).
-    pub check: CheckSummary,
-    /// Target bounding-box diagonal, m.
-    pub bbox_diagonal: f64,
-    /// Enclosed volumes, m^3.
-    pub target_volume: f64,
-    /// Enclosed volume of the rest shape, m^3.
-    pub rest_volume: f64,
-}
-
-/// The forward check in `summary.json`.
-#[derive(Debug, Serialize)]
-pub struct CheckSummary {
-    /// Whether the static solve converged.
-    pub converged: bool,
-    /// Newton iterations.
-    pub iterations: usize,
-    /// Distance of the equilibrium to the target.
-    pub distance: balloon_design::Distance,
-    /// Enclosed volume of the equilibrium, m^3.
-    pub volume: f64,
-    /// Seconds.
-    pub seconds: f64,
-}
-
-fn load_target(spec: &str, scale: f64) -> Result<TriMesh> {
+/// The target mesh `spec` scaled by `scale`.
+///
+/// # Errors
+/// A mesh that cannot be loaded.
+pub fn load_target(spec: &str, scale: f64) -> Result<TriMesh> {
     let mut mesh =
         balloon_mesh::load(spec).with_context(|| format!("cannot load mesh `{spec}`"))?;
     if scale != 1.0 {
         mesh.scale(scale);
     }
-    balloon_mesh::validate::validate_closed_manifold(&mesh)
-        .with_context(|| format!("target `{spec}` is not a closed, oriented manifold"))?;
     Ok(mesh)
 }
 
@@ -116,84 +76,31 @@ fn load_target(spec: &str, scale: f64) -> Result<TriMesh> {
 /// forward check, an output folder that cannot be written; an interruption after the records
 /// are written.
 pub fn run(args: &DesignArgs) -> Result<()> {
-    let target = load_target(&args.target, args.scale)?;
-    let material = args
-        .material
-        .spec()
-        .resolve()
-        .map_err(|e| anyhow::anyhow!(e))
-        .context("material")?;
-    let material_name = material.name();
-    let problem = DesignProblem::try_new(
-        &target,
-        vec![args.thickness; target.num_triangles()],
-        material,
-        args.pressure,
-    )?;
-    let params = DesignParams {
-        inverse: InverseParams {
-            tolerance: args.tolerance,
-            tangential_weight: args.tangential_weight,
-            ..InverseParams::default()
-        },
-        ..DesignParams::default()
-    };
-    let quiet = args.quiet;
-    let result = design(&problem, &params, |p| {
-        if !quiet {
-            eprintln!(
-                "design: pressure factor {:.3}, relative residual {:.3e}, iteration {}",
-                p.load, p.relative_residual, p.iterations
-            );
-        }
-        balloon_run::interrupt::pending().is_none()
-    })?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create `{}`", args.out.display()))?;
-    let mut rest = target.clone();
-    rest.set_positions_flat(&result.rest);
-    let mut inflated = target.clone();
-    inflated.set_positions_flat(&result.check.positions);
-    for (name, mesh) in [("rest.obj", &rest), ("inflated.obj", &inflated)] {
-        let path = args.out.join(name);
-        balloon_mesh::io::write_obj(&path, mesh)
-            .with_context(|| format!("cannot write `{}`", path.display()))?;
-    }
-    let d = balloon_design::vertex_distances(&result.check.positions, problem.target());
-    let csv: String = std::iter::once("vertex,distance_m\n".to_string())
-        .chain(d.iter().enumerate().map(|(i, v)| format!("{i},{v:e}\n")))
-        .collect();
-    let path = args.out.join("distance.csv");
-    std::fs::write(&path, csv).with_context(|| format!("cannot write `{}`", path.display()))?;
-    let interrupted = balloon_run::interrupt::pending();
-    let summary = DesignSummary {
-        target: args.target.clone(),
-        vertices: target.num_vertices(),
-        triangles: target.num_triangles(),
-        material: material_name,
+    let job = DesignJob {
+        target: load_target(&args.target, args.scale)?,
+        target_name: args.target.clone(),
         pressure: args.pressure,
         thickness: args.thickness,
-        converged: result.inverse.converged,
-        interrupted: interrupted.is_some(),
-        inverse: result.inverse.clone(),
-        check: CheckSummary {
-            converged: result.check.converged,
-            iterations: result.check.iterations,
-            distance: result.check.distance,
-            volume: result.check.volume,
-            seconds: result.check.seconds,
-        },
-        bbox_diagonal: balloon_design::bbox_diagonal(problem.target()),
-        target_volume: balloon_design::enclosed_volume(problem.target(), problem.triangles()),
-        rest_volume: balloon_design::enclosed_volume(&result.rest, problem.triangles()),
+        material: args.material.spec(),
+        tolerance: args.tolerance,
+        tangential_weight: args.tangential_weight,
+        out: Some(args.out.clone()),
+        quiet: args.quiet,
     };
-    let path = args.out.join("summary.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&summary)? + "\n")
-        .with_context(|| format!("cannot write `{}`", path.display()))?;
+    report(&job, &balloon_run::jobs::design::run(&job)?)
+}
+
+/// Prints a design's summary line and the command that repeats its check; an interruption or
+/// an unconverged design as the error (after the outputs are written).
+///
+/// # Errors
+/// As described.
+pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
+    let result = &run.design;
     let dist = &result.check.distance;
     println!(
         "design {}: {} inverse iterations, forward check {} (max distance {:.3e} m = {:.3e} of the \
-         diagonal, RMS {:.3e} m); written to {}",
+         diagonal, RMS {:.3e} m, volume {:.4e} m^3){}",
         if result.inverse.converged {
             "converged"
         } else {
@@ -208,9 +115,16 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         dist.max,
         dist.max_relative,
         dist.rms,
-        args.out.display()
+        result.check.volume,
+        job.out
+            .as_ref()
+            .map(|o| format!("; written to {}", o.display()))
+            .unwrap_or_default(),
     );
-    if let Some(signal) = interrupted {
+    if let Some(command) = &run.summary.check_command {
+        println!("repeat the check: {command}");
+    }
+    if let Some(signal) = run.interrupted {
         return Err(balloon_run::interrupt::Interrupted {
             signal,
             steps: result.inverse.iterations,
@@ -221,7 +135,7 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         bail!(
             "no rest shape holds the target at `pressure` = {} Pa (reached {:.3} of it, relative \
              residual {:.3e}); the best design so far is written",
-            args.pressure,
+            job.pressure,
             result.inverse.load_reached,
             result.inverse.relative_residual
         );

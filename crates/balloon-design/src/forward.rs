@@ -125,6 +125,11 @@ pub struct ForwardCheck {
 /// static solver with load continuation, started from the rest shape, pressure follower term
 /// in the tangent), rigidly aligned onto the target, and its distance to the target.
 ///
+/// The wall keeps its rest thickness (no shell-volume projection), as in the design's
+/// equations: the same static problem as `balloon inflate REST --static --gas constant
+/// --pressure P --volume-projection off` with the design's wall, not as the default `inflate
+/// --static`, whose projection thins a three-prism wall (`docs/design.md`).
+///
 /// # Errors
 /// [`DesignError::Forward`] when the shell cannot be built from `rest` or the solver fails
 /// outright. A solve that stops unconverged returns its last shape with `converged = false`.

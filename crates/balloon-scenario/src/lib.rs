@@ -23,6 +23,7 @@
 //! | [`file`](mod@file) | TOML and JSON scenario files with errors at their lines, the recorded scenario |
 //! | [`selection`] | vertex selections, thickness maps, anchors and scheduled loads |
 //! | [`material`], [`gas`], [`mesh`], [`output`] | the shared tables |
+//! | [`design`](mod@design) | the `[design]` table: an inverse design (`balloon design`) |
 //! | [`names`] | parameter names as the command line (`--dt`) and Python (`dt=`) spell them |
 //!
 //! ```
@@ -40,6 +41,7 @@
 //! ```
 
 pub mod connect;
+pub mod design;
 mod error;
 pub mod file;
 pub mod gas;

@@ -152,6 +152,9 @@ pub fn scenario_of(path: &Path, overrides: &[String]) -> Result<Invocation> {
 
 /// Runs `balloon run`.
 pub fn run(args: RunArgs) -> Result<()> {
+    if let Some(design) = balloon_scenario::design::read(&args.scenario)? {
+        return run_design(&args, &design);
+    }
     let call = scenario_of(&args.scenario, &args.overrides)?;
     let record = call.record();
     match &call.scenario {
@@ -166,6 +169,31 @@ pub fn run(args: RunArgs) -> Result<()> {
             balloon_run::jobs::two_layer::run(s, Some(&record), false).map(drop)
         }
     }
+}
+
+/// Runs a scenario's `[design]` table: the job of `balloon design` with the table's keys.
+fn run_design(args: &RunArgs, d: &balloon_scenario::design::DesignScenario) -> Result<()> {
+    if !args.overrides.is_empty() {
+        anyhow::bail!(
+            "{}: a [design] scenario takes no flags after the file (give the keys in the file, \
+             or use `balloon design`)",
+            args.scenario.display()
+        );
+    }
+    let mut job = balloon_run::jobs::design::DesignJob::new(
+        crate::cmd_design::load_target(&d.target, d.scale)?,
+        d.target.clone(),
+        d.pressure,
+    );
+    job.thickness = d.thickness;
+    job.material = d.material.clone();
+    if let Some(t) = d.tolerance {
+        job.tolerance = t;
+    }
+    job.tangential_weight = d.tangential_weight;
+    job.out.clone_from(&d.out);
+    job.quiet = false;
+    crate::cmd_design::report(&job, &balloon_run::jobs::design::run(&job)?)
 }
 
 #[cfg(test)]

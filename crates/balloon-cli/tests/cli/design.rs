@@ -66,3 +66,165 @@ fn design_errors_name_the_flag() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no-such-file.obj"));
 }
+
+/// The stated forward check can be repeated: the `balloon inflate` command that `design` prints
+/// (and records as `check_command`) inflates the written `rest.obj` to the volume the design's
+/// check reports, on a three-prism wall (whose default `inflate --static` thins the wall by the
+/// shell-volume projection, which the design does not model).
+#[test]
+fn design_check_is_repeated_by_the_printed_inflate_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let wall = [
+        "--material",
+        "neo-hookean",
+        "--young",
+        "1e6",
+        "--poisson",
+        "0.45",
+        "--thickness",
+        "1e-3",
+    ];
+    // A target that a prism wall at its rest thickness holds exactly: a sphere inflated so.
+    let made = dir.path().join("made");
+    let mut args = vec![
+        "inflate",
+        "builtin:icosphere",
+        "--static",
+        "--gas",
+        "constant",
+        "--pressure",
+        "2000",
+        "--volume-projection",
+        "off",
+        "--out",
+        made.to_str().unwrap(),
+    ];
+    args.extend(wall);
+    let o = run_balloon(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = dir.path().join("design");
+    let target = made.join("final.obj");
+    let mut args = vec![
+        "design",
+        target.to_str().unwrap(),
+        "--pressure",
+        "2000",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(wall);
+    let o = run_balloon(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let command = summary["check_command"]
+        .as_str()
+        .expect("summary.json has no check_command");
+    // The command is printed too.
+    assert!(String::from_utf8_lossy(&o.stdout).contains(command));
+    let words: Vec<&str> = command.split_whitespace().collect();
+    assert_eq!(&words[..2], ["balloon", "inflate"], "{command}");
+    assert!(!command.contains('\''), "{command}");
+    let mut args = words[1..].to_vec();
+    args.push("--json");
+    let o = run_balloon(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let inflated = crate::last_json_line(&o);
+    let repeated = inflated["final_gas_volume"].as_f64().unwrap();
+    let checked = summary["check"]["volume"].as_f64().unwrap();
+    assert!(
+        ((repeated - checked) / checked).abs() < 1e-6,
+        "design check {checked:e} m^3, `{command}` {repeated:e} m^3"
+    );
+    // And the check is the target (the design converged onto it).
+    let target_volume = summary["target_volume"].as_f64().unwrap();
+    assert!(((checked - target_volume) / target_volume).abs() < 1e-6);
+}
+
+/// `balloon run` on a scenario with a `[design]` table runs the job of `balloon design`: the
+/// example (the thin neo-Hookean sphere, rest radius 0.1 m / 2^(1/6)) designs the same rest shape, bit
+/// for bit, as the command its comment gives.
+#[test]
+fn design_scenario_runs_the_design_job() {
+    let dir = tempfile::tempdir().unwrap();
+    let example = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/design-sphere/scenario.toml");
+    let file = dir.path().join("scenario.toml");
+    std::fs::copy(&example, &file).unwrap();
+    let o = run_balloon(&["run", file.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = dir.path().join("out");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["converged"], true, "{summary}");
+    let rest = balloon_mesh::io::read_obj(&out.join("rest.obj")).unwrap();
+    let radius =
+        rest.vertices.iter().map(|p| p.coords.norm()).sum::<f64>() / rest.num_vertices() as f64;
+    let analytic = 0.1 / 2f64.powf(1.0 / 6.0);
+    assert!(
+        ((radius - analytic) / analytic).abs() < 5e-3,
+        "rest radius {radius} vs {analytic}"
+    );
+    let by_flags = dir.path().join("flags");
+    let o = run_balloon(&[
+        "design",
+        "builtin:icosphere",
+        "--pressure",
+        "4000",
+        "--thickness",
+        "1e-3",
+        "--material",
+        "membrane-neo-hookean",
+        "--mu",
+        "4e5",
+        "--quiet",
+        "--out",
+        by_flags.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        std::fs::read(out.join("rest.obj")).unwrap(),
+        std::fs::read(by_flags.join("rest.obj")).unwrap()
+    );
+}
+
+#[test]
+fn design_scenario_errors_name_file_line_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("d.toml");
+    let cases = [
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nthickness = -1\n",
+            "d.toml:4: `design.thickness`: invalid value '-1'",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npresure = 100\n",
+            "d.toml:3: `design.presure`: unknown key",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\n",
+            "d.toml:1: `design.pressure`: missing",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\n[run]\nsteps = 3\n",
+            "d.toml:4: `run`: a scenario with a [design] table holds only that table",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nmaterial = \"rubber\"\n",
+            "d.toml:4: `design.material`: invalid value 'rubber'",
+        ),
+        (
+            "[design]\ntarget = \"no-such.obj\"\npressure = 100\n",
+            "no-such.obj",
+        ),
+    ];
+    for (text, expected) in cases {
+        std::fs::write(&file, text).unwrap();
+        let o = run_balloon(&["run", file.to_str().unwrap()]);
+        assert!(!o.status.success(), "{text}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(expected), "{text}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}

@@ -2,6 +2,7 @@
 //! write its outputs and summary.
 
 pub mod connect;
+pub mod design;
 pub mod shell;
 mod shell_frame;
 pub mod statics;

@@ -48,14 +48,14 @@ pub struct ScenarioFile {
 }
 
 /// A scenario file's text with its path, for errors with lines.
-struct Source<'a> {
-    path: &'a Path,
-    text: &'a str,
+pub(crate) struct Source<'a> {
+    pub(crate) path: &'a Path,
+    pub(crate) text: &'a str,
     /// For a JSON scenario, the JSON line of each line of `text` (its TOML translation).
-    lines: Option<&'a [usize]>,
+    pub(crate) lines: Option<&'a [usize]>,
 }
 
-type Span = Option<std::ops::Range<usize>>;
+pub(crate) type Span = Option<std::ops::Range<usize>>;
 
 impl Source<'_> {
     /// The 1-based line of a span's start (0 if unknown).
@@ -73,7 +73,7 @@ impl Source<'_> {
         }
     }
 
-    fn key_error(&self, span: Span, key: &str, message: String) -> ScenarioError {
+    pub(crate) fn key_error(&self, span: Span, key: &str, message: String) -> ScenarioError {
         ScenarioError::Key {
             path: self.path.to_path_buf(),
             line: self.line(span),
@@ -84,7 +84,7 @@ impl Source<'_> {
 }
 
 /// A TOML value as an untyped [`Value`].
-fn value_of(v: &toml_edit::Value) -> Value {
+pub(crate) fn value_of(v: &toml_edit::Value) -> Value {
     use toml_edit::Value as T;
     match v {
         T::String(s) => Value::Text(s.value().clone()),
@@ -100,7 +100,7 @@ fn value_of(v: &toml_edit::Value) -> Value {
 }
 
 /// The TOML type name of `v`, for errors.
-fn type_name(v: &toml_edit::Value) -> &'static str {
+pub(crate) fn type_name(v: &toml_edit::Value) -> &'static str {
     use toml_edit::Value as T;
     match v {
         T::String(_) => "a string",
@@ -213,10 +213,10 @@ pub fn system_of(path: &Path) -> Result<SystemKind, ScenarioError> {
 
 /// A file's TOML text (a JSON file's translation), the JSON line of each TOML line, and the
 /// parsed document.
-type Parsed = (String, Option<Vec<usize>>, toml_edit::Document<String>);
+pub(crate) type Parsed = (String, Option<Vec<usize>>, toml_edit::Document<String>);
 
 /// Reads and parses a scenario file.
-fn parse(path: &Path) -> Result<Parsed, ScenarioError> {
+pub(crate) fn parse(path: &Path) -> Result<Parsed, ScenarioError> {
     // A FIFO, a device or a directory is refused before it is opened, a file over the limit
     // before it is read.
     let text = balloon::mesh::io::read_input_text(path, balloon::mesh::io::MAX_TEXT_INPUT_BYTES)

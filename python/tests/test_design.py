@@ -1,0 +1,95 @@
+"""``balloon.design``: the rest shape that inflates to a given shape (docs/design.md)."""
+
+import numpy as np
+import pytest
+
+import balloon
+
+MU = 4.0e5
+H = 1.0e-3
+
+
+def icosphere(radius, level):
+    """An icosphere (subdivided icosahedron, outward triangles) as (vertices, faces)."""
+    t = (1.0 + 5.0**0.5) / 2.0
+    verts = [
+        (-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0),
+        (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
+        (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1),
+    ]
+    faces = [
+        (0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11),
+        (1, 5, 9), (5, 11, 4), (11, 10, 2), (10, 7, 6), (7, 1, 8),
+        (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9),
+        (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1),
+    ]
+    verts = [np.array(v, dtype=float) / np.linalg.norm(v) for v in verts]
+    for _ in range(level):
+        mid = {}
+
+        def middle(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in mid:
+                m = verts[a] + verts[b]
+                verts.append(m / np.linalg.norm(m))
+                mid[key] = len(verts) - 1
+            return mid[key]
+
+        new = []
+        for a, b, c in faces:
+            ab, bc, ca = middle(a, b), middle(b, c), middle(c, a)
+            new += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
+        faces = new
+    return radius * np.array(verts), np.array(faces, dtype=np.int64)
+
+
+def thin_sphere_pressure(r0, stretch):
+    """The thin incompressible neo-Hookean sphere: p = 2 mu H / R0 (1/l - 1/l^7)."""
+    return 2.0 * MU * H / r0 * (1.0 / stretch - stretch**-7)
+
+
+def test_sphere_rest_radius_matches_the_thin_sphere_curve(tmp_path):
+    vertices, faces = icosphere(0.1, 3)
+    assert vertices.shape == (642, 3)
+    stretch = 1.25
+    r0 = 0.1 / stretch
+    r = balloon.design(
+        vertices,
+        faces,
+        pressure=thin_sphere_pressure(r0, stretch),
+        thickness=H,
+        material="membrane-neo-hookean",
+        mu=MU,
+        out=tmp_path / "d",
+    )
+    s = r["summary"]
+    assert s["converged"] and s["check"]["converged"], s
+    assert r["rest"].shape == (642, 3) and r["rest"].dtype == np.float64
+    assert r["inflated"].shape == (642, 3)
+    rest_radius = np.linalg.norm(r["rest"], axis=1).mean()
+    assert abs(rest_radius - r0) / r0 < 5e-3, rest_radius
+    # The check lands on the target and repeats the summary's figure.
+    assert np.abs(r["inflated"] - vertices).max() < 1e-4 * s["bbox_diagonal"]
+    assert s["check"]["distance"]["max_relative"] < 1e-4
+    assert (tmp_path / "d" / "rest.obj").exists()
+    assert "--volume-projection off" in s["check_command"]
+
+
+def test_design_errors_name_the_parameter():
+    vertices, faces = icosphere(0.1, 1)
+    with pytest.raises(balloon.InvalidOption, match="pressure"):
+        balloon.design(vertices, faces, pressure=-5.0)
+    with pytest.raises(balloon.InvalidOption, match="thickness"):
+        balloon.design(vertices, faces, pressure=100.0, thickness=-1.0)
+    with pytest.raises(balloon.InvalidOption, match="tolerance"):
+        balloon.design(vertices, faces, pressure=100.0, tolerance=2.0)
+    with pytest.raises(balloon.InvalidOption, match="steps"):
+        balloon.design(vertices, faces, pressure=100.0, steps=3)
+    with pytest.raises(balloon.MeshError):
+        balloon.design(vertices, faces[:, :2], pressure=100.0)
+    # An open surface is not a target.
+    with pytest.raises(balloon.MeshError, match="closed"):
+        balloon.design(vertices, faces[1:], pressure=100.0)
+    # Every error is a BalloonError.
+    with pytest.raises(balloon.BalloonError):
+        balloon.design(vertices, faces, pressure=100.0, material="rubber")
