@@ -28,7 +28,7 @@ const opt = (name, dflt) => {
 };
 const mock = process.argv.includes('--mock');
 const balloon = resolve(opt('balloon', join(root, 'target', 'debug', 'balloon')));
-const systems = opt('systems', 'shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml')
+const systems = opt('systems', 'shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml,examples/static-sphere/static-sphere.toml')
   .split(',').filter(Boolean);
 /** A --systems entry that is a scenario file (a path ending in .toml or .json). */
 const isFile = (system) => /\.(toml|json)$/i.test(system);
@@ -140,6 +140,15 @@ async function testSystem(browser, system) {
     const f1 = await until('#frame to advance', async () => { const f = await frameOf(page); return f > f0 && f; });
     notes.push(`frames ${f0}->${f1}`);
     check(await page.isVisible('#legend'), 'the colour legend is not shown');
+    // 1b. A static scenario is shown stepping, and the page says so; nothing else has a note.
+    const isStatic = isFile(system) && /^\s*static\s*=\s*true\b/m.test(readFileSync(resolve(root, system), 'utf8'));
+    const noteShown = !(await page.locator('#note').isHidden());
+    check(noteShown === isStatic, `the note is ${noteShown ? 'shown' : 'hidden'} for ${system}`);
+    if (isStatic) {
+      const note = await page.textContent('#note');
+      check(note.includes('static') && note.includes('dynamically'), `the note "${note}" does not say the static solve is shown stepping`);
+      notes.push('static: note shown');
+    }
 
     // 2. Pause stops the simulated time, resume restarts it.
     await page.click('#pause');

@@ -200,6 +200,7 @@ impl Runner {
             "up": self.system.up(),
             "dt": self.system.dt(),
             "scenario": self.system.scenario_text().is_some(),
+            "note": self.system.note(),
         });
         // Published together with the next frame (see `publish_frame`), so a client never sees
         // a new hello with an old frame or the reverse.

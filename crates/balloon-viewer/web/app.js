@@ -222,6 +222,8 @@ function onHello(h) {
     ? 'drag the body to pull it · drag the background or Alt+drag to orbit · wheel to zoom'
     : 'drag or Alt+drag to orbit · wheel to zoom';
   $('save').hidden = !h.scenario;
+  $('note').textContent = h.note || '';
+  $('note').hidden = !h.note;
   buildControls(h.controls || []);
   requestRender();
 }

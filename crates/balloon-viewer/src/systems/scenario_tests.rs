@@ -257,3 +257,23 @@ fn the_builtin_connect_is_the_two_balloon_experiment() {
     e.shell.output = c.shell.output.clone();
     assert_eq!(e, c);
 }
+
+#[test]
+fn a_static_scenario_is_said_to_be_shown_stepping() {
+    let (_dir, path) = scenario_dir(&SHELL.replace("steps = 4", "steps = 4\nstatic = true"));
+    let mut view = ScenarioView::new(read(&path)).unwrap();
+    assert_eq!(
+        view.note().as_deref(),
+        Some(super::scenario::STATIC_NOTE),
+        "a static scenario shown stepping says so"
+    );
+    steps(&mut view, 2);
+    // The saved scenario is still the static one.
+    let Scenario::Shell(saved) = save_and_read(&view, &path) else {
+        panic!("a shell scenario")
+    };
+    assert!(saved.run.static_solve);
+    // A dynamic scenario has no note.
+    let (_dir, path) = scenario_dir(SHELL);
+    assert_eq!(ScenarioView::new(read(&path)).unwrap().note(), None);
+}

@@ -102,6 +102,12 @@ pub trait ViewSystem: Send {
     fn scenario_text(&self) -> Option<String> {
         None
     }
+    /// A sentence the page shows above the controls when what it draws is not what
+    /// `balloon run` of the same set-up computes (a static scenario shown stepping); `None`
+    /// otherwise.
+    fn note(&self) -> Option<String> {
+        None
+    }
 
     /// Triangles of the drawn surface.
     fn triangles(&self) -> Vec<[usize; 3]> {
