@@ -405,6 +405,18 @@ impl ViewSystem for ScenarioView {
         Some(ScenarioView::scenario_text(self))
     }
 
+    /// A volumetric scenario's rigid sphere (the `drop-sphere` scene, Fig. 4 of Diziol, Bender
+    /// and Bayer 2011) where it is now.
+    fn sphere(&self) -> Option<Sphere> {
+        match &self.running {
+            Running::Volumetric(sim, _) => sim.sphere().map(|s| Sphere {
+                center: s.position.into(),
+                radius: s.radius,
+            }),
+            _ => None,
+        }
+    }
+
     /// A `static` shell scenario is shown stepping dynamically (backward Euler from rest under
     /// the same loads): the page says so, since `balloon run` solves for the equilibrium.
     fn note(&self) -> Option<String> {
