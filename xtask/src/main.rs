@@ -95,7 +95,7 @@ enum Task {
     E2e {
         /// Comma-separated systems and scenario files to test (default:
         /// shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml,
-        /// examples/static-sphere/static-sphere.toml,examples/drop-sphere/drop-sphere.toml).
+        /// examples/static-sphere/static-sphere.toml).
         #[arg(long)]
         systems: Option<String>,
     },
