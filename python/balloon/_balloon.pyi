@@ -52,7 +52,8 @@ class TwoLayerResult(TypedDict):
 
 def inflate(mesh: Optional[MeshLike] = None, **options: Option) -> ShellResult:
     """Runs ``balloon inflate`` (a shell balloon, Wang et al. 2015) and returns its summary and final
-    state; the GIL is released and Ctrl-C stops the run after the current step."""
+    state; the GIL is released and Ctrl-C stops the run (inside a Newton solve in the
+    main thread, else after the current step)."""
 
 def volumetric(mesh: Optional[MeshLike] = None, **options: Option) -> VolumetricResult:
     """Runs ``balloon volumetric`` (a volume-conserving body, Diziol, Bender and Bayer 2011)."""

@@ -94,12 +94,13 @@ pub(crate) fn stats_dict<'py, D: serde::Serialize>(
     json_to_py(py, &row)
 }
 
-/// Runs `job` with the GIL released and Ctrl-C checked between steps.
+/// Runs `job` with the GIL released and Ctrl-C checked between steps and inside its solves
+/// ([`crate::cancel`]).
 pub(crate) fn detached<T: Send, F: FnOnce() -> anyhow::Result<T> + Send>(
     py: Python<'_>,
     job: F,
 ) -> PyResult<T> {
-    py.detach(job).map_err(to_py_err)
+    crate::cancel::solve(py, job, to_py_err)
 }
 
 /// The result dict of a whole job.

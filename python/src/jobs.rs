@@ -114,7 +114,8 @@ fn run_two_layer<'py>(
 /// static solve, `inflate --static`) also "points": one dict per converged point (the
 /// `stats.jsonl` lines, e.g. of a `gas="volume", volume_ratios="1.5:3:0.5"` continuation).
 /// With `out=DIR` the run writes the CLI's output folder too. The GIL is released while it
-/// runs; Ctrl-C stops it after the current step (records written, KeyboardInterrupt raised).
+/// runs; Ctrl-C stops it (inside the Newton solve in progress when called from the main thread,
+/// else after the current step; records written, KeyboardInterrupt raised).
 #[pyfunction]
 #[pyo3(signature = (mesh = None, **options))]
 pub(crate) fn inflate<'py>(

@@ -21,6 +21,7 @@
 //! ```
 
 mod args;
+mod cancel;
 mod convert;
 mod design;
 mod errors;
@@ -38,8 +39,10 @@ use sims::{Shell, TwoLayer, Volumetric};
 #[pymodule]
 fn _balloon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
-    // Ctrl-C as Python sees it stops the run loops between steps.
+    // Ctrl-C as Python sees it stops the run loops between steps ...
     balloon_run::interrupt::set_checker(check_python_signals);
+    // ... and, through a C-level flag, inside a Newton solve of the main thread.
+    cancel::register();
     m.add("BalloonError", py.get_type::<BalloonError>())?;
     m.add("InvalidOption", py.get_type::<InvalidOption>())?;
     m.add("MeshError", py.get_type::<MeshError>())?;

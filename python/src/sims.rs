@@ -77,9 +77,7 @@ impl Shell {
         lock_loads(&self.loads)?
             .before_step(sim)
             .map_err(|e| to_py_err(e.into()))?;
-        let stats = py
-            .detach(|| Simulation::step(sim))
-            .map_err(|e| to_py_err(e.into()))?;
+        let stats = crate::cancel::solve(py, || Simulation::step(sim), |e| to_py_err(e.into()))?;
         stats_dict(py, &stats)
     }
 
@@ -259,9 +257,7 @@ impl Volumetric {
     fn step<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let mut guard = self.sim.lock(py)?;
         let sim = &mut *guard;
-        let stats = py
-            .detach(|| Simulation::step(sim))
-            .map_err(|e| to_py_err(e.into()))?;
+        let stats = crate::cancel::solve(py, || Simulation::step(sim), |e| to_py_err(e.into()))?;
         stats_dict(py, &stats)
     }
 
@@ -373,9 +369,7 @@ impl TwoLayer {
     fn step<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let mut guard = self.sim.lock(py)?;
         let sim = &mut *guard;
-        let stats = py
-            .detach(|| Simulation::step(sim))
-            .map_err(|e| to_py_err(e.into()))?;
+        let stats = crate::cancel::solve(py, || Simulation::step(sim), |e| to_py_err(e.into()))?;
         stats_dict(py, &stats)
     }
 

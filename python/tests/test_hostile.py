@@ -125,3 +125,17 @@ def test_a_bad_sweep_entry_names_its_run_and_the_others_go_on():
     assert "dict" in res[1]["error"] and "--thickness" in res[2]["error"]
     with pytest.raises(balloon.InvalidOption, match="system"):
         balloon.sweep(SPHERE, runs, system="bogus")
+
+
+@pytest.mark.parametrize(
+    "make, what",
+    [
+        (lambda: balloon.Volumetric(pin="below:z:100"), "particles of the lattice"),
+        (lambda: balloon.TwoLayer(pin="below:z:100"), "particles of the body"),
+        (lambda: balloon.volumetric(pin="below:z:100", steps=1), "particles of the lattice"),
+    ],
+)
+def test_hard_pins_on_every_particle_are_refused_naming_the_selection(make, what):
+    with pytest.raises(balloon.BalloonError, match="holds all") as e:
+        make()
+    assert what in str(e.value) and "`below:z:100.0`" in str(e.value), str(e.value)

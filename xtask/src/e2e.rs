@@ -31,7 +31,8 @@ const STAMP: &str = ".balloon-installed-lock.json";
 #[derive(Debug, Clone, Default)]
 pub struct Options {
     /// Comma-separated systems to test, and scenario files (relative to the workspace) to view
-    /// (default: shell, volumetric, two-layer, connect and `examples/pinned-neck/pinned-neck.toml`).
+    /// (default: shell, volumetric, two-layer, connect, `examples/pinned-neck/pinned-neck.toml` and
+    /// `examples/static-sphere/static-sphere.toml`).
     pub systems: Option<String>,
 }
 

@@ -644,8 +644,12 @@ impl VolumetricScenario {
         }
     }
 
-    /// The body's parameters before the lattice is built (the time step is settled after).
-    fn params(&self) -> VolumetricParams {
+    /// The body's parameters before the lattice is built (the time step is settled after):
+    /// the lattice generator's settings (the resolution as given, else the library's default),
+    /// the cell-volume solver's, density, masses, gravity along z, `dt` (the largest allowed
+    /// when unset) and restitution. A front end that builds its own scene (the viewer) starts
+    /// from these and changes what it must.
+    pub fn params(&self) -> VolumetricParams {
         let l = &self.lattice;
         VolumetricParams {
             lattice: LatticeParams {

@@ -28,7 +28,7 @@ const opt = (name, dflt) => {
 };
 const mock = process.argv.includes('--mock');
 const balloon = resolve(opt('balloon', join(root, 'target', 'debug', 'balloon')));
-const systems = opt('systems', 'shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml')
+const systems = opt('systems', 'shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml,examples/static-sphere/static-sphere.toml')
   .split(',').filter(Boolean);
 /** A --systems entry that is a scenario file (a path ending in .toml or .json). */
 const isFile = (system) => /\.(toml|json)$/i.test(system);
@@ -140,6 +140,25 @@ async function testSystem(browser, system) {
     const f1 = await until('#frame to advance', async () => { const f = await frameOf(page); return f > f0 && f; });
     notes.push(`frames ${f0}->${f1}`);
     check(await page.isVisible('#legend'), 'the colour legend is not shown');
+    // 1b. A static scenario is shown stepping, and the page says so; nothing else has a note.
+    const isStatic = isFile(system) && /^\s*static\s*=\s*true\b/m.test(readFileSync(resolve(root, system), 'utf8'));
+    const noteShown = !(await page.locator('#note').isHidden());
+    check(noteShown === isStatic, `the note is ${noteShown ? 'shown' : 'hidden'} for ${system}`);
+    if (isStatic) {
+      const note = await page.textContent('#note');
+      check(note.includes('static') && note.includes('dynamically'), `the note "${note}" does not say the static solve is shown stepping`);
+      notes.push('static: note shown');
+    }
+    // 1c. The scene's rigid sphere (a volumetric drop-sphere) is drawn where the server has it.
+    const sphereNow = (await state(url)).sphere;
+    if (sphereNow) {
+      const drawn = await until('the page to draw the sphere', async () => page.evaluate(() => window.balloonView.sphere), 5000);
+      check(Math.abs(drawn.radius - sphereNow.radius) < 1e-9, `the page draws a sphere of radius ${drawn.radius}, the server has ${sphereNow.radius}`);
+      notes.push(`sphere r=${mm(drawn.radius)} drawn`);
+    } else {
+      check(await page.evaluate(() => window.balloonView.sphere === null), 'a sphere is drawn where the server has none');
+    }
+    if (/drop-sphere/.test(system)) check(!!sphereNow, `${system} reports no sphere`);
 
     // 2. Pause stops the simulated time, resume restarts it.
     await page.click('#pause');

@@ -3,7 +3,7 @@
 
 use crate::ViewerError;
 use crate::protocol::{ClientMessage, error_message, validate_control, validate_vertex};
-use crate::systems::{DragRequest, ViewSystem, first_non_finite};
+use crate::systems::{DragRequest, Sphere, ViewSystem, first_non_finite};
 use serde_json::{Map, Value, json};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -138,6 +138,8 @@ struct FiniteFrame {
     time: f64,
     stats: Map<String, Value>,
     scalars: Vec<(&'static str, String)>,
+    /// The rigid sphere of the scene ([`ViewSystem::sphere`]), finite, or none.
+    sphere: Option<Sphere>,
 }
 
 /// The error of a caught panic.
@@ -200,6 +202,7 @@ impl Runner {
             "up": self.system.up(),
             "dt": self.system.dt(),
             "scenario": self.system.scenario_text().is_some(),
+            "note": self.system.note(),
         });
         // Published together with the next frame (see `publish_frame`), so a client never sees
         // a new hello with an old frame or the reverse.
@@ -250,6 +253,10 @@ impl Runner {
                     time: self.system.time(),
                     stats: self.system.stats(),
                     scalars,
+                    sphere: self
+                        .system
+                        .sphere()
+                        .filter(|s| s.center.iter().chain([&s.radius]).all(|v| v.is_finite())),
                 };
                 self.last_finite = Some(good.clone());
                 good
@@ -278,6 +285,7 @@ impl Runner {
             "paused": self.paused,
             "positions": f32s(x),
             "stats": good.stats,
+            "sphere": good.sphere,
         });
         let mut head = frame.to_string();
         head.pop(); // the closing brace: `FrameMessage::text` appends the field and closes it.
@@ -322,6 +330,7 @@ impl Runner {
             "drag": drag,
             "last_error": self.last_error,
             "stats": good.stats,
+            "sphere": good.sphere,
         });
         let scenario = self.system.scenario_text().map(Arc::new);
         let mut p = self.shared.lock();

@@ -80,6 +80,12 @@ marker.add(markerBall, markerLine);
 marker.visible = false;
 scene.add(marker);
 
+// The scene's rigid sphere (a volumetric scenario's drop-sphere, frame.sphere), if any.
+const obstacle = new THREE.Mesh(new THREE.SphereGeometry(1, 32, 24),
+  new THREE.MeshStandardMaterial({ color: 0x9aa3b0, roughness: 0.4, metalness: 0.1 }));
+obstacle.visible = false;
+scene.add(obstacle);
+
 let needsRender = true;
 const requestRender = () => { needsRender = true; };
 
@@ -121,7 +127,7 @@ canvas.addEventListener('dblclick', fitCamera);
 let ws = null;
 let retryMs = 500;
 let fitPending = true; // fit the camera on the first frame after (re)connecting
-const view = { frame: null, time: null, paused: false, connected: false, system: null, draggable: true };
+const view = { frame: null, time: null, paused: false, connected: false, system: null, draggable: true, sphere: null };
 window.balloonView = view; // read-only state for scripts and the end-to-end test
 
 function setStatus(text, cls) {
@@ -222,6 +228,8 @@ function onHello(h) {
     ? 'drag the body to pull it · drag the background or Alt+drag to orbit · wheel to zoom'
     : 'drag or Alt+drag to orbit · wheel to zoom';
   $('save').hidden = !h.scenario;
+  $('note').textContent = h.note || '';
+  $('note').hidden = !h.note;
   buildControls(h.controls || []);
   requestRender();
 }
@@ -248,6 +256,13 @@ function onFrame(f) {
   mesh.visible = true;
 
   colourBy(f.scalar);
+  const sphere = f.sphere;
+  obstacle.visible = !!sphere;
+  if (sphere) {
+    obstacle.position.set(...sphere.center);
+    obstacle.scale.setScalar(sphere.radius);
+  }
+  view.sphere = sphere || null;
 
   view.frame = f.frame;
   view.time = f.time;

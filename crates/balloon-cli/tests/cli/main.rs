@@ -12,6 +12,7 @@ mod loads;
 mod membrane;
 mod mesh;
 mod params;
+mod pinned_all;
 mod readback;
 mod records;
 mod render;

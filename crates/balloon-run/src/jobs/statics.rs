@@ -284,19 +284,24 @@ pub fn run<M: ShellMaterial>(
         print_json_line(&record)?;
     } else {
         let mut w = std::io::stdout().lock();
-        writeln!(
-            w,
-            "static: {} point(s), gas volume {:.4e} -> {:.4e} m^3 (x{:.4}), gauge pressure {:.2} Pa, Newton residual {:.2e} after {} iterations, {:.1} ms{}",
-            summary.points,
-            summary.initial_gas_volume,
-            summary.final_gas_volume,
-            summary.final_gas_volume / summary.initial_gas_volume,
-            summary.final_gauge_pressure,
-            summary.newton_residual,
-            summary.newton_iterations_total,
-            summary.solve_ms,
-            if summary.converged { ", converged" } else { "" }
-        )?;
+        // A solve that ends with an error before its first point has nothing to report here
+        // (its error says what happened); "0 point(s)" would read as a result.
+        let nothing = summary.points == 0 && (failure.is_some() || interrupted.is_some());
+        if !nothing {
+            writeln!(
+                w,
+                "static: {} point(s), gas volume {:.4e} -> {:.4e} m^3 (x{:.4}), gauge pressure {:.2} Pa, Newton residual {:.2e} after {} iterations, {:.1} ms{}",
+                summary.points,
+                summary.initial_gas_volume,
+                summary.final_gas_volume,
+                summary.final_gas_volume / summary.initial_gas_volume,
+                summary.final_gauge_pressure,
+                summary.newton_residual,
+                summary.newton_iterations_total,
+                summary.solve_ms,
+                if summary.converged { ", converged" } else { "" }
+            )?;
+        }
         for warning in &summary.warnings {
             writeln!(w, "warning: {warning}")?;
         }

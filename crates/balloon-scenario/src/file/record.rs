@@ -1,8 +1,9 @@
 //! The recorded scenario of a run (`OUT/scenario.toml`): every key with its value (given or
 //! default), the mesh path absolute, the program version; `balloon run` of it repeats the run.
 
+use crate::gas::GasControl;
 use crate::keys::{Kind, Literals, Recorded};
-use crate::scenario::{Scenario, SystemKind};
+use crate::scenario::Scenario;
 use crate::shell::ShellScenario;
 use balloon::shell::{self, ShellMaterial, ShellMaterialModel};
 use std::path::PathBuf;
@@ -32,6 +33,17 @@ fn toml_number(raw: &str) -> String {
 /// whose default follows the body) is written as a comment. Where and how the output is
 /// written (`out`, `overwrite`, `json`) is not part of it.
 pub fn record(scenario: &Scenario, literals: &Literals) -> String {
+    if let Scenario::Connect(c) = scenario
+        && matches!(c.shell.gas.model, GasControl::Pump)
+    {
+        // Connected balloons hold the ideal gas (`ConnectScenario::build`): a `gas` left at
+        // the shell's default (the pump), or given as the pump, is recorded as what ran.
+        let mut ran = c.clone();
+        ran.shell.gas.model = GasControl::Ideal;
+        let mut literals = literals.clone();
+        literals.remove("gas");
+        return record(&Scenario::Connect(ran), &literals);
+    }
     let kind = scenario.kind();
     let version = env!("CARGO_PKG_VERSION");
     let mut s = format!(
@@ -94,11 +106,6 @@ pub fn record(scenario: &Scenario, literals: &Literals) -> String {
                 key.key
             )),
         }
-    }
-    if kind == SystemKind::Connect {
-        // The gas of connected balloons is the ideal gas: `model` left at the shell's
-        // default (the pump) is recorded as what ran.
-        s = s.replace("\nmodel = \"pump\"\n", "\nmodel = \"ideal\"\n");
     }
     s
 }

@@ -238,3 +238,37 @@ fn paths_are_relative_to_the_file_and_json_names_its_lines() {
     let e = read(&json, &[]).unwrap_err().to_string();
     assert!(e.contains("v.json:3: `run.steps`"), "{e}");
 }
+
+#[test]
+fn a_connect_scenario_with_the_pump_records_the_ideal_gas_that_ran() {
+    // Given as `model = 'pump'` (a literal string, which a text replacement of the record's
+    // `"pump"` line would miss) or left at the shell's default: connected balloons hold the
+    // ideal gas, and the record says so and reads back to that.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.toml");
+    for gas in [
+        "[gas]\nmodel = 'pump'\n",
+        "[gas]\nmodel =   \"pump\"  # given\n",
+        "",
+    ] {
+        std::fs::write(
+            &path,
+            format!("[mesh]\npath = \"builtin:icosphere\"\n[connect]\ncopies = 2\n{gas}"),
+        )
+        .unwrap();
+        let f = read(&path, &[]).unwrap();
+        let text = record(&f.scenario, &f.literals);
+        assert!(text.contains("\nmodel = \"ideal\"\n"), "{gas}: {text}");
+        assert!(!text.contains("pump\""), "{gas}: {text}");
+        let rec = dir.path().join("r.toml");
+        std::fs::write(&rec, &text).unwrap();
+        let Scenario::Connect(back) = read(&rec, &[]).unwrap().scenario else {
+            panic!("the record is a connect scenario")
+        };
+        let Scenario::Connect(mut ran) = f.scenario else {
+            panic!("a connect scenario")
+        };
+        ran.shell.gas.model = crate::gas::GasControl::Ideal;
+        assert_eq!(back, ran, "{gas}");
+    }
+}

@@ -52,10 +52,13 @@ pub fn shell_anchors<M: ShellMaterial>(
     if !hard.is_empty() {
         hard.sort_unstable();
         hard.dedup();
-        let vertices = rest.len() / 3;
-        if hard.len() >= vertices {
-            return Err(SelectionError::AllPinned { vertices });
-        }
+        refuse_all_pinned(
+            pins,
+            pin_stiffness,
+            hard.len(),
+            &rest,
+            "vertices of the mesh",
+        )?;
         sim.set_pinned_vertices(hard)?;
     }
     let loads = select_loads(loads, &rest, Selector::select)?;
@@ -66,6 +69,32 @@ pub fn shell_anchors<M: ShellMaterial>(
     };
     out.before_step(sim)?;
     Ok(out)
+}
+
+/// [`SelectionError::AllPinned`] when the `pinned` distinct vertices (or particles) of the hard
+/// `pins` are all of the `rest` positions' (`what` they are, for the message).
+fn refuse_all_pinned(
+    pins: &[Pin],
+    pin_stiffness: Option<f64>,
+    pinned: usize,
+    rest: &[f64],
+    what: &'static str,
+) -> Result<(), SelectionError> {
+    let count = rest.len() / 3;
+    if pinned < count {
+        return Ok(());
+    }
+    let selections = pins
+        .iter()
+        .filter(|p| p.stiffness.or(pin_stiffness).is_none())
+        .map(|p| format!("`{p}`"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    Err(SelectionError::AllPinned {
+        count,
+        what,
+        selections,
+    })
 }
 
 /// Each load with the vertices (or particles) its `on` selector picks from the rest positions
@@ -113,12 +142,22 @@ pub fn fix_two_layer(
     pin_stiffness: Option<f64>,
 ) -> Result<(), SelectionError> {
     let rest = sim.positions().to_vec();
+    let mut hard = Vec::new();
     for pin in pins {
         if pin.stiffness.or(pin_stiffness).is_none() {
-            let particles = pin.selector.select(&rest)?;
-            sim.fix_particles(&particles)?;
+            hard.extend(pin.selector.select(&rest)?);
         }
     }
+    hard.sort_unstable();
+    hard.dedup();
+    refuse_all_pinned(
+        pins,
+        pin_stiffness,
+        hard.len(),
+        &rest,
+        "particles of the body",
+    )?;
+    sim.fix_particles(&hard)?;
     Ok(())
 }
 
@@ -301,12 +340,22 @@ pub fn fix_volumetric(
     pin_stiffness: Option<f64>,
 ) -> Result<(), SelectionError> {
     let rest = particle_rest(sim);
+    let mut hard = Vec::new();
     for pin in pins {
         if pin.stiffness.or(pin_stiffness).is_none() {
-            let particles = select_particles(&pin.selector, &rest)?;
-            sim.set_fixed_particles(&particles)?;
+            hard.extend(select_particles(&pin.selector, &rest)?);
         }
     }
+    hard.sort_unstable();
+    hard.dedup();
+    refuse_all_pinned(
+        pins,
+        pin_stiffness,
+        hard.len(),
+        &rest,
+        "particles of the lattice",
+    )?;
+    sim.set_fixed_particles(&hard)?;
     Ok(())
 }
 

@@ -95,16 +95,21 @@ pub enum SelectionError {
         #[source]
         source: balloon::mesh::MeshError,
     },
-    /// Hard pins hold every vertex of the mesh: nothing can move, so a run or a static solve
-    /// would "converge" on the unchanged shape. Pin fewer vertices, or anchor them with springs.
+    /// Hard pins hold every vertex of the mesh (every particle of a volumetric or two-layer
+    /// body): nothing can move, so a run or a static solve would "converge" on the unchanged
+    /// shape. Pin fewer vertices, or anchor them with springs.
     #[error(
-        "`pin` holds all {vertices} vertices of the mesh, so nothing can move and the shape \
-         would stay as it is; pin fewer vertices, or give the pins a stiffness (`pin_stiffness`, \
+        "`pin` holds all {count} {what} ({selections}), so nothing can move and the shape \
+         would stay as it is; pin fewer, or give the pins a stiffness (`pin_stiffness`, \
          or `@K` on a pin) to hold them with springs"
     )]
     AllPinned {
-        /// Vertices of the mesh (all of them pinned).
-        vertices: usize,
+        /// Vertices or particles of the body (all of them pinned).
+        count: usize,
+        /// What they are: "vertices of the mesh", "particles of the lattice", ...
+        what: &'static str,
+        /// The hard pins' selections, quoted and joined (`` `below:z:0` ``).
+        selections: String,
     },
     /// What this system does not support.
     #[error("{0}")]

@@ -11,7 +11,7 @@ mod volumetric;
 pub use scenario::{ScenarioView, builtin_connect};
 pub use shell::ShellView;
 pub use two_layer::TwoLayerView;
-pub use view::{DragRequest, ViewSystem, ViewedSimulation, first_non_finite};
+pub use view::{DragRequest, Sphere, ViewSystem, ViewedSimulation, first_non_finite};
 pub use volumetric::VolumetricView;
 
 #[cfg(test)]

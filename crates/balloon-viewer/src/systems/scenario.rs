@@ -404,4 +404,30 @@ impl ViewSystem for ScenarioView {
     fn scenario_text(&self) -> Option<String> {
         Some(ScenarioView::scenario_text(self))
     }
+
+    /// A volumetric scenario's rigid sphere (the `drop-sphere` scene, Fig. 4 of Diziol, Bender
+    /// and Bayer 2011) where it is now.
+    fn sphere(&self) -> Option<Sphere> {
+        match &self.running {
+            Running::Volumetric(sim, _) => sim.sphere().map(|s| Sphere {
+                center: s.position.into(),
+                radius: s.radius,
+            }),
+            _ => None,
+        }
+    }
+
+    /// A `static` shell scenario is shown stepping dynamically (backward Euler from rest under
+    /// the same loads): the page says so, since `balloon run` solves for the equilibrium.
+    fn note(&self) -> Option<String> {
+        match &self.scenario {
+            Scenario::Shell(s) if s.run.static_solve => Some(STATIC_NOTE.into()),
+            _ => None,
+        }
+    }
 }
+
+/// What the page says for a `static` shell scenario.
+pub const STATIC_NOTE: &str = "This scenario is a static solve (`static = true`): the viewer \
+     shows it stepping dynamically from rest under the same gas and loads, not the equilibrium \
+     that `balloon run` solves for. The saved scenario is still the static one.";

@@ -257,3 +257,50 @@ fn the_builtin_connect_is_the_two_balloon_experiment() {
     e.shell.output = c.shell.output.clone();
     assert_eq!(e, c);
 }
+
+#[test]
+fn a_static_scenario_is_said_to_be_shown_stepping() {
+    let (_dir, path) = scenario_dir(&SHELL.replace("steps = 4", "steps = 4\nstatic = true"));
+    let mut view = ScenarioView::new(read(&path)).unwrap();
+    assert_eq!(
+        view.note().as_deref(),
+        Some(super::scenario::STATIC_NOTE),
+        "a static scenario shown stepping says so"
+    );
+    steps(&mut view, 2);
+    // The saved scenario is still the static one.
+    let Scenario::Shell(saved) = save_and_read(&view, &path) else {
+        panic!("a shell scenario")
+    };
+    assert!(saved.run.static_solve);
+    // A dynamic scenario has no note.
+    let (_dir, path) = scenario_dir(SHELL);
+    assert_eq!(ScenarioView::new(read(&path)).unwrap().note(), None);
+}
+
+#[test]
+fn the_drop_sphere_of_a_volumetric_scenario_is_drawn_where_it_is() {
+    // The default scene: a rigid sphere falls on the body resting on a floor.
+    let (_dir, path) = scenario_dir(
+        "[system]\nkind = \"volumetric\"\n[mesh]\npath = \"sphere.obj\"\n[lattice]\ncells = 60\n",
+    );
+    let mut view = ScenarioView::new(read(&path)).unwrap();
+    let start = view.sphere().expect("the drop-sphere scene has a sphere");
+    assert!(start.radius > 0.0);
+    // Above the body (gravity along -z) and falling.
+    let top = view
+        .positions()
+        .chunks_exact(3)
+        .map(|p| p[2])
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(start.center[2] - start.radius > top, "{start:?} top {top}");
+    steps(&mut view, 20);
+    let later = view.sphere().unwrap();
+    assert!(later.center[2] < start.center[2], "{start:?} -> {later:?}");
+    // A scene without a sphere draws none.
+    let (_dir, path) = scenario_dir(
+        "[system]\nkind = \"volumetric\"\n[mesh]\npath = \"sphere.obj\"\n[lattice]\ncells = 60\n\
+         [run]\nscene = \"free\"\n",
+    );
+    assert_eq!(ScenarioView::new(read(&path)).unwrap().sphere(), None);
+}

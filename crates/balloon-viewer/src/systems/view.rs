@@ -66,6 +66,15 @@ impl<S: Simulation + Send> ViewedSimulation for S {
     }
 }
 
+/// A rigid sphere of the scene as the page draws it (`frame.sphere`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Sphere {
+    /// Centre, m.
+    pub center: [f64; 3],
+    /// Radius, m.
+    pub radius: f64,
+}
+
 /// One simulation as the viewer drives it: its controls (typed inside, parsed from the
 /// protocol's strings once in [`ViewSystem::set_control`]), statistics, scalar fields and drags;
 /// stepping and drawing go through [`ViewSystem::simulation`].
@@ -100,6 +109,17 @@ pub trait ViewSystem: Send {
     /// The scenario file (TOML) of the current set-up, with the values changed on the page,
     /// when the system runs a scenario (`balloon run` of it repeats the run); `None` otherwise.
     fn scenario_text(&self) -> Option<String> {
+        None
+    }
+    /// A sentence the page shows above the controls when what it draws is not what
+    /// `balloon run` of the same set-up computes (a static scenario shown stepping); `None`
+    /// otherwise.
+    fn note(&self) -> Option<String> {
+        None
+    }
+    /// The rigid sphere of the scene (a volumetric scenario's `drop-sphere`), drawn with the
+    /// body; `None` when there is none.
+    fn sphere(&self) -> Option<Sphere> {
         None
     }
 

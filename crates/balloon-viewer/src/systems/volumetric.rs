@@ -7,8 +7,7 @@ use balloon::Simulation;
 use balloon::constraint::cell_volume::{CellCorrection, CellSolver};
 use balloon::fields;
 use balloon::mesh::TriMesh;
-use balloon::mesh::lattice::LatticeParams;
-use balloon::volumetric::{MassModel, VolumetricBody, VolumetricParams, VolumetricSimulation};
+use balloon::volumetric::{VolumetricBody, VolumetricSimulation};
 use balloon_scenario::volumetric::{Correction, VolumeSolver, VolumetricScenario};
 use nalgebra::{Point3, Vector3};
 use serde_json::{Map, Value, json};
@@ -109,7 +108,6 @@ impl VolumetricView {
 
     fn build(soup: &TriMesh, s: &VolumetricSettings) -> Result<VolumetricSimulation, ViewerError> {
         let cli = cli_defaults();
-        let l = &cli.lattice;
         // The CLI's cell-volume settings for the correction and solver chosen on the page.
         let mut chosen = cli.clone();
         chosen.run.correction = match s.correction {
@@ -120,32 +118,12 @@ impl VolumetricView {
             CellSolver::GaussSeidel => VolumeSolver::GaussSeidel,
             CellSolver::Global => VolumeSolver::Global,
         };
-        let volume = chosen.volume_params();
-        let params = VolumetricParams {
-            lattice: LatticeParams {
-                resolution: LATTICE_RESOLUTION,
-                voxels_per_cell: l.voxels_per_cell,
-                rays: l.rays,
-                band_voxels: l.band_voxels,
-                p_in: l.p_in,
-                p_subs: l.p_subs,
-                density_threshold: l.density_threshold,
-                fill_iterations: l.fill_iterations,
-                smoothing_iterations: l.smoothing_iterations,
-                smoothing_weight: l.smoothing_weight,
-            },
-            volume,
-            density: cli.body.density,
-            mass_model: if cli.body.lumped_masses {
-                MassModel::Lumped
-            } else {
-                MassModel::Equal
-            },
-            gravity: [0.0, -s.gravity, 0.0],
-            dt: s.dt,
-            restitution: cli.run.restitution,
-            ..VolumetricParams::default()
-        };
+        // `balloon volumetric`'s parameters, with the viewer's lattice resolution, scene (gravity
+        // along -y) and time step.
+        let mut params = chosen.params();
+        params.lattice.resolution = LATTICE_RESOLUTION;
+        params.gravity = [0.0, -s.gravity, 0.0];
+        params.dt = s.dt;
         let body = VolumetricBody::build(soup, params).map_err(ViewerError::from)?;
         // Springs relative to the particle mass and the time step with `balloon volumetric`'s
         // damping: `k = s m / dt^2` (explicit, stable for s well below 1), damping

@@ -1,0 +1,86 @@
+//! Runs that cannot do anything are refused, and failures say only what happened: hard pins on
+//! every particle of a volumetric or two-layer body are refused naming the selections (as the
+//! shell's are), and a static solve that fails before its first point prints no
+//! "0 point(s)" result line.
+
+use super::run_balloon;
+
+/// stderr of a run that must fail without a panic.
+fn refused(args: &[&str]) -> String {
+    let out = run_balloon(args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{args:?} succeeded: {err}");
+    assert!(!err.contains("panicked"), "{args:?}: {err}");
+    err
+}
+
+#[test]
+fn hard_pins_on_every_particle_are_refused_naming_the_selections() {
+    for (system, what) in [
+        ("volumetric", "particles of the lattice"),
+        ("two-layer", "particles of the body"),
+    ] {
+        // Two selections that together cover everything: each alone would leave some free.
+        let err = refused(&[
+            system,
+            "--pin",
+            "below:z:0.0",
+            "--pin",
+            "above:z:-1e-9",
+            "--steps",
+            "2",
+        ]);
+        assert!(
+            err.contains("--pin holds all")
+                && err.contains(what)
+                && err.contains("`below:z:0.0`")
+                && err.contains("`above:z:-1e-9`")
+                && err.contains("nothing can move"),
+            "{system}: {err}"
+        );
+        // Springs may hold every particle: the body still moves.
+        let out = run_balloon(&[system, "--pin", "below:z:100@100", "--steps", "2"]);
+        assert!(
+            out.status.success(),
+            "{system}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        // One pin short of all is a run.
+        let out = run_balloon(&[system, "--pin", "below:z:0.0", "--steps", "2"]);
+        assert!(
+            out.status.success(),
+            "{system}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
+
+#[test]
+fn a_static_solve_that_fails_before_its_first_point_prints_no_point_line() {
+    // Above the membrane's limit pressure (see `hostile.rs`): no equilibrium, the first point
+    // fails.
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("ico2.obj");
+    balloon::mesh::io::write_obj(&mesh, &balloon::mesh::generate::icosphere(0.1, 2).unwrap())
+        .unwrap();
+    let out = run_balloon(&[
+        "inflate",
+        mesh.to_str().unwrap(),
+        "--material",
+        "membrane-neo-hookean",
+        "--mu",
+        "4e5",
+        "--static",
+        "--gas",
+        "constant",
+        "--pressure",
+        "1e5",
+    ]);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(!out.status.success(), "{stdout}");
+    assert!(stderr.contains("did not converge"), "{stderr}");
+    assert!(!stdout.contains("point(s)"), "{stdout}");
+}
