@@ -2,8 +2,11 @@
 //!
 //! * `cargo xtask ci`: format check, clippy with warnings denied, docs with warnings denied, the
 //!   whole test suite, the viewer's end-to-end test, `validate --quick` (no files written), the
-//!   Python package's tests (`cargo xtask python`) and every criterion bench once in test mode; with `CI` set, a missing `../shared/meshes` fails
-//!   it. `.ci/run` calls exactly this.
+//!   Python package's tests (`cargo xtask python`) and every criterion bench once in test mode;
+//!   with `CI` set, a missing `../shared/meshes` fails it. Nothing is built in release: the
+//!   validation cases run in this process and the Python extension is built in the `dev`
+//!   profile. `.ci/run` builds every target first (`cargo build --workspace --all-targets`,
+//!   xtask included) and runs this with the xtask binary of that build.
 //! * `cargo xtask validate [--quick] [--meshes DIR]`: every validation case (analytic sphere,
 //!   thickness scaling, gas law, pressure equilibrium, volume projection, membrane limit points
 //!   against the analytic thin sphere, volumetric bodies, two-layer integrators, real meshes);
@@ -13,7 +16,7 @@
 //!   folder of meshes and every linear solver, plus cost-vs-size of the volumetric and two-layer
 //!   systems; writes `target/bench/bench.{md,json}` (and `docs/benchmarks.md` on request). Runs
 //!   itself in release.
-//! * `cargo xtask python`: builds the Python package's wheel (maturin, release, in `target/`)
+//! * `cargo xtask python`: builds the Python package's wheel (maturin, `dev` profile, in `target/`)
 //!   into a virtual environment `target/py-venv` (created once, with the pinned
 //!   `python/requirements-test.txt`), then runs pytest on `python/tests` and
 //!   `examples/python_sweep.py`. Needs only `python3` with `venv` and pip's index.
@@ -294,10 +297,10 @@ fn prepare_venv() -> Result<()> {
 ///
 /// The extension is built in the `dev` profile (opt-level 2, dependencies at 3, the profile of
 /// the test build): it shares `target/debug` with `cargo test --workspace`, so only the crates
-/// whose features differ in the extension's own feature resolution are compiled again, where
-/// `--release` compiled all of them a further time (3 minutes of CI's 2 cores). Wheels for
-/// users are built by `pip install ./python` / `maturin build`, in release
-/// (`python/pyproject.toml`).
+/// whose features differ in the extension's own feature resolution (51 of its 164 units) are
+/// compiled again, where `--release` compiles all 164 (CI no longer builds anything else in
+/// release to share them with). Wheels for users are built by `pip install ./python` /
+/// `maturin build`, in release (`python/pyproject.toml`).
 fn python_package() -> Result<()> {
     let root = workspace_root();
     let target = root.join("target");
