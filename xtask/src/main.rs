@@ -2,8 +2,11 @@
 //!
 //! * `cargo xtask ci`: format check, clippy with warnings denied, docs with warnings denied, the
 //!   whole test suite, the viewer's end-to-end test, `validate --quick` (no files written), the
-//!   Python package's tests (`cargo xtask python`) and every criterion bench once in test mode; with `CI` set, a missing `../shared/meshes` fails
-//!   it. `.ci/run` calls exactly this.
+//!   Python package's tests (`cargo xtask python`) and every criterion bench once in test mode;
+//!   with `CI` set, a missing `../shared/meshes` fails it. Nothing is built in release: the
+//!   validation cases run in this process and the Python extension is built in the `dev`
+//!   profile. `.ci/run` builds every target first (`cargo build --workspace --all-targets`,
+//!   xtask included) and runs this with the xtask binary of that build.
 //! * `cargo xtask validate [--quick] [--meshes DIR]`: every validation case (analytic sphere,
 //!   thickness scaling, gas law, pressure equilibrium, volume projection, membrane limit points
 //!   against the analytic thin sphere, volumetric bodies, two-layer integrators, real meshes);
@@ -13,7 +16,7 @@
 //!   folder of meshes and every linear solver, plus cost-vs-size of the volumetric and two-layer
 //!   systems; writes `target/bench/bench.{md,json}` (and `docs/benchmarks.md` on request). Runs
 //!   itself in release.
-//! * `cargo xtask python`: builds the Python package's wheel (maturin, release, in `target/`)
+//! * `cargo xtask python`: builds the Python package's wheel (maturin, `dev` profile, in `target/`)
 //!   into a virtual environment `target/py-venv` (created once, with the pinned
 //!   `python/requirements-test.txt`), then runs pytest on `python/tests` and
 //!   `examples/python_sweep.py`. Needs only `python3` with `venv` and pip's index.
@@ -124,6 +127,11 @@ fn cargo(args: &[&str], envs: &[(&str, &str)]) -> Result<()> {
 }
 
 fn ci(quick: bool) -> Result<()> {
+    // The Python stage's virtual environment and pinned test dependencies are downloads and
+    // unpacking, not compilation: they are prepared in the background while the Rust stages
+    // build and run, and waited for before the wheel is built. A failure there fails the
+    // Python stage.
+    let venv = std::thread::spawn(prepare_venv);
     cargo(&["fmt", "--all", "--", "--check"], &[])?;
     if !quick {
         cargo(
@@ -162,25 +170,35 @@ fn ci(quick: bool) -> Result<()> {
         started.elapsed().as_secs_f64()
     );
     // The validation cases (analytic sphere, gas law, volume conservation, ...) in their quick
-    // subset, without rewriting docs/validation.md: a failing case fails CI.
-    cargo(
-        &[
-            "run",
-            "--quiet",
-            "--release",
-            "-p",
-            "xtask",
-            "--",
-            "validate",
-            "--quick",
-            "--no-write",
-        ],
-        &[],
-    )?;
-    // The Python package after the validation: its release wheel reuses the release build of
-    // the `balloon` crates and their dependencies that `validate` made.
+    // subset, without rewriting docs/validation.md: a failing case fails CI. They run in this
+    // process, i.e. in the build `xtask ci` was built in (`.ci/run` runs the test build's
+    // `target/debug/xtask`: opt-level 2, dependencies at 3, debug assertions and overflow
+    // checks on), instead of a release build of xtask and every crate below it only for them
+    // (4 minutes of CI's 2 cores). The numbers are the same (no build changes floating-point
+    // semantics); `cargo xtask validate` alone still runs in release for its timings.
     let started = std::time::Instant::now();
-    python()?;
+    eprintln!(
+        "xtask: validate --quick --no-write (in the {} build)",
+        if cfg!(debug_assertions) {
+            "debug-assertions"
+        } else {
+            "release"
+        }
+    );
+    validate::run(&validate::Options {
+        quick: true,
+        meshes: None,
+        write: false,
+        only: None,
+    })?;
+    eprintln!(
+        "xtask: validate --quick --no-write took {:.0} s",
+        started.elapsed().as_secs_f64()
+    );
+    let started = std::time::Instant::now();
+    venv.join()
+        .map_err(|_| anyhow::anyhow!("preparing the Python virtual environment panicked"))??;
+    python_package()?;
     eprintln!(
         "xtask: python took {:.0} s",
         started.elapsed().as_secs_f64()
@@ -227,18 +245,24 @@ fn run_program(program: &Path, args: &[&str], envs: &[(&str, &Path)]) -> Result<
     Ok(())
 }
 
-/// The Python package's CI step: a virtual environment `target/py-venv` (created when missing;
-/// `$BALLOON_PYTHON` or `python3` makes it) with the pinned test dependencies, the wheel built
-/// by maturin in release into `target/py-wheels` (incremental: it shares `target/`) and
-/// installed, then pytest on `python/tests` (against the CLI binary of the test build) and
-/// `examples/python_sweep.py`.
+/// The Python package's CI step: [`prepare_venv`], then [`python_package`].
 fn python() -> Result<()> {
     let t0 = std::time::Instant::now();
-    let root = workspace_root();
-    let target = root.join("target");
-    let venv = target.join("py-venv");
-    let bin = venv.join("bin");
-    let py = bin.join("python");
+    prepare_venv()?;
+    python_package()?;
+    eprintln!(
+        "xtask: python package step took {:.0} s",
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The virtual environment `target/py-venv` of the Python step (created when missing;
+/// `$BALLOON_PYTHON` or `python3` makes it) with the pinned test dependencies installed.
+fn prepare_venv() -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let venv = workspace_root().join("target").join("py-venv");
+    let py = venv.join("bin").join("python");
     if !py.exists() {
         let base = std::env::var_os("BALLOON_PYTHON").unwrap_or_else(|| "python3".into());
         run_program(
@@ -261,6 +285,28 @@ fn python() -> Result<()> {
         ],
         &[],
     )?;
+    eprintln!(
+        "xtask: python virtual environment ready in {:.0} s",
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The wheel built by maturin into `target/py-wheels` and installed into the virtual
+/// environment of [`prepare_venv`], then pytest on `python/tests` (against the CLI binary of
+/// the test build) and `examples/python_sweep.py`.
+///
+/// The extension is built in the `dev` profile (opt-level 2, dependencies at 3, the profile of
+/// the test build): it shares `target/debug` with `cargo test --workspace`, so only the crates
+/// whose features differ in the extension's own feature resolution (51 of its 164 units) are
+/// compiled again, where `--release` compiles all 164 (CI no longer builds anything else in
+/// release to share them with). Wheels for users are built by `pip install ./python` /
+/// `maturin build`, in release (`python/pyproject.toml`).
+fn python_package() -> Result<()> {
+    let root = workspace_root();
+    let target = root.join("target");
+    let bin = target.join("py-venv").join("bin");
+    let py = bin.join("python");
     let wheels = target.join("py-wheels");
     if wheels.exists() {
         std::fs::remove_dir_all(&wheels)
@@ -270,7 +316,8 @@ fn python() -> Result<()> {
         &bin.join("maturin"),
         &[
             "build",
-            "--release",
+            "--profile",
+            "dev",
             "--quiet",
             "-m",
             "python/Cargo.toml",
@@ -325,10 +372,6 @@ fn python() -> Result<()> {
         ],
         &[],
     )?;
-    eprintln!(
-        "xtask: python package step took {:.0} s",
-        t0.elapsed().as_secs_f64()
-    );
     Ok(())
 }
 
