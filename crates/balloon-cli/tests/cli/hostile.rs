@@ -327,20 +327,24 @@ impl Drop for Mounted {
     }
 }
 
-/// A real full disk: a 96 kB tmpfs. Needs root (mount), so it is ignored by default; run it
-/// with `cargo test -p balloon-cli --test cli -- --ignored full_disk` as root.
+/// A real full disk: a 96 kB tmpfs. Mounting one needs root (or the capability to mount);
+/// where the mount is refused the test says so on stderr and checks nothing (the injected
+/// failing writer of the unit tests covers the same paths everywhere).
 #[test]
-#[ignore = "mounts a tmpfs: needs root"]
 fn a_full_disk_leaves_whole_lines_no_temporary_file_and_no_success_message() {
     let dir = tempfile::tempdir().unwrap();
     let mount = dir.path().join("small");
     std::fs::create_dir(&mount).unwrap();
-    let status = Command::new("mount")
+    let mounted = Command::new("mount")
         .args(["-t", "tmpfs", "-o", "size=96k", "tmpfs"])
         .arg(&mount)
+        .stderr(std::process::Stdio::null())
         .status()
-        .unwrap();
-    assert!(status.success(), "cannot mount a tmpfs (run as root)");
+        .is_ok_and(|s| s.success());
+    if !mounted {
+        eprintln!("skipped: cannot mount a tmpfs here (needs root)");
+        return;
+    }
     let _guard = Mounted(mount.clone());
     let run = mount.join("run");
     let out = run_within(
