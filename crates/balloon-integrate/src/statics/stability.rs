@@ -234,7 +234,7 @@ impl StaticSolver {
     /// (`fixed`), the input errors of
     /// [`StaticSolver::solve`], [`NewtonError::System`] when the system cannot be evaluated at
     /// `x`, and [`NewtonError::Linear`] when `K + sigma M` stays indefinite after
-    /// [`MAX_SHIFT_RAISES`] tenfold raises of `sigma` (or the solve fails otherwise).
+    /// `MAX_SHIFT_RAISES` (12) tenfold raises of `sigma` (or the solve fails otherwise).
     pub fn stability<S: ForceSystem>(
         &mut self,
         system: &mut S,
