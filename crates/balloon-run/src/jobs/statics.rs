@@ -173,6 +173,8 @@ pub fn run<M: ShellMaterial>(
     // (V / V0, gauge pressure) of every converged point, for the pressure-volume plot.
     let mut curve = Vec::new();
     let mut points = Vec::new();
+    // The last converged point when it was unstable (index, smallest eigenvalue).
+    let mut last_stability: Option<(usize, f64)> = None;
     for (i, ratio) in ratios.iter().enumerate() {
         if let Some(sig) = crate::interrupt::pending() {
             interrupted = Some(sig);
@@ -201,10 +203,12 @@ pub fn run<M: ShellMaterial>(
                     report.gas_volume / summary.initial_gas_volume,
                     report.gauge_pressure,
                 ));
+                last_stability = None;
                 if let Some(s) = &report.stability {
                     let unstable = summary.unstable_points.get_or_insert_with(Vec::new);
                     if s.unstable() {
                         unstable.push(i);
+                        last_stability = Some((i, s.smallest_eigenvalue));
                     }
                 }
                 let point = StaticPoint::new(i, *ratio, &report);
@@ -242,7 +246,13 @@ pub fn run<M: ShellMaterial>(
     summary.final_thickness_mean = th.iter().sum::<f64>() / th.len() as f64;
     summary.final_thickness_min = th.iter().copied().fold(f64::INFINITY, f64::min);
     summary.final_thickness_max = th.iter().copied().fold(0.0, f64::max);
-    let failure = failure.map(|e| failure_message(&e, args));
+    let failure = failure.map(|e| {
+        let mut message = failure_message(&e, args);
+        if let Some((i, lambda)) = last_stability {
+            message.push_str(&unstable_before_failure(i, lambda, &ratios));
+        }
+        message
+    });
     summary.error = failure
         .clone()
         .or_else(|| output_error.as_ref().map(|e| format!("{e:#}")));
@@ -376,6 +386,20 @@ fn unstable_warning(unstable: &[usize], ratios: &[Option<f64>]) -> String {
     )
 }
 
+/// What a failure after an unstable point adds to its message: the solve most likely stalled at
+/// a bifurcation of the branch it followed.
+fn unstable_before_failure(i: usize, lambda: f64, ratios: &[Option<f64>]) -> String {
+    let at = match ratios.get(i).copied().flatten() {
+        Some(r) => format!("point {i}, V/V0 = {r}"),
+        None => format!("point {i}"),
+    };
+    format!(
+        "; the last converged point ({at}) is unstable (smallest eigenvalue of the stiffness \
+         {lambda:.3e} 1/s^2): the branch followed has passed a bifurcation or a limit point, \
+         where a static solve can stall (docs/membranes.md, section 9)"
+    )
+}
+
 /// The message of a failed static solve, with the hints that fit the scenario: no
 /// `tangent` = projected when it was the tangent used, and, under a pressure (not volume)
 /// control, that the pressure may exceed the largest the balloon can hold (rubber's pressure
@@ -451,6 +475,13 @@ fn write_pressure_volume_plot(out: &OutputDir, mesh: &str, curve: &[(f64, f64)])
 #[cfg(test)]
 mod tests {
     use super::unstable_warning;
+
+    #[test]
+    fn a_failure_after_an_unstable_point_says_so() {
+        let m = super::unstable_before_failure(3, -1.021e4, &[None, None, None, Some(12.0)]);
+        assert!(m.contains("point 3, V/V0 = 12") && m.contains("-1.021e4"), "{m}");
+        assert!(m.contains("bifurcation"), "{m}");
+    }
 
     #[test]
     fn the_unstable_warning_names_the_points_and_what_to_do() {
