@@ -479,7 +479,10 @@ mod tests {
     #[test]
     fn a_failure_after_an_unstable_point_says_so() {
         let m = super::unstable_before_failure(3, -1.021e4, &[None, None, None, Some(12.0)]);
-        assert!(m.contains("point 3, V/V0 = 12") && m.contains("-1.021e4"), "{m}");
+        assert!(
+            m.contains("point 3, V/V0 = 12") && m.contains("-1.021e4"),
+            "{m}"
+        );
         assert!(m.contains("bifurcation"), "{m}");
     }
 
