@@ -97,8 +97,7 @@ enum Task {
     /// The live viewer's end-to-end test: `balloon view` driven in headless Chromium.
     E2e {
         /// Comma-separated systems and scenario files to test (default:
-        /// shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml,
-        /// examples/static-sphere/static-sphere.toml).
+        /// shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml).
         #[arg(long)]
         systems: Option<String>,
     },
