@@ -15,6 +15,7 @@ pub const BUILTIN_NAMES: &[&str] = &[
     "torus",
     "box",
     "tube",
+    "fin",
 ];
 
 /// A built-in mesh by name (all closed, outward, centred at the origin, metres):
@@ -28,6 +29,7 @@ pub const BUILTIN_NAMES: &[&str] = &[
 /// | `torus` | torus R = 0.1 m, r = 0.03 m, 64 x 24 segments |
 /// | `box` | 0.1 m cube, 10 x 10 quads per face |
 /// | `tube` | [`generate::tube()`]: radius 0.05 m, 0.6 m tip to tip (hemispherical caps), 32 segments around (2260 vertices) |
+/// | `fin` | [`generate::finned_ellipsoid()`] with default [`generate::FinParams`]: a 0.1 m flattened ellipsoid with a 6 mm thin fin (6404 vertices) |
 ///
 /// Names are case-insensitive.
 ///
@@ -42,6 +44,7 @@ pub fn builtin(name: &str) -> Result<TriMesh, MeshError> {
         "torus" => generate::torus(0.1, 0.03, 64, 24),
         "box" => generate::box_mesh(Vector3::repeat(0.1), 10),
         "tube" => generate::tube(0.05, 0.6, 32),
+        "fin" => generate::finned_ellipsoid(&generate::FinParams::default()),
         _ => Err(MeshError::UnknownBuiltin {
             name: name.to_string(),
             known: BUILTIN_NAMES.join(", "),

@@ -6,12 +6,16 @@
 //! * [`implicit::implicit_surface`]: any signed distance / implicit function, meshed by marching
 //!   tetrahedra and relaxed onto the surface;
 //! * [`teddy::teddy`]: the procedural teddy bear (Wang et al. 2015, Fig. 4), built on the implicit mesher;
-//! * [`tube::tube`]: a closed cylinder with hemispherical end caps (the bulging tube).
+//! * [`tube::tube`]: a closed cylinder with hemispherical end caps (the bulging tube);
+//! * [`fin::finned_ellipsoid`]: a flattened ellipsoid with a thin fin (thin flat parts under
+//!   pressure).
 
+pub mod fin;
 pub mod implicit;
 pub mod teddy;
 pub mod tube;
 
+pub use fin::{FinParams, finned_ellipsoid};
 pub use implicit::{ImplicitParams, implicit_surface};
 pub use teddy::{TeddyParams, TeddyPart, teddy, teddy_vertex_parts};
 pub use tube::tube;
