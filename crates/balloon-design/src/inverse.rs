@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::DesignError;
 use crate::normal::NormalPattern;
+use crate::pinned::PinnedLu;
 use crate::problem::DesignProblem;
 
 /// Parameters of [`design_rest_shape`].
@@ -35,6 +36,12 @@ pub struct InverseParams {
     /// Sethna 2012): one more residual evaluation and back-substitution per step, for fewer
     /// steps where the near-isometric motions of the rest mesh curve the valleys of `|r|^2`.
     pub acceleration: bool,
+    /// Newton steps on the square system `r(X) = 0` with a sparse LU factorisation of `J`
+    /// bordered by the rigid motions (default `true`; `docs/design.md`, D10), each accepted
+    /// when a backtracking line search decreases `|r|^2`; a refused or singular step falls
+    /// back to one Levenberg-Marquardt step. Used only when `tangential_weight` is zero (the
+    /// tangential term makes the problem a least-squares one).
+    pub newton: bool,
 }
 
 impl Default for InverseParams {
@@ -47,6 +54,7 @@ impl Default for InverseParams {
             initial_damping: 1e-6,
             tangential_weight: 0.0,
             acceleration: true,
+            newton: true,
         }
     }
 }
@@ -101,8 +109,12 @@ pub struct InverseInfo {
     pub load_reached: f64,
     /// `|r| / |p g|` at the end.
     pub relative_residual: f64,
-    /// Gauss-Newton iterations, all stages.
+    /// Iterations (Newton and Levenberg-Marquardt), all stages.
     pub iterations: usize,
+    /// Of those, Levenberg-Marquardt steps taken because a Newton step was refused or
+    /// singular (all of them when [`InverseParams::newton`] is off).
+    #[serde(default)]
+    pub fallback_steps: usize,
     /// Continuation stages solved.
     pub stages: usize,
     /// Halvings of the pressure increment.
@@ -129,9 +141,17 @@ struct Solver<'a> {
     /// Tangential projectors times vertex area weights (`docs/design.md`, D11), per vertex.
     tangential: Vec<nalgebra::Matrix3<f64>>,
     chol: SparseCholesky,
+    /// The bordered Newton matrix and its LU factor.
+    lu: PinnedLu,
     /// The fixed layout of `J` and `J^T J`.
     pattern: NormalPattern,
     damping: f64,
+    /// The target's mean edge length (m).
+    edge: f64,
+    /// Damped steps still to take before the next Newton step.
+    newton_wait: usize,
+    /// Damped steps taken after the last refused Newton step (doubles per refusal in a row).
+    newton_backoff: usize,
 }
 
 /// Finds the rest shape `X` whose static equilibrium under the problem's pressure is the
@@ -168,20 +188,26 @@ pub fn design_rest_shape(
         .map(|v| v * v)
         .sum::<f64>()
         .sqrt();
+    let pattern = NormalPattern::new(problem.num_dofs() / 3, problem.triangles());
     let mut solver = Solver {
         problem,
         params: *params,
         scale,
         tangential: tangential_weights(problem),
         chol: SparseCholesky::new(),
-        pattern: NormalPattern::new(problem.num_dofs() / 3, problem.triangles()),
+        lu: PinnedLu::new(&pattern, problem.target()),
+        pattern,
         damping: params.initial_damping,
+        edge: mean_edge(problem),
+        newton_wait: 0,
+        newton_backoff: 0,
     };
     let mut info = InverseInfo {
         converged: false,
         load_reached: 0.0,
         relative_residual: f64::INFINITY,
         iterations: 0,
+        fallback_steps: 0,
         stages: 0,
         halvings: 0,
         seconds: 0.0,
@@ -232,6 +258,21 @@ pub fn design_rest_shape(
     Ok(info)
 }
 
+/// Step halvings of a Newton step's line search before it falls back to Levenberg-Marquardt.
+const NEWTON_BACKTRACKS: usize = 4;
+
+/// Newton steps are tried only below this relative residual: from farther away a full Newton
+/// step on a fine mesh lands on another root of `r(X) = 0` (rest vertices popped through their
+/// neighbours' plane leave every edge length, hence every force, unchanged) or far off along
+/// the near-isometric motions of the rest mesh (`docs/design.md`).
+const NEWTON_RESIDUAL: f64 = 1e-2;
+
+/// Largest vertex displacement of a Newton step, over the target's mean edge length.
+const NEWTON_MAX_MOVE: f64 = 0.1;
+
+/// Most damped steps taken after refused Newton steps before the next Newton step is tried.
+const NEWTON_MAX_WAIT: usize = 16;
+
 enum Stage {
     Converged(f64),
     Failed,
@@ -240,6 +281,20 @@ enum Stage {
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|a| a * a).sum::<f64>().sqrt()
+}
+
+/// Mean edge length of the target (m; interior edges counted twice).
+fn mean_edge(problem: &DesignProblem) -> f64 {
+    let x = problem.target();
+    let t = problem.triangles();
+    let sum: f64 = t
+        .iter()
+        .map(|t| {
+            let [a, b, c] = crate::problem::corners(x, t);
+            (b - a).norm() + (c - b).norm() + (a - c).norm()
+        })
+        .sum();
+    sum / (3 * t.len()).max(1) as f64
 }
 
 /// Per vertex `a_v (I - n_v n_v^T)` with `n_v` the area-weighted unit normal of the target and
@@ -267,6 +322,78 @@ fn tangential_weights(problem: &DesignProblem) -> Vec<nalgebra::Matrix3<f64>> {
 }
 
 impl Solver<'_> {
+    /// Whether the next step is a Newton step (counts down the damped steps that follow a
+    /// refused one).
+    fn newton_ready(&mut self) -> bool {
+        if self.newton_wait == 0 {
+            return true;
+        }
+        self.newton_wait -= 1;
+        false
+    }
+
+    /// One Newton step on `r(X) = 0` from `x` with the bordered LU factor of `J` (D10) and a
+    /// backtracking line search on `|r|^2` (Armijo); on success `x`, `r` and `j` hold the new
+    /// point. `false` when the factorisation or the step fails or no step length decreases
+    /// `|r|^2` enough.
+    #[allow(clippy::too_many_arguments)]
+    fn newton_step(
+        &mut self,
+        x: &mut [f64],
+        load: f64,
+        r: &mut Vec<f64>,
+        j: &mut Vec<Matrix3<f64>>,
+        r_trial: &mut Vec<f64>,
+        j_trial: &mut Vec<Matrix3<f64>>,
+        trial: &mut [f64],
+    ) -> bool {
+        if !self.lu.factorize(j) {
+            return false;
+        }
+        let Some(dx) = self.lu.step(r) else {
+            return false;
+        };
+        let largest = dx
+            .chunks(3)
+            .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+            .fold(0.0, f64::max);
+        if largest > NEWTON_MAX_MOVE * self.edge {
+            self.refuse_newton();
+            return false;
+        }
+        let m0 = r.iter().map(|v| v * v).sum::<f64>();
+        let mut t = 1.0;
+        for _ in 0..NEWTON_BACKTRACKS {
+            for ((y, a), d) in trial.iter_mut().zip(x.iter()).zip(&dx) {
+                *y = a + t * d;
+            }
+            if self
+                .problem
+                .evaluate_blocks(trial, load, &self.pattern, r_trial, j_trial)
+                .is_ok()
+            {
+                let m = r_trial.iter().map(|v| v * v).sum::<f64>();
+                // Armijo on |r|^2, whose slope along the Newton step is -2 |r|^2.
+                if m <= (1.0 - 2e-4 * t) * m0 {
+                    self.newton_backoff = 0;
+                    x.copy_from_slice(trial);
+                    std::mem::swap(r, r_trial);
+                    std::mem::swap(j, j_trial);
+                    return true;
+                }
+            }
+            t *= 0.5;
+        }
+        self.refuse_newton();
+        false
+    }
+
+    /// Damped steps take over for a while, longer after every refused Newton step in a row.
+    fn refuse_newton(&mut self) {
+        self.newton_backoff = (2 * self.newton_backoff).clamp(1, NEWTON_MAX_WAIT);
+        self.newton_wait = self.newton_backoff;
+    }
+
     /// One continuation stage at load factor `load`: Levenberg-Marquardt from `x` until the
     /// relative residual is below `tol`.
     fn stage(
@@ -307,14 +434,40 @@ impl Solver<'_> {
         let mut g = vec![0.0; n];
         let (mut jdx, mut rvv, mut acc) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let mut mean_diag = 0.0;
-        for it in 0..self.params.max_iterations {
+        let newton = self.params.newton && beta == 0.0;
+        for _ in 0..self.params.max_iterations {
             let res = norm(&r) / self.scale;
             if res <= tol {
                 return Ok(Stage::Converged(res));
             }
+            if newton
+                && res <= NEWTON_RESIDUAL
+                && self.newton_ready()
+                && self.newton_step(
+                    x,
+                    load,
+                    &mut r,
+                    &mut j,
+                    &mut r_trial,
+                    &mut j_trial,
+                    &mut trial,
+                )
+            {
+                info.iterations += 1;
+                let report = InverseProgress {
+                    load,
+                    relative_residual: norm(&r) / self.scale,
+                    iterations: info.iterations,
+                };
+                if !progress(&report) {
+                    return Ok(Stage::Stopped);
+                }
+                continue;
+            }
+            info.fallback_steps += 1;
             // Normal equations (J^T J + beta T + mu I) dX = -(J^T r + beta T (X - X_ref)).
             self.pattern.normal(&j, &r, &mut jtj, &mut g);
-            if it == 0 {
+            if mean_diag == 0.0 {
                 mean_diag = self.pattern.trace(&jtj) / n as f64;
             }
             if beta > 0.0 {

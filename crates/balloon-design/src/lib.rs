@@ -39,6 +39,7 @@ mod error;
 mod forward;
 mod inverse;
 mod normal;
+mod pinned;
 mod problem;
 
 pub use error::DesignError;

@@ -130,6 +130,21 @@ impl NormalPattern {
         }
     }
 
+    /// Vertices.
+    pub(crate) fn vertices(&self) -> usize {
+        self.nv
+    }
+
+    /// The column blocks of block row `v` of `J` (the one-ring of `v` and `v`, sorted).
+    pub(crate) fn j_row(&self, v: usize) -> &[usize] {
+        &self.j_col[self.j_ptr[v]..self.j_ptr[v + 1]]
+    }
+
+    /// The slot in `J` of block `(a, b)` (`b` in the one-ring of `a`).
+    pub(crate) fn j_slot(&self, a: usize, b: usize) -> usize {
+        self.j_ptr[a] + find(self.j_row(a), b)
+    }
+
     /// Blocks of `J`.
     pub(crate) fn j_blocks(&self) -> usize {
         self.j_col.len()

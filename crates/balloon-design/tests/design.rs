@@ -37,7 +37,15 @@ fn neo_hookean_sphere_matches_the_thin_sphere_curve() {
         let problem =
             DesignProblem::try_new(&target, vec![H; target.num_triangles()], membrane(), p)
                 .unwrap();
-        let result = design(&problem, &DesignParams::default(), |_| true).unwrap();
+        let newton = std::env::var("DESIGN_NEWTON").map_or(true, |v| v != "off");
+        let params = DesignParams {
+            inverse: InverseParams {
+                newton,
+                ..InverseParams::default()
+            },
+            ..DesignParams::default()
+        };
+        let result = design(&problem, &params, |_| true).unwrap();
         assert!(result.inverse.converged, "{:?}", result.inverse);
         let rest_radius = result
             .rest
@@ -231,7 +239,17 @@ fn round_trips_on_real_meshes() {
         ShellMaterialModel::Solid(MaterialModel::NeoHookean(NeoHookean::new(lame)));
     let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
     let mut meshes = Vec::new();
+    // `DESIGN_MESHES=teddy,spot.obj` runs only those; `DESIGN_NEWTON=off` runs the
+    // Levenberg-Marquardt iteration alone (for comparison).
+    let only = std::env::var("DESIGN_MESHES").ok();
+    let newton = std::env::var("DESIGN_NEWTON").map_or(true, |v| v != "off");
     for name in ["bunny_closed_libigl.off", "teddy", "spot.obj"] {
+        if only
+            .as_ref()
+            .is_some_and(|o| !o.split(',').any(|m| m == name))
+        {
+            continue;
+        }
         if name == "teddy" {
             meshes.push((name, fit(balloon_mesh::builtin("teddy").unwrap(), 0.1)));
             continue;
@@ -253,7 +271,14 @@ fn round_trips_on_real_meshes() {
             DesignProblem::try_new(&target, vec![H; target.num_triangles()], nh.clone(), 2.0e3)
                 .unwrap();
         let started = std::time::Instant::now();
-        let result = design(&problem, &DesignParams::default(), |p| {
+        let params = DesignParams {
+            inverse: InverseParams {
+                newton,
+                ..InverseParams::default()
+            },
+            ..DesignParams::default()
+        };
+        let result = design(&problem, &params, |p| {
             eprintln!(
                 "  {name}: load {:.4}, iteration {}, relative residual {:.3e} ({:.1} s)",
                 p.load,
@@ -269,11 +294,12 @@ fn round_trips_on_real_meshes() {
         let inflation = distance(&x_star, &x0);
         eprintln!(
             "{name}: {} vertices; forward static solve {forward_seconds:.2} s; design {:.2} s \
-             ({} iterations, {} stages); check {:.2} s; inflation moved {:.3e} of the diagonal; \
+             ({} iterations, {} of them Levenberg-Marquardt, {} stages); check {:.2} s; inflation moved {:.3e} of the diagonal; \
              rest recovered to {:.3e}; forward equilibrium within {:.3e}",
             mesh.num_vertices(),
             result.inverse.seconds,
             result.inverse.iterations,
+            result.inverse.fallback_steps,
             result.inverse.stages,
             result.check.seconds,
             inflation.max_relative,
@@ -284,5 +310,71 @@ fn round_trips_on_real_meshes() {
         assert!(recovered.max_relative < 1e-3, "{name}: {recovered:?}");
         assert!(result.check.converged, "{name}");
         assert!(result.check.distance.max_relative < 1e-4, "{name}");
+    }
+}
+
+/// Newton's local convergence on the real meshes: the design started from the known rest
+/// shape `X0` plus a smooth displacement field of amplitude `eps` of the diagonal, at the full
+/// pressure, without continuation (release build, by hand:
+/// `cargo test --release -p balloon-design --test design -- --ignored --nocapture newton_near`).
+#[test]
+#[ignore = "large meshes: run by hand in release"]
+fn newton_near_the_known_rest_shape() {
+    let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
+    let nh: ShellMaterialModel =
+        ShellMaterialModel::Solid(MaterialModel::NeoHookean(NeoHookean::new(lame)));
+    let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
+    let only = std::env::var("DESIGN_MESHES").ok();
+    for name in ["bunny_closed_libigl.off", "teddy", "spot.obj"] {
+        if only
+            .as_ref()
+            .is_some_and(|o| !o.split(',').any(|m| m == name))
+        {
+            continue;
+        }
+        let mesh = if name == "teddy" {
+            fit(balloon_mesh::builtin("teddy").unwrap(), 0.1)
+        } else {
+            let path = shared.join(name);
+            if !path.exists() {
+                eprintln!("skipping {name}");
+                continue;
+            }
+            fit(balloon_mesh::io::read_mesh(&path).unwrap(), 0.1)
+        };
+        let x_star = inflate(&mesh, &nh, 2.0e3);
+        let mut target = mesh.clone();
+        target.set_positions_flat(&x_star);
+        let problem =
+            DesignProblem::try_new(&target, vec![H; target.num_triangles()], nh.clone(), 2.0e3)
+                .unwrap();
+        let x0 = mesh.positions_flat();
+        let diag = balloon_design::bbox_diagonal(&x0);
+        for eps in [0.0, 1e-5, 1e-4, 1e-3] {
+            let mut rest: Vec<f64> = x0
+                .chunks(3)
+                .flat_map(|p| {
+                    let w = eps * diag * (40.0 * p[0]).sin() * (30.0 * p[1]).cos();
+                    [p[0] + w, p[1] - 0.5 * w, p[2] + 0.3 * w]
+                })
+                .collect();
+            let params = InverseParams {
+                max_halvings: 0,
+                ..InverseParams::default()
+            };
+            let info = design_rest_shape(&problem, &params, &mut rest, |p| {
+                eprintln!(
+                    "  {name} eps {eps:e}: iteration {}, relative residual {:.3e}",
+                    p.iterations, p.relative_residual
+                );
+                true
+            })
+            .unwrap();
+            let recovered = distance(&rigidly_aligned(&rest, &x0), &x0);
+            eprintln!(
+                "{name} eps {eps:e}: converged {}, {} iterations ({} damped), recovered to {:.3e}",
+                info.converged, info.iterations, info.fallback_steps, recovered.max_relative
+            );
+        }
     }
 }
