@@ -4,9 +4,9 @@
 // resume, type an invalid control value and expect a visible error, and save a screenshot per
 // system to target/e2e/viewer-<system>.png. Run by `cargo xtask e2e` (which builds the binary).
 // A scenario run (a scenario file given in --systems, relative to the workspace, and the
-// built-in `connect`) is watched rather than dragged: for those the page must offer no drag,
-// and a value changed on the page must be in the scenario the "save scenario" link downloads,
-// which `balloon run` must accept.
+// built-in `connect`) is dragged like the built-in systems (the drag acts on top of the
+// scenario's anchors and loads), and a value changed on the page must be in the scenario the
+// "save scenario" link downloads, which `balloon run` must accept.
 //
 //   node e2e.mjs [--balloon PATH] [--systems shell,volumetric,two-layer,connect,FILE.toml]
 //                [--out DIR] [--chromium PATH] [--mock]
@@ -177,24 +177,14 @@ async function testSystem(browser, system) {
     //    along the view direction, which the drag plane is perpendicular to. The body may follow
     //    as a whole (a free body does), so this is not measured relative to the centroid.
     const box = await page.locator('#canvas').boundingBox();
-    const draggable = !(await page.locator('#drag-row').isHidden());
-    if (!draggable) {
-      // A scenario run: no drag on offer, a press on the body orbits instead of grabbing it.
-      check(isFile(system) || system === 'connect', `${system} offers no drag`);
-      await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
-      await page.mouse.down();
-      await page.mouse.move(box.x + box.width / 2 + 40, box.y + box.height / 2 - 40, { steps: 4 });
-      await sleep(300);
-      check((await state(url)).drag === null, 'a press on a scenario run started a drag');
-      await page.mouse.up();
-      await page.screenshot({ path: join(outDir, `viewer-${name}.png`) });
-      notes.push('no drag (scenario run)');
-    }
+    // Every system and scenario is dragged (a scenario's drag acts on top of its anchors and
+    // loads).
+    check(!(await page.locator('#drag-row').isHidden()), `${system} offers no drag`);
     // A falling or toppling body (volumetric) can leave the point between the hover test and the
     // press, and a press off the body orbits instead: like a person, release and try again.
     let start;
     let grabbed = null;
-    for (let attempt = 1; draggable && !grabbed; attempt++) {
+    for (let attempt = 1; !grabbed; attempt++) {
       start = await pointOverBody(page, box);
       await page.mouse.down();
       grabbed = await until('the drag to reach the server (/api/state drag)',
@@ -204,7 +194,6 @@ async function testSystem(browser, system) {
       });
       if (!grabbed) await page.mouse.up();
     }
-    if (draggable) {
     const vertex = grabbed.vertex;
     const s0 = await state(url, vertex);
     const p0 = s0.vertex.position;
@@ -244,7 +233,6 @@ async function testSystem(browser, system) {
       await page.selectOption('#drag-mode', 'grab');
       notes.push('pinch ok');
     }
-    }
 
     // 4. An invalid control value shows an error naming the control; the server keeps its value.
     const control = await page.evaluate(() => {
@@ -263,10 +251,11 @@ async function testSystem(browser, system) {
     check((await state(url)).controls[control.name] !== bad, `the server accepted ${control.name} = ${bad}`);
     notes.push(`invalid ${control.name}=${bad}: "${message}"`);
 
-    // 4b. A scenario run saves its set-up: a value changed on the page is in the file the
-    //     "save scenario" link downloads, and `balloon run` accepts that file.
+    // 4b. A scenario run or a built-in set-up saves its set-up: a value changed on the page is
+    //     in the file the "save scenario" link downloads, and `balloon run` accepts that file.
     const saveShown = !(await page.locator('#save').isHidden());
-    check(saveShown === !draggable, `the save link is ${saveShown ? 'shown' : 'hidden'} for ${system}`);
+    // Every set-up but the built-in volumetric body saves as a scenario.
+    check(saveShown === (system !== 'volumetric'), `the save link is ${saveShown ? 'shown' : 'hidden'} for ${system}`);
     if (saveShown && !mock) {
       const dt = (await state(url)).controls.dt;
       check(typeof dt === 'number', 'the scenario run has no dt control');
