@@ -33,7 +33,8 @@ pub struct Options {
     /// Comma-separated systems to test, and scenario files (relative to the workspace) to view
     /// (default: shell, volumetric, two-layer, connect and `examples/pinned-neck/pinned-neck.toml`;
     /// `examples/static-sphere/static-sphere.toml` and `examples/drop-sphere/drop-sphere.toml`
-    /// are not in the default list yet: each failed at least once in a full run).
+    /// join the default list once each has passed ten runs in a row under load; see
+    /// docs/viewer.md, "End-to-end test").
     pub systems: Option<String>,
 }
 

@@ -59,8 +59,8 @@ mod server;
 mod systems;
 
 pub use systems::{
-    DragRequest, ScenarioView, ShellView, TwoLayerView, ViewSystem, ViewedSimulation,
-    VolumetricView, builtin_connect,
+    DEFAULT_SHELL_MESH, DragRequest, ScenarioView, ShellView, TwoLayerView, ViewSystem,
+    ViewedSimulation, VolumetricView, builtin_connect,
 };
 
 use access::{Access, MAX_CONNECTIONS, RefusalLog};
@@ -342,7 +342,7 @@ pub fn default_mesh(system: SystemKind) -> Result<TriMesh, balloon_mesh::MeshErr
         ..Default::default()
     };
     match system {
-        SystemKind::Shell => balloon_mesh::generate::teddy(&params),
+        SystemKind::Shell => balloon_mesh::builtin::load(DEFAULT_SHELL_MESH),
         // A soft teddy cannot stand on its round feet: standing it topples onto its back within
         // a quarter of a second. It starts lying on its back (face up, +y), at rest on the floor.
         SystemKind::Volumetric => {

@@ -15,7 +15,8 @@ use balloon_scenario::selection::parse_pin;
 use balloon_scenario::shell::ShellScenario;
 use balloon_scenario::two_layer::TwoLayerScenario;
 
-/// The built-in mesh the shell view starts with (`default_mesh`).
+/// The built-in mesh the shell view starts with ([`crate::default_mesh`]): the teddy at
+/// resolution 14 (1304 vertices).
 pub const DEFAULT_SHELL_MESH: &str = "builtin:teddy-coarse";
 
 /// A mesh spec as a scenario file elsewhere can read it: built-in names as they are, a file by
@@ -29,7 +30,7 @@ fn portable_mesh_path(spec: &str) -> String {
 
 impl ShellView {
     /// The shell scenario of the current set-up: mesh, material (a membrane with the view's
-    /// parameters, `mu = E / 3` split as [`ViewMaterial::model`] does), thickness, gas, time
+    /// parameters, `mu = E / 3` split as the page's material choice does), thickness, gas, time
     /// step, linear solver, tangent, the live view's fixed three Newton iterations and, with
     /// `hold`, the held vertices as a spring anchor (`below:y:VALUE@K`, `K = 10 E h`).
     pub fn scenario(&self) -> Result<ShellScenario, ViewerError> {

@@ -48,9 +48,11 @@ pub struct ScenarioView {
     drag: Option<ScenarioDrag>,
     /// Whether the last step ran with a drag (its springs or forces are still set).
     dragged: bool,
-    /// A shell's (or each connected balloon's) own integrator parameters while a drag runs
-    /// them with the live view's fixed Newton iterations; restored on release.
-    own_integrators: Vec<BackwardEulerParams>,
+    /// Whether a drag switched the shell (or connected balloons) to the live view's fixed
+    /// Newton iterations (until the next rebuild).
+    live_newton: bool,
+    /// The page's drag as last set on a two-layer body.
+    page_two_layer_drag: Option<DragRequest>,
 }
 
 /// The page's drag of a scenario run.
@@ -171,7 +173,8 @@ impl ScenarioView {
             start,
             drag: None,
             dragged: false,
-            own_integrators: Vec::new(),
+            live_newton: false,
+            page_two_layer_drag: None,
         })
     }
 
@@ -203,50 +206,32 @@ impl ScenarioView {
         }
     }
 
-    /// While the page drags a shell or connected balloons, they step with the live view's
-    /// fixed Newton iterations (the paper's three, as the built-in shell always does): with
-    /// the scenario's converged Newton a pinch stalled a step of
-    /// `examples/static-sphere/static-sphere.toml` and of the built-in `connect` for over 12 s
-    /// (measured in a debug build). The scenario's own settings return on release.
+    /// From the page's first drag on, a shell or connected balloons step with the live view's
+    /// fixed Newton iterations (the paper's three, as the built-in shell always does) until the
+    /// run is rebuilt (reset, a changed control), which brings back the scenario's own: with
+    /// the scenario's converged Newton a pinch stalled a single step of
+    /// `examples/static-sphere/static-sphere.toml` and of the built-in `connect` for over
+    /// 12 s, and so did the first converged step after releasing a pinch (over 30 s; debug
+    /// build, load average 10). A dragged run is not `balloon run`'s anyway.
     fn live_newton(&mut self) -> Result<(), ViewerError> {
+        if self.drag.is_none() || self.live_newton {
+            return Ok(());
+        }
         let live = |p: &mut BackwardEulerParams| {
             p.newton_iterations = super::shell::VIEWER_NEWTON_ITERATIONS;
             p.newton_tolerance = 0.0;
         };
-        let start = self.drag.is_some() && self.own_integrators.is_empty();
-        let end = self.drag.is_none() && !self.own_integrators.is_empty();
         match &mut self.running {
-            Running::Shell(sim, _) if start => {
-                self.own_integrators = vec![*sim.integrator_params()];
-                sim.configure_integrator(live)?;
-            }
-            Running::Shell(sim, _) if end => {
-                let own = self.own_integrators[0];
-                sim.configure_integrator(|p| *p = own)?;
-                self.own_integrators.clear();
-            }
-            Running::Connect(sim) if start => {
-                self.own_integrators = sim
-                    .balloons()
-                    .iter()
-                    .map(|b| *b.integrator_params())
-                    .collect();
-                for b in 0..self.own_integrators.len() {
+            Running::Shell(sim, _) => sim.configure_integrator(live)?,
+            Running::Connect(sim) => {
+                for b in 0..sim.balloons().len() {
                     sim.configure_integrator(b, live)
                         .map_err(|e| ViewerError::Scenario(chain(&e)))?;
                 }
             }
-            Running::Connect(sim) if end => {
-                for (b, own) in std::mem::take(&mut self.own_integrators)
-                    .into_iter()
-                    .enumerate()
-                {
-                    sim.configure_integrator(b, |p| *p = own)
-                        .map_err(|e| ViewerError::Scenario(chain(&e)))?;
-                }
-            }
-            _ => {}
+            Running::Volumetric(..) | Running::TwoLayer(..) => {}
         }
+        self.live_newton = true;
         Ok(())
     }
 
@@ -299,10 +284,17 @@ impl ScenarioView {
                 };
                 sim.set_external_forces(forces.as_deref())?;
             }
+            // The spring acts every step once set; it is set again only when the page moves
+            // the target (as the built-in two-layer view does).
             Running::TwoLayer(sim, ..) => match drag {
-                Some(d) => super::two_layer::set_drag(sim, &d.request)?,
+                Some(d) if self.page_two_layer_drag == Some(d.request) => {}
+                Some(d) => {
+                    super::two_layer::set_drag(sim, &d.request)?;
+                    self.page_two_layer_drag = Some(d.request);
+                }
                 None => {
                     sim.set_drag(None)?;
+                    self.page_two_layer_drag = None;
                 }
             },
         }
@@ -450,7 +442,8 @@ impl ViewSystem for ScenarioView {
         self.start = drawn(&self.running).positions();
         self.drag = None;
         self.dragged = false;
-        self.own_integrators.clear();
+        self.live_newton = false;
+        self.page_two_layer_drag = None;
         Ok(())
     }
 
