@@ -31,10 +31,8 @@ const STAMP: &str = ".balloon-installed-lock.json";
 #[derive(Debug, Clone, Default)]
 pub struct Options {
     /// Comma-separated systems to test, and scenario files (relative to the workspace) to view
-    /// (default: shell, volumetric, two-layer, connect and `examples/pinned-neck/pinned-neck.toml`;
-    /// `examples/static-sphere/static-sphere.toml` and `examples/drop-sphere/drop-sphere.toml`
-    /// join the default list once each has passed ten runs in a row under load; see
-    /// docs/viewer.md, "End-to-end test").
+    /// (default: shell, volumetric, two-layer, connect, `examples/pinned-neck/pinned-neck.toml`,
+    /// `examples/static-sphere/static-sphere.toml` and `examples/drop-sphere/drop-sphere.toml`).
     pub systems: Option<String>,
 }
 
