@@ -97,7 +97,7 @@ enum Task {
     /// The live viewer's end-to-end test: `balloon view` driven in headless Chromium.
     E2e {
         /// Comma-separated systems and scenario files to test (default:
-        /// shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml).
+        /// shell,volumetric,two-layer,connect and the pinned-neck, static-sphere and drop-sphere examples).
         #[arg(long)]
         systems: Option<String>,
     },

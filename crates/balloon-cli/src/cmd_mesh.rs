@@ -20,7 +20,7 @@ pub enum MeshCommand {
 #[derive(Debug, clap::Args)]
 pub struct InfoArgs {
     /// Mesh file (.obj, .off, .ply, .stl) or `builtin[:NAME]` (teddy, icosphere, sphere,
-    /// octasphere, uvsphere, torus, box, tube, fin).
+    /// octasphere, uvsphere, torus, box, tube, fin, teddy-coarse).
     pub mesh: String,
     /// Print the statistics as one JSON object on the last stdout line.
     #[arg(long)]

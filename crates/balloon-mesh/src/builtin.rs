@@ -8,6 +8,7 @@ use std::path::Path;
 /// Names accepted by [`builtin`], the default first.
 pub const BUILTIN_NAMES: &[&str] = &[
     "teddy",
+    "teddy-coarse",
     "icosphere",
     "sphere",
     "octasphere",
@@ -23,6 +24,7 @@ pub const BUILTIN_NAMES: &[&str] = &[
 /// | name | mesh |
 /// |---|---|
 /// | `teddy` | [`generate::teddy()`] with default [`TeddyParams`] (0.3 m tall, ~8k vertices) |
+/// | `teddy-coarse` | [`generate::teddy()`] at resolution 14 (1304 vertices): the live viewer's default shell |
 /// | `icosphere`, `sphere` | icosphere level 4, radius 0.1 m (2562 vertices) |
 /// | `octasphere` | subdivided octahedron level 5, radius 0.1 m (4098 vertices) |
 /// | `uvsphere` | UV sphere, radius 0.1 m, 64 slices x 32 stacks |
@@ -38,6 +40,10 @@ pub const BUILTIN_NAMES: &[&str] = &[
 pub fn builtin(name: &str) -> Result<TriMesh, MeshError> {
     match name.trim().to_ascii_lowercase().as_str() {
         "teddy" => generate::teddy(&TeddyParams::default()),
+        "teddy-coarse" => generate::teddy(&TeddyParams {
+            resolution: 14,
+            ..TeddyParams::default()
+        }),
         "icosphere" | "sphere" => generate::icosphere(0.1, 4),
         "octasphere" => generate::octahedron_sphere(0.1, 5),
         "uvsphere" => generate::uv_sphere(0.1, 64, 32),

@@ -97,6 +97,7 @@ function apply(msg, reply) {
     case 'scalar': sim.scalar = msg.name; return;
     case 'drag': sim.drag = { vertex: msg.vertex, target: msg.target, mode: msg.mode }; return;
     case 'release': sim.drag = null; return;
+    case 'ack': return; // the mock sends every frame
     default: err(`unknown message type "${msg.type}"`);
   }
 }

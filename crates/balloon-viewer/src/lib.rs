@@ -59,8 +59,8 @@ mod server;
 mod systems;
 
 pub use systems::{
-    DragRequest, ScenarioView, ShellView, TwoLayerView, ViewSystem, ViewedSimulation,
-    VolumetricView, builtin_connect,
+    DEFAULT_SHELL_MESH, DragRequest, ScenarioView, ShellView, TwoLayerView, ViewSystem,
+    ViewedSimulation, VolumetricView, builtin_connect,
 };
 
 use access::{Access, MAX_CONNECTIONS, RefusalLog};
@@ -342,7 +342,7 @@ pub fn default_mesh(system: SystemKind) -> Result<TriMesh, balloon_mesh::MeshErr
         ..Default::default()
     };
     match system {
-        SystemKind::Shell => balloon_mesh::generate::teddy(&params),
+        SystemKind::Shell => balloon_mesh::builtin::load(DEFAULT_SHELL_MESH),
         // A soft teddy cannot stand on its round feet: standing it topples onto its back within
         // a quarter of a second. It starts lying on its back (face up, +y), at rest on the floor.
         SystemKind::Volumetric => {
@@ -408,7 +408,9 @@ pub fn build_system(options: &ViewerOptions) -> Result<Box<dyn ViewSystem>, View
         })
     };
     match options.system {
-        SystemKind::Shell => build(ShellView::new(mesh).map(|s| Box::new(s) as _)),
+        SystemKind::Shell => build(
+            ShellView::new(mesh).map(|s| Box::new(s.with_mesh_spec(options.mesh.clone())) as _),
+        ),
         SystemKind::Volumetric => build(VolumetricView::new(mesh).map(|s| Box::new(s) as _)),
         SystemKind::TwoLayer => build(TwoLayerView::new().map(|s| Box::new(s) as _)),
         // Built as a scenario run above; kept for a complete match.
@@ -773,12 +775,12 @@ mod tests {
         );
         assert_eq!(status, 400);
         assert!(body.contains("malformed Content-Length"), "{body}");
-        // The server still answers, and a built-in system has no scenario to save.
+        // The server still answers, and saves the built-in two-layer body as a scenario.
         let get = |path: &str| format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n");
         assert_eq!(ask(&addr, get("/api/state").as_bytes()).0, 200);
         let (status, body) = ask(&addr, get("/api/scenario").as_bytes());
-        assert_eq!(status, 404);
-        assert!(body.contains("built-in system"), "{body}");
+        assert_eq!(status, 200);
+        assert!(body.contains("kind = \"two-layer\""), "{body}");
     }
 
     #[test]
@@ -805,6 +807,73 @@ mod tests {
         o.mesh = Some("builtin:box".into());
         let e = build_system(&o).err().unwrap().to_string();
         assert!(e.contains("the scenario names its own mesh"), "{e}");
+    }
+
+    /// The next text message of `ws` of type `frame` within `within`, as its frame number.
+    fn next_frame(
+        ws: &mut tungstenite::WebSocket<tungstenite::stream::MaybeTlsStream<TcpStream>>,
+        within: Duration,
+    ) -> Option<u64> {
+        let end = std::time::Instant::now() + within;
+        while std::time::Instant::now() < end {
+            match ws.read() {
+                Ok(tungstenite::Message::Text(t)) => {
+                    let v: serde_json::Value = serde_json::from_str(t.as_str()).unwrap();
+                    if v["type"] == "frame" {
+                        return v["frame"].as_u64();
+                    }
+                }
+                Ok(_) => {}
+                Err(tungstenite::Error::Io(e))
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                    ) => {}
+                Err(e) => panic!("{e}"),
+            }
+        }
+        None
+    }
+
+    #[test]
+    fn a_page_that_acknowledges_frames_is_sent_one_at_a_time() {
+        let viewer = Viewer::start(&ViewerOptions::new(SystemKind::TwoLayer)).unwrap();
+        let ws_url = format!("{}ws", viewer.url().replace("http://", "ws://"));
+        let server = std::thread::spawn(move || viewer.serve(Some(Duration::from_secs(10))));
+        let connect = || {
+            let (ws, _) = tungstenite::connect(&ws_url).unwrap();
+            if let tungstenite::stream::MaybeTlsStream::Plain(s) = ws.get_ref() {
+                s.set_read_timeout(Some(Duration::from_millis(20))).unwrap();
+            }
+            ws
+        };
+        let (mut paced, mut free) = (connect(), connect());
+        let first = next_frame(&mut paced, Duration::from_secs(5)).expect("a first frame");
+        let ack = |ws: &mut tungstenite::WebSocket<_>, f: u64| {
+            let text = format!(r#"{{"type":"ack","frame":{f}}}"#);
+            ws.send(tungstenite::Message::text(text)).unwrap();
+        };
+        ack(&mut paced, first);
+        // Frames already on their way, then the one sent after the ack: then nothing until
+        // it is acknowledged (or `ACK_TIMEOUT` passes).
+        let mut last = first;
+        while let Some(f) = next_frame(&mut paced, Duration::from_millis(300)) {
+            last = f;
+        }
+        assert_eq!(next_frame(&mut paced, Duration::from_millis(500)), None);
+        ack(&mut paced, last);
+        let next =
+            next_frame(&mut paced, Duration::from_millis(500)).expect("a frame after the ack");
+        assert!(next > last);
+        // A client that never acknowledges gets every frame as before.
+        let mut got = 0;
+        while got < 5 && next_frame(&mut free, Duration::from_millis(500)).is_some() {
+            got += 1;
+        }
+        assert_eq!(got, 5);
+        drop((paced, free));
+        // The server stops by itself (`exit_after`); the test does not wait for it.
+        drop(server);
     }
 
     #[test]

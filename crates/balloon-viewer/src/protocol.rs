@@ -222,7 +222,18 @@ pub enum ClientMessage {
     },
     /// Drop the drag.
     Release,
+    /// The page has drawn frame `frame`: from its first `ack` on, a connection sends a frame
+    /// only when the one before it was acknowledged (or after [`ACK_TIMEOUT`]), so a page that
+    /// draws slower than the server publishes gets fewer frames instead of a queue of them.
+    Ack {
+        /// The acknowledged frame's number.
+        frame: u64,
+    },
 }
+
+/// How long a connection in acknowledged mode waits for the `ack` of its last frame before it
+/// sends the next one anyway (a lost `ack`, a page in a background tab that draws nothing).
+pub const ACK_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(1);
 
 fn field<'a>(obj: &'a Map<String, Value>, ty: &str, key: &str) -> Result<&'a Value, String> {
     obj.get(key)
@@ -265,6 +276,12 @@ pub fn parse_client_message(text: &str) -> Result<ClientMessage, String> {
         "resume" => Ok(ClientMessage::Resume),
         "reset" => Ok(ClientMessage::Reset),
         "release" => Ok(ClientMessage::Release),
+        "ack" => {
+            let frame = field(obj, ty, "frame")?.as_u64().ok_or_else(|| {
+                "`ack` message: `frame` must be a non-negative integer".to_string()
+            })?;
+            Ok(ClientMessage::Ack { frame })
+        }
         "scalar" => {
             let name = field(obj, ty, "name")?
                 .as_str()
@@ -398,6 +415,18 @@ mod tests {
             ),
             ControlSpec::boolean("box", "Wall box", true, true),
         ]
+    }
+
+    #[test]
+    fn acknowledgements_parse() {
+        assert_eq!(
+            parse_client_message(r#"{"type":"ack","frame":12}"#).unwrap(),
+            ClientMessage::Ack { frame: 12 }
+        );
+        for bad in [r#"{"type":"ack"}"#, r#"{"type":"ack","frame":-1}"#] {
+            let e = parse_client_message(bad).unwrap_err();
+            assert!(e.contains("`ack` message"), "{e}");
+        }
     }
 
     #[test]

@@ -422,6 +422,8 @@ impl Runner {
             // Each connection chooses its colour field itself (`crate::server`); the choice
             // never reaches the simulation.
             ClientMessage::Scalar { .. } => Err(ViewerError::ScalarNotForSimulation),
+            // Acknowledgements pace one connection's frames (`crate::server`); nothing to do.
+            ClientMessage::Ack { .. } => Ok(()),
             ClientMessage::Drag {
                 vertex,
                 target,

@@ -4,7 +4,7 @@
 use crate::access::{
     Access, MAX_CONNECTIONS, MAX_TRANSPORT_MESSAGE, Refusal, RefusalKind, RefusalLog, shown,
 };
-use crate::protocol::{ClientMessage, error_message, parse_client_message};
+use crate::protocol::{ACK_TIMEOUT, ClientMessage, error_message, parse_client_message};
 use crate::runner::{Command, FRAME_INTERVAL, Shared};
 use include_dir::{Dir, include_dir};
 use serde_json::Value;
@@ -422,7 +422,7 @@ pub fn handle_connection(mut stream: TcpStream, context: &Context) {
             None => respond_error(
                 &mut stream,
                 "404 Not Found",
-                "this view runs a built-in system, not a scenario: start it with `balloon view SCENARIO.toml` (or `balloon view connect`) to save its scenario",
+                "this view's set-up (the built-in volumetric body) has no scenario to save: start it from a scenario file (`balloon view SCENARIO.toml`) to save one",
             ),
         }
         return;
@@ -521,6 +521,10 @@ fn websocket_session(mut ws: WebSocket<TcpStream>, shared: &Shared, commands: &S
     let mut broadcast_seq = shared.lock().broadcasts.last().map_or(0, |b| b.0);
     let mut last_frame = Instant::now() - FRAME_INTERVAL;
     let mut congested = false;
+    // Acknowledged mode (after the client's first `ack`): the frame sent and not yet
+    // acknowledged, and when it was sent.
+    let mut acking = false;
+    let mut unacked: Option<(u64, Instant)> = None;
     let mut scalar = ScalarChoice {
         shared,
         chosen: None,
@@ -556,10 +560,17 @@ fn websocket_session(mut ws: WebSocket<TcpStream>, shared: &Shared, commands: &S
                         out.push(b.clone());
                     }
                 }
-                if p.frame_number > frame_number && last_frame.elapsed() >= FRAME_INTERVAL {
+                let waiting = unacked.is_some_and(|(_, sent)| sent.elapsed() < ACK_TIMEOUT);
+                if p.frame_number > frame_number
+                    && last_frame.elapsed() >= FRAME_INTERVAL
+                    && !waiting
+                {
                     frame_number = p.frame_number;
                     last_frame = Instant::now();
                     out.push(Arc::new(p.frame.text(scalar.chosen)));
+                    if acking {
+                        unacked = Some((frame_number, last_frame));
+                    }
                 }
             }
             for m in out {
@@ -584,6 +595,12 @@ fn websocket_session(mut ws: WebSocket<TcpStream>, shared: &Shared, commands: &S
                         let _ = reply_tx.send(error_message(&e));
                     }
                 },
+                Ok(ClientMessage::Ack { frame }) => {
+                    acking = true;
+                    if unacked.is_some_and(|(sent, _)| frame >= sent) {
+                        unacked = None;
+                    }
+                }
                 Ok(message) => {
                     let cmd = Command::Client {
                         message,

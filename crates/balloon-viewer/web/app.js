@@ -87,6 +87,7 @@ obstacle.visible = false;
 scene.add(obstacle);
 
 let needsRender = true;
+let ackPending = null; // the number of a frame received and not yet acknowledged
 const requestRender = () => { needsRender = true; };
 
 // The drag listener is registered (in the capture phase) before OrbitControls adds its own, so
@@ -158,6 +159,10 @@ function connect() {
       showError('the server sent a message that is not JSON');
       return;
     }
+    // Acknowledged after the next drawing (see animate), so the server sends the next frame
+    // only when this page has drawn this one: a page slower than the server gets fewer
+    // frames, never a backlog that delays the server's answers.
+    if (msg.type === 'frame' && Number.isInteger(msg.frame)) ackPending = msg.frame;
     try {
       handle(msg);
     } catch (e) {
@@ -220,8 +225,8 @@ function onHello(h) {
   if ((h.scalar_fields || []).includes(chosen)) $('scalar').value = chosen;
   else if (h.scalar && (h.scalar_fields || []).includes(h.scalar)) $('scalar').value = h.scalar;
   fillSelect($('drag-mode'), h.drag_modes || []);
-  // A scenario run is watched, not dragged (its anchors and loads own the forces), and can be
-  // saved as a scenario file.
+  // Every system offers its drag modes (a scenario run's drag acts on top of its anchors and
+  // loads); a scenario run can be saved as a scenario file.
   view.draggable = (h.drag_modes || []).length > 0;
   $('drag-row').hidden = !view.draggable;
   $('hint').textContent = view.draggable
@@ -524,6 +529,10 @@ function animate() {
   if (needsRender) {
     needsRender = false;
     renderer.render(scene, camera);
+  }
+  if (ackPending !== null) {
+    send({ type: 'ack', frame: ackPending });
+    ackPending = null;
   }
 }
 renderer.setAnimationLoop(animate);

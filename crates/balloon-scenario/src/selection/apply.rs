@@ -277,7 +277,6 @@ impl ShellLoads {
         }
         let n = sim.positions().len();
         let mut forces = vec![0.0; n];
-        let mut springs = self.springs.clone();
         let mut any_force = false;
         for ((load, vertices), _) in self.loads.iter().zip(&active).filter(|(_, a)| **a) {
             match &load.kind {
@@ -291,19 +290,41 @@ impl ShellLoads {
                     any_force = true;
                     spread_force(&mut forces, force, *total, vertices);
                 }
-                LoadKind::Grab { target, stiffness } => {
-                    springs.extend(vertices.iter().map(|&v| AnchorSpring {
-                        vertex: v,
-                        anchor: *target,
-                        stiffness: *stiffness,
-                    }));
-                }
+                LoadKind::Grab { .. } => {}
             }
         }
+        let springs = self.springs_of(&active);
         sim.set_external_forces(any_force.then_some(&forces[..]))?;
         sim.set_anchor_springs(springs)?;
         self.active = Some(active);
         Ok(())
+    }
+
+    /// The anchor springs the last [`ShellLoads::before_step`] set: the anchors' springs
+    /// followed by the springs of the grabs active then (empty before the first update).
+    /// Whoever adds springs of its own (the live viewer's drag) sets these plus its own with
+    /// `ShellSimulation::set_anchor_springs` after `before_step`, since `before_step` replaces
+    /// every anchor spring when the active loads change and leaves them alone otherwise.
+    pub fn anchor_springs(&self) -> Vec<AnchorSpring> {
+        match &self.active {
+            Some(active) => self.springs_of(active),
+            None => Vec::new(),
+        }
+    }
+
+    /// The anchors' springs followed by the springs of the `active` grabs.
+    fn springs_of(&self, active: &[bool]) -> Vec<AnchorSpring> {
+        let mut springs = self.springs.clone();
+        for ((load, vertices), _) in self.loads.iter().zip(active).filter(|(_, a)| **a) {
+            if let LoadKind::Grab { target, stiffness } = &load.kind {
+                springs.extend(vertices.iter().map(|&v| AnchorSpring {
+                    vertex: v,
+                    anchor: *target,
+                    stiffness: *stiffness,
+                }));
+            }
+        }
+        springs
     }
 }
 
@@ -478,9 +499,19 @@ impl VolumetricLoads {
             self.active_springs = springs;
             self.active = Some(active);
         }
+        let forces = self.forces(sim);
+        sim.set_external_forces(forces.as_deref())?;
+        Ok(())
+    }
+
+    /// The external forces (N, one per particle) the last [`VolumetricLoads::before_step`]
+    /// chose, evaluated at the particles' current positions: the constant forces of the active
+    /// loads plus the springs of the anchors and active grabs; `None` when there is none.
+    /// Whoever adds forces of its own (the live viewer's drag) adds them to these and sets the
+    /// sum with `VolumetricSimulation::set_external_forces` after `before_step`.
+    pub fn forces(&self, sim: &VolumetricSimulation) -> Option<Vec<nalgebra::Vector3<f64>>> {
         if self.active_springs.is_empty() {
-            sim.set_external_forces(self.any_constant.then_some(&self.constant[..]))?;
-            return Ok(());
+            return self.any_constant.then(|| self.constant.clone());
         }
         let mut forces = self.constant.clone();
         let x = sim.positions();
@@ -488,8 +519,7 @@ impl VolumetricLoads {
             forces[s.particle] +=
                 (nalgebra::Vector3::from(s.anchor) - x[s.particle].coords) * s.stiffness;
         }
-        sim.set_external_forces(Some(&forces))?;
-        Ok(())
+        Some(forces)
     }
 }
 

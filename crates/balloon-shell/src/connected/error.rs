@@ -28,6 +28,14 @@ pub enum ConnectedError {
         /// Balloon 0's value.
         expected: f64,
     },
+    /// A balloon index beyond the balloons.
+    #[error("connected balloons: there is no balloon {balloon} (there are {count})")]
+    NoBalloon {
+        /// The index asked for.
+        balloon: usize,
+        /// How many balloons there are.
+        count: usize,
+    },
     /// A tube is invalid.
     #[error("tube {tube}: {reason}")]
     InvalidTube {

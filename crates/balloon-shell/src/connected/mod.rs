@@ -226,6 +226,47 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
         &self.balloons
     }
 
+    /// Replaces balloon `balloon`'s anchor springs ([`ShellSimulation::set_anchor_springs`],
+    /// vertices numbered within that balloon), acting from the next step: a live viewer's drag.
+    ///
+    /// # Errors
+    /// [`ConnectedError::NoBalloon`] for an index beyond the balloons, [`ConnectedError::Shell`]
+    /// when a spring is invalid for that balloon.
+    pub fn set_anchor_springs(
+        &mut self,
+        balloon: usize,
+        springs: Vec<balloon_integrate::decorators::AnchorSpring>,
+    ) -> Result<(), ConnectedError> {
+        let count = self.balloons.len();
+        let b = self
+            .balloons
+            .get_mut(balloon)
+            .ok_or(ConnectedError::NoBalloon { balloon, count })?;
+        b.set_anchor_springs(springs)
+            .map_err(|source| ConnectedError::Shell { balloon, source })
+    }
+
+    /// Edits balloon `balloon`'s integrator parameters
+    /// ([`ShellSimulation::configure_integrator`]), from the next step on: a live viewer's
+    /// fixed Newton iterations while it drags.
+    ///
+    /// # Errors
+    /// [`ConnectedError::NoBalloon`] for an index beyond the balloons, [`ConnectedError::Shell`]
+    /// when the edited parameters are invalid.
+    pub fn configure_integrator(
+        &mut self,
+        balloon: usize,
+        edit: impl FnOnce(&mut balloon_integrate::implicit::BackwardEulerParams),
+    ) -> Result<(), ConnectedError> {
+        let count = self.balloons.len();
+        let b = self
+            .balloons
+            .get_mut(balloon)
+            .ok_or(ConnectedError::NoBalloon { balloon, count })?;
+        b.configure_integrator(edit)
+            .map_err(|source| ConnectedError::Shell { balloon, source })
+    }
+
     /// Where each balloon's vertices start in the merged surface
     /// ([`ConnectedBalloons::merged_positions`], [`ConnectedBalloons::merged_triangles`]):
     /// balloon `i` owns vertices `offsets[i]..offsets[i + 1]`; the last entry is the total

@@ -4,10 +4,14 @@
 //! page's controls edit the scenario's own keys, so that the scenario saved from the page
 //! ([`ScenarioView::scenario_text`]) is what is running.
 
+use super::shell::{SHELL_DRAG_RADIUS, SHELL_DRAG_STIFFNESS, ShellDrag};
 use super::view::*;
 use crate::ViewerError;
-use crate::protocol::{ControlSpec, ControlValue};
+use crate::protocol::{ControlSpec, ControlValue, DragMode};
 use balloon::Simulation;
+use balloon::integrate::implicit::BackwardEulerParams;
+use balloon::material::membrane::MembraneMaterial;
+use balloon::shell::{AnchorSpring, ShellMaterialModel};
 use balloon::two_layer::{DragTarget, TwoLayerSimulation};
 use balloon::volumetric::VolumetricSimulation;
 use balloon_scenario::connect::{ConnectScenario, ConnectSim};
@@ -40,6 +44,34 @@ pub struct ScenarioView {
     running: Running,
     /// Drawn positions at the start (for the `displacement` field).
     start: Vec<f64>,
+    /// The page's drag, applied on top of the scenario's anchors and loads before each step.
+    drag: Option<ScenarioDrag>,
+    /// Whether the last step ran with a drag (its springs or forces are still set).
+    dragged: bool,
+    /// Whether a drag switched the shell (or connected balloons) to the live view's fixed
+    /// Newton iterations (until the next rebuild).
+    live_newton: bool,
+    /// The page's drag as last set on a two-layer body.
+    page_two_layer_drag: Option<DragRequest>,
+}
+
+/// The page's drag of a scenario run.
+struct ScenarioDrag {
+    /// What the page asked for.
+    request: DragRequest,
+    /// A shell or connected balloons: the dragged balloon (0 for a single shell), its
+    /// neighbourhood of the picked vertex (numbered within that balloon) and the springs'
+    /// stiffness `SHELL_DRAG_STIFFNESS E h` (N/m).
+    shell: Option<(usize, ShellDrag, f64)>,
+}
+
+/// The small-strain Young's modulus (Pa) of a shell material: `E` of a three-prism material,
+/// `3 mu0` of an incompressible membrane (`mu0` its initial shear modulus).
+fn small_strain_young(material: &ShellMaterialModel) -> f64 {
+    match material {
+        ShellMaterialModel::Solid(m) => m.lame().young(),
+        ShellMaterialModel::Membrane(m) => 3.0 * m.initial_shear_modulus(),
+    }
 }
 
 /// A number control of a scenario: (parameter name, label, (min, max, step), unit). Its value
@@ -139,7 +171,135 @@ impl ScenarioView {
             scenario,
             running,
             start,
+            drag: None,
+            dragged: false,
+            live_newton: false,
+            page_two_layer_drag: None,
         })
+    }
+
+    /// The drag stiffness scale `SHELL_DRAG_STIFFNESS E h` (N/m) of a shell or connect
+    /// scenario: `E` the material's small-strain Young's modulus, `h` the mean rest thickness.
+    fn shell_drag_stiffness(&self, thickness: &[f64]) -> Result<f64, ViewerError> {
+        let wall = match &self.scenario {
+            Scenario::Shell(s) => &s.shell,
+            Scenario::Connect(c) => &c.shell.shell,
+            _ => return Err(ViewerError::Scenario("not a shell scenario".into())),
+        };
+        let material = wall.material.resolve().map_err(ViewerError::Scenario)?;
+        let h = thickness.iter().sum::<f64>() / thickness.len().max(1) as f64;
+        Ok(SHELL_DRAG_STIFFNESS * small_strain_young(&material) * h)
+    }
+
+    /// How many anchor springs each balloon's simulation holds (a shell's, or each connected
+    /// balloon's); empty for the other systems.
+    #[cfg(test)]
+    pub(super) fn anchor_spring_counts(&self) -> Vec<usize> {
+        match &self.running {
+            Running::Shell(sim, _) => vec![sim.anchor_springs().len()],
+            Running::Connect(sim) => sim
+                .balloons()
+                .iter()
+                .map(|b| b.anchor_springs().len())
+                .collect(),
+            Running::Volumetric(..) | Running::TwoLayer(..) => Vec::new(),
+        }
+    }
+
+    /// From the page's first drag on, a shell or connected balloons step with the live view's
+    /// fixed Newton iterations (the paper's three, as the built-in shell always does) until the
+    /// run is rebuilt (reset, a changed control), which brings back the scenario's own: with
+    /// the scenario's converged Newton a pinch stalled a single step of
+    /// `examples/static-sphere/static-sphere.toml` and of the built-in `connect` for over
+    /// 12 s, and so did the first converged step after releasing a pinch (over 30 s; debug
+    /// build, load average 10). A dragged run is not `balloon run`'s anyway.
+    fn live_newton(&mut self) -> Result<(), ViewerError> {
+        if self.drag.is_none() || self.live_newton {
+            return Ok(());
+        }
+        let live = |p: &mut BackwardEulerParams| {
+            p.newton_iterations = super::shell::VIEWER_NEWTON_ITERATIONS;
+            p.newton_tolerance = 0.0;
+        };
+        match &mut self.running {
+            Running::Shell(sim, _) => sim.configure_integrator(live)?,
+            Running::Connect(sim) => {
+                for b in 0..sim.balloons().len() {
+                    sim.configure_integrator(b, live)
+                        .map_err(|e| ViewerError::Scenario(chain(&e)))?;
+                }
+            }
+            Running::Volumetric(..) | Running::TwoLayer(..) => {}
+        }
+        self.live_newton = true;
+        Ok(())
+    }
+
+    /// Applies the page's drag on top of what the scenario's loads set for the coming step
+    /// (after their `before_step`), or takes it away after a release.
+    fn apply_page_drag(&mut self) -> Result<(), ViewerError> {
+        if self.drag.is_none() && !self.dragged {
+            return Ok(());
+        }
+        self.live_newton()?;
+        let drag = self.drag.as_ref();
+        match &mut self.running {
+            Running::Shell(sim, loads) => {
+                let mut springs = loads.anchor_springs();
+                if let Some(ScenarioDrag {
+                    request,
+                    shell: Some((_, state, k)),
+                }) = drag
+                {
+                    springs.extend(state.springs(request.target, *k));
+                }
+                sim.set_anchor_springs(springs)?;
+            }
+            Running::Connect(sim) => {
+                let dragged = drag.and_then(|d| d.shell.as_ref().map(|s| (d.request, s)));
+                for b in 0..sim.balloons().len() {
+                    let springs: Vec<AnchorSpring> = match dragged {
+                        Some((request, (balloon, state, k))) if *balloon == b => {
+                            state.springs(request.target, *k).collect()
+                        }
+                        _ => Vec::new(),
+                    };
+                    sim.set_anchor_springs(b, springs)
+                        .map_err(|e| ViewerError::Scenario(chain(&e)))?;
+                }
+            }
+            Running::Volumetric(sim, loads) => {
+                let base = loads.forces(sim);
+                let forces = match drag {
+                    None => base,
+                    Some(d) => {
+                        let mut f = super::volumetric::drag_forces(sim, &d.request)?;
+                        if let Some(base) = base {
+                            for (f, b) in f.iter_mut().zip(base) {
+                                *f += b;
+                            }
+                        }
+                        Some(f)
+                    }
+                };
+                sim.set_external_forces(forces.as_deref())?;
+            }
+            // The spring acts every step once set; it is set again only when the page moves
+            // the target (as the built-in two-layer view does).
+            Running::TwoLayer(sim, ..) => match drag {
+                Some(d) if self.page_two_layer_drag == Some(d.request) => {}
+                Some(d) => {
+                    super::two_layer::set_drag(sim, &d.request)?;
+                    self.page_two_layer_drag = Some(d.request);
+                }
+                None => {
+                    sim.set_drag(None)?;
+                    self.page_two_layer_drag = None;
+                }
+            },
+        }
+        self.dragged = self.drag.is_some();
+        Ok(())
     }
 
     /// The scenario with the values changed on the page.
@@ -280,6 +440,10 @@ impl ViewSystem for ScenarioView {
     fn rebuild(&mut self) -> Result<(), ViewerError> {
         self.running = build(&self.scenario)?;
         self.start = drawn(&self.running).positions();
+        self.drag = None;
+        self.dragged = false;
+        self.live_newton = false;
+        self.page_two_layer_drag = None;
         Ok(())
     }
 
@@ -297,8 +461,12 @@ impl ViewSystem for ScenarioView {
     }
 
     /// Applies the scheduled loads (and the two-layer body's scripted drag) of the coming step,
-    /// then steps, as the run jobs' `before_step` does.
+    /// as the run jobs' `before_step` does, then the page's drag on top of them (its springs
+    /// added to the anchors' and grabs', its forces to the loads'; on a two-layer body it
+    /// replaces the scripted drag while it lasts), then steps. Without a page drag the steps
+    /// are `balloon run`'s.
     fn step(&mut self) -> Result<(), ViewerError> {
+        let page_drag = self.drag.is_some() || self.dragged;
         let loads = match &mut self.running {
             Running::Shell(sim, loads) => loads.before_step(sim.as_mut()),
             Running::Connect(_) => Ok(()),
@@ -306,6 +474,7 @@ impl ViewSystem for ScenarioView {
             Running::TwoLayer(sim, loads, drag) => {
                 let applied = loads.before_step(sim.as_mut());
                 if applied.is_ok()
+                    && !page_drag
                     && let Some(d) = drag
                 {
                     two_layer_drag(sim.as_mut(), d, &self.scenario)?;
@@ -314,6 +483,7 @@ impl ViewSystem for ScenarioView {
             }
         };
         loads.map_err(|e| scenario_error(&e))?;
+        self.apply_page_drag()?;
         self.simulation_mut().step()
     }
 
@@ -377,9 +547,13 @@ impl ViewSystem for ScenarioView {
         }
     }
 
-    /// Scenario runs are watched, not dragged: their anchors and loads own the forces.
+    /// Every scenario is dragged as its built-in system is: a shell or connected balloons by
+    /// grabbing or pinching, the volumetric and two-layer bodies by grabbing.
     fn drag_modes(&self) -> Vec<&'static str> {
-        Vec::new()
+        match self.scenario.kind() {
+            SystemKind::Shell | SystemKind::Connect => vec!["grab", "pinch"],
+            SystemKind::Volumetric | SystemKind::TwoLayer => vec!["grab"],
+        }
     }
 
     /// The volumetric body's and the two-layer body's gravity act along -z.
@@ -390,15 +564,60 @@ impl ViewSystem for ScenarioView {
         }
     }
 
+    /// Records the page's drag; it acts from the next step on, on top of the scenario's
+    /// anchors and loads (see `step`). A shell's neighbourhood is taken when the drag starts.
     fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
-        match drag {
-            None => Ok(()),
-            Some(_) => Err(ViewerError::DragMode {
-                mode: "grab",
-                system: self.name(),
-                available: "none: a scenario run is not dragged".into(),
-            }),
+        let Some(d) = drag else {
+            self.drag = None;
+            return Ok(());
+        };
+        let count = vertex_count(&self.positions());
+        if d.vertex >= count {
+            return Err(ViewerError::VertexOutOfRange { vertex: d.vertex });
         }
+        if d.mode == DragMode::Pinch && !self.drag_modes().contains(&"pinch") {
+            return Err(ViewerError::DragMode {
+                mode: "pinch",
+                system: self.name(),
+                available: self.drag_modes().join(", "),
+            });
+        }
+        let previous = self.drag.take().and_then(|p| p.shell);
+        let shell = match &self.running {
+            Running::Shell(sim, _) => {
+                let current = previous.filter(|p| p.0 == 0);
+                let k = match &current {
+                    Some((_, _, k)) => *k,
+                    None => self.shell_drag_stiffness(sim.thickness())?,
+                };
+                let x = sim.positions();
+                let radius = SHELL_DRAG_RADIUS * bbox_diagonal(sim.rest_positions());
+                let state = ShellDrag::follow(current.map(|p| p.1), x, d.vertex, d.mode, radius);
+                Some((0, state, k))
+            }
+            Running::Connect(sim) => {
+                let offsets = sim.vertex_offsets();
+                let b = offsets.partition_point(|&o| o <= d.vertex) - 1;
+                let balloon = &sim.balloons()[b];
+                let current = previous.filter(|p| p.0 == b);
+                let k = match &current {
+                    Some((_, _, k)) => *k,
+                    None => self.shell_drag_stiffness(balloon.thickness())?,
+                };
+                let radius = SHELL_DRAG_RADIUS * bbox_diagonal(balloon.rest_positions());
+                let state = ShellDrag::follow(
+                    current.map(|p| p.1),
+                    balloon.positions(),
+                    d.vertex - offsets[b],
+                    d.mode,
+                    radius,
+                );
+                Some((b, state, k))
+            }
+            Running::Volumetric(..) | Running::TwoLayer(..) => None,
+        };
+        self.drag = Some(ScenarioDrag { request: *d, shell });
+        Ok(())
     }
 
     fn scenario_text(&self) -> Option<String> {

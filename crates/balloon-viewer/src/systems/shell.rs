@@ -90,9 +90,12 @@ impl ViewMaterial {
             Self::Membrane(MembraneKind::MooneyRivlin) => {
                 MembraneMooneyRivlin::try_new(0.4 * mu, 0.1 * mu).map(Into::into)
             }
-            Self::Membrane(MembraneKind::Gent) => MembraneGent::try_new(mu, 60.0).map(Into::into),
+            Self::Membrane(MembraneKind::Gent) => {
+                MembraneGent::try_new(mu, GENT_JM).map(Into::into)
+            }
             Self::Membrane(MembraneKind::Ogden) => {
-                MembraneOgden::try_new(vec![2.0 * mu / 1.3], vec![1.3]).map(Into::into)
+                MembraneOgden::try_new(vec![2.0 * mu / OGDEN_ALPHA], vec![OGDEN_ALPHA])
+                    .map(Into::into)
             }
             Self::Membrane(MembraneKind::Yeoh) => {
                 MembraneYeoh::try_new(0.5 * mu, 0.0, 1e-3 * mu).map(Into::into)
@@ -101,6 +104,11 @@ impl ViewMaterial {
         membrane.map(Into::into).map_err(ViewerError::Young)
     }
 }
+
+/// Gent's limit `jm` of the view's `membrane-gent`.
+pub(super) const GENT_JM: f64 = 60.0;
+/// The exponent of the view's one-term `membrane-ogden`.
+pub(super) const OGDEN_ALPHA: f64 = 1.3;
 
 /// One control of the shell view, parsed from the protocol once.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -176,6 +184,54 @@ pub(super) struct ShellDrag {
     pub(super) neighbours: Vec<(usize, f64, Vector3<f64>)>,
 }
 
+impl ShellDrag {
+    /// The drag of `vertex` in `mode` on the positions `x` (flat, m): `current` when it is the
+    /// same vertex and mode (the neighbourhood stays the one of the drag's start), otherwise
+    /// the vertices within `radius` of the picked one with weights `w = 1 - (d/R)^2`.
+    pub(super) fn follow(
+        current: Option<ShellDrag>,
+        x: &[f64],
+        vertex: usize,
+        mode: DragMode,
+        radius: f64,
+    ) -> ShellDrag {
+        if let Some(c) = current
+            && c.vertex == vertex
+            && c.mode == mode
+        {
+            return c;
+        }
+        let c = p3(x, vertex);
+        let neighbours = (0..vertex_count(x))
+            .filter_map(|i| {
+                let o = p3(x, i) - c;
+                let q = o.norm() / radius;
+                (q < 1.0).then_some((i, 1.0 - q * q, o))
+            })
+            .collect();
+        ShellDrag {
+            vertex,
+            mode,
+            neighbours,
+        }
+    }
+
+    /// The drag's springs towards `target` (m): vertex `i` of the neighbourhood gets `w_i k`
+    /// (N/m) to `target + s o_i` (`s = 1` grab, `PINCH_SCALE` pinch).
+    pub(super) fn springs(&self, target: [f64; 3], k: f64) -> impl Iterator<Item = AnchorSpring> {
+        let target = Vector3::from(target);
+        let scale = match self.mode {
+            DragMode::Grab => 1.0,
+            DragMode::Pinch => PINCH_SCALE,
+        };
+        self.neighbours.iter().map(move |&(i, w, o)| AnchorSpring {
+            vertex: i,
+            anchor: (target + o * scale).into(),
+            stiffness: w * k,
+        })
+    }
+}
+
 /// A shell balloon (Wang et al. 2015) in the viewer.
 pub struct ShellView {
     pub(super) mesh: TriMesh,
@@ -187,19 +243,26 @@ pub struct ShellView {
     /// The lowest vertices (along +y) at rest, held by springs to their rest positions when the
     /// `hold` control is on, like a hand holding a balloon at its knot.
     pub(super) held: Vec<(usize, [f64; 3])>,
+    /// The rest positions (flat, m).
+    pub(super) rest: Vec<f64>,
+    /// The mesh spec the view was opened with (`builtin:NAME` or a file); `None`: the default
+    /// coarse teddy.
+    pub(super) mesh_spec: Option<String>,
 }
 
 /// Stiffness of the shell drag springs in units of the membrane stiffness `E h` (N/m): vertex
 /// `i` of the neighbourhood gets `w_i SHELL_DRAG_STIFFNESS E h`. The springs are part of the
 /// implicit solve ([`ShellSimulation::set_anchor_springs`]), so they may be stiff.
-const SHELL_DRAG_STIFFNESS: f64 = 10.0;
+pub(super) const SHELL_DRAG_STIFFNESS: f64 = 10.0;
+/// The drag's neighbourhood radius as a fraction of the bounding-box diagonal at rest.
+pub(super) const SHELL_DRAG_RADIUS: f64 = 0.12;
 /// The vertices within this fraction of the height above the lowest one are held (`hold`).
-const HELD_FRACTION: f64 = 0.04;
+pub(super) const HELD_FRACTION: f64 = 0.04;
 /// A pinch pulls the neighbourhood to this fraction of its size around the target.
 const PINCH_SCALE: f64 = 0.3;
 
 /// Newton iterations per step of the live shell (the paper's fixed count; see `ShellView`).
-const VIEWER_NEWTON_ITERATIONS: usize = 3;
+pub(super) const VIEWER_NEWTON_ITERATIONS: usize = 3;
 
 impl ShellView {
     /// A shell view of `mesh` (closed, outward, m) with the default controls.
@@ -219,24 +282,36 @@ impl ShellView {
         };
         let sim = Self::build(&mesh, &settings)?;
         let x = sim.positions();
-        let drag_radius = 0.12 * bbox_diagonal(x);
-        let (lo, hi) = x
-            .chunks_exact(3)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), c| {
-                (a.min(c[1]), b.max(c[1]))
-            });
-        let held = (0..vertex_count(x))
-            .filter(|&i| x[3 * i + 1] <= lo + HELD_FRACTION * (hi - lo))
-            .map(|i| (i, [x[3 * i], x[3 * i + 1], x[3 * i + 2]]))
-            .collect();
-        Ok(Self {
+        let drag_radius = SHELL_DRAG_RADIUS * bbox_diagonal(x);
+        let mut view = Self {
             mesh,
             settings,
-            sim,
             drag: None,
             drag_radius,
-            held,
-        })
+            held: Vec::new(),
+            rest: x.to_vec(),
+            sim,
+            mesh_spec: None,
+        };
+        let height = view.hold_height();
+        let x = &view.rest;
+        view.held = (0..vertex_count(x))
+            .filter(|&i| x[3 * i + 1] <= height)
+            .map(|i| (i, [x[3 * i], x[3 * i + 1], x[3 * i + 2]]))
+            .collect();
+        Ok(view)
+    }
+
+    /// The stiffness scale of the `hold` and drag springs, `SHELL_DRAG_STIFFNESS E h` (N/m).
+    pub(super) fn spring_stiffness(&self) -> f64 {
+        SHELL_DRAG_STIFFNESS * self.settings.young_mpa * 1e6 * self.settings.thickness_mm * 1e-3
+    }
+
+    /// Records the mesh spec the view was opened with (`builtin:NAME` or a file path), which
+    /// its saved scenario names; without it the scenario names the default coarse teddy.
+    pub fn with_mesh_spec(mut self, spec: Option<String>) -> Self {
+        self.mesh_spec = spec;
+        self
     }
 
     fn build(
@@ -488,12 +563,13 @@ impl ViewSystem for ShellView {
         vec!["grab", "pinch"]
     }
 
+    /// The built-in set-up as a shell scenario ([`ShellView::scenario`]).
+    fn scenario_text(&self) -> Option<String> {
+        super::saved::shell_scenario_text(self)
+    }
+
     fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
-        let k = SHELL_DRAG_STIFFNESS
-            * self.settings.young_mpa
-            * 1e6
-            * self.settings.thickness_mm
-            * 1e-3;
+        let k = self.spring_stiffness();
         let mut springs: Vec<AnchorSpring> = if self.settings.hold {
             self.held
                 .iter()
@@ -509,38 +585,15 @@ impl ViewSystem for ShellView {
         match drag {
             None => self.drag = None,
             Some(d) => {
-                let x = self.sim.positions();
-                let restart = self
-                    .drag
-                    .as_ref()
-                    .is_none_or(|s| s.vertex != d.vertex || s.mode != d.mode);
-                if restart {
-                    let c = p3(x, d.vertex);
-                    let r = self.drag_radius;
-                    let neighbours = (0..vertex_count(x))
-                        .filter_map(|i| {
-                            let o = p3(x, i) - c;
-                            let q = o.norm() / r;
-                            (q < 1.0).then_some((i, 1.0 - q * q, o))
-                        })
-                        .collect();
-                    self.drag = Some(ShellDrag {
-                        vertex: d.vertex,
-                        mode: d.mode,
-                        neighbours,
-                    });
-                }
-                let state = self.drag.as_ref().expect("drag set above");
-                let target = Vector3::from(d.target);
-                let scale = match state.mode {
-                    DragMode::Grab => 1.0,
-                    DragMode::Pinch => PINCH_SCALE,
-                };
-                springs.extend(state.neighbours.iter().map(|&(i, w, o)| AnchorSpring {
-                    vertex: i,
-                    anchor: (target + o * scale).into(),
-                    stiffness: w * k,
-                }));
+                let state = ShellDrag::follow(
+                    self.drag.take(),
+                    self.sim.positions(),
+                    d.vertex,
+                    d.mode,
+                    self.drag_radius,
+                );
+                springs.extend(state.springs(d.target, k));
+                self.drag = Some(state);
             }
         }
         self.sim

@@ -51,6 +51,17 @@ impl TwoLayerControl {
     }
 }
 
+/// Subdivision level of the view's octahedron sphere (258 particles per layer).
+pub(super) const TWO_LAYER_LEVEL: u32 = 3;
+/// Inner and outer radius of the view's body, m.
+pub(super) const TWO_LAYER_RADII: (f64, f64) = (0.8, 1.0);
+/// Spring damping of the view's body, N s/m.
+pub(super) const TWO_LAYER_DAMPING: f64 = 0.1;
+/// Stiffness (N/m) and damping (N s/m) of the view's structural springs.
+pub(super) const TWO_LAYER_STRUCTURAL: (f64, f64) = (100.0, 0.1);
+/// Side of the view's wall box, m.
+pub(super) const TWO_LAYER_BOX: f64 = 4.0;
+
 /// A two-layer sphere (Song 2009) in a box in the viewer.
 pub struct TwoLayerView {
     pub(super) settings: TwoLayerSettings,
@@ -84,16 +95,18 @@ impl TwoLayerView {
     fn build(s: &TwoLayerSettings) -> Result<TwoLayerSimulation, ViewerError> {
         let collision_box = if s.wall_box {
             Some(
-                AxisBox::centered(Point3::origin(), Vector3::new(2.0, 2.0, 2.0))
+                AxisBox::centered(Point3::origin(), Vector3::repeat(0.5 * TWO_LAYER_BOX))
                     .map_err(ViewerError::from)?,
             )
         } else {
             None
         };
-        TwoLayerBody::octahedron_sphere(3)
-            .with_radii(0.8, 1.0)
-            .with_damping(0.1)
-            .with_spring(SpringKind::Structural, 100.0, 0.1)
+        let (inner, outer) = TWO_LAYER_RADII;
+        let (k, c) = TWO_LAYER_STRUCTURAL;
+        TwoLayerBody::octahedron_sphere(TWO_LAYER_LEVEL)
+            .with_radii(inner, outer)
+            .with_damping(TWO_LAYER_DAMPING)
+            .with_spring(SpringKind::Structural, k, c)
             .with_pressure(s.pressure, 0.5 * s.pressure)
             .with_gravity(s.gravity)
             .with_box(collision_box)
@@ -217,6 +230,11 @@ impl ViewSystem for TwoLayerView {
         [0.0, 0.0, 1.0]
     }
 
+    /// The built-in set-up as a two-layer scenario ([`TwoLayerView::scenario`]).
+    fn scenario_text(&self) -> Option<String> {
+        Some(super::saved::two_layer_scenario_text(self))
+    }
+
     fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
         let Some(d) = drag else {
             self.drag = None;
@@ -231,22 +249,32 @@ impl ViewSystem for TwoLayerView {
         if self.drag.as_ref() == Some(d) {
             return Ok(());
         }
-        let n = self.sim.model().layer_size;
-        // An inner particle picked through the mesh pulls its outer partner.
-        let particle = if d.vertex < n { d.vertex + n } else { d.vertex };
-        let (k, c) = TWO_LAYER_DRAG;
-        self.sim
-            .set_drag_particle(
-                particle,
-                DragTarget {
-                    point: Point3::from(d.target),
-                    stiffness: k,
-                    damping: c,
-                    rest_length: 0.0,
-                },
-            )
-            .map_err(ViewerError::from)?;
+        set_drag(&mut self.sim, d)?;
         self.drag = Some(*d);
         Ok(())
     }
+}
+
+/// Sets Song 2009's drag spring (`TWO_LAYER_DRAG`) of the drag `d` on the two-layer body: on
+/// the picked outer particle, or on the outer partner of a picked inner one.
+pub(super) fn set_drag(sim: &mut TwoLayerSimulation, d: &DragRequest) -> Result<(), ViewerError> {
+    let n = sim.model().layer_size;
+    // An inner particle picked through the mesh pulls its outer partner.
+    let particle = if sim.model().has_layers() && d.vertex < n {
+        d.vertex + n
+    } else {
+        d.vertex
+    };
+    let (k, c) = TWO_LAYER_DRAG;
+    sim.set_drag_particle(
+        particle,
+        DragTarget {
+            point: Point3::from(d.target),
+            stiffness: k,
+            damping: c,
+            rest_length: 0.0,
+        },
+    )
+    .map_err(ViewerError::from)?;
+    Ok(())
 }

@@ -281,24 +281,32 @@ impl ViewSystem for VolumetricView {
     }
 
     fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
-        let Some(d) = drag else {
-            return self
-                .sim
-                .set_external_forces(None)
-                .map_err(ViewerError::from);
+        let f = match drag {
+            None => None,
+            Some(d) => Some(drag_forces(&self.sim, d)?),
         };
-        let e = self
-            .sim
+        self.sim
+            .set_external_forces(f.as_deref())
+            .map_err(ViewerError::from)
+    }
+}
+
+/// The forces (N, one per lattice particle) of the drag `d` on the volumetric body `sim`: a
+/// critically damped spring `k = VOLUMETRIC_DRAG_GAIN m / dt^2` on the embedded surface point
+/// of the picked vertex (`m` its effective mass), stretched at most half a lattice cell, spread
+/// over the particles of its tetrahedron by their barycentric weights.
+pub(super) fn drag_forces(
+    sim: &VolumetricSimulation,
+    d: &DragRequest,
+) -> Result<Vec<Vector3<f64>>, ViewerError> {
+    {
+        let e = sim
             .lattice()
             .embedding
             .vertices
             .get(d.vertex)
             .ok_or(ViewerError::VertexOutOfRange { vertex: d.vertex })?;
-        let (x, v, m) = (
-            self.sim.positions(),
-            self.sim.velocities(),
-            self.sim.masses(),
-        );
+        let (x, v, m) = (sim.positions(), sim.velocities(), sim.masses());
         let mut p = Vector3::zeros();
         let mut vel = Vector3::zeros();
         // A force F on the embedded point spread as w_j F accelerates the point by
@@ -311,13 +319,13 @@ impl ViewSystem for VolumetricView {
             inv_mass += w * w / m[i];
         }
         let mass = 1.0 / inv_mass;
-        let dt = Simulation::dt(&self.sim);
+        let dt = Simulation::dt(sim);
         let k = VOLUMETRIC_DRAG_GAIN * mass / (dt * dt);
         // Critically damped for the pulled mass.
         let c = 2.0 * (k * mass).sqrt();
         // The spring stretches at most half a lattice cell: a far target pulls the body along
         // instead of tearing the picked cell inside out.
-        let reach = 0.5 * self.sim.lattice().info.cell_size;
+        let reach = 0.5 * sim.lattice().info.cell_size;
         let pull = Vector3::from(d.target) - p;
         let pull = if pull.norm() > reach {
             pull * (reach / pull.norm())
@@ -329,8 +337,6 @@ impl ViewSystem for VolumetricView {
         for (&i, &w) in e.particles.iter().zip(&e.weights) {
             f[i] += force * w;
         }
-        self.sim
-            .set_external_forces(Some(&f))
-            .map_err(ViewerError::from)
+        Ok(f)
     }
 }

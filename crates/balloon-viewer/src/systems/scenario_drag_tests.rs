@@ -1,0 +1,179 @@
+//! Tests of the page's drag in scenario runs: it moves the picked vertex of every kind of
+//! scenario, acts on top of the scenario's anchors and scheduled loads (a load that starts
+//! during the drag keeps it), and goes away on release.
+
+use super::scenario::ScenarioView;
+use super::view::{DragRequest, ViewSystem};
+use crate::protocol::DragMode;
+use balloon_scenario::Scenario;
+
+fn scenario(text: &str) -> (tempfile::TempDir, Scenario) {
+    let dir = tempfile::tempdir().unwrap();
+    let sphere = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
+    balloon_mesh::io::write_obj(&dir.path().join("sphere.obj"), &sphere).unwrap();
+    let path = dir.path().join("scenario.toml");
+    std::fs::write(&path, text).unwrap();
+    let s = balloon_scenario::file::read(&path, &[]).unwrap().scenario;
+    (dir, s)
+}
+
+fn point(view: &ScenarioView, i: usize) -> [f64; 3] {
+    let x = view.positions();
+    [x[3 * i], x[3 * i + 1], x[3 * i + 2]]
+}
+
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|d| (a[d] - b[d]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// The vertex with the largest coordinate `axis` (the top of the body along the page's up).
+fn top(view: &ScenarioView, axis: usize) -> usize {
+    let x = view.positions();
+    (0..x.len() / 3)
+        .max_by(|&i, &j| x[3 * i + axis].total_cmp(&x[3 * j + axis]))
+        .unwrap()
+}
+
+/// Steps `text`'s scenario `n` times with and without a drag of its top vertex (along
+/// `axis`) towards a target `pull` (m) beyond it sideways; returns the dragged and the free
+/// view and the distances of the vertex to the target after the steps (dragged, free).
+fn drag_against_free(
+    text: &str,
+    axis: usize,
+    pull: f64,
+    n: usize,
+) -> (ScenarioView, ScenarioView, usize, f64, f64) {
+    let (_dir, s) = scenario(text);
+    let mut dragged = ScenarioView::new(s.clone()).unwrap();
+    let mut free = ScenarioView::new(s).unwrap();
+    let v = top(&dragged, axis);
+    let mut target = point(&dragged, v);
+    target[axis] += pull;
+    target[(axis + 1) % 3] += pull;
+    let drag = DragRequest {
+        vertex: v,
+        target,
+        mode: DragMode::Grab,
+    };
+    for _ in 0..n {
+        dragged.apply_drag(Some(&drag)).unwrap();
+        dragged.step().unwrap();
+        free.apply_drag(None).unwrap();
+        free.step().unwrap();
+    }
+    let d_drag = distance(point(&dragged, v), target);
+    let d_free = distance(point(&free, v), target);
+    (dragged, free, v, d_drag, d_free)
+}
+
+const SHELL: &str = r#"
+[mesh]
+path = "sphere.obj"
+[shell]
+thickness = 5e-4
+[gas]
+model = "constant"
+pressure = 300
+[run]
+dt = 0.005
+[[anchors]]
+spec = "below:y:-0.09@500"
+[[loads]]
+spec = "grab=0.2,0,0;on=indices:4;stiffness=50;start=0.02"
+"#;
+
+#[test]
+fn a_drag_pulls_a_shell_scenario_on_top_of_its_anchors_and_loads() {
+    let anchors = {
+        let (_dir, s) = scenario(SHELL);
+        let Scenario::Shell(shell) = &s else { panic!() };
+        let (sim, _) = shell.build(None).unwrap();
+        sim.anchor_springs().len()
+    };
+    assert!(anchors > 0);
+    let (mut view, free, v, dragged, undragged) = drag_against_free(SHELL, 1, 0.03, 10);
+    assert!(
+        dragged < 0.5 * undragged,
+        "vertex {v}: {dragged} m from the target with the drag, {undragged} m without"
+    );
+    // The grab load started during the drag (t = 0.02 s) and the drag stayed: the anchors'
+    // springs, the grab's and the drag's are all set.
+    let during = view.anchor_spring_counts()[0];
+    assert!(during > anchors + 1, "{during} springs (anchors {anchors})");
+    assert_eq!(free.anchor_spring_counts(), vec![anchors + 1]);
+    // Released: the scenario's springs alone.
+    view.apply_drag(None).unwrap();
+    view.step().unwrap();
+    assert_eq!(view.anchor_spring_counts(), vec![anchors + 1]);
+    // A pinch is offered and takes the same neighbourhood, squeezed.
+    assert_eq!(view.drag_modes(), vec!["grab", "pinch"]);
+}
+
+#[test]
+fn a_drag_pulls_one_of_connected_balloons() {
+    let text = r#"
+[system]
+kind = "connect"
+[mesh]
+path = "sphere.obj"
+[connect]
+copies = 2
+stretches = [1.1, 1.3]
+[shell]
+material = "membrane-neo-hookean"
+mu = 4e5
+thickness = 1e-3
+[run]
+dt = 0.01
+mass_damping = 5.0
+"#;
+    let (mut view, _, v, dragged, undragged) = drag_against_free(text, 1, 0.03, 8);
+    assert!(
+        dragged < 0.7 * undragged,
+        "vertex {v}: {dragged} m from the target with the drag, {undragged} m without"
+    );
+    // Only the balloon of the picked vertex holds springs.
+    let counts = view.anchor_spring_counts();
+    let picked = usize::from(v >= 162);
+    assert!(counts[picked] > 0 && counts[1 - picked] == 0, "{counts:?}");
+    view.apply_drag(None).unwrap();
+    view.step().unwrap();
+    assert_eq!(view.anchor_spring_counts(), vec![0, 0]);
+}
+
+#[test]
+fn a_drag_pulls_volumetric_and_two_layer_scenarios() {
+    let volumetric = r#"
+[system]
+kind = "volumetric"
+[mesh]
+path = "sphere.obj"
+[lattice]
+cells = 60
+[run]
+scene = "free"
+gravity = 0
+[[anchors]]
+spec = "below:z:-0.05@50"
+"#;
+    let (_, _, v, dragged, undragged) = drag_against_free(volumetric, 2, 0.02, 200);
+    assert!(
+        dragged < 0.8 * undragged,
+        "volumetric vertex {v}: {dragged} m from the target with the drag, {undragged} m without"
+    );
+    // A two-layer body with a scripted drag elsewhere: the page's drag replaces it while it
+    // lasts.
+    let two_layer = r#"
+[system]
+kind = "two-layer"
+[body]
+level = 1
+[run]
+drag = "0,0,-3@0:10"
+"#;
+    let (_, _, v, dragged, undragged) = drag_against_free(two_layer, 2, 0.3, 400);
+    assert!(
+        dragged < 0.8 * undragged,
+        "two-layer vertex {v}: {dragged} m from the target with the drag, {undragged} m without"
+    );
+}
