@@ -4,8 +4,9 @@
 //!
 //! Writes `DIR/rest.obj` (the designed rest shape), `DIR/inflated.obj` (the forward check's
 //! equilibrium, rigidly aligned onto the target), `DIR/distance.csv` (per-vertex distance of
-//! the check to the target, m) and `DIR/summary.json` (iterations, distance in m and over the
-//! bounding-box diagonal, pressure, volumes, times). Ctrl-C stops the design and keeps the best
+//! the check to the target, m), `DIR/design.png` (target and check side by side, coloured by
+//! that distance) and `DIR/summary.json` (iterations, distance in m and over the bounding-box
+//! diagonal, pressure, volumes, times). Ctrl-C stops the design and keeps the best
 //! rest shape so far (then checked and written, and the process exits with 130).
 //!
 //! The forward check keeps a three-prism wall at its rest thickness; the summary prints (and
@@ -48,7 +49,9 @@ pub struct DesignArgs {
     /// J^T J; 0 = none, the design exact; docs/design.md), >= 0.
     #[arg(long, default_value_t = 0.0, value_parser = real(End::Closed(0.0), End::Closed(1e6)))]
     pub tangential_weight: f64,
-    /// Output folder (created; existing files of the same names are replaced).
+    /// Output folder: rest.obj, inflated.obj, distance.csv, design.png (target and check side
+    /// by side, coloured by the distance), summary.json (created; files of the same names are
+    /// replaced).
     #[arg(long)]
     pub out: PathBuf,
     /// Print no progress.

@@ -40,6 +40,76 @@ fn design_writes_rest_shape_check_and_summary() {
     assert_eq!(inflated.num_triangles(), rest.num_triangles());
     let csv = std::fs::read_to_string(out.join("distance.csv")).unwrap();
     assert_eq!(csv.lines().count(), 2563);
+    // The picture: target and check side by side from one camera; the check is on the target
+    // (1e-4 of the diagonal), so the two panels are nearly the same picture.
+    assert_eq!(summary["picture"], "design.png");
+    let img = balloon_render::Image::read_png(&out.join("design.png")).unwrap();
+    assert_eq!((img.width(), img.height()), picture_size());
+    assert!(panels_differ(&img) < 0.01, "{}", panels_differ(&img));
+}
+
+fn picture_size() -> (u32, u32) {
+    use balloon_run::jobs::design::{PICTURE_CAPTION_HEIGHT, PICTURE_PANEL};
+    (
+        2 * PICTURE_PANEL.0,
+        PICTURE_PANEL.1 + PICTURE_CAPTION_HEIGHT,
+    )
+}
+
+/// Fraction of the pixels of the two panels of `design.png` (below the captions) that differ by
+/// more than 8 levels in a channel.
+fn panels_differ(img: &balloon_render::Image) -> f64 {
+    use balloon_run::jobs::design::{PICTURE_CAPTION_HEIGHT, PICTURE_PANEL};
+    let (pw, ph) = PICTURE_PANEL;
+    let mut differ = 0usize;
+    for y in PICTURE_CAPTION_HEIGHT..PICTURE_CAPTION_HEIGHT + ph {
+        for x in 0..pw {
+            let (a, b) = (img.get(x, y).unwrap(), img.get(x + pw, y).unwrap());
+            differ += usize::from(a.iter().zip(&b).any(|(p, q)| p.abs_diff(*q) > 8));
+        }
+    }
+    differ as f64 / (pw * ph) as f64
+}
+
+/// A design that does not converge (a tolerance below round-off: the continuation stalls) still
+/// writes its best design and the picture, whose check is visibly off the target.
+#[test]
+fn unconverged_design_writes_the_picture_of_the_best_design() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("ico2.obj");
+    balloon_mesh::io::write_obj(&target, &balloon_mesh::generate::icosphere(0.1, 2).unwrap())
+        .unwrap();
+    let out = dir.path().join("design");
+    let o = run_balloon(&[
+        "design",
+        target.to_str().unwrap(),
+        "--pressure",
+        "4000",
+        "--thickness",
+        "1e-3",
+        "--material",
+        "membrane-neo-hookean",
+        "--mu",
+        "4e5",
+        "--tolerance",
+        "1e-17",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("the best design so far is written"));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["converged"], false);
+    assert_eq!(summary["picture"], "design.png");
+    let max = summary["check"]["distance"]["max_relative"]
+        .as_f64()
+        .unwrap();
+    assert!(max > 1e-3, "{max}");
+    let img = balloon_render::Image::read_png(&out.join("design.png")).unwrap();
+    assert_eq!((img.width(), img.height()), picture_size());
+    assert!(panels_differ(&img) > 0.02, "{}", panels_differ(&img));
 }
 
 #[test]

@@ -1,12 +1,16 @@
 //! The inverse design job (`balloon design`, a scenario's `[design]` table, Python's
 //! `balloon.design`): the rest shape whose static equilibrium under a gauge pressure is a target
 //! surface (`balloon_design`, `docs/design.md`), checked by a forward static solve, with its
-//! output folder (`rest.obj`, `inflated.obj`, `distance.csv`, `summary.json`) and the
-//! `balloon inflate` command that repeats the check.
+//! output folder (`rest.obj`, `inflated.obj`, `distance.csv`, `design.png`, `summary.json`)
+//! and the `balloon inflate` command that repeats the check.
 
 use anyhow::{Context, Result};
 use balloon::mesh::TriMesh;
 use balloon_design::{Design, DesignParams, DesignProblem, InverseParams, design};
+use balloon_render::{
+    Camera, ColorScale, Framing, Image, Projection, RenderError, RenderOptions, Renderer, Surface,
+    UpAxis,
+};
 use balloon_scenario::material::MaterialSpec;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -84,6 +88,9 @@ pub struct DesignSummary {
     /// The `balloon inflate` command that repeats the forward check from the written
     /// `rest.obj` (its enclosed volume is `check.volume`); null without an output folder.
     pub check_command: Option<String>,
+    /// The picture of target and check side by side (`design.png`, [`design_picture`]); null
+    /// without an output folder or when it could not be rendered (a warning says why).
+    pub picture: Option<String>,
 }
 
 /// The forward check in `summary.json`.
@@ -212,9 +219,10 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         }
         crate::interrupt::pending().is_none()
     })?;
-    if let Some(out) = &job.out {
-        write_outputs(out, &job.target, &result, problem.target())?;
-    }
+    let picture = match &job.out {
+        Some(out) => write_outputs(out, &job.target, &result, problem.target(), job.pressure)?,
+        None => None,
+    };
     let interrupted = crate::interrupt::pending();
     let summary = DesignSummary {
         target: job.target_name.clone(),
@@ -244,6 +252,7 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
                 &job.material,
             )
         }),
+        picture,
     };
     if let Some(out) = &job.out {
         let path = out.join("summary.json");
@@ -257,8 +266,16 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
     })
 }
 
-/// Writes `rest.obj`, `inflated.obj` and `distance.csv` into `out` (created).
-fn write_outputs(out: &Path, target: &TriMesh, result: &Design, target_x: &[f64]) -> Result<()> {
+/// Writes `rest.obj`, `inflated.obj`, `distance.csv` and `design.png` into `out` (created);
+/// returns the picture's file name, or `None` (with a warning on stderr) when it could not be
+/// rendered: a missing picture does not fail the design.
+fn write_outputs(
+    out: &Path,
+    target: &TriMesh,
+    result: &Design,
+    target_x: &[f64],
+    pressure: f64,
+) -> Result<Option<String>> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create `{}`", out.display()))?;
     let mut rest = target.clone();
     rest.set_positions_flat(&result.rest);
@@ -275,5 +292,176 @@ fn write_outputs(out: &Path, target: &TriMesh, result: &Design, target_x: &[f64]
         .collect();
     let path = out.join("distance.csv");
     std::fs::write(&path, csv).with_context(|| format!("cannot write `{}`", path.display()))?;
-    Ok(())
+    let caption = format!(
+        "{} at {} Pa{}",
+        if result.inverse.converged {
+            "design inflated"
+        } else {
+            "best design so far inflated"
+        },
+        balloon_render::format_tick(pressure),
+        if result.inverse.converged {
+            ""
+        } else {
+            " (not converged)"
+        },
+    );
+    let path = out.join(PICTURE);
+    let written = design_picture(
+        target_x,
+        &result.check.positions,
+        &target.triangles,
+        &caption,
+    )
+    .and_then(|img| img.write_png(&path));
+    Ok(match written {
+        Ok(()) => Some(PICTURE.to_string()),
+        Err(e) => {
+            eprintln!("warning: `{}` not written: {e}", path.display());
+            None
+        }
+    })
+}
+
+/// File name of the design's picture in the output folder.
+pub const PICTURE: &str = "design.png";
+
+/// Size of one panel of [`design_picture`], pixels (width, height).
+pub const PICTURE_PANEL: (u32, u32) = (480, 400);
+
+/// Colour of the captions.
+const INK: [u8; 3] = [20, 20, 24];
+
+/// Height of the caption strip above the panels of [`design_picture`], pixels.
+pub const PICTURE_CAPTION_HEIGHT: u32 = 2 * balloon_render::font::GLYPH_HEIGHT + 16;
+
+/// The picture of a design (`design.png`): the target `target` on the left and the forward
+/// check's equilibrium `result` (same connectivity, rigidly aligned onto the target) on the
+/// right, each [`PICTURE_PANEL`] pixels under a [`PICTURE_CAPTION_HEIGHT`] caption strip
+/// (`target`; `caption`). Both are drawn from the same camera (y up, from the front-left,
+/// slightly above) and the same framing (the union of both shapes), so what moved between the
+/// panels moved in space, and both are coloured on one scale, with its legend in each panel, by
+/// the distance of each vertex of the check to the same vertex of the target, `|x_v - x*_v|` in
+/// m (the `distance.csv` of the output folder; the summary's max and RMS are over these).
+///
+/// # Errors
+/// Positions with no finite vertex, `target` and `result` of different lengths (one distance
+/// per vertex is needed), triangles out of range. Vertices with a non-finite coordinate (a
+/// check that blew up) are left out of the framing and their triangles are not drawn.
+pub fn design_picture(
+    target: &[f64],
+    result: &[f64],
+    triangles: &[[usize; 3]],
+    caption: &str,
+) -> Result<Image, RenderError> {
+    let d = balloon_design::vertex_distances(result, target);
+    let framing = Framing::of_points(target)
+        .into_iter()
+        .chain(Framing::of_points(result))
+        .reduce(|a, b| a.union(&b))
+        .ok_or(RenderError::NothingToFrame)?;
+    let dmax = d
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let opts = RenderOptions {
+        camera: Camera {
+            azimuth_deg: 30.0,
+            elevation_deg: 20.0,
+            up: UpAxis::Y,
+            projection: Projection::Perspective { fov_y_deg: 30.0 },
+        },
+        color_scale: Some(ColorScale::new(0.0, dmax, "distance (m)")),
+        ..RenderOptions::new(PICTURE_PANEL.0, PICTURE_PANEL.1)
+    };
+    let (pw, ph) = PICTURE_PANEL;
+    let mut picture = Image::new(2 * pw, ph + PICTURE_CAPTION_HEIGHT, opts.background)?;
+    let mut renderer = Renderer::new();
+    for (k, (x, text)) in [(target, "target"), (result, caption)]
+        .into_iter()
+        .enumerate()
+    {
+        let panel = renderer.render(
+            &Surface::new(x, triangles).with_scalars(&d),
+            &opts,
+            Some(&framing),
+        )?;
+        let x0 = k * pw as usize;
+        let (src, row) = (panel.pixels(), 3 * pw as usize);
+        let width = 3 * 2 * pw as usize;
+        let dst = picture.pixels_mut();
+        for y in 0..ph as usize {
+            let at = (y + PICTURE_CAPTION_HEIGHT as usize) * width + 3 * x0;
+            dst[at..at + row].copy_from_slice(&src[y * row..(y + 1) * row]);
+        }
+        let scale = if balloon_render::font::text_width(text, 2) + 16 <= pw {
+            2
+        } else {
+            1
+        };
+        balloon_render::font::draw_text(&mut picture, x0 as i64 + 8, 8, text, scale, INK);
+    }
+    Ok(picture)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Fraction of the pixels of the two panels (below the captions) that differ by more than
+    /// 8 levels in a channel.
+    pub fn panels_differ(img: &Image) -> f64 {
+        let (pw, ph) = PICTURE_PANEL;
+        let mut differ = 0usize;
+        for y in PICTURE_CAPTION_HEIGHT..PICTURE_CAPTION_HEIGHT + ph {
+            for x in 0..pw {
+                let (a, b) = (img.get(x, y).unwrap(), img.get(x + pw, y).unwrap());
+                differ += usize::from(a.iter().zip(&b).any(|(p, q)| p.abs_diff(*q) > 8));
+            }
+        }
+        differ as f64 / (pw * ph) as f64
+    }
+
+    #[test]
+    fn the_panels_share_camera_and_colours_and_differ_where_the_shapes_do() {
+        let target = balloon::mesh::generate::icosphere(0.1, 2).unwrap();
+        let x = target.positions_flat();
+        let t = &target.triangles;
+        // The same shape: the panels are the same picture (one camera, one framing, one scale).
+        let same = design_picture(&x, &x, t, "check").unwrap();
+        assert_eq!(
+            (same.width(), same.height()),
+            (
+                2 * PICTURE_PANEL.0,
+                PICTURE_PANEL.1 + PICTURE_CAPTION_HEIGHT
+            )
+        );
+        assert_eq!(panels_differ(&same), 0.0);
+        // The upper half (y > 0) pushed out by 10 %: the panels differ, but not at the bottom
+        // of the picture (up is +y), where both show the unmoved lower half.
+        let bulged: Vec<f64> = x
+            .chunks(3)
+            .flat_map(|p| {
+                let f = if p[1] > 0.0 { 1.1 } else { 1.0 };
+                [p[0] * f, p[1] * f, p[2] * f]
+            })
+            .collect();
+        let img = design_picture(&x, &bulged, t, "check").unwrap();
+        assert!(panels_differ(&img) > 0.02, "{}", panels_differ(&img));
+        let (pw, ph) = PICTURE_PANEL;
+        let row_differs = |y: u32| {
+            (0..pw).any(|x| {
+                let (a, b) = (img.get(x, y).unwrap(), img.get(x + pw, y).unwrap());
+                a.iter().zip(&b).any(|(p, q)| p.abs_diff(*q) > 8)
+            })
+        };
+        // The bottom fifth of the panels shows only the unmoved lower half.
+        let bottom = PICTURE_CAPTION_HEIGHT + ph - ph / 5;
+        assert!((bottom..PICTURE_CAPTION_HEIGHT + ph).all(|y| !row_differs(y)));
+        assert!((PICTURE_CAPTION_HEIGHT..bottom).any(row_differs));
+        // A result with no finite vertex cannot be drawn.
+        let lost = vec![f64::NAN; x.len()];
+        assert!(design_picture(&lost, &lost, t, "check").is_err());
+    }
 }
