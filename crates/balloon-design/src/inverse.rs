@@ -487,14 +487,19 @@ impl Solver<'_> {
                 let a = self
                     .pattern
                     .write_csr(&jtj, |v| tangential[v] * b + Matrix3::identity() * mu);
-                // The pattern is the mesh's: one symbolic analysis for the whole design.
-                self.chol
-                    .factorize(a, 1)
-                    .map_err(|e| DesignError::Linear(e.to_string()))?;
+                // The pattern is the mesh's: one symbolic analysis for the whole design. With a
+                // vanishing damping `J^T J` is singular in round-off (the rigid motions, and the
+                // normal directions near a pressure maximum): a failed factorisation or solve
+                // asks for more damping, as a refused step does, instead of ending the design.
+                if self.chol.factorize(a, 1).is_err() {
+                    self.damping = (4.0 * self.damping).max(1e-9);
+                    continue;
+                }
                 let mut dx: Vec<f64> = g.iter().map(|v| -v).collect();
-                self.chol
-                    .solve_in_place(&mut dx)
-                    .map_err(|e| DesignError::Linear(e.to_string()))?;
+                if self.chol.solve_in_place(&mut dx).is_err() {
+                    self.damping = (4.0 * self.damping).max(1e-9);
+                    continue;
+                }
                 // Geodesic acceleration (Transtrum and Sethna 2012): the second directional
                 // derivative of r along dx by a finite difference, and the correction `a` it
                 // asks for, solved with the same factor; the step `dx + a/2` follows the
