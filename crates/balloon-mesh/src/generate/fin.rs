@@ -8,7 +8,7 @@
 //! fold. Real models have such parts (a bird's wings, a fish's fins, thin ears); the smooth
 //! spheres, ellipsoids and the teddy do not. The body is a smooth union of a flattened ellipsoid
 //! and a thin, rounded plate standing on its back, meshed by
-//! [`implicit_surface`](super::implicit_surface).
+//! [`implicit_surface`].
 //!
 //! Frame: the body's long axis is `x`, its back faces `+z`, the fin lies in the `x z` plane
 //! (thin along `y`); the shape is centred on the ellipsoid's centre.
