@@ -127,15 +127,6 @@ impl ShellView {
     }
 }
 
-/// The scenario text (TOML) of a built-in shell view, as `balloon run` records it.
-pub(super) fn shell_scenario_text(view: &ShellView) -> Option<String> {
-    let s = view.scenario().ok()?;
-    Some(balloon_scenario::file::record(
-        &balloon_scenario::Scenario::Shell(s),
-        &balloon_scenario::keys::Literals::default(),
-    ))
-}
-
 impl TwoLayerView {
     /// The two-layer scenario of the current set-up: the octahedron sphere of level 3 with the
     /// view's radii, structural springs and damping, gas, gravity, box, integrator and time
@@ -162,12 +153,4 @@ impl TwoLayerView {
         s.run.dt = st.dt;
         s
     }
-}
-
-/// The scenario text (TOML) of the built-in two-layer view, as `balloon run` records it.
-pub(super) fn two_layer_scenario_text(view: &TwoLayerView) -> String {
-    balloon_scenario::file::record(
-        &balloon_scenario::Scenario::TwoLayer(view.scenario()),
-        &balloon_scenario::keys::Literals::default(),
-    )
 }

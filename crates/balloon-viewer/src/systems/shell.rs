@@ -565,7 +565,11 @@ impl ViewSystem for ShellView {
 
     /// The built-in set-up as a shell scenario ([`ShellView::scenario`]).
     fn scenario_text(&self) -> Option<String> {
-        super::saved::shell_scenario_text(self)
+        let s = self.scenario().ok()?;
+        Some(balloon_scenario::file::record(
+            &balloon_scenario::Scenario::Shell(s),
+            &balloon_scenario::keys::Literals::default(),
+        ))
     }
 
     fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {

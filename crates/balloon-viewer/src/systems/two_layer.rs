@@ -232,7 +232,10 @@ impl ViewSystem for TwoLayerView {
 
     /// The built-in set-up as a two-layer scenario ([`TwoLayerView::scenario`]).
     fn scenario_text(&self) -> Option<String> {
-        Some(super::saved::two_layer_scenario_text(self))
+        Some(balloon_scenario::file::record(
+            &balloon_scenario::Scenario::TwoLayer(self.scenario()),
+            &balloon_scenario::keys::Literals::default(),
+        ))
     }
 
     fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
