@@ -1,7 +1,7 @@
 //! Runs that cannot do anything are refused, and failures say only what happened: hard pins on
 //! every particle of a volumetric or two-layer body are refused naming the selections (as the
 //! shell's are), and a static solve that fails before its first point prints no
-//! "0 point(s)" result line.
+//! "0 point(s)" result line and counts the Newton iterations it spent.
 
 use super::run_balloon;
 
@@ -83,4 +83,56 @@ fn a_static_solve_that_fails_before_its_first_point_prints_no_point_line() {
     assert!(!out.status.success(), "{stdout}");
     assert!(stderr.contains("did not converge"), "{stderr}");
     assert!(!stdout.contains("point(s)"), "{stdout}");
+}
+
+#[test]
+fn a_failed_static_solve_counts_the_newton_iterations_it_spent() {
+    // The same solve as above, which fails in its first point after many iterations: the
+    // summary used to report `newton_iterations_total: 0` (only converged points counted).
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("ico2.obj");
+    balloon::mesh::io::write_obj(&mesh, &balloon::mesh::generate::icosphere(0.1, 2).unwrap())
+        .unwrap();
+    let run = dir.path().join("run");
+    let out = run_balloon(&[
+        "inflate",
+        mesh.to_str().unwrap(),
+        "--material",
+        "membrane-neo-hookean",
+        "--mu",
+        "4e5",
+        "--static",
+        "--gas",
+        "constant",
+        "--pressure",
+        "1e5",
+        "--out",
+        run.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["points"], 0, "{summary}");
+    assert!(
+        summary["error"]
+            .as_str()
+            .unwrap()
+            .contains("did not converge")
+            || summary["error"].as_str().unwrap().contains("failed"),
+        "{summary}"
+    );
+    // At least the iterations of the stage that failed (the error names its last iteration).
+    let error = summary["error"].as_str().unwrap();
+    let stage: u64 = error
+        .split("Newton iteration ")
+        .nth(1)
+        .or_else(|| error.split("after ").nth(1))
+        .and_then(|t| t.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no iteration count in {error}"));
+    let total = summary["newton_iterations_total"].as_u64().unwrap();
+    assert!(
+        total > stage,
+        "total {total}, failing stage {stage}: {summary}"
+    );
 }

@@ -15,6 +15,7 @@ impl StaticSolver {
         x: &mut [f64],
         external_forces: Option<&[f64]>,
     ) -> Result<StaticInfo, StaticError> {
+        self.last_iterations = 0;
         let n = system.num_dofs();
         Self::check_inputs(n, x, external_forces)?;
         system.set_load_factor(1.0);

@@ -49,6 +49,8 @@ pub struct StaticSolver {
     pub(super) last_converged: bool,
     /// Linear iterations of the solve under way.
     linear_iterations: usize,
+    /// Newton iterations of the last solve, converged or not.
+    pub(super) last_iterations: usize,
 }
 
 impl Default for StaticSolver {
@@ -75,6 +77,7 @@ impl StaticSolver {
             warm_start: false,
             last_converged: false,
             linear_iterations: 0,
+            last_iterations: 0,
         })
     }
 
@@ -153,6 +156,7 @@ impl StaticSolver {
         x: &mut [f64],
         external_forces: Option<&[f64]>,
     ) -> Result<StaticInfo, StaticError> {
+        self.last_iterations = 0;
         let n = system.num_dofs();
         Self::check_inputs(n, x, external_forces)?;
         self.prepare(system, n, time)?;
@@ -169,9 +173,17 @@ impl StaticSolver {
         })
     }
 
+    /// Newton iterations of the last [`StaticSolver::solve`] or
+    /// [`StaticSolver::solve_with_continuation`], whether it converged or failed (a failed
+    /// solve's error may count only some of them: an interrupted one counts its last stage's).
+    pub fn last_iterations(&self) -> usize {
+        self.last_iterations
+    }
+
     /// Moves the counters of the solve into `info`: factorisations since `before`, linear
     /// iterations and phase times.
     pub(super) fn finish_info(&mut self, before: u64, info: &mut StaticInfo) {
+        self.last_iterations = info.iterations;
         info.factorizations = (self.core.matrix.solver.factorizations() - before) as usize;
         info.linear_iterations = std::mem::take(&mut self.linear_iterations);
         info.times = std::mem::take(&mut self.core.times);

@@ -230,6 +230,8 @@ pub fn run<M: ShellMaterial>(
             }
             Err(e) => {
                 summary.converged = false;
+                // The iterations the failed point spent count too (its error says how many).
+                summary.newton_iterations_total += e.static_newton_iterations().unwrap_or(0);
                 // A solve stopped by a signal during its Newton iterations is an interruption
                 // (the point is not reached; the state is the last accepted iterate).
                 match crate::interrupt::pending() {
@@ -425,7 +427,7 @@ fn failure_message(e: &balloon::shell::ShellError, args: &ShellScenario) -> Stri
         )
     });
     match e {
-        ShellError::Static { outer, source } => {
+        ShellError::Static { outer, source, .. } => {
             let mut tries = vec!["a looser `newton_tol`"];
             if args.run.tangent != TangentKind::Projected {
                 tries.push("`tangent` = projected");

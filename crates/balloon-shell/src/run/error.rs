@@ -110,6 +110,9 @@ pub enum ShellError {
     Static {
         /// Outer iteration (thickness fixed point / multiplier update), 0-based.
         outer: usize,
+        /// Newton iterations spent before the failure, over every outer iteration and load
+        /// stage (the failing solve's included).
+        newton_iterations: usize,
         /// What failed.
         #[source]
         source: balloon_integrate::statics::StaticError,
@@ -121,6 +124,8 @@ pub enum ShellError {
     StaticNotConverged {
         /// Outer iterations done.
         outer_iterations: usize,
+        /// Newton iterations over all outer iterations.
+        newton_iterations: usize,
         /// Relative Newton residual of the last solve.
         residual: f64,
         /// Relative thickness change of the last projection.
@@ -143,6 +148,20 @@ pub enum ShellError {
 }
 
 impl ShellError {
+    /// The Newton iterations a failed static solve spent ([`ShellError::Static`],
+    /// [`ShellError::StaticNotConverged`]); `None` for the other errors.
+    pub fn static_newton_iterations(&self) -> Option<usize> {
+        match self {
+            Self::Static {
+                newton_iterations, ..
+            }
+            | Self::StaticNotConverged {
+                newton_iterations, ..
+            } => Some(*newton_iterations),
+            _ => None,
+        }
+    }
+
     /// A parameter of the integrator refused by its own check (`BackwardEulerParams::validate`,
     /// when building or configuring it) as [`ShellError::InvalidParameter`]; any other error
     /// of the integrator as [`ShellError::Integrate`] of step 0.

@@ -77,6 +77,7 @@ impl<M: ShellMaterial> ShellSimulation<M, Gas> {
         if !report.converged {
             return Err(ShellError::StaticNotConverged {
                 outer_iterations: report.outer_iterations,
+                newton_iterations: report.newton_iterations,
                 residual: report.relative_residual,
                 thickness_change: report.thickness_change,
                 volume_error: report.volume_error,

@@ -136,8 +136,12 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         } else {
             (!self.external_forces.is_empty()).then(|| self.external_forces.clone())
         };
-        let mut solver = StaticSolver::new(options.solver)
-            .map_err(|source| ShellError::Static { outer: 0, source })?;
+        let mut solver =
+            StaticSolver::new(options.solver).map_err(|source| ShellError::Static {
+                outer: 0,
+                newton_iterations: 0,
+                source,
+            })?;
         // Each outer solve starts from the last one's equilibrium and shift.
         solver.set_warm_start(true);
         let mut x = self.x.clone();
@@ -182,7 +186,11 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                     tolerance,
                     ..*solver.params()
                 })
-                .map_err(|source| ShellError::Static { outer, source })?;
+                .map_err(|source| ShellError::Static {
+                    outer,
+                    newton_iterations: report.newton_iterations,
+                    source,
+                })?;
             let (info, gauge, volume) = {
                 let mut shell = StaticShell::new(&mut self.system, gas, options.follower_term);
                 let info = if pinned {
@@ -192,7 +200,11 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 } else {
                     solver.solve_with_continuation(&mut shell, time, &mut x, external.as_deref())
                 }
-                .map_err(|source| ShellError::Static { outer, source })?;
+                .map_err(|source| ShellError::Static {
+                    outer,
+                    newton_iterations: report.newton_iterations + solver.last_iterations(),
+                    source,
+                })?;
                 (info, shell.gauge_pressure(), shell.volume())
             };
             report.outer_iterations = outer + 1;
@@ -333,7 +345,11 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                         } else {
                             solver.stability(&mut shell, time, &x, &[], &params)
                         }
-                        .map_err(|source| ShellError::Static { outer, source })?
+                        .map_err(|source| ShellError::Static {
+                            outer,
+                            newton_iterations: report.newton_iterations,
+                            source,
+                        })?
                     };
                     report.stability = Some((&stability).into());
                 }
@@ -343,6 +359,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         }
         Err(ShellError::StaticNotConverged {
             outer_iterations: report.outer_iterations,
+            newton_iterations: report.newton_iterations,
             residual: report.relative_residual,
             thickness_change: report.thickness_change,
             volume_error: report.volume_error,
@@ -361,6 +378,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             .forces(time, x, &mut f)
             .map_err(|source| ShellError::Static {
                 outer: 0,
+                newton_iterations: 0,
                 source: StaticError::System {
                     iteration: 0,
                     source,
