@@ -113,9 +113,9 @@ pub enum ShellError {
         /// Newton iterations spent before the failure, over every outer iteration and load
         /// stage (the failing solve's included).
         newton_iterations: usize,
-        /// What failed.
+        /// What failed (boxed: it is the largest of the errors).
         #[source]
-        source: balloon_integrate::statics::StaticError,
+        source: Box<balloon_integrate::statics::StaticError>,
     },
     /// The static solve's outer loop (thickness fixed point, volume multiplier) did not settle.
     #[error(

@@ -140,7 +140,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             StaticSolver::new(options.solver).map_err(|source| ShellError::Static {
                 outer: 0,
                 newton_iterations: 0,
-                source,
+                source: Box::new(source),
             })?;
         // Each outer solve starts from the last one's equilibrium and shift.
         solver.set_warm_start(true);
@@ -189,7 +189,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 .map_err(|source| ShellError::Static {
                     outer,
                     newton_iterations: report.newton_iterations,
-                    source,
+                    source: Box::new(source),
                 })?;
             let (info, gauge, volume) = {
                 let mut shell = StaticShell::new(&mut self.system, gas, options.follower_term);
@@ -203,7 +203,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 .map_err(|source| ShellError::Static {
                     outer,
                     newton_iterations: report.newton_iterations + solver.last_iterations(),
-                    source,
+                    source: Box::new(source),
                 })?;
                 (info, shell.gauge_pressure(), shell.volume())
             };
@@ -348,7 +348,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                         .map_err(|source| ShellError::Static {
                             outer,
                             newton_iterations: report.newton_iterations,
-                            source,
+                            source: Box::new(source),
                         })?
                     };
                     report.stability = Some((&stability).into());
@@ -379,10 +379,10 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             .map_err(|source| ShellError::Static {
                 outer: 0,
                 newton_iterations: 0,
-                source: StaticError::System {
+                source: Box::new(StaticError::System {
                     iteration: 0,
                     source,
-                },
+                }),
             })?;
         let g = self.system.gas.low_rank_term().vector.clone();
         // `f` holds the gas force `gauge * g` too (Eq. 15); remove it.
