@@ -186,6 +186,7 @@ pub fn run<M: ShellMaterial>(
             },
             None => StaticControl::Gas,
         };
+        let solving = std::time::Instant::now();
         match sim.solve_static(&options) {
             Ok(report) => {
                 summary.points += 1;
@@ -232,6 +233,12 @@ pub fn run<M: ShellMaterial>(
                 summary.converged = false;
                 // The iterations the failed point spent count too (its error says how many).
                 summary.newton_iterations_total += e.static_newton_iterations().unwrap_or(0);
+                summary.solve_ms += solving.elapsed().as_secs_f64() * 1e3;
+                // The residual it ended at, not the 0 of a point never solved.
+                if let Some(r) = e.static_residual() {
+                    summary.newton_residual = r;
+                    summary.newton_residual_max = summary.newton_residual_max.max(r);
+                }
                 // A solve stopped by a signal during its Newton iterations is an interruption
                 // (the point is not reached; the state is the last accepted iterate).
                 match crate::interrupt::pending() {

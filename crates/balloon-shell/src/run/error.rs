@@ -162,6 +162,21 @@ impl ShellError {
         }
     }
 
+    /// The relative Newton residual a failed static solve ended at, when it is known (a solve
+    /// that did not converge; not one whose linear solve failed).
+    pub fn static_residual(&self) -> Option<f64> {
+        match self {
+            Self::Static { source, .. } => match **source {
+                balloon_integrate::statics::StaticError::NotConverged { residual, .. } => {
+                    Some(residual)
+                }
+                _ => None,
+            },
+            Self::StaticNotConverged { residual, .. } => Some(*residual),
+            _ => None,
+        }
+    }
+
     /// A parameter of the integrator refused by its own check (`BackwardEulerParams::validate`,
     /// when building or configuring it) as [`ShellError::InvalidParameter`]; any other error
     /// of the integrator as [`ShellError::Integrate`] of step 0.

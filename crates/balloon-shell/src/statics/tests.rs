@@ -133,3 +133,54 @@ fn the_rest_state_is_an_equilibrium_whose_projection_keeps_its_thickness() {
         .fold(0.0, f64::max);
     assert!(d <= 1e-7, "shape difference {d:e} m");
 }
+
+/// A static solve that fails says how many Newton iterations it spent and the residual it
+/// ended at: the outer loop cut after its first solve reports that solve's iterations (the
+/// same count the first outer record of an unrestricted solve shows), and a solve whose Newton
+/// stages are cut short reports at least the iterations of the stages it tried.
+#[test]
+fn a_failed_static_solve_reports_its_newton_iterations_and_residual() {
+    let mesh = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
+    let full = ideal_gas_balloon(&mesh, 3000.0)
+        .solve_static(&StaticOptions::default())
+        .unwrap();
+    assert!(full.outer.len() > 1, "{full:?}");
+    let first = full.outer[0].newton_iterations;
+
+    let cut = StaticOptions {
+        max_outer_iterations: 1,
+        ..StaticOptions::default()
+    };
+    let e = ideal_gas_balloon(&mesh, 3000.0)
+        .solve_static(&cut)
+        .unwrap_err();
+    assert!(
+        matches!(e, crate::ShellError::StaticNotConverged { .. }),
+        "{e}"
+    );
+    assert_eq!(e.static_newton_iterations(), Some(first), "{e}");
+    assert_eq!(e.static_residual(), Some(full.outer[0].relative_residual));
+
+    let mut short = StaticOptions::default();
+    short.solver.max_iterations = 1;
+    short.solver.max_load_halvings = 1;
+    let e = ideal_gas_balloon(&mesh, 3000.0)
+        .solve_static(&short)
+        .unwrap_err();
+    let crate::ShellError::Static { source, .. } = &e else {
+        panic!("{e}");
+    };
+    let balloon_integrate::statics::StaticError::NotConverged {
+        iterations,
+        residual,
+        tolerance,
+        ..
+    } = **source
+    else {
+        panic!("{e}");
+    };
+    assert!(iterations >= 2, "a full-load stage and a halved one: {e}");
+    assert!(e.static_newton_iterations().unwrap() >= iterations, "{e}");
+    assert_eq!(e.static_residual(), Some(residual));
+    assert!(residual > tolerance, "{e}");
+}
