@@ -89,7 +89,8 @@ impl Regularization {
     }
 
     /// The shift to retry with after a solve at `current` met an indefinite matrix (`err`),
-    /// or `None` when this policy does not retry.
+    /// or `None` when this policy does not retry (or the Levenberg-Marquardt shift is at its
+    /// largest already).
     pub(crate) fn after_indefinite(
         &mut self,
         current: f64,
@@ -101,6 +102,9 @@ impl Regularization {
             Self::RetryShift { enabled, .. } => {
                 enabled.then(|| next_shift(current, m_coef, err, masses))
             }
+            // At the largest shift a still indefinite matrix will not become definite: the
+            // solve fails at once instead of refactorising at the same shift.
+            Self::LevenbergMarquardt { shift, .. } if *shift >= MAX_SHIFT => None,
             Self::LevenbergMarquardt { shift, scale, .. } => {
                 *shift = (*shift * 10.0).min(MAX_SHIFT);
                 Some(*shift * *scale)

@@ -95,18 +95,22 @@ impl StaticSolver {
                     info.load_halvings += 1;
                     if halvings > p.max_load_halvings {
                         system.set_load_factor(done);
-                        return Err(match e {
+                        // Whatever stopped the last increment (no step, a shift that could not
+                        // make the matrix definite), the solve ends where the load path ends:
+                        // at the last converged load factor, with the residual it reached.
+                        let (residual, tolerance) = match e {
                             StaticError::NotConverged {
                                 residual,
                                 tolerance,
                                 ..
-                            } => StaticError::NotConverged {
-                                iterations: info.iterations,
-                                residual,
-                                tolerance,
-                                load_factor: Some(done),
-                            },
-                            other => other,
+                            } => (residual, tolerance),
+                            _ => (info.relative_residual, tol),
+                        };
+                        return Err(StaticError::NotConverged {
+                            iterations: info.iterations,
+                            residual,
+                            tolerance,
+                            load_factor: Some(done),
                         });
                     }
                     increment *= 0.5;
