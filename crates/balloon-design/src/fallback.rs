@@ -572,7 +572,7 @@ pub fn optimise_rest_shape(
             }
         }
         let mut slope = dot(&g, &d);
-        if !(slope < 0.0) {
+        if slope.is_nan() || slope >= 0.0 {
             memory.clear();
             d = g.iter().map(|v| -v).collect();
             slope = -gn * gn;

@@ -11,7 +11,12 @@
 //! pressure continuation. The design is then checked by a forward static solve from the
 //! designed rest shape with the shell's own static solver ([`forward_check`]), and the distance
 //! of that equilibrium to the target is reported ([`Distance`]: max and RMS, in m and over the
-//! bounding-box diagonal). Works for the three-prism shell (St. Venant-Kirchhoff,
+//! bounding-box diagonal). Where no rest shape holds the target exactly (flat faces, targets
+//! beyond the pressure maximum), [`design`] goes on with a shape optimisation
+//! ([`optimise_rest_shape`]): it minimises the distance of the forward equilibrium to the
+//! target over the rest shape, with the adjoint gradient through the static solve and L-BFGS,
+//! and reports the remaining distance ([`FallbackInfo`]) instead of claiming success. Works
+//! for the three-prism shell (St. Venant-Kirchhoff,
 //! neo-Hookean; Wang et al. 2015, Eq. 4-8) and the incompressible membranes
 //! (`docs/membranes.md`). The equations, the regulariser and what the method can and cannot
 //! reach are in `docs/design.md`.
