@@ -61,8 +61,11 @@ fn real_in(v: &Bound<'_, PyAny>, name: &str, lo: f64, hi: f64) -> PyResult<f64> 
 /// outward-oriented mesh), and checks it by a forward static solve, as `balloon design` does
 /// (docs/design.md). Options: the wall as `balloon inflate` takes it (`thickness`, `material`,
 /// `young`, `poisson`, `mu`, ... and `material_preset`), `tolerance` (relative equilibrium
-/// residual, in (0, 1)), `tangential_weight` (>= 0) and `out` (a folder for rest.obj,
-/// inflated.obj, distance.csv and summary.json). Returns {"rest": (n, 3) float64, "inflated":
+/// residual, in (0, 1)), `tangential_weight` (>= 0), `fallback` ("unconverged" (default),
+/// "always" or "off": the shape optimisation that minimises the distance of the forward
+/// equilibrium to the target where the inverse has no exact answer; its record is
+/// `summary["inverse"]["fallback"]`), `fallback_iterations` (1 to 100000) and `out` (a folder
+/// for rest.obj, inflated.obj, distance.csv and summary.json). Returns {"rest": (n, 3) float64, "inflated":
 /// (n, 3) float64 (the check's equilibrium, rigidly aligned onto the target), "summary": dict
 /// (summary.json's keys)}. A design that does not reach the pressure or the tolerance is
 /// returned with `summary["converged"]` False (check it): the best rest shape found. Errors:
@@ -85,6 +88,7 @@ pub(crate) fn design<'py>(
     wall.set_item("gas", "constant")?;
     wall.set_item("pressure", pressure)?;
     let (mut tolerance, mut tangential_weight, mut out) = (None, 0.0, None);
+    let (mut fallback, mut fallback_iterations) = (None, None);
     if let Some(options) = options {
         for (k, v) in options.iter() {
             let key: String = k.extract()?;
@@ -99,6 +103,26 @@ pub(crate) fn design<'py>(
                 }
                 "tangential_weight" => {
                     tangential_weight = real_in(&v, "tangential_weight", 0.0, 1e6)?
+                }
+                "fallback" => {
+                    let text: String = v.extract().map_err(|_| {
+                        InvalidOption::new_err(
+                            "`fallback` must be \"unconverged\", \"always\" or \"off\"",
+                        )
+                    })?;
+                    fallback = Some(
+                        text.parse::<balloon_design::FallbackMode>()
+                            .map_err(|e| InvalidOption::new_err(format!("`fallback`: {e}")))?,
+                    );
+                }
+                "fallback_iterations" => {
+                    let n = real_in(&v, "fallback_iterations", 1.0, 1e5)?;
+                    if n.fract() != 0.0 {
+                        return Err(InvalidOption::new_err(format!(
+                            "`fallback_iterations` = {n} is not a whole number"
+                        )));
+                    }
+                    fallback_iterations = Some(n as usize);
                 }
                 "out" if !v.is_none() => {
                     let os = py.import("os")?;
@@ -116,7 +140,13 @@ pub(crate) fn design<'py>(
                         .copied()
                         .filter(|n| *n != "pressure")
                         .collect();
-                    known.extend(["tolerance", "tangential_weight", "out"]);
+                    known.extend([
+                        "tolerance",
+                        "tangential_weight",
+                        "fallback",
+                        "fallback_iterations",
+                        "out",
+                    ]);
                     return Err(InvalidOption::new_err(format!(
                         "unknown option `{k}` (the options of design are {})",
                         known.join(", ")
@@ -136,13 +166,25 @@ pub(crate) fn design<'py>(
         job.tolerance = t;
     }
     job.tangential_weight = tangential_weight;
+    if let Some(f) = fallback {
+        job.fallback = f;
+    }
+    if let Some(n) = fallback_iterations {
+        job.fallback_iterations = n;
+    }
     job.out = out;
     let result = py.detach(move || run(&job)).map_err(design_err)?;
     if result.interrupted.is_some() {
         return Err(crate::errors::to_py_err(anyhow::Error::new(
             balloon_run::interrupt::Interrupted {
                 signal: result.interrupted.unwrap_or(2),
-                steps: result.design.inverse.iterations,
+                steps: result.design.inverse.iterations
+                    + result
+                        .design
+                        .inverse
+                        .fallback
+                        .as_ref()
+                        .map_or(0, |f| f.iterations),
             },
         )));
     }

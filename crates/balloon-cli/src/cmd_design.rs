@@ -14,7 +14,7 @@
 //! repeats it from `rest.obj` (`docs/design.md`, "Repeating the check").
 
 use anyhow::{Context, Result, bail};
-use balloon_design::InverseParams;
+use balloon_design::{FallbackMode, FallbackParams, InverseParams};
 use balloon_mesh::TriMesh;
 use balloon_run::jobs::design::{DesignJob, DesignRun};
 use std::path::PathBuf;
@@ -49,6 +49,16 @@ pub struct DesignArgs {
     /// J^T J; 0 = none, the design exact; docs/design.md), >= 0.
     #[arg(long, default_value_t = 0.0, value_parser = real(End::Closed(0.0), End::Closed(1e6)))]
     pub tangential_weight: f64,
+    /// When the shape optimisation runs after the inverse solve: `unconverged` (when the
+    /// inverse has no exact answer: it minimises the distance of the forward equilibrium to
+    /// the target, docs/design.md), `always`, or `off`.
+    #[arg(long, default_value = "unconverged", value_parser = parse_fallback)]
+    pub fallback: FallbackMode,
+    /// Steps allowed to the shape optimisation (each one forward static solve or more), 1 to
+    /// 100000.
+    #[arg(long, default_value_t = FallbackParams::default().max_iterations,
+          value_parser = parse_steps)]
+    pub fallback_iterations: usize,
     /// Output folder: rest.obj, inflated.obj, distance.csv, design.png (target and check side
     /// by side, coloured by the distance), summary.json (created; files of the same names are
     /// replaced).
@@ -57,6 +67,19 @@ pub struct DesignArgs {
     /// Print no progress.
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// `--fallback`'s value.
+fn parse_fallback(s: &str) -> Result<FallbackMode, String> {
+    s.parse()
+}
+
+/// `--fallback-iterations`' value: a whole number in 1..=100000.
+fn parse_steps(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(n) if (1..=100_000).contains(&n) => Ok(n),
+        _ => Err(format!("`{s}` is not a whole number from 1 to 100000")),
+    }
 }
 
 /// The target mesh `spec` scaled by `scale`.
@@ -87,10 +110,25 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         material: args.material.spec(),
         tolerance: args.tolerance,
         tangential_weight: args.tangential_weight,
+        fallback: args.fallback,
+        fallback_iterations: args.fallback_iterations,
         out: Some(args.out.clone()),
         quiet: args.quiet,
     };
     report(&job, &balloon_run::jobs::design::run(&job)?)
+}
+
+/// Why the shape optimisation stopped, in words.
+fn stop_reason(stop: balloon_design::FallbackStop) -> &'static str {
+    use balloon_design::FallbackStop::*;
+    match stop {
+        Distance => "on the target",
+        Gradient => "a local minimum of the distance",
+        Iterations => "the step limit",
+        LineSearch => "no step reduced the distance further",
+        Interrupted => "interrupted",
+        NoEquilibrium => "no forward equilibrium",
+    }
 }
 
 /// Prints a design's summary line and the command that repeats its check; an interruption or
@@ -124,23 +162,49 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
             .map(|o| format!("; written to {}", o.display()))
             .unwrap_or_default(),
     );
+    if let Some(f) = &result.inverse.fallback {
+        match (f.start, f.end) {
+            (Some(a), Some(b)) => println!(
+                "shape optimisation: {} steps ({} forward solves, stopped: {}), forward distance \
+                 max {:.3e} m -> {:.3e} m ({:.3e} of the diagonal), RMS {:.3e} m -> {:.3e} m \
+                 ({:.3e} of the diagonal)",
+                f.iterations,
+                f.forward_solves,
+                stop_reason(f.stopped),
+                a.max,
+                b.max,
+                b.max_relative,
+                a.rms,
+                b.rms,
+                b.rms_relative
+            ),
+            _ => println!(
+                "shape optimisation: not run, the best inverse design has no forward equilibrium"
+            ),
+        }
+    }
     if let Some(command) = &run.summary.check_command {
         println!("repeat the check: {command}");
     }
     if let Some(signal) = run.interrupted {
         return Err(balloon_run::interrupt::Interrupted {
             signal,
-            steps: result.inverse.iterations,
+            steps: result.inverse.iterations
+                + result.inverse.fallback.as_ref().map_or(0, |f| f.iterations),
         }
         .into());
     }
     if !result.inverse.converged {
         bail!(
             "no rest shape holds the target at `pressure` = {} Pa (reached {:.3} of it, relative \
-             residual {:.3e}); the best design so far is written",
+             residual {:.3e}); the best design so far is written: its forward equilibrium lies \
+             within {:.3e} m of the target ({:.3e} of the diagonal, RMS {:.3e} m)",
             job.pressure,
             result.inverse.load_reached,
-            result.inverse.relative_residual
+            result.inverse.relative_residual,
+            dist.max,
+            dist.max_relative,
+            dist.rms
         );
     }
     Ok(())

@@ -4,8 +4,8 @@
 
 use balloon_gas::{ConstantPressure, PressureLoad};
 use balloon_integrate::statics::{StaticParams, StaticSolver};
-use balloon_shell::ShellSystem;
 use balloon_shell::statics::{GasTerm, StaticShell};
+use balloon_shell::{ShellMaterialModel, ShellSystem};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -102,6 +102,29 @@ pub fn rigidly_aligned(shape: &[f64], reference: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// The shell of the rest shape `rest` under the problem's constant gauge pressure (follower
+/// term on, ambient 0): the forward problem of the design.
+pub(crate) fn shell_from_rest(
+    problem: &DesignProblem,
+    rest: &[f64],
+) -> Result<ShellSystem<ShellMaterialModel, ConstantPressure>, DesignError> {
+    let forward = |e: &dyn std::fmt::Display| DesignError::Forward(e.to_string());
+    let gas =
+        PressureLoad::new(ConstantPressure::try_new(problem.pressure()).map_err(|e| forward(&e))?)
+            .with_ambient_pressure(0.0)
+            .map_err(|e| forward(&e))?
+            .with_follower_term(true);
+    ShellSystem::from_rest_shape(
+        rest,
+        problem.triangles().to_vec(),
+        problem.thickness().to_vec(),
+        DENSITY,
+        problem.material().clone(),
+        gas,
+    )
+    .map_err(|e| forward(&e))
+}
+
 /// The result of [`forward_check`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ForwardCheck {
@@ -140,20 +163,7 @@ pub fn forward_check(
 ) -> Result<ForwardCheck, DesignError> {
     let started = std::time::Instant::now();
     let forward = |e: &dyn std::fmt::Display| DesignError::Forward(e.to_string());
-    let gas =
-        PressureLoad::new(ConstantPressure::try_new(problem.pressure()).map_err(|e| forward(&e))?)
-            .with_ambient_pressure(0.0)
-            .map_err(|e| forward(&e))?
-            .with_follower_term(true);
-    let mut shell = ShellSystem::from_rest_shape(
-        rest,
-        problem.triangles().to_vec(),
-        problem.thickness().to_vec(),
-        DENSITY,
-        problem.material().clone(),
-        gas,
-    )
-    .map_err(|e| forward(&e))?;
+    let mut shell = shell_from_rest(problem, rest)?;
     let mut x = rest.to_vec();
     let mut solver = StaticSolver::new(*params).map_err(|e| forward(&e))?;
     let (converged, relative_residual, iterations) = {

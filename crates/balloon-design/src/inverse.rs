@@ -121,6 +121,10 @@ pub struct InverseInfo {
     pub halvings: usize,
     /// Wall-clock seconds.
     pub seconds: f64,
+    /// The shape optimisation that followed (`None` when it did not run): its distances
+    /// before and after, iterations and why it stopped ([`crate::design`]).
+    #[serde(default)]
+    pub fallback: Option<crate::FallbackInfo>,
 }
 
 /// Progress of a design, reported after every accepted iteration.
@@ -211,6 +215,7 @@ pub fn design_rest_shape(
         stages: 0,
         halvings: 0,
         seconds: 0.0,
+        fallback: None,
     };
     let mut load = 0.0;
     let mut step = 1.0f64;
@@ -284,7 +289,7 @@ fn norm(v: &[f64]) -> f64 {
 }
 
 /// Mean edge length of the target (m; interior edges counted twice).
-fn mean_edge(problem: &DesignProblem) -> f64 {
+pub(crate) fn mean_edge(problem: &DesignProblem) -> f64 {
     let x = problem.target();
     let t = problem.triangles();
     let sum: f64 = t
@@ -299,7 +304,7 @@ fn mean_edge(problem: &DesignProblem) -> f64 {
 
 /// Per vertex `a_v (I - n_v n_v^T)` with `n_v` the area-weighted unit normal of the target and
 /// `a_v` the vertex area over the mean vertex area.
-fn tangential_weights(problem: &DesignProblem) -> Vec<nalgebra::Matrix3<f64>> {
+pub(crate) fn tangential_weights(problem: &DesignProblem) -> Vec<nalgebra::Matrix3<f64>> {
     let x = problem.target();
     let nv = x.len() / 3;
     let mut normals = vec![nalgebra::Vector3::zeros(); nv];

@@ -11,7 +11,12 @@
 //! pressure continuation. The design is then checked by a forward static solve from the
 //! designed rest shape with the shell's own static solver ([`forward_check`]), and the distance
 //! of that equilibrium to the target is reported ([`Distance`]: max and RMS, in m and over the
-//! bounding-box diagonal). Works for the three-prism shell (St. Venant-Kirchhoff,
+//! bounding-box diagonal). Where no rest shape holds the target exactly (flat faces, targets
+//! beyond the pressure maximum), [`design`] goes on with a shape optimisation
+//! ([`optimise_rest_shape`]): it minimises the distance of the forward equilibrium to the
+//! target over the rest shape, with the adjoint gradient through the static solve and L-BFGS,
+//! and reports the remaining distance ([`FallbackInfo`]) instead of claiming success. Works
+//! for the three-prism shell (St. Venant-Kirchhoff,
 //! neo-Hookean; Wang et al. 2015, Eq. 4-8) and the incompressible membranes
 //! (`docs/membranes.md`). The equations, the regulariser and what the method can and cannot
 //! reach are in `docs/design.md`.
@@ -36,6 +41,7 @@
 //! Features: none.
 
 mod error;
+mod fallback;
 mod forward;
 mod inverse;
 mod normal;
@@ -43,6 +49,10 @@ mod pinned;
 mod problem;
 
 pub use error::DesignError;
+pub use fallback::{
+    Evaluation, FallbackInfo, FallbackMode, FallbackParams, FallbackProgress, FallbackStop,
+    ShapeObjective, optimise_rest_shape,
+};
 pub use forward::{
     Distance, ForwardCheck, bbox_diagonal, distance, forward_check, rigidly_aligned,
     vertex_distances,
@@ -59,8 +69,20 @@ use serde::{Deserialize, Serialize};
 pub struct DesignParams {
     /// The inverse-statics solve.
     pub inverse: InverseParams,
-    /// The forward check's static solve.
+    /// The forward check's static solve (also the shape optimisation's, at its own tolerance).
     pub forward: StaticParams,
+    /// The shape optimisation after the inverse solve (by default when the inverse did not
+    /// converge).
+    pub fallback: FallbackParams,
+}
+
+/// Progress of a [`design`]: the inverse solve's or the shape optimisation's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DesignProgress {
+    /// After an accepted iteration of the inverse solve.
+    Inverse(InverseProgress),
+    /// After an accepted step of the shape optimisation.
+    Fallback(FallbackProgress),
 }
 
 /// A designed rest shape and its check.
@@ -74,20 +96,45 @@ pub struct Design {
     pub check: ForwardCheck,
 }
 
-/// Designs the rest shape of `problem` (from the target as the start, [`design_rest_shape`])
-/// and checks it with a forward static solve ([`forward_check`]). `progress` is called after
-/// every accepted inverse iteration; returning `false` stops the inverse solve and keeps the
-/// best rest shape so far (which is then checked).
+/// Designs the rest shape of `problem` (from the target as the start, [`design_rest_shape`]);
+/// when the inverse solve does not converge (or always, [`FallbackParams::mode`]) minimises
+/// the distance of the forward equilibrium to the target from its best rest shape
+/// ([`optimise_rest_shape`], recorded in [`InverseInfo::fallback`]); and checks the result
+/// with a forward static solve ([`forward_check`]). `progress` is called after every accepted
+/// step of either; returning `false` stops the design and keeps the best rest shape so far
+/// (which is then checked; the shape optimisation does not start after a stopped inverse
+/// solve).
+///
+/// [`InverseInfo::converged`] stays that of the inverse solve: the shape optimisation
+/// reduces the distance but does not make an inexact design exact; the check's distance says
+/// how close it is.
 ///
 /// # Errors
-/// Those of [`design_rest_shape`] and [`forward_check`].
+/// Those of [`design_rest_shape`], [`optimise_rest_shape`] and [`forward_check`].
 pub fn design(
     problem: &DesignProblem,
     params: &DesignParams,
-    progress: impl FnMut(&InverseProgress) -> bool,
+    mut progress: impl FnMut(&DesignProgress) -> bool,
 ) -> Result<Design, DesignError> {
     let mut rest = problem.target().to_vec();
-    let inverse = design_rest_shape(problem, &params.inverse, &mut rest, progress)?;
+    let mut stopped = false;
+    let mut inverse = design_rest_shape(problem, &params.inverse, &mut rest, |p| {
+        let go = progress(&DesignProgress::Inverse(*p));
+        stopped |= !go;
+        go
+    })?;
+    let run = match params.fallback.mode {
+        FallbackMode::Off => false,
+        FallbackMode::Unconverged => !inverse.converged,
+        FallbackMode::Always => true,
+    };
+    if run && !stopped {
+        let info =
+            optimise_rest_shape(problem, &params.fallback, &params.forward, &mut rest, |p| {
+                progress(&DesignProgress::Fallback(*p))
+            })?;
+        inverse.fallback = Some(info);
+    }
     let check = forward_check(problem, &rest, &params.forward)?;
     Ok(Design {
         rest,

@@ -163,15 +163,27 @@ impl DesignProblem {
         self.target.len()
     }
 
-    /// Forces and rest Jacobian of element `e` for rest positions `rest` (flat, m).
+    /// Forces and rest Jacobian of element `e` for rest positions `rest` (flat, m) at the
+    /// target.
     fn element(
         &self,
         e: usize,
         rest: &[f64],
     ) -> Result<([Vector3<f64>; 3], SMatrix<f64, 9, 9>), DesignError> {
+        self.element_at(e, &self.target, rest)
+    }
+
+    /// Forces and rest Jacobian of element `e` at the deformed positions `deformed` for rest
+    /// positions `rest` (flat, m).
+    fn element_at(
+        &self,
+        e: usize,
+        deformed: &[f64],
+        rest: &[f64],
+    ) -> Result<([Vector3<f64>; 3], SMatrix<f64, 9, 9>), DesignError> {
         let t = &self.triangles[e];
         let xr = corners(rest, t);
-        let xs = corners(&self.target, t);
+        let xs = corners(deformed, t);
         let h = self.thickness[e];
         let bad = |source| DesignError::RestElement { element: e, source };
         Ok(match &self.material {
@@ -231,6 +243,28 @@ impl DesignProblem {
         }
         if r.iter().any(|v| !v.is_finite()) || j.iter().any(|b| !b.iter().all(|v| v.is_finite())) {
             return Err(DesignError::NonFinite("the equilibrium residual"));
+        }
+        Ok(())
+    }
+
+    /// The blocks of the rest Jacobian `df_el/dX` (N/m) of the elastic forces at the deformed
+    /// positions `deformed` (not the target) into `j`, laid out by `pattern`: the `df/dX` of
+    /// the shape optimisation's adjoint (`docs/design.md`, D12; the pressure forces do not
+    /// depend on `X`).
+    pub(crate) fn rest_jacobian_at(
+        &self,
+        deformed: &[f64],
+        rest: &[f64],
+        pattern: &crate::normal::NormalPattern,
+        j: &mut [nalgebra::Matrix3<f64>],
+    ) -> Result<(), DesignError> {
+        j.fill(nalgebra::Matrix3::zeros());
+        for e in 0..self.triangles.len() {
+            let (_, jac) = self.element_at(e, deformed, rest)?;
+            pattern.add_element(e, &jac, j);
+        }
+        if j.iter().any(|b| !b.iter().all(|v| v.is_finite())) {
+            return Err(DesignError::NonFinite("the rest Jacobian"));
         }
         Ok(())
     }

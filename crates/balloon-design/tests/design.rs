@@ -301,9 +301,16 @@ fn round_trips_on_real_meshes() {
                 newton,
                 ..InverseParams::default()
             },
+            fallback: balloon_design::FallbackParams {
+                mode: balloon_design::FallbackMode::Off,
+                ..balloon_design::FallbackParams::default()
+            },
             ..DesignParams::default()
         };
         let result = design(&problem, &params, |p| {
+            let balloon_design::DesignProgress::Inverse(p) = p else {
+                return true;
+            };
             eprintln!(
                 "  {name}: load {:.4}, iteration {}, relative residual {:.3e} ({:.1} s)",
                 p.load,

@@ -6,7 +6,7 @@
 //! `balloon design` with `_` for `-`: `target` (a mesh path relative to the file, or
 //! `builtin:NAME`; required), `pressure` (Pa, required), `thickness`, `scale`, the material
 //! keys of `[shell]` (`material`, `young`, `poisson`, `mu`, ...), `tolerance`,
-//! `tangential_weight` and `out` (a folder relative to the file). Every error names the file,
+//! `tangential_weight`, `fallback`, `fallback_iterations` and `out` (a folder relative to the file). Every error names the file,
 //! the line and the key.
 //!
 //! ```
@@ -43,6 +43,11 @@ pub struct DesignScenario {
     pub tolerance: Option<f64>,
     /// Weight of the tangential regulariser [default: 0].
     pub tangential_weight: f64,
+    /// When the shape optimisation runs: `"unconverged"`, `"always"` or `"off"` [default:
+    /// the library's, `"unconverged"`].
+    pub fallback: Option<String>,
+    /// Steps allowed to the shape optimisation, 1 to 100000 [default: the library's].
+    pub fallback_iterations: Option<usize>,
     /// Output folder (joined to the file's folder).
     pub out: Option<PathBuf>,
 }
@@ -66,6 +71,8 @@ pub const DESIGN_KEYS: &[&str] = &[
     "yeoh",
     "tolerance",
     "tangential_weight",
+    "fallback",
+    "fallback_iterations",
     "out",
 ];
 
@@ -130,6 +137,8 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
         material: MaterialSpec::default(),
         tolerance: None,
         tangential_weight: 0.0,
+        fallback: None,
+        fallback_iterations: None,
         out: None,
     };
     let (mut has_target, mut has_pressure) = (false, false);
@@ -215,6 +224,25 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
             "tangential_weight" => {
                 d.tangential_weight =
                     in_range(number()?, 0.0, 1e6, true, "in [0, 1e6]").map_err(invalid)?;
+            }
+            "fallback" => {
+                let s = text()?;
+                if !["unconverged", "always", "off"].contains(&s) {
+                    return Err(invalid("\"unconverged\", \"always\" or \"off\"".into()));
+                }
+                d.fallback = Some(s.to_owned());
+            }
+            "fallback_iterations" => {
+                let n = in_range(number()?, 1.0, 1e5, true, "a whole number from 1 to 100000")
+                    .and_then(|n| {
+                        if n.fract() == 0.0 {
+                            Ok(n)
+                        } else {
+                            Err("a whole number from 1 to 100000".into())
+                        }
+                    })
+                    .map_err(invalid)?;
+                d.fallback_iterations = Some(n as usize);
             }
             "out" => d.out = Some(PathBuf::from(path_of(text()?))),
             "material" => {

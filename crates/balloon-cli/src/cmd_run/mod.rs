@@ -191,6 +191,12 @@ fn run_design(args: &RunArgs, d: &balloon_scenario::design::DesignScenario) -> R
         job.tolerance = t;
     }
     job.tangential_weight = d.tangential_weight;
+    if let Some(f) = &d.fallback {
+        job.fallback = f.parse().map_err(anyhow::Error::msg)?;
+    }
+    if let Some(n) = d.fallback_iterations {
+        job.fallback_iterations = n;
+    }
     job.out.clone_from(&d.out);
     job.quiet = false;
     crate::cmd_design::report(&job, &balloon_run::jobs::design::run(&job)?)

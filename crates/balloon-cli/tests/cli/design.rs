@@ -93,6 +93,8 @@ fn unconverged_design_writes_the_picture_of_the_best_design() {
         "4e5",
         "--tolerance",
         "1e-17",
+        "--fallback",
+        "off",
         "--quiet",
         "--out",
         out.to_str().unwrap(),
@@ -288,6 +290,14 @@ fn design_scenario_errors_name_file_line_and_key() {
             "[design]\ntarget = \"no-such.obj\"\npressure = 100\n",
             "no-such.obj",
         ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nfallback = \"sometimes\"\n",
+            "d.toml:4: `design.fallback`: invalid value",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nfallback_iterations = 0\n",
+            "d.toml:4: `design.fallback_iterations`: invalid value",
+        ),
     ];
     for (text, expected) in cases {
         std::fs::write(&file, text).unwrap();
@@ -297,4 +307,55 @@ fn design_scenario_errors_name_file_line_and_key() {
         assert!(err.contains(expected), "{text}: {err}");
         assert!(!err.contains("panicked"), "{err}");
     }
+}
+
+/// A flat-faced target has no exact design: the inverse does not converge, the shape
+/// optimisation runs, prints the distance before and after, records it in `summary.json`,
+/// and the design still ends as not converged, with the remaining distance in the error.
+#[test]
+fn design_of_a_flat_faced_box_runs_the_shape_optimisation() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("box.obj");
+    let mesh =
+        balloon_mesh::generate::box_mesh(nalgebra::Vector3::new(0.1, 0.08, 0.06), 2).unwrap();
+    balloon_mesh::io::write_obj(&target, &mesh).unwrap();
+    let out = dir.path().join("design");
+    let o = run_balloon(&[
+        "design",
+        target.to_str().unwrap(),
+        "--pressure",
+        "2000",
+        "--thickness",
+        "1e-3",
+        "--material",
+        "membrane-neo-hookean",
+        "--mu",
+        "4e5",
+        "--fallback-iterations",
+        "8",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{stdout}");
+    assert!(stdout.contains("shape optimisation: "), "{stdout}");
+    assert!(
+        stderr.contains("its forward equilibrium lies within"),
+        "{stderr}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["converged"], false);
+    let f = &summary["inverse"]["fallback"];
+    let rms = |d: &serde_json::Value| d["rms"].as_f64().unwrap();
+    assert!(f["iterations"].as_u64().unwrap() >= 1, "{f}");
+    assert!(f["iterations"].as_u64().unwrap() <= 8, "{f}");
+    assert!(rms(&f["end"]) < rms(&f["start"]), "{f}");
+    let check = rms(&summary["check"]["distance"]);
+    assert!(
+        (check - rms(&f["end"])).abs() <= 1e-6 * check,
+        "{check} vs {f}"
+    );
 }

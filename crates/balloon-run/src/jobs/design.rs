@@ -6,7 +6,10 @@
 
 use anyhow::{Context, Result};
 use balloon::mesh::TriMesh;
-use balloon_design::{Design, DesignParams, DesignProblem, InverseParams, design};
+use balloon_design::{
+    Design, DesignParams, DesignProblem, DesignProgress, FallbackMode, FallbackParams,
+    InverseParams, design,
+};
 use balloon_render::{
     Camera, ColorScale, Framing, Image, Projection, RenderError, RenderOptions, Renderer, Surface,
     UpAxis,
@@ -32,6 +35,11 @@ pub struct DesignJob {
     pub tolerance: f64,
     /// Weight of the tangential regulariser (0: none).
     pub tangential_weight: f64,
+    /// When the shape optimisation runs after the inverse solve (default: when the inverse
+    /// did not converge).
+    pub fallback: FallbackMode,
+    /// Steps of the shape optimisation allowed.
+    pub fallback_iterations: usize,
     /// Output folder (none: nothing written).
     pub out: Option<PathBuf>,
     /// Print no progress.
@@ -50,6 +58,8 @@ impl DesignJob {
             material: MaterialSpec::default(),
             tolerance: InverseParams::default().tolerance,
             tangential_weight: 0.0,
+            fallback: FallbackMode::default(),
+            fallback_iterations: FallbackParams::default().max_iterations,
             out: None,
             quiet: true,
         }
@@ -207,15 +217,26 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
             tangential_weight: job.tangential_weight,
             ..InverseParams::default()
         },
+        fallback: FallbackParams {
+            mode: job.fallback,
+            max_iterations: job.fallback_iterations,
+            ..FallbackParams::default()
+        },
         ..DesignParams::default()
     };
     let quiet = job.quiet;
     let result = design(&problem, &params, |p| {
         if !quiet {
-            eprintln!(
-                "design: pressure factor {:.3}, relative residual {:.3e}, iteration {}",
-                p.load, p.relative_residual, p.iterations
-            );
+            match p {
+                DesignProgress::Inverse(p) => eprintln!(
+                    "design: pressure factor {:.3}, relative residual {:.3e}, iteration {}",
+                    p.load, p.relative_residual, p.iterations
+                ),
+                DesignProgress::Fallback(p) => eprintln!(
+                    "design: shape optimisation step {}, distance max {:.4e} m, RMS {:.4e} m",
+                    p.iteration, p.max_distance, p.rms_distance
+                ),
+            }
         }
         crate::interrupt::pending().is_none()
     })?;
