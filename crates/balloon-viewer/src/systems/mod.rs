@@ -9,7 +9,7 @@ mod two_layer;
 mod view;
 mod volumetric;
 
-pub use saved::DEFAULT_SHELL_MESH;
+pub use saved::{DEFAULT_SHELL_MESH, DEFAULT_VOLUMETRIC_MESH, LYING_ON_ITS_BACK};
 pub use scenario::{ScenarioView, builtin_connect};
 pub use shell::ShellView;
 pub use two_layer::TwoLayerView;
