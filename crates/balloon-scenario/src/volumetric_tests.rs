@@ -134,5 +134,5 @@ fn the_new_keys_record_and_read_back() {
     assert!(text.contains("up = \"y\"\n"), "{text}");
     let back = read(&text).unwrap();
     assert_eq!(back, s);
-    assert_eq!(back.run.floor_height, Some(-0.123456789012345678));
+    assert_eq!(back.run.floor_height, Some(-0.123_456_789_012_345_68));
 }

@@ -23,4 +23,6 @@ mod scenario_drag_tests;
 #[cfg(test)]
 mod scenario_tests;
 #[cfg(test)]
+mod test_support;
+#[cfg(test)]
 mod tests;

@@ -2,18 +2,11 @@
 //! view's settings, and `balloon run`'s job of it takes the view's steps.
 
 use super::shell::ShellView;
+use super::test_support::{max_difference, sphere_dir};
 use super::view::ViewSystem;
 use crate::protocol::ControlValue;
 use balloon::Simulation;
 use balloon_scenario::Scenario;
-
-fn max_difference(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-}
 
 /// Saves `view`'s scenario into `dir` and reads it back as `balloon run` does.
 fn save_and_read(view: &dyn ViewSystem, dir: &std::path::Path) -> Scenario {
@@ -86,10 +79,8 @@ fn the_default_shell_saves_what_balloon_run_repeats() {
 
 #[test]
 fn membranes_gases_and_a_mesh_file_are_saved_as_they_run() {
-    let dir = tempfile::tempdir().unwrap();
+    let (dir, obj) = sphere_dir();
     let sphere = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
-    let obj = dir.path().join("sphere.obj");
-    balloon_mesh::io::write_obj(&obj, &sphere).unwrap();
     let cases: &[&[(&str, ControlValue)]] = &[
         &[],
         &[("hold", ControlValue::Bool(false))],
@@ -166,10 +157,8 @@ fn the_builtin_two_layer_body_saves_what_balloon_run_repeats() {
 
 #[test]
 fn the_builtin_volumetric_body_saves_what_balloon_run_repeats() {
-    let dir = tempfile::tempdir().unwrap();
+    let (dir, obj) = sphere_dir();
     let sphere = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
-    let obj = dir.path().join("sphere.obj");
-    balloon_mesh::io::write_obj(&obj, &sphere).unwrap();
     let cases: [(bool, Vec<(&str, ControlValue)>); 3] = [
         (true, vec![]),
         (
