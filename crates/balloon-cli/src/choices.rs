@@ -6,7 +6,7 @@ use balloon_scenario::output::{ColorField as Color, FrameFormat as Format};
 use balloon_scenario::shell::ProjectionMode as Projection;
 use balloon_scenario::two_layer::SphereChoice;
 use balloon_scenario::volumetric::{
-    Correction as ScenarioCorrection, SceneChoice, VolumeSolver as ScenarioSolver,
+    Correction as ScenarioCorrection, SceneChoice, Up, VolumeSolver as ScenarioSolver,
 };
 
 /// Defines `From<$cli> for $lib` variant by variant.
@@ -96,8 +96,21 @@ pub enum SceneArg {
     Free,
     /// Fig. 4: a rigid sphere falls on the body resting on a floor plane.
     DropSphere,
+    /// The body on a floor plane (--floor-height, perpendicular to --up), no sphere: the live
+    /// viewer's built-in volumetric set-up.
+    Floor,
 }
-same!(SceneArg => SceneChoice: Free, DropSphere);
+same!(SceneArg => SceneChoice: Free, DropSphere, Floor);
+
+/// The volumetric scene's up axis (`--up`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum UpArg {
+    /// +y up.
+    Y,
+    /// +z up.
+    Z,
+}
+same!(UpArg => Up: Y, Z);
 
 /// Cell-volume correction (`--correction`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

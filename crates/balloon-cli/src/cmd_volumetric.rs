@@ -3,7 +3,7 @@
 //! scene: its flags, turned into a `balloon_scenario::volumetric::VolumetricScenario` and run by
 //! `balloon_run::jobs::volumetric` (its output folder is described there).
 
-use crate::choices::{Correction, FrameFormat, SceneArg, VolumeSolver};
+use crate::choices::{Correction, FrameFormat, SceneArg, UpArg, VolumeSolver};
 use crate::pictures::PictureArgs;
 use crate::scenario_cli::{Invocation, job_error};
 use anyhow::Result;
@@ -69,10 +69,18 @@ pub struct VolumetricArgs {
     /// Mass density (kg/m^3), in (0, 1e5] (above any solid's: osmium is 2.26e4).
     #[arg(long, default_value_t = BodyTable::default().density, value_parser = parse_real)]
     pub density: f64,
-    /// Gravity along z (m/s^2), in [-1e3, 1e3] (100 g).
+    /// Gravity along the up axis (m/s^2), in [-1e3, 1e3] (100 g); negative pulls down.
     #[arg(long, default_value_t = VolumetricRun::default().gravity, allow_hyphen_values = true,
           value_parser = parse_real)]
     pub gravity: f64,
+    /// The up axis: gravity acts along it, the floor scene's floor is perpendicular to it
+    /// (the drop-sphere scene needs z).
+    #[arg(long, value_enum, default_value_t = UpArg::Z)]
+    pub up: UpArg,
+    /// Height (m) of the floor scene's floor along the up axis, in [-1e6, 1e6]; default: just
+    /// under the body (a thousandth of its bounding-box diagonal below its lowest particle).
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_real)]
+    pub floor_height: Option<f64>,
     /// Contact restitution, in [0, 1].
     #[arg(long, default_value_t = VolumetricRun::default().restitution, value_parser = parse_real)]
     pub restitution: f64,
@@ -232,6 +240,8 @@ impl VolumetricArgs {
             run: VolumetricRun {
                 scene: self.scene.into(),
                 gravity: self.gravity,
+                up: self.up.into(),
+                floor_height: self.floor_height,
                 restitution: self.restitution,
                 dt: self.dt,
                 steps: self.steps,

@@ -50,6 +50,9 @@ pub enum SceneChoice {
     Free,
     /// Fig. 4 of the paper: a rigid sphere falls on the body resting on a floor plane.
     DropSphere,
+    /// The body on a floor plane perpendicular to `up`, at `floor_height` (default: just under
+    /// the body), no sphere: the live viewer's built-in volumetric set-up.
+    Floor,
 }
 
 choices!(
@@ -57,9 +60,70 @@ choices!(
     "a scene",
     [
         (SceneChoice::Free, "free"),
-        (SceneChoice::DropSphere, "drop-sphere")
+        (SceneChoice::DropSphere, "drop-sphere"),
+        (SceneChoice::Floor, "floor")
     ]
 );
+
+/// The up axis of a volumetric scene (`up`): gravity acts along it (`gravity` < 0 pulls
+/// down), the floor is perpendicular to it, and pictures stand on it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Up {
+    /// +y up (mesh files and the built-in meshes as modelled, the live viewer's body).
+    Y,
+    /// +z up (the drop-sphere scene of Diziol, Bender and Bayer 2011, Fig. 4).
+    #[default]
+    Z,
+}
+
+choices!(Up, "an up axis", [(Up::Y, "y"), (Up::Z, "z")]);
+
+impl Up {
+    /// The coordinate index of the axis (1 for y, 2 for z).
+    pub fn index(self) -> usize {
+        match self {
+            Self::Y => 1,
+            Self::Z => 2,
+        }
+    }
+
+    /// The unit vector along the axis.
+    pub fn vector(self) -> nalgebra::Vector3<f64> {
+        let mut v = nalgebra::Vector3::zeros();
+        v[self.index()] = 1.0;
+        v
+    }
+}
+
+/// Gap between the lowest particle and the default floor of the `floor` scene, relative to
+/// the diagonal of the particles' bounding box: just under the body, so that it starts at
+/// rest on the floor without touching it (a drop would invert coarse cells on impact).
+pub const FLOOR_GAP: f64 = 1e-3;
+
+/// The default floor height (m, along `up`) of the `floor` scene for the particles `x`:
+/// [`FLOOR_GAP`] times their bounding-box diagonal below the lowest one.
+pub fn default_floor_height(x: &[nalgebra::Point3<f64>], up: Up) -> f64 {
+    let (mut lo, mut hi) = (
+        nalgebra::Vector3::repeat(f64::INFINITY),
+        nalgebra::Vector3::repeat(f64::NEG_INFINITY),
+    );
+    for p in x {
+        lo = lo.inf(&p.coords);
+        hi = hi.sup(&p.coords);
+    }
+    lo[up.index()] - FLOOR_GAP * (hi - lo).norm()
+}
+
+/// The floor plane of the `floor` scene: perpendicular to `up` at `height` (m), its normal
+/// pointing up; `None` for a height that is not finite.
+pub fn floor_plane(height: f64, up: Up) -> Option<balloon::constraint::rigid::Plane> {
+    let mut point = nalgebra::Point3::origin();
+    point[up.index()] = height;
+    height
+        .is_finite()
+        .then(|| balloon::constraint::rigid::Plane::new(point, up.vector()))
+        .flatten()
+}
 
 /// The cell-volume correction (`correction`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -219,8 +283,14 @@ pub struct VolumetricRun {
     /// The scene.
     #[serde(with = "crate::serde_text")]
     pub scene: SceneChoice,
-    /// Gravity along z, m/s^2.
+    /// Gravity along `up`, m/s^2 (negative: down).
     pub gravity: f64,
+    /// The up axis.
+    #[serde(with = "crate::serde_text")]
+    pub up: Up,
+    /// Height of the `floor` scene's floor along `up`, m; `None`: just under the body
+    /// ([`default_floor_height`]).
+    pub floor_height: Option<f64>,
     /// Contact restitution.
     pub restitution: f64,
     /// Time step, s; `None`: sized to the body (the sag under its weight).
@@ -245,6 +315,8 @@ impl Default for VolumetricRun {
         Self {
             scene: SceneChoice::DropSphere,
             gravity: -9.81,
+            up: Up::Z,
+            floor_height: None,
             restitution: 0.2,
             dt: None,
             steps: 600,
@@ -444,6 +516,14 @@ pub static VOLUMETRIC_KEYS: &[Key<VolumetricScenario>] = &{
             Real::new(Closed(-1e3), Closed(1e3)),
             run.gravity
         ),
+        crate::keys::choice!("run", "up", "up", false, run.up),
+        real_opt!(
+            "run",
+            "floor_height",
+            "floor_height",
+            Real::new(Closed(-1e6), Closed(1e6)),
+            run.floor_height
+        ),
         real!(
             "run",
             "restitution",
@@ -611,7 +691,28 @@ impl VolumetricScenario {
                 }
                 _ => Ok(()),
             })
+            .and_then(|()| self.check_scene())
             .map_err(ScenarioError::Invalid)
+    }
+
+    /// `floor_height` only with the `floor` scene; the drop-sphere scene stands on z.
+    fn check_scene(&self) -> Result<(), String> {
+        let r = &self.run;
+        if r.floor_height.is_some() && r.scene != SceneChoice::Floor {
+            return Err(format!(
+                "`floor_height` is the height of the `floor` scene's floor; `scene` is \"{}\" \
+                 (set `scene` = \"floor\" or leave `floor_height` out)",
+                r.scene
+            ));
+        }
+        if r.scene == SceneChoice::DropSphere && r.up != Up::Z {
+            return Err(format!(
+                "`scene` = \"drop-sphere\" drops its sphere along -z and needs `up` = \"z\", \
+                 not \"{}\"",
+                r.up
+            ));
+        }
+        Ok(())
     }
 
     /// The cell-volume solver settings: [`CellVolumeParams::gauss_seidel`] or
@@ -646,7 +747,7 @@ impl VolumetricScenario {
 
     /// The body's parameters before the lattice is built (the time step is settled after):
     /// the lattice generator's settings (the resolution as given, else the library's default),
-    /// the cell-volume solver's, density, masses, gravity along z, `dt` (the largest allowed
+    /// the cell-volume solver's, density, masses, gravity along `up`, `dt` (the largest allowed
     /// when unset) and restitution. A front end that builds its own scene (the viewer) starts
     /// from these and changes what it must.
     pub fn params(&self) -> VolumetricParams {
@@ -671,7 +772,7 @@ impl VolumetricScenario {
             } else {
                 MassModel::Equal
             },
-            gravity: [0.0, 0.0, self.run.gravity],
+            gravity: (self.run.gravity * self.run.up.vector()).into(),
             dt: self.run.dt.unwrap_or(MAX_DT),
             restitution: self.run.restitution,
             ..VolumetricParams::default()
@@ -745,7 +846,13 @@ impl VolumetricScenario {
         let lattice_ms = t0.elapsed().as_secs_f64() * 1e3;
         let b = &self.body;
         let dt = self.run.dt.unwrap_or_else(|| {
-            body.sag_limited_dt(EDGE_STIFFNESS, SAG_STRAIN, self.run.gravity, MAX_DT)
+            body.sag_limited_dt_along(
+                &self.run.up.vector(),
+                EDGE_STIFFNESS,
+                SAG_STRAIN,
+                self.run.gravity,
+                MAX_DT,
+            )
         });
         body.params.dt = dt;
         let defaults = body.default_springs(EDGE_STIFFNESS);
@@ -768,12 +875,26 @@ impl VolumetricScenario {
             })
             .map_err(VolumetricBuildError::Springs)?;
         let scene = match self.run.scene {
-            SceneChoice::Free => VolumetricScene::Free,
+            SceneChoice::Free | SceneChoice::Floor => VolumetricScene::Free,
             SceneChoice::DropSphere => VolumetricScene::DropSphere {
                 soft_diagonals: b.soft_diagonals,
             },
         };
         let mut sim = scene.setup(body).map_err(VolumetricBuildError::Scene)?;
+        if self.run.scene == SceneChoice::Floor {
+            let up = self.run.up;
+            let height = self
+                .run
+                .floor_height
+                .unwrap_or_else(|| default_floor_height(sim.positions(), up));
+            let floor = floor_plane(height, up).ok_or_else(|| {
+                VolumetricBuildError::Invalid(format!(
+                    "`floor_height`: the floor under the body is at {height:e} m, not a finite \
+                     height"
+                ))
+            })?;
+            sim = sim.with_plane(floor);
+        }
         fix_volumetric(&mut sim, &self.anchors, b.pin_stiffness)?;
         Ok(VolumetricBuild {
             sim,
@@ -783,3 +904,7 @@ impl VolumetricScenario {
         })
     }
 }
+
+#[cfg(test)]
+#[path = "volumetric_tests.rs"]
+mod tests;

@@ -59,8 +59,8 @@ mod server;
 mod systems;
 
 pub use systems::{
-    DEFAULT_SHELL_MESH, DragRequest, ScenarioView, ShellView, TwoLayerView, ViewSystem,
-    ViewedSimulation, VolumetricView, builtin_connect,
+    DEFAULT_SHELL_MESH, DEFAULT_VOLUMETRIC_MESH, DragRequest, LYING_ON_ITS_BACK, ScenarioView,
+    ShellView, TwoLayerView, ViewSystem, ViewedSimulation, VolumetricView, builtin_connect,
 };
 
 use access::{Access, MAX_CONNECTIONS, RefusalLog};
@@ -337,18 +337,20 @@ impl ViewerOptions {
 /// The default mesh of a system: a coarse teddy (shell: ~1.2k vertices, fast enough to step
 /// interactively; volumetric: the soup of the lattice body).
 pub fn default_mesh(system: SystemKind) -> Result<TriMesh, balloon_mesh::MeshError> {
-    let params = balloon_mesh::generate::TeddyParams {
-        resolution: 14,
-        ..Default::default()
-    };
     match system {
         SystemKind::Shell => balloon_mesh::builtin::load(DEFAULT_SHELL_MESH),
-        // A soft teddy cannot stand on its round feet: standing it topples onto its back within
-        // a quarter of a second. It starts lying on its back (face up, +y), at rest on the floor.
+        // The coarse teddy lying on its back (face up, +y), at rest on the floor.
         SystemKind::Volumetric => {
-            let mut m = balloon_mesh::generate::teddy(&params)?;
+            let mut m = balloon_mesh::builtin::load(DEFAULT_VOLUMETRIC_MESH)?;
+            // `x -> A x + t` as a scenario's `transform` applies it (exact: products by 0 or 1).
+            let t = &LYING_ON_ITS_BACK;
             for p in &mut m.vertices {
-                *p = nalgebra::Point3::new(p.x, p.z, -p.y);
+                let x = p.coords;
+                *p = nalgebra::Point3::new(
+                    t[0] * x.x + t[1] * x.y + t[2] * x.z + t[3],
+                    t[4] * x.x + t[5] * x.y + t[6] * x.z + t[7],
+                    t[8] * x.x + t[9] * x.y + t[10] * x.z + t[11],
+                );
             }
             Ok(m)
         }
@@ -411,7 +413,10 @@ pub fn build_system(options: &ViewerOptions) -> Result<Box<dyn ViewSystem>, View
         SystemKind::Shell => build(
             ShellView::new(mesh).map(|s| Box::new(s.with_mesh_spec(options.mesh.clone())) as _),
         ),
-        SystemKind::Volumetric => build(VolumetricView::new(mesh).map(|s| Box::new(s) as _)),
+        SystemKind::Volumetric => build(
+            VolumetricView::new(mesh)
+                .map(|s| Box::new(s.with_mesh_spec(options.mesh.clone())) as _),
+        ),
         SystemKind::TwoLayer => build(TwoLayerView::new().map(|s| Box::new(s) as _)),
         // Built as a scenario run above; kept for a complete match.
         SystemKind::Connect => build(

@@ -418,6 +418,47 @@ mod tests {
     }
 
     #[test]
+    fn a_17_digit_number_arrives_as_the_nearest_double() {
+        // Without serde_json's `float_roundtrip` this value arrived as ...344 (one unit in the
+        // last place off): the page sends JavaScript's shortest round-trip text of a double.
+        let cases = [
+            ("0.00020248393365432342", 0.000_202_483_933_654_323_42_f64),
+            ("0.1", 0.1),
+            ("2.2250738585072014e-308", f64::MIN_POSITIVE),
+            ("1.7976931348623157e308", f64::MAX),
+            ("0.30000000000000004", 0.1 + 0.2),
+        ];
+        for (text, want) in cases {
+            let m = parse_client_message(&format!(
+                r#"{{"type":"control","name":"dt","value":{text}}}"#
+            ))
+            .unwrap();
+            let ClientMessage::Control { value, .. } = m else {
+                panic!("not a control message: {m:?}")
+            };
+            let got = value.as_f64().unwrap();
+            assert_eq!(got.to_bits(), want.to_bits(), "{text}: {got:e}");
+            // And every double's shortest text comes back to the same bits.
+            assert_eq!(
+                format!("{got:?}").parse::<f64>().unwrap().to_bits(),
+                want.to_bits()
+            );
+        }
+        let mut x = 1.234_567_890_123_456_7e-4_f64;
+        for _ in 0..2000 {
+            x = (x * 1.618_033_988_749_895).fract() * 1e-3 + 1e-5;
+            let m = parse_client_message(&format!(
+                r#"{{"type":"control","name":"dt","value":{x:?}}}"#
+            ))
+            .unwrap();
+            let ClientMessage::Control { value, .. } = m else {
+                panic!("not a control message")
+            };
+            assert_eq!(value.as_f64().unwrap().to_bits(), x.to_bits(), "{x:?}");
+        }
+    }
+
+    #[test]
     fn acknowledgements_parse() {
         assert_eq!(
             parse_client_message(r#"{"type":"ack","frame":12}"#).unwrap(),

@@ -19,7 +19,7 @@ use balloon_render::{Prop, UpAxis};
 use balloon_scenario::selection::VolumetricLoads;
 use balloon_scenario::selection::apply::volumetric_loads;
 use balloon_scenario::volumetric::{
-    SceneChoice, VOLUMETRIC_COLORS, VolumeSolver, VolumetricBuild, VolumetricScenario,
+    SceneChoice, Up, VOLUMETRIC_COLORS, VolumeSolver, VolumetricBuild, VolumetricScenario,
 };
 use nalgebra::{Point3, Vector3};
 use serde::Serialize;
@@ -79,11 +79,14 @@ pub struct Summary {
     pub max_strain: f64,
 }
 
-/// Volumetric scenes have gravity along z, so +z is up in pictures.
-fn style() -> PictureStyle {
+/// Pictures (and the USD stage) stand on the scene's up axis (`up`, z by default).
+fn style(up: Up) -> PictureStyle {
     PictureStyle::new(
         "volumetric",
-        UpAxis::Z,
+        match up {
+            Up::Y => UpAxis::Y,
+            Up::Z => UpAxis::Z,
+        },
         ColorField::Stretch,
         VOLUMETRIC_COLORS,
     )
@@ -281,6 +284,7 @@ fn scene_name(scene: SceneChoice) -> &'static str {
     match scene {
         SceneChoice::Free => "Free",
         SceneChoice::DropSphere => "DropSphere",
+        SceneChoice::Floor => "Floor",
     }
 }
 
@@ -328,7 +332,7 @@ pub fn run(
             Some(OutputDir::create(dir, args.output.format)?.with_pictures(
                 &args.output,
                 render_spec,
-                style(),
+                style(args.run.up),
             )?)
         }
         None => None,

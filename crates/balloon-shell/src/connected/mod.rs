@@ -237,13 +237,20 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
         balloon: usize,
         springs: Vec<balloon_integrate::decorators::AnchorSpring>,
     ) -> Result<(), ConnectedError> {
-        let count = self.balloons.len();
-        let b = self
-            .balloons
-            .get_mut(balloon)
-            .ok_or(ConnectedError::NoBalloon { balloon, count })?;
-        b.set_anchor_springs(springs)
+        self.balloon_mut(balloon)?
+            .set_anchor_springs(springs)
             .map_err(|source| ConnectedError::Shell { balloon, source })
+    }
+
+    /// Balloon `balloon`, or [`ConnectedError::NoBalloon`] naming the count.
+    fn balloon_mut(
+        &mut self,
+        balloon: usize,
+    ) -> Result<&mut ShellSimulation<M, Gas>, ConnectedError> {
+        let count = self.balloons.len();
+        self.balloons
+            .get_mut(balloon)
+            .ok_or(ConnectedError::NoBalloon { balloon, count })
     }
 
     /// Edits balloon `balloon`'s integrator parameters
@@ -258,12 +265,8 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
         balloon: usize,
         edit: impl FnOnce(&mut balloon_integrate::implicit::BackwardEulerParams),
     ) -> Result<(), ConnectedError> {
-        let count = self.balloons.len();
-        let b = self
-            .balloons
-            .get_mut(balloon)
-            .ok_or(ConnectedError::NoBalloon { balloon, count })?;
-        b.configure_integrator(edit)
+        self.balloon_mut(balloon)?
+            .configure_integrator(edit)
             .map_err(|source| ConnectedError::Shell { balloon, source })
     }
 

@@ -9,7 +9,7 @@ mod two_layer;
 mod view;
 mod volumetric;
 
-pub use saved::DEFAULT_SHELL_MESH;
+pub use saved::{DEFAULT_SHELL_MESH, DEFAULT_VOLUMETRIC_MESH, LYING_ON_ITS_BACK};
 pub use scenario::{ScenarioView, builtin_connect};
 pub use shell::ShellView;
 pub use two_layer::TwoLayerView;
@@ -22,5 +22,7 @@ mod saved_tests;
 mod scenario_drag_tests;
 #[cfg(test)]
 mod scenario_tests;
+#[cfg(test)]
+mod test_support;
 #[cfg(test)]
 mod tests;

@@ -6,7 +6,9 @@ use super::two_layer::{
     TWO_LAYER_BOX, TWO_LAYER_DAMPING, TWO_LAYER_LEVEL, TWO_LAYER_RADII, TWO_LAYER_STRUCTURAL,
     TwoLayerView,
 };
+use super::volumetric::VolumetricView;
 use crate::ViewerError;
+use balloon::constraint::cell_volume::{CellCorrection, CellSolver};
 use balloon::gas::GasKind;
 use balloon::material::membrane::MembraneKind;
 use balloon_scenario::gas::GasControl;
@@ -14,10 +16,25 @@ use balloon_scenario::material::MaterialChoice;
 use balloon_scenario::selection::parse_pin;
 use balloon_scenario::shell::ShellScenario;
 use balloon_scenario::two_layer::TwoLayerScenario;
+use balloon_scenario::volumetric::{Correction, SceneChoice, Up, VolumeSolver, VolumetricScenario};
 
 /// The built-in mesh the shell view starts with ([`crate::default_mesh`]): the teddy at
 /// resolution 14 (1304 vertices).
 pub const DEFAULT_SHELL_MESH: &str = "builtin:teddy-coarse";
+
+/// The built-in mesh the volumetric view starts with ([`crate::default_mesh`]): the teddy at
+/// resolution 14, laid on its back by [`LYING_ON_ITS_BACK`].
+pub const DEFAULT_VOLUMETRIC_MESH: &str = "builtin:teddy-coarse";
+
+/// The map (a scenario's `transform`, `x -> A x + t` row by row) that lays the built-in teddy
+/// on its back, face up (+y): `(x, y, z) -> (x, z, -y)`, a quarter turn about x. A soft teddy
+/// cannot stand on its round feet: standing, it topples onto its back within a quarter of a
+/// second. Every product is by 0 or 1, so the map is exact.
+pub const LYING_ON_ITS_BACK: [f64; 12] = [
+    1.0, 0.0, 0.0, 0.0, //
+    0.0, 0.0, 1.0, 0.0, //
+    0.0, -1.0, 0.0, 0.0,
+];
 
 /// A mesh spec as a scenario file elsewhere can read it: built-in names as they are, a file by
 /// its absolute path (the saved file lands in another folder).
@@ -124,6 +141,55 @@ impl ShellView {
                 (a.min(c[1]), b.max(c[1]))
             });
         lo + HELD_FRACTION * (hi - lo)
+    }
+}
+
+impl VolumetricView {
+    /// The volumetric scenario of the current set-up: the `floor` scene with `up` = y (the
+    /// floor just under the body), the mesh (the built-in teddy laid on its back, or `--mesh`),
+    /// the view's lattice resolution, gravity, time step, cell-volume correction and solver,
+    /// and the spring stiffness and damping in N/m and N s/m when they are not what `balloon
+    /// volumetric` derives from the time step (a stiffness other than the default, or a time
+    /// step changed after the body was built). Everything else is `balloon volumetric`'s
+    /// default, which the view also uses.
+    pub fn scenario(&self) -> VolumetricScenario {
+        let st = &self.settings;
+        let mut s = VolumetricScenario::default();
+        match &self.mesh_spec {
+            Some(spec) => s.mesh.path = portable_mesh_path(spec),
+            None => {
+                s.mesh.path = DEFAULT_VOLUMETRIC_MESH.into();
+                s.mesh.transform = Some(LYING_ON_ITS_BACK.to_vec());
+            }
+        }
+        s.lattice.resolution = Some(super::volumetric::LATTICE_RESOLUTION);
+        let r = &mut s.run;
+        r.scene = SceneChoice::Floor;
+        r.up = Up::Y;
+        r.gravity = -st.gravity;
+        r.dt = Some(st.dt);
+        r.correction = match st.correction {
+            CellCorrection::Scaling => Correction::Scaling,
+            CellCorrection::Gradient => Correction::Gradient,
+        };
+        r.volume_solver = match st.solver {
+            CellSolver::GaussSeidel => VolumeSolver::GaussSeidel,
+            CellSolver::Global => VolumeSolver::Global,
+        };
+        let body = self.sim.body();
+        let springs = &body.params.springs;
+        let derived = body.default_springs(balloon::volumetric::DEFAULT_SPRING_STIFFNESS);
+        if *springs != derived {
+            s.body.edge_stiffness = Some(springs.edge_stiffness);
+            s.body.damping = Some(springs.edge_damping);
+            if springs.diagonal_stiffness != springs.edge_stiffness {
+                s.body.diagonal_stiffness = Some(springs.diagonal_stiffness);
+            }
+            if springs.diagonal_damping != springs.edge_damping {
+                s.body.diagonal_damping = Some(springs.diagonal_damping);
+            }
+        }
+        s
     }
 }
 

@@ -2,17 +2,39 @@
 //! view's settings, and `balloon run`'s job of it takes the view's steps.
 
 use super::shell::ShellView;
+use super::test_support::{max_difference, sphere_dir};
 use super::view::ViewSystem;
 use crate::protocol::ControlValue;
 use balloon::Simulation;
 use balloon_scenario::Scenario;
 
-fn max_difference(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
+/// Saves `view`'s scenario into `dir` and reads it back as `balloon run` does.
+fn save_and_read(view: &dyn ViewSystem, dir: &std::path::Path) -> Scenario {
+    let text = view
+        .scenario_text()
+        .unwrap_or_else(|| panic!("the built-in {} saves no scenario", view.name()));
+    let path = dir.join("saved.toml");
+    std::fs::write(&path, &text).unwrap();
+    balloon_scenario::file::read(&path, &[])
+        .unwrap_or_else(|e| panic!("{e}:\n{text}"))
+        .scenario
+}
+
+/// Takes `steps` steps of `view` as the server does (its drag, none, set before each step).
+fn step_view(view: &mut dyn ViewSystem, steps: usize) {
+    for _ in 0..steps {
+        view.apply_drag(None).unwrap();
+        view.step().unwrap();
+    }
+}
+
+/// Sets the page's `controls` on `view`, rebuilding where a control asks for it.
+fn set_controls(view: &mut dyn ViewSystem, controls: &[(&str, ControlValue)]) {
+    for (name, value) in controls {
+        if view.set_control(name, value).unwrap() {
+            view.rebuild().unwrap();
+        }
+    }
 }
 
 /// Saves `view`'s scenario into `dir`, reads it back, runs `steps` steps of it with
@@ -23,18 +45,11 @@ fn saved_against_view(
     dir: &std::path::Path,
     steps: usize,
 ) -> (balloon_scenario::shell::ShellScenario, f64) {
-    let text = ViewSystem::scenario_text(view).expect("a built-in shell saves its scenario");
-    let path = dir.join("saved.toml");
-    std::fs::write(&path, &text).unwrap();
-    let Scenario::Shell(mut saved) = balloon_scenario::file::read(&path, &[]).unwrap().scenario
-    else {
-        panic!("not a shell scenario:\n{text}")
+    let Scenario::Shell(mut saved) = save_and_read(view, dir) else {
+        panic!("not a shell scenario")
     };
     saved.run.steps = steps;
-    for _ in 0..steps {
-        view.apply_drag(None).unwrap();
-        ViewSystem::step(view).unwrap();
-    }
+    step_view(view, steps);
     let (done, _) = balloon_run::jobs::shell::run(&saved, None, None, true).unwrap();
     assert_eq!(Simulation::steps(&done.sim), steps);
     let d = max_difference(&view.positions(), Simulation::positions(&done.sim));
@@ -64,10 +79,8 @@ fn the_default_shell_saves_what_balloon_run_repeats() {
 
 #[test]
 fn membranes_gases_and_a_mesh_file_are_saved_as_they_run() {
-    let dir = tempfile::tempdir().unwrap();
+    let (dir, obj) = sphere_dir();
     let sphere = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
-    let obj = dir.path().join("sphere.obj");
-    balloon_mesh::io::write_obj(&obj, &sphere).unwrap();
     let cases: &[&[(&str, ControlValue)]] = &[
         &[],
         &[("hold", ControlValue::Bool(false))],
@@ -103,11 +116,7 @@ fn membranes_gases_and_a_mesh_file_are_saved_as_they_run() {
         let mut view = ShellView::new(sphere.clone())
             .unwrap()
             .with_mesh_spec(Some(obj.display().to_string()));
-        for (name, value) in *controls {
-            if view.set_control(name, value).unwrap() {
-                view.rebuild().unwrap();
-            }
-        }
+        set_controls(&mut view, controls);
         let (saved, d) = saved_against_view(&mut view, dir.path(), 3);
         assert!(
             d <= 1e-12,
@@ -131,29 +140,87 @@ fn the_builtin_two_layer_body_saves_what_balloon_run_repeats() {
         ],
     ] {
         let mut view = super::two_layer::TwoLayerView::new().unwrap();
-        for (name, value) in &controls {
-            if view.set_control(name, value).unwrap() {
-                view.rebuild().unwrap();
-            }
-        }
-        let text = ViewSystem::scenario_text(&view).unwrap();
-        let path = dir.path().join("saved.toml");
-        std::fs::write(&path, &text).unwrap();
-        let Scenario::TwoLayer(mut saved) =
-            balloon_scenario::file::read(&path, &[]).unwrap().scenario
-        else {
-            panic!("not a two-layer scenario:\n{text}")
+        set_controls(&mut view, &controls);
+        let Scenario::TwoLayer(mut saved) = save_and_read(&view, dir.path()) else {
+            panic!("not a two-layer scenario")
         };
         saved.run.steps = 20;
-        for _ in 0..20 {
-            view.apply_drag(None).unwrap();
-            ViewSystem::step(&mut view).unwrap();
-        }
+        step_view(&mut view, 20);
         let done = balloon_run::jobs::two_layer::run(&saved, None, true).unwrap();
         let d = max_difference(&view.positions(), &Simulation::surface(&done.sim).positions);
         assert!(
             d <= 1e-12,
             "{controls:?}: the view and `balloon run` differ by {d} m"
+        );
+    }
+}
+
+#[test]
+fn the_builtin_volumetric_body_saves_what_balloon_run_repeats() {
+    let (dir, obj) = sphere_dir();
+    let sphere = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
+    let cases: [(bool, Vec<(&str, ControlValue)>); 3] = [
+        (true, vec![]),
+        (
+            true,
+            vec![
+                ("stiffness", ControlValue::Number(0.05)),
+                ("solver", ControlValue::Choice("gauss-seidel")),
+                ("correction", ControlValue::Choice("scaling")),
+                // Live: the springs stay those of the time step the body was built with.
+                ("dt", ControlValue::Number(3e-4)),
+                ("gravity", ControlValue::Number(20.0)),
+            ],
+        ),
+        (false, vec![("gravity", ControlValue::Number(30.0))]),
+    ];
+    for (builtin, controls) in cases {
+        let mut view = if builtin {
+            super::volumetric::VolumetricView::new(
+                crate::default_mesh(crate::SystemKind::Volumetric).unwrap(),
+            )
+            .unwrap()
+        } else {
+            super::volumetric::VolumetricView::new(sphere.clone())
+                .unwrap()
+                .with_mesh_spec(Some(obj.display().to_string()))
+        };
+        set_controls(&mut view, &controls);
+        let Scenario::Volumetric(mut saved) = save_and_read(&view, dir.path()) else {
+            panic!("not a volumetric scenario")
+        };
+        assert_eq!(
+            saved.run.scene,
+            balloon_scenario::volumetric::SceneChoice::Floor
+        );
+        if builtin {
+            assert_eq!(saved.mesh.path, super::DEFAULT_VOLUMETRIC_MESH);
+        } else {
+            assert!(std::path::Path::new(&saved.mesh.path).is_absolute());
+        }
+        // Enough steps to land on the floor (it starts 0.3 mm under the teddy).
+        let steps = 60;
+        saved.run.steps = steps;
+        step_view(&mut view, steps);
+        let done = balloon_run::jobs::volumetric::run(&saved, None, None, true).unwrap();
+        let sim = &done.sim;
+        assert_eq!(Simulation::steps(sim), steps);
+        assert_eq!(sim.planes(), view.sim.planes(), "{controls:?}");
+        let d = max_difference(&view.positions(), &Simulation::surface(sim).positions);
+        assert!(
+            d <= 1e-12,
+            "{controls:?}: the view and `balloon run` differ by {d} m"
+        );
+        // The floor was reached: something touched it.
+        let floor = &sim.planes()[0];
+        let lowest = sim
+            .positions()
+            .iter()
+            .map(|p| floor.distance(p))
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            lowest < 1e-6,
+            "{controls:?}: lowest particle {lowest} m above the floor"
         );
     }
 }

@@ -556,11 +556,12 @@ impl ViewSystem for ScenarioView {
         }
     }
 
-    /// The volumetric body's and the two-layer body's gravity act along -z.
+    /// The volumetric body's `up` axis (z by default), the two-layer body's z, the shell's y.
     fn up(&self) -> [f64; 3] {
-        match self.scenario.kind() {
-            SystemKind::Volumetric | SystemKind::TwoLayer => [0.0, 0.0, 1.0],
-            SystemKind::Shell | SystemKind::Connect => [0.0, 1.0, 0.0],
+        match &self.scenario {
+            Scenario::Volumetric(v) => v.run.up.vector().into(),
+            Scenario::TwoLayer(_) => [0.0, 0.0, 1.0],
+            Scenario::Shell(_) | Scenario::Connect(_) => [0.0, 1.0, 0.0],
         }
     }
 

@@ -8,11 +8,7 @@ use crate::protocol::DragMode;
 use balloon_scenario::Scenario;
 
 fn scenario(text: &str) -> (tempfile::TempDir, Scenario) {
-    let dir = tempfile::tempdir().unwrap();
-    let sphere = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
-    balloon_mesh::io::write_obj(&dir.path().join("sphere.obj"), &sphere).unwrap();
-    let path = dir.path().join("scenario.toml");
-    std::fs::write(&path, text).unwrap();
+    let (dir, path) = super::test_support::scenario_dir(text);
     let s = balloon_scenario::file::read(&path, &[]).unwrap().scenario;
     (dir, s)
 }

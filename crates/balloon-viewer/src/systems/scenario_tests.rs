@@ -3,22 +3,12 @@
 //! scenario takes the same steps as the viewer.
 
 use super::scenario::{ScenarioView, builtin_connect};
+use super::test_support::{max_difference, scenario_dir};
 use super::view::ViewSystem;
 use crate::protocol::ControlValue;
 use balloon::Simulation;
 use balloon_scenario::Scenario;
-use std::path::{Path, PathBuf};
-
-/// A folder with a coarse sphere (`sphere.obj`, radius 0.1 m, 162 vertices) and `scenario.toml`
-/// of `text`.
-fn scenario_dir(text: &str) -> (tempfile::TempDir, PathBuf) {
-    let dir = tempfile::tempdir().unwrap();
-    let sphere = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
-    balloon_mesh::io::write_obj(&dir.path().join("sphere.obj"), &sphere).unwrap();
-    let path = dir.path().join("scenario.toml");
-    std::fs::write(&path, text).unwrap();
-    (dir, path)
-}
+use std::path::Path;
 
 fn read(path: &Path) -> Scenario {
     balloon_scenario::file::read(path, &[]).unwrap().scenario
@@ -36,14 +26,6 @@ fn steps(view: &mut ScenarioView, n: usize) {
     for _ in 0..n {
         view.step().unwrap();
     }
-}
-
-fn max_difference(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
 }
 
 const SHELL: &str = r#"

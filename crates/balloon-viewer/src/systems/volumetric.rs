@@ -8,8 +8,10 @@ use balloon::constraint::cell_volume::{CellCorrection, CellSolver};
 use balloon::fields;
 use balloon::mesh::TriMesh;
 use balloon::volumetric::{VolumetricBody, VolumetricSimulation};
-use balloon_scenario::volumetric::{Correction, VolumeSolver, VolumetricScenario};
-use nalgebra::{Point3, Vector3};
+use balloon_scenario::volumetric::{
+    Correction, Up, VolumeSolver, VolumetricScenario, default_floor_height, floor_plane,
+};
+use nalgebra::Vector3;
 use serde_json::{Map, Value, json};
 
 #[derive(Clone, Debug)]
@@ -64,6 +66,9 @@ impl VolumetricControl {
 /// A volume-conserving lattice body (Diziol, Bender and Bayer 2011) on a floor in the viewer.
 pub struct VolumetricView {
     pub(super) soup: TriMesh,
+    /// The mesh as given on the command line (`--mesh`); `None`: the built-in lying teddy
+    /// ([`crate::default_mesh`]).
+    pub(super) mesh_spec: Option<String>,
     pub(super) settings: VolumetricSettings,
     pub(super) sim: VolumetricSimulation,
 }
@@ -74,7 +79,7 @@ const VOLUMETRIC_DRAG_GAIN: f64 = 0.05;
 
 /// Lattice resolution of the volumetric view (voxels along the longest side: a coarse body that
 /// steps interactively); everything else of the lattice is `balloon volumetric`'s default.
-const LATTICE_RESOLUTION: usize = 36;
+pub(super) const LATTICE_RESOLUTION: usize = 36;
 
 /// The defaults of `balloon volumetric` (`VolumetricScenario::default()`), where the view takes
 /// its settings from.
@@ -101,9 +106,16 @@ impl VolumetricView {
         let sim = Self::build(&soup, &settings)?;
         Ok(Self {
             soup,
+            mesh_spec: None,
             settings,
             sim,
         })
+    }
+
+    /// Records the mesh spec (`--mesh`) the soup was loaded from, for the saved scenario.
+    pub fn with_mesh_spec(mut self, spec: Option<String>) -> Self {
+        self.mesh_spec = spec;
+        self
     }
 
     fn build(soup: &TriMesh, s: &VolumetricSettings) -> Result<VolumetricSimulation, ViewerError> {
@@ -132,18 +144,10 @@ impl VolumetricView {
         let springs = body.default_springs(s.stiffness);
         let body = body.with_springs(springs).map_err(ViewerError::from)?;
         let sim = VolumetricSimulation::new(body);
-        let lowest = sim
-            .positions()
-            .iter()
-            .map(|p| p.y)
-            .fold(f64::INFINITY, f64::min);
-        // The floor just below the body (a drop would invert the coarse cells on impact).
-        let height = bbox_diagonal(&flat(sim.positions()));
-        let floor = balloon::constraint::rigid::Plane::new(
-            Point3::new(0.0, lowest - 1e-3 * height, 0.0),
-            Vector3::y(),
-        )
-        .ok_or(ViewerError::Floor)?;
+        // The floor just below the body (a drop would invert the coarse cells on impact): the
+        // `floor` scene of `balloon volumetric` with `up` = y.
+        let height = default_floor_height(sim.positions(), Up::Y);
+        let floor = floor_plane(height, Up::Y).ok_or(ViewerError::Floor)?;
         Ok(sim.with_plane(floor))
     }
 
@@ -278,6 +282,14 @@ impl ViewSystem for VolumetricView {
 
     fn drag_modes(&self) -> Vec<&'static str> {
         vec!["grab"]
+    }
+
+    /// The built-in set-up as a volumetric scenario ([`VolumetricView::scenario`]).
+    fn scenario_text(&self) -> Option<String> {
+        Some(balloon_scenario::file::record(
+            &balloon_scenario::Scenario::Volumetric(self.scenario()),
+            &balloon_scenario::keys::Literals::default(),
+        ))
     }
 
     fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
