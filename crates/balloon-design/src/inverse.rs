@@ -112,9 +112,11 @@ pub struct InverseInfo {
     /// Iterations (Newton and Levenberg-Marquardt), all stages.
     pub iterations: usize,
     /// Of those, Levenberg-Marquardt steps taken because a Newton step was refused or
-    /// singular (all of them when [`InverseParams::newton`] is off).
-    #[serde(default)]
-    pub fallback_steps: usize,
+    /// singular (all of them when [`InverseParams::newton`] is off). Named `fallback_steps`
+    /// before the shape optimisation ([`InverseInfo::fallback`]) took that word; older
+    /// summaries are still read.
+    #[serde(default, alias = "fallback_steps")]
+    pub damped_steps: usize,
     /// Continuation stages solved.
     pub stages: usize,
     /// Halvings of the pressure increment.
@@ -211,7 +213,7 @@ pub fn design_rest_shape(
         load_reached: 0.0,
         relative_residual: f64::INFINITY,
         iterations: 0,
-        fallback_steps: 0,
+        damped_steps: 0,
         stages: 0,
         halvings: 0,
         seconds: 0.0,
@@ -469,7 +471,7 @@ impl Solver<'_> {
                 }
                 continue;
             }
-            info.fallback_steps += 1;
+            info.damped_steps += 1;
             // Normal equations (J^T J + beta T + mu I) dX = -(J^T r + beta T (X - X_ref)).
             self.pattern.normal(&j, &r, &mut jtj, &mut g);
             if mean_diag == 0.0 {

@@ -331,7 +331,7 @@ fn round_trips_on_real_meshes() {
             mesh.num_vertices(),
             result.inverse.seconds,
             result.inverse.iterations,
-            result.inverse.fallback_steps,
+            result.inverse.damped_steps,
             result.inverse.stages,
             result.check.seconds,
             inflation.max_relative,
@@ -405,7 +405,7 @@ fn newton_near_the_known_rest_shape() {
             let recovered = distance(&rigidly_aligned(&rest, &x0), &x0);
             eprintln!(
                 "{name} eps {eps:e}: converged {}, {} iterations ({} damped), recovered to {:.3e}",
-                info.converged, info.iterations, info.fallback_steps, recovered.max_relative
+                info.converged, info.iterations, info.damped_steps, recovered.max_relative
             );
         }
     }
