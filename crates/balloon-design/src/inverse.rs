@@ -132,8 +132,10 @@ pub struct InverseInfo {
 /// Progress of a design, reported after every accepted iteration.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InverseProgress {
-    /// The stage's load factor.
+    /// The stage's load factor (the one being solved for).
     pub load: f64,
+    /// The load factor of the last converged stage (0 before the first).
+    pub reached: f64,
     /// The relative residual.
     pub relative_residual: f64,
     /// Iterations so far.
@@ -329,6 +331,17 @@ pub(crate) fn tangential_weights(problem: &DesignProblem) -> Vec<nalgebra::Matri
 }
 
 impl Solver<'_> {
+    /// The progress report after an accepted iteration of the stage to `load` with residual
+    /// `r`.
+    fn report(&self, load: f64, r: &[f64], info: &InverseInfo) -> InverseProgress {
+        InverseProgress {
+            load,
+            reached: info.load_reached,
+            relative_residual: norm(r) / self.scale,
+            iterations: info.iterations,
+        }
+    }
+
     /// Whether the next step is a Newton step (counts down the damped steps that follow a
     /// refused one).
     fn newton_ready(&mut self) -> bool {
@@ -461,12 +474,7 @@ impl Solver<'_> {
                 )
             {
                 info.iterations += 1;
-                let report = InverseProgress {
-                    load,
-                    relative_residual: norm(&r) / self.scale,
-                    iterations: info.iterations,
-                };
-                if !progress(&report) {
+                if !progress(&self.report(load, &r, info)) {
                     return Ok(Stage::Stopped);
                 }
                 continue;
@@ -563,12 +571,7 @@ impl Solver<'_> {
             if !accepted {
                 return Ok(Stage::Failed);
             }
-            let report = InverseProgress {
-                load,
-                relative_residual: norm(&r) / self.scale,
-                iterations: info.iterations,
-            };
-            if !progress(&report) {
+            if !progress(&self.report(load, &r, info)) {
                 return Ok(Stage::Stopped);
             }
         }

@@ -229,8 +229,8 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         if !quiet {
             match p {
                 DesignProgress::Inverse(p) => eprintln!(
-                    "design: pressure factor {:.3}, relative residual {:.3e}, iteration {}",
-                    p.load, p.relative_residual, p.iterations
+                    "design: pressure factor {:.3} reached, stage to {:.3}: relative residual {:.3e}, iteration {}",
+                    p.reached, p.load, p.relative_residual, p.iterations
                 ),
                 DesignProgress::Fallback(p) => eprintln!(
                     "design: shape optimisation step {}, distance max {:.4e} m, RMS {:.4e} m",
