@@ -460,8 +460,9 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// shape from `rest` (overwritten with the best rest shape found): `D` the area-weighted
 /// squared distance of the forward static equilibrium of `X` under the problem's pressure to
 /// the target (D11), its gradient by the adjoint of the static solve (D12), L-BFGS with a
-/// backtracking (Armijo) line search, each forward solve warm-started from the last
-/// equilibrium (D13). Every accepted step decreases `Phi`, so the returned rest shape is never
+/// backtracking (Armijo) line search, each forward solve from the rest shape as the forward
+/// check's, or warm-started from the last equilibrium with [`FallbackParams::warm_start`]
+/// (D13). Every accepted step decreases `Phi`, so the returned rest shape is never
 /// worse than the start; `progress` is called after every accepted step and stops the
 /// optimisation when it returns `false` (the best rest shape so far is kept).
 ///
