@@ -116,6 +116,28 @@ def test_volumetric_scene_has_sphere_and_floor(cli, tmp_path):
     assert UsdGeom.Mesh(floor).GetPointsAttr().GetNumTimeSamples() == 0
 
 
+def test_volumetric_floor_scene_with_y_up(cli, tmp_path):
+    # The viewer's built-in set-up as a scenario (`scene = "floor"`, `up = "y"`): the stage's
+    # up axis follows `up`, the floor is a horizontal plane in that frame just under the body,
+    # there is no sphere, and the body falls along -y.
+    out = tmp_path / "usd"
+    run(cli, ["volumetric", "--scene", "floor", "--up", "y", "--steps", "4", "--frame-every",
+              "2", "--out", str(out), "--format", "usd"])
+    stage = open_stage(out / "run.usda")
+    assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y
+    assert not stage.GetPrimAtPath("/World/sphere")
+    body = UsdGeom.Mesh(stage.GetPrimAtPath("/World/body")).GetPointsAttr()
+    assert body.GetNumTimeSamples() == 3
+    floor = np.array(UsdGeom.Mesh(stage.GetPrimAtPath("/World/floor")).GetPointsAttr().Get(),
+                     dtype=np.float64)
+    first = np.array(body.Get(0.0), dtype=np.float64)
+    last = np.array(body.Get(2.0), dtype=np.float64)
+    assert np.ptp(floor[:, 1]) == 0.0  # horizontal with y up
+    assert floor[0, 1] < first[:, 1].min()  # under the body
+    fall = first.mean(axis=0) - last.mean(axis=0)
+    assert fall[1] > 0.0 and abs(fall[1]) > 100 * max(abs(fall[0]), abs(fall[2])), fall
+
+
 def test_two_layer_and_the_scenario_key(cli, tmp_path):
     scenario = tmp_path / "s.toml"
     scenario.write_text(
