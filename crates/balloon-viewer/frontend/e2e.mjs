@@ -28,7 +28,7 @@ const opt = (name, dflt) => {
 };
 const mock = process.argv.includes('--mock');
 const balloon = resolve(opt('balloon', join(root, 'target', 'debug', 'balloon')));
-const systems = opt('systems', 'shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml,examples/drop-sphere/drop-sphere.toml')
+const systems = opt('systems', 'shell,volumetric,two-layer,connect,examples/pinned-neck/pinned-neck.toml,examples/drop-sphere/drop-sphere.toml,examples/static-sphere/static-sphere.toml')
   .split(',').filter(Boolean);
 /** A --systems entry that is a scenario file (a path ending in .toml or .json). */
 const isFile = (system) => /\.(toml|json)$/i.test(system);

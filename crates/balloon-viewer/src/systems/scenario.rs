@@ -9,6 +9,7 @@ use super::view::*;
 use crate::ViewerError;
 use crate::protocol::{ControlSpec, ControlValue, DragMode};
 use balloon::Simulation;
+use balloon::integrate::TangentKind;
 use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::material::membrane::MembraneMaterial;
 use balloon::shell::{AnchorSpring, ShellMaterialModel};
@@ -212,7 +213,10 @@ impl ScenarioView {
     /// the scenario's converged Newton a pinch stalled a single step of
     /// `examples/static-sphere/static-sphere.toml` and of the built-in `connect` for over
     /// 12 s, and so did the first converged step after releasing a pinch (over 30 s; debug
-    /// build, load average 10). A dragged run is not `balloon run`'s anyway.
+    /// build, load average 10). A dragged run is not `balloon run`'s anyway. The live steps
+    /// linearise with the projected tangent ([`TangentKind::Projected`], as the built-in shell
+    /// does): three iterations on the exact tangent of the stiff sphere of `static-sphere`
+    /// after a pinch ran away (a negative thickness some 20 steps after the release).
     fn live_newton(&mut self) -> Result<(), ViewerError> {
         if self.drag.is_none() || self.live_newton {
             return Ok(());
@@ -220,6 +224,7 @@ impl ScenarioView {
         let live = |p: &mut BackwardEulerParams| {
             p.newton_iterations = super::shell::VIEWER_NEWTON_ITERATIONS;
             p.newton_tolerance = 0.0;
+            p.tangent = TangentKind::Projected;
         };
         match &mut self.running {
             Running::Shell(sim, _) => sim.configure_integrator(live)?,
