@@ -43,21 +43,24 @@
 mod error;
 mod fallback;
 mod forward;
+mod gauss_newton;
 mod inverse;
 mod normal;
+mod objective;
 mod pinned;
 mod problem;
 
 pub use error::DesignError;
 pub use fallback::{
-    Evaluation, FallbackInfo, FallbackMode, FallbackParams, FallbackProgress, FallbackStop,
-    ShapeObjective, optimise_rest_shape,
+    FallbackInfo, FallbackMethod, FallbackMode, FallbackParams, FallbackProgress, FallbackStop,
+    optimise_rest_shape,
 };
 pub use forward::{
     Distance, ForwardCheck, bbox_diagonal, distance, forward_check, rigidly_aligned,
     vertex_distances,
 };
 pub use inverse::{InverseInfo, InverseParams, InverseProgress, design_rest_shape};
+pub use objective::{Evaluation, ShapeObjective};
 pub use problem::{DesignProblem, enclosed_volume, volume_gradient};
 
 use balloon_integrate::statics::StaticParams;
