@@ -276,9 +276,23 @@ fn round_trips_on_real_meshes() {
     let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
     let mut meshes = Vec::new();
     // `DESIGN_MESHES=teddy,spot.obj` runs only those; `DESIGN_NEWTON=off` runs the
-    // Levenberg-Marquardt iteration alone (for comparison).
+    // Levenberg-Marquardt iteration alone (for comparison); `DESIGN_FALLBACK=gauss-newton` or
+    // `lbfgs` runs the shape optimisation after an unconverged inverse solve with that outer
+    // loop (`DESIGN_FALLBACK_ITERATIONS`, default 60), and then asks for the round trip's
+    // distances only, not for a converged inverse solve.
     let only = std::env::var("DESIGN_MESHES").ok();
     let newton = std::env::var("DESIGN_NEWTON").map_or(true, |v| v != "off");
+    let method = std::env::var("DESIGN_FALLBACK")
+        .ok()
+        .map(|m| match m.as_str() {
+            "lbfgs" => balloon_design::FallbackMethod::Lbfgs,
+            "gauss-newton" => balloon_design::FallbackMethod::GaussNewton,
+            _ => panic!("DESIGN_FALLBACK: gauss-newton or lbfgs, not {m}"),
+        });
+    let fallback_iterations = std::env::var("DESIGN_FALLBACK_ITERATIONS").map_or(60, |n| {
+        n.parse()
+            .expect("DESIGN_FALLBACK_ITERATIONS: a whole number")
+    });
     for name in ["bunny_closed_libigl.off", "teddy", "spot.obj"] {
         if only
             .as_ref()
@@ -313,14 +327,30 @@ fn round_trips_on_real_meshes() {
                 ..InverseParams::default()
             },
             fallback: balloon_design::FallbackParams {
-                mode: balloon_design::FallbackMode::Off,
+                mode: if method.is_some() {
+                    balloon_design::FallbackMode::Unconverged
+                } else {
+                    balloon_design::FallbackMode::Off
+                },
+                method: method.unwrap_or_default(),
+                max_iterations: fallback_iterations,
                 ..balloon_design::FallbackParams::default()
             },
             ..DesignParams::default()
         };
         let result = design(&problem, &params, |p| {
-            let balloon_design::DesignProgress::Inverse(p) = p else {
-                return true;
+            let p = match p {
+                balloon_design::DesignProgress::Inverse(p) => p,
+                balloon_design::DesignProgress::Fallback(f) => {
+                    eprintln!(
+                        "  {name}: shape optimisation step {}, max {:.3e} m, RMS {:.3e} m ({:.1} s)",
+                        f.iteration,
+                        f.max_distance,
+                        f.rms_distance,
+                        started.elapsed().as_secs_f64()
+                    );
+                    return true;
+                }
             };
             eprintln!(
                 "  {name}: load {:.4}, iteration {}, relative residual {:.3e} ({:.1} s)",
@@ -349,7 +379,13 @@ fn round_trips_on_real_meshes() {
             recovered.max_relative,
             result.check.distance.max_relative,
         );
-        assert!(result.inverse.converged, "{name}: {:?}", result.inverse);
+        eprintln!(
+            "{name}: rest shape vs X0 {recovered:?}; forward check {:?}; shape optimisation {:?}",
+            result.check.distance, result.inverse.fallback
+        );
+        if method.is_none() {
+            assert!(result.inverse.converged, "{name}: {:?}", result.inverse);
+        }
         assert!(recovered.max_relative < 1e-3, "{name}: {recovered:?}");
         assert!(result.check.converged, "{name}");
         assert!(result.check.distance.max_relative < 1e-4, "{name}");
