@@ -1,18 +1,16 @@
 //! The shape-optimisation fallback where the inverse has no exact answer: the rest shape `X`
 //! that minimises the distance of its forward static equilibrium `x(X)` to the target,
-//! with the exact adjoint gradient through the static solve and an L-BFGS outer loop
-//! (`docs/design.md`, D11-D14).
+//! with the exact adjoint gradient through the static solve and a Gauss-Newton outer loop on
+//! the exact sensitivity `dx/dX` (L-BFGS where a Gauss-Newton step fails, or throughout on
+//! request) (`docs/design.md`, D11-D15).
 
-use balloon_integrate::ForceSystem;
-use balloon_integrate::statics::{StaticParams, StaticSolver};
-use balloon_shell::statics::{GasTerm, StaticShell};
-use nalgebra::{Matrix3, Vector3};
+use balloon_integrate::statics::StaticParams;
 use serde::{Deserialize, Serialize};
 
 use crate::DesignError;
-use crate::forward::{Distance, distance, rigidly_aligned, shell_from_rest};
-use crate::normal::NormalPattern;
-use crate::pinned::{PinnedLu, pinned_unknowns};
+use crate::forward::Distance;
+use crate::gauss_newton::{conjugate_gradient, dot};
+use crate::objective::{Evaluation, ShapeObjective, point};
 use crate::problem::DesignProblem;
 
 /// When [`crate::design`] runs the shape optimisation after the inverse solve.
@@ -45,14 +43,30 @@ impl std::str::FromStr for FallbackMode {
     }
 }
 
+/// The outer loop of [`optimise_rest_shape`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FallbackMethod {
+    /// Levenberg-Marquardt-damped Gauss-Newton steps on the exact sensitivity `dx/dX` of the
+    /// equilibrium, solved matrix-free by conjugate gradients (`"gauss-newton"`, default;
+    /// `docs/design.md`, D15); an iteration whose Gauss-Newton steps all fail takes an L-BFGS
+    /// step instead.
+    #[default]
+    GaussNewton,
+    /// L-BFGS on the adjoint gradient alone (`"lbfgs"`; D13).
+    Lbfgs,
+}
+
 /// Parameters of [`optimise_rest_shape`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FallbackParams {
     /// When [`crate::design`] runs it (default [`FallbackMode::Unconverged`]).
     pub mode: FallbackMode,
-    /// L-BFGS iterations (default 60; each costs one forward static solve, warm-started, more
-    /// when the line search backtracks).
+    /// The outer loop (default [`FallbackMethod::GaussNewton`]).
+    pub method: FallbackMethod,
+    /// Accepted steps (default 60; each costs at least one forward static solve, more when a
+    /// trial is refused).
     pub max_iterations: usize,
     /// Pairs kept by L-BFGS (default 8).
     pub memory: usize,
@@ -86,6 +100,7 @@ impl Default for FallbackParams {
     fn default() -> Self {
         Self {
             mode: FallbackMode::Unconverged,
+            method: FallbackMethod::GaussNewton,
             max_iterations: 60,
             memory: 8,
             gradient_tolerance: 1e-6,
@@ -151,8 +166,8 @@ pub enum FallbackStop {
     Gradient,
     /// [`FallbackParams::max_iterations`] were taken.
     Iterations,
-    /// No step along the search direction decreased the objective (or every trial's forward
-    /// solve failed): the best rest shape so far is kept.
+    /// No step decreased the objective (neither the Gauss-Newton trials nor the L-BFGS line
+    /// search, or every trial's forward solve failed): the best rest shape so far is kept.
     LineSearch,
     /// The progress callback asked to stop (Ctrl-C).
     Interrupted,
@@ -164,8 +179,16 @@ pub enum FallbackStop {
 /// What [`optimise_rest_shape`] did.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FallbackInfo {
-    /// Accepted L-BFGS steps.
+    /// Accepted steps (Gauss-Newton and L-BFGS).
     pub iterations: usize,
+    /// Of those, the Gauss-Newton steps (absent in older summaries: 0).
+    #[serde(default)]
+    pub gauss_newton_steps: usize,
+    /// Conjugate-gradient iterations of the Gauss-Newton steps, refused trials included
+    /// (each one product with the damped Gauss-Newton matrix: two sparse triangular solve
+    /// pairs with the forward stiffness's factor and two rest-Jacobian products).
+    #[serde(default)]
+    pub cg_iterations: usize,
     /// Forward static solves (line-search trials included).
     pub forward_solves: usize,
     /// Distance of the start's forward equilibrium to the target (rigidly aligned as the
@@ -196,264 +219,6 @@ pub struct FallbackProgress {
     pub max_distance: f64,
     /// The RMS vertex distance (m).
     pub rms_distance: f64,
-}
-
-/// The objective at one rest shape: [`ShapeObjective::evaluate`].
-#[derive(Clone, Debug, PartialEq)]
-pub struct Evaluation {
-    /// `D = 1/2 sum_v w_v |R x_v + t - x*_v|^2` (m^2), minimised over the rigid motion
-    /// `(R, t)`.
-    pub objective: f64,
-    /// `dD/dX` (m), when asked for.
-    pub gradient: Option<Vec<f64>>,
-    /// The forward equilibrium, rigidly aligned onto the target (unweighted, as
-    /// [`crate::forward_check`] aligns it).
-    pub aligned: Vec<f64>,
-    /// Its distance to the target.
-    pub distance: Distance,
-}
-
-/// The distance objective `D(X)` of the shape optimisation and its adjoint gradient, with the
-/// forward static solver and the last equilibrium kept between calls (the warm start).
-pub struct ShapeObjective<'a> {
-    problem: &'a DesignProblem,
-    pattern: NormalPattern,
-    weights: Vec<f64>,
-    solver: StaticSolver,
-    /// The last equilibrium (solver frame), the next solve's start.
-    equilibrium: Option<Vec<f64>>,
-    /// Start from `equilibrium` (else from the rest shape, with continuation).
-    warm_start: bool,
-    lu: Option<(PinnedLu, [usize; 6])>,
-    forward_solves: usize,
-}
-
-impl<'a> ShapeObjective<'a> {
-    /// The objective of `problem`, its forward solves with `forward` at the relative
-    /// tolerance `tolerance`.
-    ///
-    /// # Errors
-    /// [`DesignError::Forward`] for static parameters out of range.
-    pub fn new(
-        problem: &'a DesignProblem,
-        forward: &StaticParams,
-        tolerance: f64,
-    ) -> Result<Self, DesignError> {
-        let params = StaticParams {
-            tolerance,
-            ..*forward
-        };
-        let solver = StaticSolver::new(params).map_err(|e| DesignError::Forward(e.to_string()))?;
-        Ok(Self {
-            problem,
-            pattern: NormalPattern::new(problem.num_dofs() / 3, problem.triangles()),
-            weights: vertex_weights(problem),
-            solver,
-            equilibrium: None,
-            warm_start: true,
-            lu: None,
-            forward_solves: 0,
-        })
-    }
-
-    /// The vertex weights `w_v` (the target's vertex areas over their mean).
-    pub fn weights(&self) -> &[f64] {
-        &self.weights
-    }
-
-    /// The last equilibrium found (in the solver's frame, not aligned).
-    pub fn equilibrium(&self) -> Option<&[f64]> {
-        self.equilibrium.as_deref()
-    }
-
-    /// Sets the start of the next forward solve.
-    pub fn set_equilibrium(&mut self, x: Option<Vec<f64>>) {
-        self.equilibrium = x;
-    }
-
-    /// Whether a forward solve starts from the last equilibrium (default `true`) or from the
-    /// rest shape with load continuation, as [`crate::forward_check`] does.
-    pub fn set_warm_start(&mut self, warm_start: bool) {
-        self.warm_start = warm_start;
-    }
-
-    /// Forward static solves so far.
-    pub fn forward_solves(&self) -> usize {
-        self.forward_solves
-    }
-
-    /// `D(X)` at the rest shape `rest`, and `dD/dX` when `gradient`. The forward solve starts
-    /// from the last equilibrium (from `rest` with load continuation when there is none or
-    /// that fails). `Ok(None)` when the rest shape has no forward equilibrium the solver finds
-    /// (or a degenerate triangle); the kept equilibrium is then unchanged.
-    ///
-    /// # Errors
-    /// [`DesignError::Linear`] when the forward stiffness at the equilibrium cannot be
-    /// factorised for the adjoint, [`DesignError::Forward`] for a volume-dependent pressure
-    /// (not supported), and the rest Jacobian's errors.
-    pub fn evaluate(
-        &mut self,
-        rest: &[f64],
-        gradient: bool,
-    ) -> Result<Option<Evaluation>, DesignError> {
-        let Ok(mut shell) = shell_from_rest(self.problem, rest) else {
-            return Ok(None);
-        };
-        let n = rest.len();
-        let mut x = self.equilibrium.clone().unwrap_or_else(|| rest.to_vec());
-        let mut statics = StaticShell::new(&mut shell, GasTerm::Own, true);
-        self.forward_solves += 1;
-        let mut solved = self.warm_start
-            && self.equilibrium.is_some()
-            && self.solver.solve(&mut statics, 0.0, &mut x, None).is_ok();
-        if !solved {
-            x.copy_from_slice(rest);
-            if !self.warm_start {
-                // A fresh solver (no kept factor): the same solve as the forward check's.
-                self.solver = StaticSolver::new(*self.solver.params())
-                    .map_err(|e| DesignError::Forward(e.to_string()))?;
-            }
-            solved = self
-                .solver
-                .solve_with_continuation(&mut statics, 0.0, &mut x, None)
-                .is_ok();
-        }
-        if !solved {
-            return Ok(None);
-        }
-        let target = self.problem.target();
-        let (r, t) = weighted_alignment(&x, target, &self.weights);
-        let mut objective = 0.0;
-        // dD/dx_v = w_v R^T (R x_v + t - x*_v) (the optimal rigid motion is stationary).
-        let mut b = vec![0.0; n];
-        for (v, w) in self.weights.iter().enumerate() {
-            let e = r * point(&x, v) + t - point(target, v);
-            objective += 0.5 * w * e.norm_squared();
-            let g = r.transpose() * e * *w;
-            b[3 * v..3 * v + 3].copy_from_slice(g.as_slice());
-        }
-        let aligned = rigidly_aligned(&x, target);
-        let dist = distance(&aligned, target);
-        let gradient = if gradient {
-            Some(self.adjoint(&mut statics, rest, &x, &b)?)
-        } else {
-            None
-        };
-        drop(statics);
-        self.equilibrium = Some(x);
-        Ok(Some(Evaluation {
-            objective,
-            gradient,
-            aligned,
-            distance: dist,
-        }))
-    }
-
-    /// `dD/dX = (df/dX)^T lambda` with `K^T lambda = dD/dx` (D12), `K = -df/dx` the forward
-    /// stiffness at the equilibrium `x`, six unknowns of `lambda` pinned for its rigid null
-    /// space.
-    fn adjoint(
-        &mut self,
-        statics: &mut impl ForceSystem,
-        rest: &[f64],
-        x: &[f64],
-        b: &[f64],
-    ) -> Result<Vec<f64>, DesignError> {
-        let n = x.len();
-        let mut f = vec![0.0; n];
-        statics
-            .forces(0.0, x, &mut f)
-            .map_err(|e| DesignError::Forward(e.to_string()))?;
-        if statics
-            .low_rank_terms()
-            .iter()
-            .any(|t| t.coefficient != 0.0)
-        {
-            return Err(DesignError::Forward(
-                "the adjoint needs a pressure that does not depend on the volume".into(),
-            ));
-        }
-        let mut triplets = Vec::new();
-        statics
-            .add_stiffness_triplets(&mut triplets)
-            .map_err(|e| DesignError::Forward(e.to_string()))?;
-        // K^T in the vertex blocks of the one-ring pattern.
-        let mut kt = vec![Matrix3::zeros(); self.pattern.j_blocks()];
-        for (i, j, v) in triplets {
-            kt[self.pattern.j_slot(j / 3, i / 3)][(j % 3, i % 3)] += v;
-        }
-        let pins = pinned_unknowns(x);
-        if self.lu.as_ref().is_none_or(|(_, p)| *p != pins) {
-            self.lu = Some((PinnedLu::new(&self.pattern, x), pins));
-        }
-        let (lu, _) = self.lu.as_mut().expect("set above");
-        if !lu.factorize(&kt) {
-            return Err(DesignError::Linear(
-                "the forward stiffness at the equilibrium cannot be factorised".into(),
-            ));
-        }
-        let minus_b: Vec<f64> = b.iter().map(|v| -v).collect();
-        let lambda = lu.step(&minus_b).ok_or(DesignError::Linear(
-            "the adjoint solve gave a non-finite value".into(),
-        ))?;
-        let mut j = vec![Matrix3::zeros(); self.pattern.j_blocks()];
-        self.problem
-            .rest_jacobian_at(x, rest, &self.pattern, &mut j)?;
-        let mut g = vec![0.0; n];
-        self.pattern.transpose_apply(&j, &lambda, &mut g);
-        Ok(g)
-    }
-}
-
-fn point(x: &[f64], v: usize) -> Vector3<f64> {
-    Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])
-}
-
-/// The target's vertex areas (a third of each adjacent triangle's) over their mean.
-fn vertex_weights(problem: &DesignProblem) -> Vec<f64> {
-    let x = problem.target();
-    let mut a = vec![0.0; x.len() / 3];
-    for t in problem.triangles() {
-        let [p, q, r] = crate::problem::corners(x, t);
-        let area = (q - p).cross(&(r - p)).norm() / 2.0;
-        for &v in t {
-            a[v] += area / 3.0;
-        }
-    }
-    let mean = a.iter().sum::<f64>() / a.len().max(1) as f64;
-    a.iter().map(|v| v / mean).collect()
-}
-
-/// The rigid motion `(R, t)` minimising `sum_v w_v |R x_v + t - y_v|^2` (weighted Kabsch).
-fn weighted_alignment(x: &[f64], y: &[f64], w: &[f64]) -> (Matrix3<f64>, Vector3<f64>) {
-    let total: f64 = w.iter().sum();
-    let (mut cx, mut cy) = (Vector3::zeros(), Vector3::zeros());
-    for (v, wv) in w.iter().enumerate() {
-        cx += point(x, v) * *wv;
-        cy += point(y, v) * *wv;
-    }
-    cx /= total;
-    cy /= total;
-    let mut h = Matrix3::zeros();
-    for (v, wv) in w.iter().enumerate() {
-        h += (point(x, v) - cx) * (point(y, v) - cy).transpose() * *wv;
-    }
-    let svd = h.svd(true, true);
-    let r = match (svd.u, svd.v_t) {
-        (Some(u), Some(vt)) => {
-            let mut d = Matrix3::identity();
-            if (vt.transpose() * u.transpose()).determinant() < 0.0 {
-                d[(2, 2)] = -1.0;
-            }
-            vt.transpose() * d * u.transpose()
-        }
-        _ => Matrix3::identity(),
-    };
-    (r, cy - r * cx)
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// Minimises `Phi(X) = D(X) + beta/2 sum_v (X_v - X_v^0)^T T_v (X_v - X_v^0)` over the rest
@@ -490,6 +255,8 @@ pub fn optimise_rest_shape(
     objective.set_warm_start(params.warm_start);
     let mut info = FallbackInfo {
         iterations: 0,
+        gauss_newton_steps: 0,
+        cg_iterations: 0,
         forward_solves: 0,
         start: None,
         end: None,
@@ -508,23 +275,30 @@ pub fn optimise_rest_shape(
     let projectors = crate::inverse::tangential_weights(problem);
     let reference = rest.to_vec();
     let max_step = params.max_move * crate::inverse::mean_edge(problem);
-    // Phi and its gradient from an evaluation.
-    let total = |x: &[f64], e: &Evaluation| -> (f64, Vec<f64>) {
-        let mut phi = e.objective;
-        let mut g = e.gradient.clone().unwrap_or_default();
+    // The regulariser's value and gradient at `x`, and its product `beta T v`.
+    let regulariser = |x: &[f64]| -> (f64, Vec<f64>) {
+        let mut phi = 0.0;
+        let mut g = vec![0.0; x.len()];
         if beta > 0.0 {
             for (v, p) in projectors.iter().enumerate() {
                 let d = point(x, v) - point(&reference, v);
                 let pd = p * d;
                 phi += 0.5 * beta * d.dot(&pd);
-                for k in 0..3 {
-                    g[3 * v + k] += beta * pd[k];
-                }
+                g[3 * v..3 * v + 3].copy_from_slice((pd * beta).as_slice());
             }
         }
         (phi, g)
     };
-    let (mut phi, mut g) = total(rest, &first);
+    let regulariser_product = |u: &[f64]| -> Vec<f64> {
+        let mut out = vec![0.0; u.len()];
+        if beta > 0.0 {
+            for (v, p) in projectors.iter().enumerate() {
+                out[3 * v..3 * v + 3].copy_from_slice((p * point(u, v) * beta).as_slice());
+            }
+        }
+        out
+    };
+    let (mut phi, mut g) = total(&regulariser, rest, &first);
     let g0 = dot(&g, &g).sqrt();
     info.start = Some(first.distance);
     info.end = Some(first.distance);
@@ -535,6 +309,7 @@ pub fn optimise_rest_shape(
         std::collections::VecDeque::new();
     let mut trial = rest.to_vec();
     let mut current = first;
+    let mut damping = GaussNewtonDamping::default();
     info.stopped = FallbackStop::Iterations;
     loop {
         if current.distance.max_relative <= params.distance_tolerance {
@@ -550,63 +325,25 @@ pub fn optimise_rest_shape(
             info.stopped = FallbackStop::Iterations;
             break;
         }
-        // L-BFGS two-loop recursion: d = -H g.
-        let mut d: Vec<f64> = g.iter().map(|v| -v).collect();
-        let mut alphas = Vec::with_capacity(memory.len());
-        for (s, y, rho) in memory.iter().rev() {
-            let a = rho * dot(s, &d);
-            for (di, yi) in d.iter_mut().zip(y) {
-                *di -= a * yi;
-            }
-            alphas.push(a);
-        }
-        if let Some((s, y, _)) = memory.back() {
-            let gamma = dot(s, y) / dot(y, y);
-            for di in d.iter_mut() {
-                *di *= gamma;
-            }
-        }
-        for ((s, y, rho), a) in memory.iter().zip(alphas.iter().rev()) {
-            let b = rho * dot(y, &d);
-            for (di, si) in d.iter_mut().zip(s) {
-                *di += (a - b) * si;
-            }
-        }
-        let mut slope = dot(&g, &d);
-        if slope.is_nan() || slope >= 0.0 {
-            memory.clear();
-            d = g.iter().map(|v| -v).collect();
-            slope = -gn * gn;
-        }
-        // The first step (no curvature pairs yet) and any long one: at most `max_step` per
-        // vertex.
-        let largest = d
-            .chunks(3)
-            .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
-            .fold(0.0, f64::max);
-        let mut t = if memory.is_empty() || largest > max_step {
-            max_step / largest
-        } else {
-            1.0
+        let step = Step {
+            rest,
+            gradient: &g,
+            phi,
+            max_step,
+            regulariser: &regulariser,
+            regulariser_product: &regulariser_product,
         };
-        let kept = objective.equilibrium().map(<[f64]>::to_vec);
         let mut accepted = None;
-        for _ in 0..12 {
-            for ((y, x), di) in trial.iter_mut().zip(rest.iter()).zip(&d) {
-                *y = x + t * di;
+        if params.method == FallbackMethod::GaussNewton {
+            accepted = step.gauss_newton(&mut objective, &mut damping, &mut info, &mut trial)?;
+            if accepted.is_some() {
+                info.gauss_newton_steps += 1;
             }
-            objective.set_equilibrium(kept.clone());
-            if let Some(e) = objective.evaluate(&trial, true)? {
-                let (phi_t, g_t) = total(&trial, &e);
-                if phi_t <= phi + 1e-4 * t * slope {
-                    accepted = Some((e, phi_t, g_t));
-                    break;
-                }
-            }
-            t *= 0.5;
+        }
+        if accepted.is_none() {
+            accepted = step.lbfgs(&mut objective, &mut memory, &mut trial)?;
         }
         let Some((e, phi_t, g_t)) = accepted else {
-            objective.set_equilibrium(kept);
             info.stopped = FallbackStop::LineSearch;
             break;
         };
@@ -641,4 +378,209 @@ pub fn optimise_rest_shape(
     info.forward_solves = objective.forward_solves();
     info.seconds = started.elapsed().as_secs_f64();
     Ok(info)
+}
+
+/// The tangential regulariser's value and gradient at a rest shape.
+type Regulariser<'a> = dyn Fn(&[f64]) -> (f64, Vec<f64>) + 'a;
+
+/// Phi and its gradient from an evaluation with the gradient.
+fn total(regulariser: &Regulariser<'_>, x: &[f64], e: &Evaluation) -> (f64, Vec<f64>) {
+    let (mut phi, mut g) = regulariser(x);
+    phi += e.objective;
+    for (a, b) in g.iter_mut().zip(e.gradient.as_deref().unwrap_or_default()) {
+        *a += b;
+    }
+    (phi, g)
+}
+
+/// The largest vertex move of the step `d`.
+fn largest_move(d: &[f64]) -> f64 {
+    d.chunks(3)
+        .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
+        .fold(0.0, f64::max)
+}
+
+/// Relative tolerance of the conjugate-gradient solve of a Gauss-Newton step.
+const CG_TOLERANCE: f64 = 1e-4;
+/// Its iteration limit (the truncation regularises the weakly determined directions too).
+const CG_ITERATIONS: usize = 200;
+/// Refused Gauss-Newton trials (each one forward solve) before the L-BFGS step is tried.
+const GN_TRIALS: usize = 4;
+
+/// The Levenberg-Marquardt damping of the Gauss-Newton steps, `mu = factor scale`, `scale`
+/// the Gauss-Newton matrix's Rayleigh quotient along the first gradient.
+struct GaussNewtonDamping {
+    factor: f64,
+    scale: Option<f64>,
+}
+
+impl Default for GaussNewtonDamping {
+    fn default() -> Self {
+        Self {
+            factor: 1e-3,
+            scale: None,
+        }
+    }
+}
+
+/// One outer step from the rest shape `rest` with the objective `phi` and its gradient.
+struct Step<'c> {
+    rest: &'c [f64],
+    gradient: &'c [f64],
+    phi: f64,
+    max_step: f64,
+    regulariser: &'c Regulariser<'c>,
+    regulariser_product: &'c dyn Fn(&[f64]) -> Vec<f64>,
+}
+
+/// An accepted step: the evaluation at the new rest shape (in `trial`), `Phi` and its
+/// gradient there.
+type Accepted = Option<(Evaluation, f64, Vec<f64>)>;
+
+impl Step<'_> {
+    /// The Levenberg-Marquardt-damped Gauss-Newton step (D15): `(S^T R^T W P R S + beta T +
+    /// mu I) dX = -grad Phi` by conjugate gradients, at most `max_step` per vertex, accepted on
+    /// the same sufficient decrease of the true `Phi` as the L-BFGS line search; a refused
+    /// trial multiplies `mu` by 4 and solves again, an accepted one divides it by 3. `None`
+    /// when every trial was refused or the linear solve failed (the kept equilibrium is
+    /// restored).
+    fn gauss_newton(
+        &self,
+        objective: &mut ShapeObjective<'_>,
+        damping: &mut GaussNewtonDamping,
+        info: &mut FallbackInfo,
+        trial: &mut [f64],
+    ) -> Result<Accepted, DesignError> {
+        let g = self.gradient;
+        let product = |objective: &ShapeObjective<'_>, v: &[f64], mu: f64| -> Option<Vec<f64>> {
+            let mut a = objective.gauss_newton_product(v).ok()?;
+            for ((a, t), v) in a.iter_mut().zip((self.regulariser_product)(v)).zip(v) {
+                *a += t + mu * v;
+            }
+            Some(a)
+        };
+        let scale = match damping.scale {
+            Some(s) => s,
+            None => {
+                let Some(ag) = product(objective, g, 0.0) else {
+                    return Ok(None);
+                };
+                let s = dot(g, &ag) / dot(g, g);
+                if !(s.is_finite() && s > 0.0) {
+                    return Ok(None);
+                }
+                *damping.scale.insert(s)
+            }
+        };
+        let b: Vec<f64> = g.iter().map(|v| -v).collect();
+        let kept = objective.equilibrium().map(<[f64]>::to_vec);
+        for _ in 0..GN_TRIALS {
+            let mu = damping.factor * scale;
+            let Some((mut d, iterations)) = conjugate_gradient(
+                |v| product(objective, v, mu),
+                &b,
+                CG_TOLERANCE,
+                CG_ITERATIONS,
+            ) else {
+                break;
+            };
+            info.cg_iterations += iterations;
+            let largest = largest_move(&d);
+            let cut = largest > self.max_step;
+            if cut {
+                for v in &mut d {
+                    *v *= self.max_step / largest;
+                }
+            }
+            let slope = dot(g, &d);
+            if slope.is_nan() || slope >= 0.0 {
+                break;
+            }
+            for ((y, x), di) in trial.iter_mut().zip(self.rest).zip(&d) {
+                *y = x + di;
+            }
+            objective.set_equilibrium(kept.clone());
+            if let Some(e) = objective.evaluate(trial, false)? {
+                let phi_t = e.objective + (self.regulariser)(trial).0;
+                if phi_t <= self.phi + 1e-4 * slope {
+                    let Some(e) = objective.linearise_kept(trial)? else {
+                        break;
+                    };
+                    if !cut {
+                        damping.factor = (damping.factor / 3.0).max(1e-9);
+                    }
+                    let (phi_t, g_t) = total(self.regulariser, trial, &e);
+                    return Ok(Some((e, phi_t, g_t)));
+                }
+            }
+            damping.factor *= 4.0;
+        }
+        objective.set_equilibrium(kept);
+        Ok(None)
+    }
+
+    /// The L-BFGS step (D13): two-loop recursion on the pairs `memory`, backtracking Armijo
+    /// line search, at most `max_step` per vertex. `None` when no trial decreased `Phi` (the
+    /// kept equilibrium is restored).
+    fn lbfgs(
+        &self,
+        objective: &mut ShapeObjective<'_>,
+        memory: &mut std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)>,
+        trial: &mut [f64],
+    ) -> Result<Accepted, DesignError> {
+        let g = self.gradient;
+        let gn = dot(g, g).sqrt();
+        // L-BFGS two-loop recursion: d = -H g.
+        let mut d: Vec<f64> = g.iter().map(|v| -v).collect();
+        let mut alphas = Vec::with_capacity(memory.len());
+        for (s, y, rho) in memory.iter().rev() {
+            let a = rho * dot(s, &d);
+            for (di, yi) in d.iter_mut().zip(y) {
+                *di -= a * yi;
+            }
+            alphas.push(a);
+        }
+        if let Some((s, y, _)) = memory.back() {
+            let gamma = dot(s, y) / dot(y, y);
+            for di in d.iter_mut() {
+                *di *= gamma;
+            }
+        }
+        for ((s, y, rho), a) in memory.iter().zip(alphas.iter().rev()) {
+            let b = rho * dot(y, &d);
+            for (di, si) in d.iter_mut().zip(s) {
+                *di += (a - b) * si;
+            }
+        }
+        let mut slope = dot(g, &d);
+        if slope.is_nan() || slope >= 0.0 {
+            memory.clear();
+            d = g.iter().map(|v| -v).collect();
+            slope = -gn * gn;
+        }
+        // The first step (no curvature pairs yet) and any long one: at most `max_step` per
+        // vertex.
+        let largest = largest_move(&d);
+        let mut t = if memory.is_empty() || largest > self.max_step {
+            self.max_step / largest
+        } else {
+            1.0
+        };
+        let kept = objective.equilibrium().map(<[f64]>::to_vec);
+        for _ in 0..12 {
+            for ((y, x), di) in trial.iter_mut().zip(self.rest).zip(&d) {
+                *y = x + t * di;
+            }
+            objective.set_equilibrium(kept.clone());
+            if let Some(e) = objective.evaluate(trial, true)? {
+                let (phi_t, g_t) = total(self.regulariser, trial, &e);
+                if phi_t <= self.phi + 1e-4 * t * slope {
+                    return Ok(Some((e, phi_t, g_t)));
+                }
+            }
+            t *= 0.5;
+        }
+        objective.set_equilibrium(kept);
+        Ok(None)
+    }
 }

@@ -14,8 +14,9 @@
 //! bounding-box diagonal). Where no rest shape holds the target exactly (flat faces, targets
 //! beyond the pressure maximum), [`design`] goes on with a shape optimisation
 //! ([`optimise_rest_shape`]): it minimises the distance of the forward equilibrium to the
-//! target over the rest shape, with the adjoint gradient through the static solve and L-BFGS,
-//! and reports the remaining distance ([`FallbackInfo`]) instead of claiming success. Works
+//! target over the rest shape, with the adjoint gradient through the static solve and
+//! Gauss-Newton steps on the exact sensitivity of the equilibrium (L-BFGS where they fail, or
+//! throughout: [`FallbackMethod`]), and reports the remaining distance ([`FallbackInfo`]) instead of claiming success. Works
 //! for the three-prism shell (St. Venant-Kirchhoff,
 //! neo-Hookean; Wang et al. 2015, Eq. 4-8) and the incompressible membranes
 //! (`docs/membranes.md`). The equations, the regulariser and what the method can and cannot
@@ -43,21 +44,24 @@
 mod error;
 mod fallback;
 mod forward;
+mod gauss_newton;
 mod inverse;
 mod normal;
+mod objective;
 mod pinned;
 mod problem;
 
 pub use error::DesignError;
 pub use fallback::{
-    Evaluation, FallbackInfo, FallbackMode, FallbackParams, FallbackProgress, FallbackStop,
-    ShapeObjective, optimise_rest_shape,
+    FallbackInfo, FallbackMethod, FallbackMode, FallbackParams, FallbackProgress, FallbackStop,
+    optimise_rest_shape,
 };
 pub use forward::{
     Distance, ForwardCheck, bbox_diagonal, distance, forward_check, rigidly_aligned,
     vertex_distances,
 };
 pub use inverse::{InverseInfo, InverseParams, InverseProgress, design_rest_shape};
+pub use objective::{Evaluation, ShapeObjective};
 pub use problem::{DesignProblem, enclosed_volume, volume_gradient};
 
 use balloon_integrate::statics::StaticParams;

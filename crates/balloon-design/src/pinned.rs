@@ -203,6 +203,23 @@ impl PinnedLu {
         }
         dx.iter().all(|v| v.is_finite()).then_some(dx)
     }
+
+    /// The solution `y` of the transposed pinned system, `J^T_{~P,~P} y_{~P} = z_{~P}`,
+    /// `y_P = 0` (the transpose of the factorised matrix has the pinned rows replaced by unit
+    /// rows, so zeroing `z_P` pins `y_P`); `None` when there is no factor or it is not finite.
+    /// The dropped equations hold when `z` is orthogonal to the rigid motions `L`.
+    pub(crate) fn transpose_solve(&self, z: &[f64]) -> Option<Vec<f64>> {
+        let lu = self.lu.as_ref()?;
+        let mut y = z.to_vec();
+        for &p in &self.pinned {
+            y[p] = 0.0;
+        }
+        lu.solve_transpose_in_place(faer::MatMut::from_column_major_slice_mut(&mut y, self.n, 1));
+        for &p in &self.pinned {
+            y[p] = 0.0;
+        }
+        y.iter().all(|v| v.is_finite()).then_some(y)
+    }
 }
 
 #[cfg(test)]

@@ -276,9 +276,25 @@ fn round_trips_on_real_meshes() {
     let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
     let mut meshes = Vec::new();
     // `DESIGN_MESHES=teddy,spot.obj` runs only those; `DESIGN_NEWTON=off` runs the
-    // Levenberg-Marquardt iteration alone (for comparison).
+    // Levenberg-Marquardt iteration alone (for comparison); `DESIGN_FALLBACK=gauss-newton` or
+    // `lbfgs` runs the shape optimisation after an unconverged inverse solve with that outer
+    // loop (`DESIGN_FALLBACK_ITERATIONS`, default 60), and then asks for the round trip's
+    // distances only, not for a converged inverse solve.
     let only = std::env::var("DESIGN_MESHES").ok();
     let newton = std::env::var("DESIGN_NEWTON").map_or(true, |v| v != "off");
+    let method = std::env::var("DESIGN_FALLBACK")
+        .ok()
+        .map(|m| match m.as_str() {
+            "lbfgs" => balloon_design::FallbackMethod::Lbfgs,
+            "gauss-newton" => balloon_design::FallbackMethod::GaussNewton,
+            _ => panic!("DESIGN_FALLBACK: gauss-newton or lbfgs, not {m}"),
+        });
+    // `DESIGN_START=target`: no inverse solve; the shape optimisation from the target.
+    let start_at_target = std::env::var("DESIGN_START").is_ok_and(|v| v == "target");
+    let fallback_iterations = std::env::var("DESIGN_FALLBACK_ITERATIONS").map_or(60, |n| {
+        n.parse()
+            .expect("DESIGN_FALLBACK_ITERATIONS: a whole number")
+    });
     for name in ["bunny_closed_libigl.off", "teddy", "spot.obj"] {
         if only
             .as_ref()
@@ -306,6 +322,18 @@ fn round_trips_on_real_meshes() {
         let problem =
             DesignProblem::try_new(&target, vec![H; target.num_triangles()], nh.clone(), 2.0e3)
                 .unwrap();
+        // The design's own forward solve from the known answer X0: where the forward problem
+        // has several equilibria this need not land on x* (then no design reaches it).
+        let at_x0 = balloon_design::forward_check(
+            &problem,
+            &mesh.positions_flat(),
+            &StaticParams::default(),
+        )
+        .unwrap();
+        eprintln!(
+            "{name}: forward check from X0 itself: {:?} ({} iterations)",
+            at_x0.distance, at_x0.iterations
+        );
         let started = std::time::Instant::now();
         let params = DesignParams {
             inverse: InverseParams {
@@ -313,14 +341,35 @@ fn round_trips_on_real_meshes() {
                 ..InverseParams::default()
             },
             fallback: balloon_design::FallbackParams {
-                mode: balloon_design::FallbackMode::Off,
+                mode: if method.is_some() {
+                    balloon_design::FallbackMode::Unconverged
+                } else {
+                    balloon_design::FallbackMode::Off
+                },
+                method: method.unwrap_or_default(),
+                max_iterations: fallback_iterations,
+                // `DESIGN_WARM_START=1`: each forward solve from the last equilibrium (D14).
+                warm_start: std::env::var("DESIGN_WARM_START").is_ok_and(|v| v == "1"),
+                // `DESIGN_FALLBACK_BETA=b`: the shape optimisation's tangential weight.
+                tangential_weight: std::env::var("DESIGN_FALLBACK_BETA")
+                    .map_or(0.0, |b| b.parse().expect("DESIGN_FALLBACK_BETA: a number")),
                 ..balloon_design::FallbackParams::default()
             },
             ..DesignParams::default()
         };
-        let result = design(&problem, &params, |p| {
-            let balloon_design::DesignProgress::Inverse(p) = p else {
-                return true;
+        let report = |p: &balloon_design::DesignProgress| {
+            let p = match p {
+                balloon_design::DesignProgress::Inverse(p) => p,
+                balloon_design::DesignProgress::Fallback(f) => {
+                    eprintln!(
+                        "  {name}: shape optimisation step {}, max {:.3e} m, RMS {:.3e} m ({:.1} s)",
+                        f.iteration,
+                        f.max_distance,
+                        f.rms_distance,
+                        started.elapsed().as_secs_f64()
+                    );
+                    return true;
+                }
             };
             eprintln!(
                 "  {name}: load {:.4}, iteration {}, relative residual {:.3e} ({:.1} s)",
@@ -330,8 +379,40 @@ fn round_trips_on_real_meshes() {
                 started.elapsed().as_secs_f64()
             );
             true
-        })
-        .unwrap();
+        };
+        let result = if start_at_target {
+            // The shape optimisation alone, from the target as the rest shape.
+            let mut rest = problem.target().to_vec();
+            let mut inverse = balloon_design::design_rest_shape(
+                &problem,
+                &InverseParams {
+                    max_iterations: 1,
+                    max_halvings: 0,
+                    ..InverseParams::default()
+                },
+                &mut rest,
+                |_| true,
+            )
+            .unwrap();
+            rest.copy_from_slice(problem.target());
+            let info = balloon_design::optimise_rest_shape(
+                &problem,
+                &params.fallback,
+                &params.forward,
+                &mut rest,
+                |p| report(&balloon_design::DesignProgress::Fallback(*p)),
+            )
+            .unwrap();
+            inverse.fallback = Some(info);
+            let check = balloon_design::forward_check(&problem, &rest, &params.forward).unwrap();
+            balloon_design::Design {
+                rest,
+                inverse,
+                check,
+            }
+        } else {
+            design(&problem, &params, report).unwrap()
+        };
         let x0 = mesh.positions_flat();
         let recovered = distance(&rigidly_aligned(&result.rest, &x0), &x0);
         let inflation = distance(&x_star, &x0);
@@ -349,7 +430,13 @@ fn round_trips_on_real_meshes() {
             recovered.max_relative,
             result.check.distance.max_relative,
         );
-        assert!(result.inverse.converged, "{name}: {:?}", result.inverse);
+        eprintln!(
+            "{name}: rest shape vs X0 {recovered:?}; forward check {:?}; shape optimisation {:?}",
+            result.check.distance, result.inverse.fallback
+        );
+        if method.is_none() {
+            assert!(result.inverse.converged, "{name}: {:?}", result.inverse);
+        }
         assert!(recovered.max_relative < 1e-3, "{name}: {recovered:?}");
         assert!(result.check.converged, "{name}");
         assert!(result.check.distance.max_relative < 1e-4, "{name}");

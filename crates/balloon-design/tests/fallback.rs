@@ -3,8 +3,8 @@
 //! faces) whose distance the fallback reduces.
 
 use balloon_design::{
-    DesignParams, DesignProblem, DesignProgress, FallbackMode, FallbackParams, FallbackStop,
-    InverseParams, ShapeObjective, design,
+    DesignParams, DesignProblem, DesignProgress, FallbackMethod, FallbackMode, FallbackParams,
+    FallbackStop, InverseParams, ShapeObjective, design,
 };
 use balloon_integrate::statics::StaticParams;
 use balloon_material::membrane::{MembraneModel, MembraneNeoHookean};
@@ -90,6 +90,215 @@ fn adjoint_gradient_matches_central_differences() {
             assert!(t.abs() < 1e-8 * scale, "translation {k}: {t:e}");
         }
     }
+}
+
+/// Removes the least-squares rigid motion (translation and small rotation about the centroid)
+/// of the displacement field `u` at the points `x`, by a dense 6x6 solve.
+fn without_rigid_motion(x: &[f64], u: &[f64]) -> Vec<f64> {
+    let nv = x.len() / 3;
+    let c: nalgebra::Vector3<f64> = (0..nv)
+        .map(|v| nalgebra::Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]))
+        .sum::<nalgebra::Vector3<f64>>()
+        / nv as f64;
+    // Columns: the six rigid fields.
+    let basis = nalgebra::DMatrix::<f64>::from_fn(3 * nv, 6, |i, k| {
+        let (v, a) = (i / 3, i % 3);
+        if k < 3 {
+            f64::from(u8::from(a == k))
+        } else {
+            let q = nalgebra::Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]) - c;
+            nalgebra::Vector3::ith(k - 3, 1.0).cross(&q)[a]
+        }
+    });
+    let u = nalgebra::DVector::from_column_slice(u);
+    let coef = (basis.transpose() * &basis)
+        .lu()
+        .solve(&(basis.transpose() * &u))
+        .unwrap();
+    (u - basis * coef).as_slice().to_vec()
+}
+
+/// The Gauss-Newton step's sensitivity `dx/dX v = K^-1 (df/dX) v` (`docs/design.md`, D15)
+/// against central differences of the forward equilibrium `x(X)` along random directions
+/// (each `x` its own static solve at a relative residual of 1e-12, warm-started from the same
+/// equilibrium), both modulo rigid motions (the equilibrium of a free balloon is defined up to
+/// one), on the 42-vertex ellipsoid of the adjoint test; its transpose by the identity
+/// `<S v, y> = <v, S^T y>`; and the Gauss-Newton product's symmetry and positivity.
+#[test]
+fn equilibrium_sensitivity_matches_central_differences() {
+    let mut target = balloon_mesh::generate::icosphere(0.05, 1).unwrap();
+    for v in &mut target.vertices {
+        v.y *= 0.8;
+        v.z *= 0.6;
+    }
+    for (material, p) in [(membrane(), 3.0e3), (prism(), 3.0e3)] {
+        let problem =
+            DesignProblem::try_new(&target, vec![H; target.num_triangles()], material, p).unwrap();
+        let rest: Vec<f64> = problem
+            .target()
+            .iter()
+            .enumerate()
+            .map(|(i, x)| 0.9 * x + 1e-3 * noise(i, 1))
+            .collect();
+        let mut objective = ShapeObjective::new(&problem, &StaticParams::default(), 1e-12).unwrap();
+        assert!(
+            objective.sensitivity(&rest).is_err(),
+            "nothing linearised yet"
+        );
+        objective.evaluate(&rest, true).unwrap().unwrap();
+        let x0 = objective.equilibrium().unwrap().to_vec();
+        let norm = |a: &[f64]| a.iter().map(|v| v * v).sum::<f64>().sqrt();
+        for seed in 0..3 {
+            let v: Vec<f64> = (0..rest.len()).map(|i| noise(i, 200 + seed)).collect();
+            let s = objective.sensitivity(&v).unwrap();
+            let h = 1e-6;
+            let mut at = |t: f64| {
+                let y: Vec<f64> = rest.iter().zip(&v).map(|(a, b)| a + t * b).collect();
+                objective.set_equilibrium(Some(x0.clone()));
+                objective.evaluate(&y, false).unwrap().unwrap();
+                objective.equilibrium().unwrap().to_vec()
+            };
+            let (plus, minus) = (at(h), at(-h));
+            let fd: Vec<f64> = plus
+                .iter()
+                .zip(&minus)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect();
+            let (fd, s) = (
+                without_rigid_motion(&x0, &fd),
+                without_rigid_motion(&x0, &s),
+            );
+            let diff: Vec<f64> = fd.iter().zip(&s).map(|(a, b)| a - b).collect();
+            let rel = norm(&diff) / norm(&fd);
+            eprintln!(
+                "direction {seed}: |S v| {:e}, relative difference {rel:e}",
+                norm(&s)
+            );
+            assert!(norm(&s) > 1e-2 * norm(&v), "a non-trivial sensitivity");
+            assert!(rel < 1e-5, "S v against central differences: {rel:e}");
+        }
+        // The linearisation is that of the last evaluation with the gradient: re-linearise.
+        objective.set_equilibrium(Some(x0.clone()));
+        objective.evaluate(&rest, true).unwrap().unwrap();
+        let v: Vec<f64> = (0..rest.len()).map(|i| noise(i, 300)).collect();
+        let u: Vec<f64> = (0..rest.len()).map(|i| noise(i, 301)).collect();
+        let y = without_rigid_motion(&x0, &u);
+        let lhs: f64 = objective
+            .sensitivity(&v)
+            .unwrap()
+            .iter()
+            .zip(&y)
+            .map(|(a, b)| a * b)
+            .sum();
+        let rhs: f64 = objective
+            .sensitivity_transpose(&y)
+            .unwrap()
+            .iter()
+            .zip(&v)
+            .map(|(a, b)| a * b)
+            .sum();
+        assert!(
+            (lhs - rhs).abs() < 1e-8 * lhs.abs(),
+            "<S v, y> {lhs:e} vs <v, S^T y> {rhs:e}"
+        );
+        let (av, au) = (
+            objective.gauss_newton_product(&v).unwrap(),
+            objective.gauss_newton_product(&u).unwrap(),
+        );
+        let uav: f64 = u.iter().zip(&av).map(|(a, b)| a * b).sum();
+        let vau: f64 = v.iter().zip(&au).map(|(a, b)| a * b).sum();
+        let vav: f64 = v.iter().zip(&av).map(|(a, b)| a * b).sum();
+        assert!(
+            (uav - vau).abs() < 1e-8 * vav,
+            "symmetric: {uav:e} vs {vau:e}"
+        );
+        assert!(vav > 0.0);
+    }
+}
+
+/// The equilibrium of the rest shape `rest` under the gauge pressure `p` (static solve to a
+/// relative residual of 1e-11, the wall at its rest thickness as the design assumes).
+fn inflate(
+    rest: &[f64],
+    triangles: &[[usize; 3]],
+    material: &ShellMaterialModel,
+    p: f64,
+) -> Vec<f64> {
+    use balloon_gas::{ConstantPressure, PressureLoad};
+    use balloon_shell::statics::{GasTerm, StaticShell};
+    let gas = PressureLoad::new(ConstantPressure::try_new(p).unwrap())
+        .with_ambient_pressure(0.0)
+        .unwrap()
+        .with_follower_term(true);
+    let mut x = rest.to_vec();
+    let mut shell = balloon_shell::ShellSystem::from_rest_shape(
+        &x,
+        triangles.to_vec(),
+        vec![H; triangles.len()],
+        1000.0,
+        material.clone(),
+        gas,
+    )
+    .unwrap();
+    let mut statics = StaticShell::new(&mut shell, GasTerm::Own, true);
+    let params = StaticParams {
+        tolerance: 1e-11,
+        ..StaticParams::default()
+    };
+    let info = balloon_integrate::statics::StaticSolver::new(params)
+        .unwrap()
+        .solve_with_continuation(&mut statics, 0.0, &mut x, None)
+        .unwrap();
+    assert!(info.converged);
+    x
+}
+
+/// On a target with an exact design (a 162-vertex ellipsoid inflated statically from a known
+/// rest shape, membrane at 8 kPa), the Gauss-Newton outer loop started from the target itself
+/// as the rest shape brings the forward equilibrium within 1e-7 of the bounding-box diagonal
+/// in a handful of steps, where L-BFGS with the same budget stays far from it.
+#[test]
+fn gauss_newton_converges_where_lbfgs_crawls() {
+    let mut mesh = balloon_mesh::generate::icosphere(0.05, 2).unwrap();
+    for v in &mut mesh.vertices {
+        v.y *= 0.8;
+        v.z *= 0.6;
+    }
+    let x_star = inflate(&mesh.positions_flat(), &mesh.triangles, &membrane(), 8.0e3);
+    let mut target = mesh.clone();
+    target.set_positions_flat(&x_star);
+    let problem =
+        DesignProblem::try_new(&target, vec![H; target.num_triangles()], membrane(), 8.0e3)
+            .unwrap();
+    let run = |method| {
+        let mut rest = problem.target().to_vec();
+        let params = FallbackParams {
+            method,
+            max_iterations: 12,
+            distance_tolerance: 1e-7,
+            ..FallbackParams::default()
+        };
+        let info = balloon_design::optimise_rest_shape(
+            &problem,
+            &params,
+            &StaticParams::default(),
+            &mut rest,
+            |p| {
+                eprintln!("{method:?} {p:?}");
+                true
+            },
+        )
+        .unwrap();
+        eprintln!("{method:?}: {info:?}");
+        info
+    };
+    let gn = run(FallbackMethod::GaussNewton);
+    assert_eq!(gn.stopped, FallbackStop::Distance, "{gn:?}");
+    assert!(gn.end.unwrap().max_relative <= 1e-7);
+    assert!(gn.gauss_newton_steps > 0 && gn.cg_iterations > 0);
+    let lbfgs = run(FallbackMethod::Lbfgs);
+    assert_eq!(lbfgs.gauss_newton_steps, 0);
+    assert!(lbfgs.end.unwrap().max_relative > 10.0 * gn.end.unwrap().max_relative);
 }
 
 /// A flat-faced target (a box, 56 vertices): no rest shape holds a flat face under pressure,
