@@ -50,11 +50,12 @@ mod normal;
 mod objective;
 mod pinned;
 mod problem;
+mod shape_term;
 
 pub use error::DesignError;
 pub use fallback::{
     FallbackInfo, FallbackMethod, FallbackMode, FallbackParams, FallbackProgress, FallbackStop,
-    optimise_rest_shape,
+    NEWTON_POLISH_ITERATIONS, optimise_rest_shape,
 };
 pub use forward::{
     Distance, ForwardCheck, bbox_diagonal, distance, forward_check, rigidly_aligned,

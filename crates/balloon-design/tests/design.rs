@@ -353,6 +353,15 @@ fn round_trips_on_real_meshes() {
                 // `DESIGN_FALLBACK_BETA=b`: the shape optimisation's tangential weight.
                 tangential_weight: std::env::var("DESIGN_FALLBACK_BETA")
                     .map_or(0.0, |b| b.parse().expect("DESIGN_FALLBACK_BETA: a number")),
+                // `DESIGN_SHAPE_WEIGHT=g`: the rest-mesh shape term's first weight (D16),
+                // `DESIGN_SHAPE_STAGES=n` its stages, `DESIGN_POLISH=1` the inverse's Newton
+                // solve from the optimised rest shape.
+                shape_weight: std::env::var("DESIGN_SHAPE_WEIGHT")
+                    .map_or(0.0, |b| b.parse().expect("DESIGN_SHAPE_WEIGHT: a number")),
+                shape_stages: std::env::var("DESIGN_SHAPE_STAGES").map_or(3, |b| {
+                    b.parse().expect("DESIGN_SHAPE_STAGES: a whole number")
+                }),
+                newton_polish: std::env::var("DESIGN_POLISH").is_ok_and(|v| v == "1"),
                 ..balloon_design::FallbackParams::default()
             },
             ..DesignParams::default()
