@@ -485,8 +485,11 @@ pub fn optimise_rest_shape(
     Ok(info)
 }
 
-/// The tangential regulariser's value and gradient at a rest shape.
+/// The regularisers' value and gradient at a rest shape.
 type Regulariser<'a> = dyn Fn(&[f64]) -> (f64, Vec<f64>) + 'a;
+
+/// The regularisers' (Gauss-Newton) matrix at a rest shape times a direction.
+type RegulariserProduct<'a> = dyn Fn(&[f64], &[f64]) -> Vec<f64> + 'a;
 
 /// Phi and its gradient from an evaluation with the gradient.
 fn total(regulariser: &Regulariser<'_>, x: &[f64], e: &Evaluation) -> (f64, Vec<f64>) {
@@ -535,7 +538,7 @@ struct Step<'c> {
     phi: f64,
     max_step: f64,
     regulariser: &'c Regulariser<'c>,
-    regulariser_product: &'c dyn Fn(&[f64], &[f64]) -> Vec<f64>,
+    regulariser_product: &'c RegulariserProduct<'c>,
 }
 
 /// An accepted step: the evaluation at the new rest shape (in `trial`), `Phi` and its
