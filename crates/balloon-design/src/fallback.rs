@@ -12,6 +12,7 @@ use crate::forward::Distance;
 use crate::gauss_newton::{conjugate_gradient, dot};
 use crate::objective::{Evaluation, ShapeObjective, point};
 use crate::problem::DesignProblem;
+use crate::shape_term::ShapeTerm;
 
 /// When [`crate::design`] runs the shape optimisation after the inverse solve.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -94,7 +95,32 @@ pub struct FallbackParams {
     /// the warm-started path can follow one that the check from the rest shape does not find,
     /// so the check's distance may not be the optimised one (`docs/design.md`).
     pub warm_start: bool,
+    /// Weight `gamma_0` of the rest-mesh shape term (`docs/design.md`, D16; default 0: off):
+    /// the conformal energy `gamma/2 l^2 sum_t (a_t / mean a) |r_t|^2` of the rest triangles
+    /// against the target's (each free in rotation and uniform scale), added to the distance
+    /// in stages `gamma_k = gamma_0 0.1^k`, `k < shape_stages`, each from the last, and then a
+    /// last stage without it, so the result is not biased by it.
+    #[serde(default)]
+    pub shape_weight: f64,
+    /// Stages with the shape term (default 3), each at most [`FallbackParams::max_iterations`]
+    /// steps; unused when [`FallbackParams::shape_weight`] is 0.
+    #[serde(default = "default_shape_stages")]
+    pub shape_stages: usize,
+    /// Hand the optimised rest shape to the inverse's Newton solve at the full pressure
+    /// ([`crate::design_rest_shape`] without continuation, at most
+    /// [`NEWTON_POLISH_ITERATIONS`] iterations) and keep its answer when it converges and its
+    /// forward equilibrium is closer to the target (default `false`).
+    #[serde(default)]
+    pub newton_polish: bool,
 }
+
+fn default_shape_stages() -> usize {
+    3
+}
+
+/// Iterations of the inverse solve started from the optimised rest shape
+/// ([`FallbackParams::newton_polish`]).
+pub const NEWTON_POLISH_ITERATIONS: usize = 30;
 
 impl Default for FallbackParams {
     fn default() -> Self {
@@ -109,6 +135,9 @@ impl Default for FallbackParams {
             forward_tolerance: None,
             max_move: 0.25,
             warm_start: false,
+            shape_weight: 0.0,
+            shape_stages: default_shape_stages(),
+            newton_polish: false,
         }
     }
 }
@@ -142,6 +171,7 @@ impl FallbackParams {
                 self.forward_tolerance.is_none_or(|t| t > 0.0),
             ),
             ("max_move", self.max_move, self.max_move > 0.0),
+            ("shape_weight", self.shape_weight, self.shape_weight >= 0.0),
         ] {
             if !(value.is_finite() && ok) {
                 return Err(DesignError::InvalidParameter {
@@ -206,6 +236,14 @@ pub struct FallbackInfo {
     pub stopped: FallbackStop,
     /// Wall-clock seconds.
     pub seconds: f64,
+    /// Shape-term stages run ([`FallbackParams::shape_weight`]; the last, unweighted stage
+    /// not counted).
+    #[serde(default)]
+    pub shape_stages: usize,
+    /// Whether the inverse's Newton solve from the optimised rest shape converged and its
+    /// answer was kept ([`FallbackParams::newton_polish`]).
+    #[serde(default)]
+    pub polished: bool,
 }
 
 /// Progress of the shape optimisation, reported after every accepted step.
@@ -265,6 +303,8 @@ pub fn optimise_rest_shape(
         gradient_reduction: f64::NAN,
         stopped: FallbackStop::NoEquilibrium,
         seconds: 0.0,
+        shape_stages: 0,
+        polished: false,
     };
     let Some(first) = objective.evaluate(rest, true)? else {
         info.forward_solves = objective.forward_solves();
@@ -275,104 +315,169 @@ pub fn optimise_rest_shape(
     let projectors = crate::inverse::tangential_weights(problem);
     let reference = rest.to_vec();
     let max_step = params.max_move * crate::inverse::mean_edge(problem);
-    // The regulariser's value and gradient at `x`, and its product `beta T v`.
-    let regulariser = |x: &[f64]| -> (f64, Vec<f64>) {
-        let mut phi = 0.0;
-        let mut g = vec![0.0; x.len()];
-        if beta > 0.0 {
-            for (v, p) in projectors.iter().enumerate() {
-                let d = point(x, v) - point(&reference, v);
-                let pd = p * d;
-                phi += 0.5 * beta * d.dot(&pd);
-                g[3 * v..3 * v + 3].copy_from_slice((pd * beta).as_slice());
-            }
-        }
-        (phi, g)
-    };
-    let regulariser_product = |u: &[f64]| -> Vec<f64> {
-        let mut out = vec![0.0; u.len()];
-        if beta > 0.0 {
-            for (v, p) in projectors.iter().enumerate() {
-                out[3 * v..3 * v + 3].copy_from_slice((p * point(u, v) * beta).as_slice());
-            }
-        }
-        out
-    };
-    let (mut phi, mut g) = total(&regulariser, rest, &first);
-    let g0 = dot(&g, &g).sqrt();
+    let shape = (params.shape_weight > 0.0).then(|| ShapeTerm::new(problem));
     info.start = Some(first.distance);
     info.end = Some(first.distance);
     info.objective_start = first.objective;
     info.objective_end = first.objective;
     info.gradient_reduction = 1.0;
-    let mut memory: std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)> =
-        std::collections::VecDeque::new();
     let mut trial = rest.to_vec();
     let mut current = first;
-    let mut damping = GaussNewtonDamping::default();
-    info.stopped = FallbackStop::Iterations;
-    loop {
-        if current.distance.max_relative <= params.distance_tolerance {
-            info.stopped = FallbackStop::Distance;
-            break;
-        }
-        let gn = dot(&g, &g).sqrt();
-        if gn <= params.gradient_tolerance * g0 || gn == 0.0 {
-            info.stopped = FallbackStop::Gradient;
-            break;
-        }
-        if info.iterations >= params.max_iterations {
-            info.stopped = FallbackStop::Iterations;
-            break;
-        }
-        let step = Step {
-            rest,
-            gradient: &g,
-            phi,
-            max_step,
-            regulariser: &regulariser,
-            regulariser_product: &regulariser_product,
+    let stages = if shape.is_some() {
+        params.shape_stages + 1
+    } else {
+        1
+    };
+    let mut done = false;
+    for stage in 0..stages {
+        // gamma_k = gamma_0 0.1^k, the last stage without the shape term (D16).
+        let gamma = if stage + 1 < stages {
+            params.shape_weight * 0.1f64.powi(stage as i32)
+        } else {
+            0.0
         };
-        let mut accepted = None;
-        if params.method == FallbackMethod::GaussNewton {
-            accepted = step.gauss_newton(&mut objective, &mut damping, &mut info, &mut trial)?;
-            if accepted.is_some() {
-                info.gauss_newton_steps += 1;
+        // The regulariser's value and gradient at `x`, and its (Gauss-Newton) product at
+        // `x` with `v`.
+        let regulariser = |x: &[f64]| -> (f64, Vec<f64>) {
+            let mut phi = 0.0;
+            let mut g = vec![0.0; x.len()];
+            if beta > 0.0 {
+                for (v, p) in projectors.iter().enumerate() {
+                    let d = point(x, v) - point(&reference, v);
+                    let pd = p * d;
+                    phi += 0.5 * beta * d.dot(&pd);
+                    g[3 * v..3 * v + 3].copy_from_slice((pd * beta).as_slice());
+                }
+            }
+            if let (Some(term), true) = (&shape, gamma > 0.0) {
+                let (s, gs) = term.value_gradient(x);
+                phi += gamma * s;
+                for (a, b) in g.iter_mut().zip(gs) {
+                    *a += gamma * b;
+                }
+            }
+            (phi, g)
+        };
+        let regulariser_product = |x: &[f64], u: &[f64]| -> Vec<f64> {
+            let mut out = vec![0.0; u.len()];
+            if beta > 0.0 {
+                for (v, p) in projectors.iter().enumerate() {
+                    out[3 * v..3 * v + 3].copy_from_slice((p * point(u, v) * beta).as_slice());
+                }
+            }
+            if let (Some(term), true) = (&shape, gamma > 0.0) {
+                for (a, b) in out.iter_mut().zip(term.gauss_newton_product(x, u)) {
+                    *a += gamma * b;
+                }
+            }
+            out
+        };
+        let (mut phi, mut g) = total(&regulariser, rest, &current);
+        let g0 = dot(&g, &g).sqrt();
+        let mut memory: std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)> =
+            std::collections::VecDeque::new();
+        let mut damping = GaussNewtonDamping::default();
+        let mut steps = 0;
+        if gamma > 0.0 {
+            info.shape_stages += 1;
+        }
+        info.stopped = FallbackStop::Iterations;
+        loop {
+            if current.distance.max_relative <= params.distance_tolerance {
+                info.stopped = FallbackStop::Distance;
+                done = true;
+                break;
+            }
+            let gn = dot(&g, &g).sqrt();
+            if gn <= params.gradient_tolerance * g0 || gn == 0.0 {
+                info.stopped = FallbackStop::Gradient;
+                break;
+            }
+            if steps >= params.max_iterations {
+                info.stopped = FallbackStop::Iterations;
+                break;
+            }
+            let step = Step {
+                rest,
+                gradient: &g,
+                phi,
+                max_step,
+                regulariser: &regulariser,
+                regulariser_product: &regulariser_product,
+            };
+            let mut accepted = None;
+            if params.method == FallbackMethod::GaussNewton {
+                accepted =
+                    step.gauss_newton(&mut objective, &mut damping, &mut info, &mut trial)?;
+                if accepted.is_some() {
+                    info.gauss_newton_steps += 1;
+                }
+            }
+            if accepted.is_none() {
+                accepted = step.lbfgs(&mut objective, &mut memory, &mut trial)?;
+            }
+            let Some((e, phi_t, g_t)) = accepted else {
+                info.stopped = FallbackStop::LineSearch;
+                break;
+            };
+            let s: Vec<f64> = trial.iter().zip(rest.iter()).map(|(a, b)| a - b).collect();
+            let y: Vec<f64> = g_t.iter().zip(&g).map(|(a, b)| a - b).collect();
+            let sy = dot(&s, &y);
+            if sy > 1e-12 * dot(&s, &s).sqrt() * dot(&y, &y).sqrt() {
+                if memory.len() == params.memory {
+                    memory.pop_front();
+                }
+                memory.push_back((s, y, 1.0 / sy));
+            }
+            rest.copy_from_slice(&trial);
+            phi = phi_t;
+            g = g_t;
+            current = e;
+            info.iterations += 1;
+            steps += 1;
+            info.end = Some(current.distance);
+            info.objective_end = current.objective;
+            info.gradient_reduction = dot(&g, &g).sqrt() / g0;
+            let report = FallbackProgress {
+                iteration: info.iterations,
+                objective: current.objective,
+                max_distance: current.distance.max,
+                rms_distance: current.distance.rms,
+            };
+            if !progress(&report) {
+                info.stopped = FallbackStop::Interrupted;
+                done = true;
+                break;
             }
         }
-        if accepted.is_none() {
-            accepted = step.lbfgs(&mut objective, &mut memory, &mut trial)?;
-        }
-        let Some((e, phi_t, g_t)) = accepted else {
-            info.stopped = FallbackStop::LineSearch;
+        if done {
             break;
-        };
-        let s: Vec<f64> = trial.iter().zip(rest.iter()).map(|(a, b)| a - b).collect();
-        let y: Vec<f64> = g_t.iter().zip(&g).map(|(a, b)| a - b).collect();
-        let sy = dot(&s, &y);
-        if sy > 1e-12 * dot(&s, &s).sqrt() * dot(&y, &y).sqrt() {
-            if memory.len() == params.memory {
-                memory.pop_front();
+        }
+    }
+    if params.newton_polish && info.stopped != FallbackStop::Interrupted {
+        // The inverse's Newton solve at the full pressure from the optimised rest shape: its
+        // basin is narrow, so it is tried only here (D16).
+        let mut polished = rest.to_vec();
+        let inverse = crate::design_rest_shape(
+            problem,
+            &crate::InverseParams {
+                max_iterations: NEWTON_POLISH_ITERATIONS,
+                max_halvings: 0,
+                ..crate::InverseParams::default()
+            },
+            &mut polished,
+            |_| true,
+        )?;
+        if inverse.converged {
+            objective.set_equilibrium(None);
+            if let Some(e) = objective.evaluate(&polished, false)?
+                && e.distance.max <= current.distance.max
+            {
+                rest.copy_from_slice(&polished);
+                info.polished = true;
+                info.end = Some(e.distance);
+                info.objective_end = e.objective;
             }
-            memory.push_back((s, y, 1.0 / sy));
-        }
-        rest.copy_from_slice(&trial);
-        phi = phi_t;
-        g = g_t;
-        current = e;
-        info.iterations += 1;
-        info.end = Some(current.distance);
-        info.objective_end = current.objective;
-        info.gradient_reduction = dot(&g, &g).sqrt() / g0;
-        let report = FallbackProgress {
-            iteration: info.iterations,
-            objective: current.objective,
-            max_distance: current.distance.max,
-            rms_distance: current.distance.rms,
-        };
-        if !progress(&report) {
-            info.stopped = FallbackStop::Interrupted;
-            break;
         }
     }
     info.forward_solves = objective.forward_solves();
@@ -380,8 +485,11 @@ pub fn optimise_rest_shape(
     Ok(info)
 }
 
-/// The tangential regulariser's value and gradient at a rest shape.
+/// The regularisers' value and gradient at a rest shape.
 type Regulariser<'a> = dyn Fn(&[f64]) -> (f64, Vec<f64>) + 'a;
+
+/// The regularisers' (Gauss-Newton) matrix at a rest shape times a direction.
+type RegulariserProduct<'a> = dyn Fn(&[f64], &[f64]) -> Vec<f64> + 'a;
 
 /// Phi and its gradient from an evaluation with the gradient.
 fn total(regulariser: &Regulariser<'_>, x: &[f64], e: &Evaluation) -> (f64, Vec<f64>) {
@@ -430,7 +538,7 @@ struct Step<'c> {
     phi: f64,
     max_step: f64,
     regulariser: &'c Regulariser<'c>,
-    regulariser_product: &'c dyn Fn(&[f64]) -> Vec<f64>,
+    regulariser_product: &'c RegulariserProduct<'c>,
 }
 
 /// An accepted step: the evaluation at the new rest shape (in `trial`), `Phi` and its
@@ -454,7 +562,11 @@ impl Step<'_> {
         let g = self.gradient;
         let product = |objective: &ShapeObjective<'_>, v: &[f64], mu: f64| -> Option<Vec<f64>> {
             let mut a = objective.gauss_newton_product(v).ok()?;
-            for ((a, t), v) in a.iter_mut().zip((self.regulariser_product)(v)).zip(v) {
+            for ((a, t), v) in a
+                .iter_mut()
+                .zip((self.regulariser_product)(self.rest, v))
+                .zip(v)
+            {
                 *a += t + mu * v;
             }
             Some(a)

@@ -16,9 +16,10 @@
 //! ([`optimise_rest_shape`]): it minimises the distance of the forward equilibrium to the
 //! target over the rest shape, with the adjoint gradient through the static solve and
 //! Gauss-Newton steps on the exact sensitivity of the equilibrium (L-BFGS where they fail, or
-//! throughout: [`FallbackMethod`]), and reports the remaining distance ([`FallbackInfo`]) instead of claiming success. Works
-//! for the three-prism shell (St. Venant-Kirchhoff,
-//! neo-Hookean; Wang et al. 2015, Eq. 4-8) and the incompressible membranes
+//! throughout: [`FallbackMethod`]), optionally through stages with a conformal shape term on
+//! the rest triangles ([`FallbackParams::shape_weight`]), and reports the remaining distance
+//! ([`FallbackInfo`]) instead of claiming success. Works for the three-prism shell (St.
+//! Venant-Kirchhoff, neo-Hookean; Wang et al. 2015, Eq. 4-8) and the incompressible membranes
 //! (`docs/membranes.md`). The equations, the regulariser and what the method can and cannot
 //! reach are in `docs/design.md`.
 //!
@@ -50,11 +51,12 @@ mod normal;
 mod objective;
 mod pinned;
 mod problem;
+mod shape_term;
 
 pub use error::DesignError;
 pub use fallback::{
     FallbackInfo, FallbackMethod, FallbackMode, FallbackParams, FallbackProgress, FallbackStop,
-    optimise_rest_shape,
+    NEWTON_POLISH_ITERATIONS, optimise_rest_shape,
 };
 pub use forward::{
     Distance, ForwardCheck, bbox_diagonal, distance, forward_check, rigidly_aligned,

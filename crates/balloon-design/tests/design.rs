@@ -353,6 +353,15 @@ fn round_trips_on_real_meshes() {
                 // `DESIGN_FALLBACK_BETA=b`: the shape optimisation's tangential weight.
                 tangential_weight: std::env::var("DESIGN_FALLBACK_BETA")
                     .map_or(0.0, |b| b.parse().expect("DESIGN_FALLBACK_BETA: a number")),
+                // `DESIGN_SHAPE_WEIGHT=g`: the rest-mesh shape term's first weight (D16),
+                // `DESIGN_SHAPE_STAGES=n` its stages, `DESIGN_POLISH=1` the inverse's Newton
+                // solve from the optimised rest shape.
+                shape_weight: std::env::var("DESIGN_SHAPE_WEIGHT")
+                    .map_or(0.0, |b| b.parse().expect("DESIGN_SHAPE_WEIGHT: a number")),
+                shape_stages: std::env::var("DESIGN_SHAPE_STAGES").map_or(3, |b| {
+                    b.parse().expect("DESIGN_SHAPE_STAGES: a whole number")
+                }),
+                newton_polish: std::env::var("DESIGN_POLISH").is_ok_and(|v| v == "1"),
                 ..balloon_design::FallbackParams::default()
             },
             ..DesignParams::default()
@@ -434,6 +443,49 @@ fn round_trips_on_real_meshes() {
             "{name}: rest shape vs X0 {recovered:?}; forward check {:?}; shape optimisation {:?}",
             result.check.distance, result.inverse.fallback
         );
+        // The worst vertices of the forward check: their distance, the rest shape's distance
+        // to X0 there, their target vertex area over the mean (the weight in D) and the
+        // smallest angle of their target triangles.
+        let aligned = rigidly_aligned(&result.check.positions, &x_star);
+        let forward_d = balloon_design::vertex_distances(&aligned, &x_star);
+        let rest_d = balloon_design::vertex_distances(&rigidly_aligned(&result.rest, &x0), &x0);
+        let mut area = vec![0.0; x0.len() / 3];
+        let mut angle = vec![180.0f64; x0.len() / 3];
+        for t in problem.triangles() {
+            let p = |v: usize| {
+                nalgebra::Vector3::new(x_star[3 * v], x_star[3 * v + 1], x_star[3 * v + 2])
+            };
+            let a = (p(t[1]) - p(t[0])).cross(&(p(t[2]) - p(t[0]))).norm() / 2.0;
+            for k in 0..3 {
+                let (o, u, w) = (p(t[k]), p(t[(k + 1) % 3]), p(t[(k + 2) % 3]));
+                let ang = (u - o).angle(&(w - o)).to_degrees();
+                for &v in t {
+                    angle[v] = angle[v].min(ang);
+                }
+                area[t[k]] += a / 3.0;
+            }
+        }
+        let mean = area.iter().sum::<f64>() / area.len() as f64;
+        let mut order: Vec<usize> = (0..forward_d.len()).collect();
+        order.sort_by(|a, b| forward_d[*b].total_cmp(&forward_d[*a]));
+        for &v in order.iter().take(8) {
+            eprintln!(
+                "{name}: vertex {v}: forward {:.3e} m, rest vs X0 {:.3e} m, weight {:.3}, smallest angle {:.1} deg",
+                forward_d[v],
+                rest_d[v],
+                area[v] / mean,
+                angle[v]
+            );
+        }
+        order.sort_by(|a, b| rest_d[*b].total_cmp(&rest_d[*a]));
+        for &v in order.iter().take(4) {
+            eprintln!(
+                "{name}: rest-worst vertex {v}: rest vs X0 {:.3e} m, forward {:.3e} m, weight {:.3}",
+                rest_d[v],
+                forward_d[v],
+                area[v] / mean
+            );
+        }
         if method.is_none() {
             assert!(result.inverse.converged, "{name}: {:?}", result.inverse);
         }

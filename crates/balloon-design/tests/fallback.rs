@@ -301,6 +301,54 @@ fn gauss_newton_converges_where_lbfgs_crawls() {
     assert!(lbfgs.end.unwrap().max_relative > 10.0 * gn.end.unwrap().max_relative);
 }
 
+/// The rest-mesh shape term's continuation (D16) on the exact round trip of
+/// `gauss_newton_converges_where_lbfgs_crawls`: three stages with the term (its weight divided
+/// by 10 per stage), then one without, and the inverse's Newton solve from the result: the
+/// forward equilibrium ends within 1e-7 of the diagonal, the Newton solve converges, and the
+/// known rest shape is recovered to 1e-6 of its diagonal.
+#[test]
+fn the_shape_term_continuation_ends_on_the_exact_design() {
+    let mut mesh = balloon_mesh::generate::icosphere(0.05, 2).unwrap();
+    for v in &mut mesh.vertices {
+        v.y *= 0.8;
+        v.z *= 0.6;
+    }
+    let x0 = mesh.positions_flat();
+    let x_star = inflate(&x0, &mesh.triangles, &membrane(), 8.0e3);
+    let mut target = mesh.clone();
+    target.set_positions_flat(&x_star);
+    let problem =
+        DesignProblem::try_new(&target, vec![H; target.num_triangles()], membrane(), 8.0e3)
+            .unwrap();
+    let mut rest = problem.target().to_vec();
+    let params = FallbackParams {
+        max_iterations: 12,
+        distance_tolerance: 1e-7,
+        shape_weight: 1.0,
+        newton_polish: true,
+        ..FallbackParams::default()
+    };
+    let info = balloon_design::optimise_rest_shape(
+        &problem,
+        &params,
+        &StaticParams::default(),
+        &mut rest,
+        |p| {
+            eprintln!("{p:?}");
+            true
+        },
+    )
+    .unwrap();
+    eprintln!("{info:?}");
+    assert_eq!(info.shape_stages, 3, "{info:?}");
+    assert!(info.polished, "{info:?}");
+    assert!(info.end.unwrap().max_relative <= 1e-7, "{info:?}");
+    let recovered = balloon_design::distance(&balloon_design::rigidly_aligned(&rest, &x0), &x0);
+    assert!(recovered.max_relative < 1e-6, "{recovered:?}");
+    let check = balloon_design::forward_check(&problem, &rest, &StaticParams::default()).unwrap();
+    assert!(check.distance.max_relative <= 1e-7, "{:?}", check.distance);
+}
+
 /// A flat-faced target (a box, 56 vertices): no rest shape holds a flat face under pressure,
 /// so the inverse solve does not converge; the shape optimisation that follows reduces the
 /// distance of the forward equilibrium to the target strictly, the independent forward check
