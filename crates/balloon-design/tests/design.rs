@@ -5,16 +5,16 @@ use balloon_design::{
     DesignParams, DesignProblem, InverseParams, design, design_rest_shape, distance,
     rigidly_aligned,
 };
-use balloon_gas::{ConstantPressure, PressureLoad};
-use balloon_integrate::statics::{StaticParams, StaticSolver};
+use balloon_integrate::statics::StaticParams;
 use balloon_material::membrane::{MembraneModel, MembraneNeoHookean};
 use balloon_material::{Lame, MaterialModel, NeoHookean, StVenantKirchhoff};
 use balloon_mesh::TriMesh;
-use balloon_shell::statics::{GasTerm, StaticShell};
-use balloon_shell::{ShellMaterialModel, ShellSystem};
+use balloon_shell::ShellMaterialModel;
+
+mod support;
+use support::{H, ellipsoid, inflate};
 
 const MU: f64 = 4.0e5;
-const H: f64 = 1.0e-3;
 
 fn membrane() -> ShellMaterialModel {
     MembraneModel::from(MembraneNeoHookean::try_new(MU).unwrap()).into()
@@ -71,36 +71,6 @@ fn neo_hookean_sphere_matches_the_thin_sphere_curve() {
     }
 }
 
-/// The static equilibrium of the rest shape `rest` at pressure `p` by the shell's static
-/// solver (the forward problem the round trip starts from).
-fn inflate(rest: &TriMesh, material: &ShellMaterialModel, p: f64) -> Vec<f64> {
-    let gas = PressureLoad::new(ConstantPressure::try_new(p).unwrap())
-        .with_ambient_pressure(0.0)
-        .unwrap()
-        .with_follower_term(true);
-    let mut x = rest.positions_flat();
-    let mut shell = ShellSystem::from_rest_shape(
-        &x,
-        rest.triangles.clone(),
-        vec![H; rest.num_triangles()],
-        1000.0,
-        material.clone(),
-        gas,
-    )
-    .unwrap();
-    let mut statics = StaticShell::new(&mut shell, GasTerm::Own, true);
-    let params = StaticParams {
-        tolerance: 1e-11,
-        ..StaticParams::default()
-    };
-    let info = StaticSolver::new(params)
-        .unwrap()
-        .solve_with_continuation(&mut statics, 0.0, &mut x, None)
-        .unwrap();
-    assert!(info.converged);
-    x
-}
-
 /// Inflate `rest`, design from the inflated shape, and compare.
 fn round_trip(rest: &TriMesh, material: ShellMaterialModel, p: f64) {
     let x_star = inflate(rest, &material, p);
@@ -127,15 +97,6 @@ fn round_trip(rest: &TriMesh, material: ShellMaterialModel, p: f64) {
         "{:?}",
         result.check.distance
     );
-}
-
-fn ellipsoid(level: u32) -> TriMesh {
-    let mut m = balloon_mesh::generate::icosphere(0.05, level).unwrap();
-    for v in &mut m.vertices {
-        v.y *= 0.8;
-        v.z *= 0.6;
-    }
-    m
 }
 
 #[test]

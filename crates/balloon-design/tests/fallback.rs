@@ -11,7 +11,8 @@ use balloon_material::membrane::{MembraneModel, MembraneNeoHookean};
 use balloon_material::{Lame, MaterialModel, NeoHookean};
 use balloon_shell::ShellMaterialModel;
 
-const H: f64 = 1.0e-3;
+mod support;
+use support::{H, ellipsoid, inflate};
 
 fn membrane() -> ShellMaterialModel {
     MembraneModel::from(MembraneNeoHookean::try_new(4.0e5).unwrap()).into()
@@ -36,11 +37,7 @@ fn noise(i: usize, seed: usize) -> f64 {
 /// and with the neo-Hookean prism at 3 kPa, each with a rest shape that is not an exact design
 /// (the target scaled by 0.9 and perturbed by 1 mm).
 fn ellipsoid_cases() -> Vec<(DesignProblem, Vec<f64>)> {
-    let mut target = balloon_mesh::generate::icosphere(0.05, 1).unwrap();
-    for v in &mut target.vertices {
-        v.y *= 0.8;
-        v.z *= 0.6;
-    }
+    let target = ellipsoid(1);
     [(membrane(), 3.0e3), (prism(), 3.0e3)]
         .into_iter()
         .map(|(material, p)| {
@@ -216,41 +213,19 @@ fn equilibrium_sensitivity_matches_central_differences() {
     }
 }
 
-/// The equilibrium of the rest shape `rest` under the gauge pressure `p` (static solve to a
-/// relative residual of 1e-11, the wall at its rest thickness as the design assumes).
-fn inflate(
-    rest: &[f64],
-    triangles: &[[usize; 3]],
-    material: &ShellMaterialModel,
-    p: f64,
-) -> Vec<f64> {
-    use balloon_gas::{ConstantPressure, PressureLoad};
-    use balloon_shell::statics::{GasTerm, StaticShell};
-    let gas = PressureLoad::new(ConstantPressure::try_new(p).unwrap())
-        .with_ambient_pressure(0.0)
-        .unwrap()
-        .with_follower_term(true);
-    let mut x = rest.to_vec();
-    let mut shell = balloon_shell::ShellSystem::from_rest_shape(
-        &x,
-        triangles.to_vec(),
-        vec![H; triangles.len()],
-        1000.0,
-        material.clone(),
-        gas,
-    )
-    .unwrap();
-    let mut statics = StaticShell::new(&mut shell, GasTerm::Own, true);
-    let params = StaticParams {
-        tolerance: 1e-11,
-        ..StaticParams::default()
-    };
-    let info = balloon_integrate::statics::StaticSolver::new(params)
-        .unwrap()
-        .solve_with_continuation(&mut statics, 0.0, &mut x, None)
-        .unwrap();
-    assert!(info.converged);
-    x
+/// A target with an exact design: a 162-vertex ellipsoid (semi-axes 0.05, 0.04, 0.03 m)
+/// inflated statically at 8 kPa from itself as the rest shape, membrane wall. Returns that
+/// rest shape `X0` and the design problem of the inflated target.
+fn exact_round_trip() -> (Vec<f64>, DesignProblem) {
+    let mesh = ellipsoid(2);
+    let x_star = inflate(&mesh, &membrane(), 8.0e3);
+    let x0 = mesh.positions_flat();
+    let mut target = mesh;
+    target.set_positions_flat(&x_star);
+    let problem =
+        DesignProblem::try_new(&target, vec![H; target.num_triangles()], membrane(), 8.0e3)
+            .unwrap();
+    (x0, problem)
 }
 
 /// On a target with an exact design (a 162-vertex ellipsoid inflated statically from a known
@@ -259,17 +234,7 @@ fn inflate(
 /// in a handful of steps, where L-BFGS with the same budget stays far from it.
 #[test]
 fn gauss_newton_converges_where_lbfgs_crawls() {
-    let mut mesh = balloon_mesh::generate::icosphere(0.05, 2).unwrap();
-    for v in &mut mesh.vertices {
-        v.y *= 0.8;
-        v.z *= 0.6;
-    }
-    let x_star = inflate(&mesh.positions_flat(), &mesh.triangles, &membrane(), 8.0e3);
-    let mut target = mesh.clone();
-    target.set_positions_flat(&x_star);
-    let problem =
-        DesignProblem::try_new(&target, vec![H; target.num_triangles()], membrane(), 8.0e3)
-            .unwrap();
+    let (_, problem) = exact_round_trip();
     let run = |method| {
         let mut rest = problem.target().to_vec();
         let params = FallbackParams {
@@ -308,18 +273,7 @@ fn gauss_newton_converges_where_lbfgs_crawls() {
 /// known rest shape is recovered to 1e-6 of its diagonal.
 #[test]
 fn the_shape_term_continuation_ends_on_the_exact_design() {
-    let mut mesh = balloon_mesh::generate::icosphere(0.05, 2).unwrap();
-    for v in &mut mesh.vertices {
-        v.y *= 0.8;
-        v.z *= 0.6;
-    }
-    let x0 = mesh.positions_flat();
-    let x_star = inflate(&x0, &mesh.triangles, &membrane(), 8.0e3);
-    let mut target = mesh.clone();
-    target.set_positions_flat(&x_star);
-    let problem =
-        DesignProblem::try_new(&target, vec![H; target.num_triangles()], membrane(), 8.0e3)
-            .unwrap();
+    let (x0, problem) = exact_round_trip();
     let mut rest = problem.target().to_vec();
     let params = FallbackParams {
         max_iterations: 12,
