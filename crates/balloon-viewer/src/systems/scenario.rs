@@ -216,7 +216,7 @@ impl ScenarioView {
     /// build, load average 10). A dragged run is not `balloon run`'s anyway. The live steps
     /// linearise with the projected tangent ([`TangentKind::Projected`], as the built-in shell
     /// does): three iterations on the exact tangent of the stiff sphere of `static-sphere`
-    /// after a pinch ran away (a negative thickness some 20 steps after the release).
+    /// after a pinch ran away (a negative thickness 10 to 17 steps after the release).
     fn live_newton(&mut self) -> Result<(), ViewerError> {
         if self.drag.is_none() || self.live_newton {
             return Ok(());
