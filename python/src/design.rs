@@ -4,10 +4,12 @@
 use crate::convert::{json_to_py, points_array};
 use crate::errors::{BalloonError, InvalidOption, MeshError, SolverError, spelled};
 use crate::options::{Use, mesh_spec, scenario_of};
+use balloon_design::DesignParams;
 use balloon_run::jobs::design::{DesignJob, run};
+use balloon_scenario::design::{DESIGN_OPTIONS, OptionError, OptionValue, set_design_option};
 use balloon_scenario::{Scenario, SystemKind};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::{PyBool, PyDict, PyTuple};
 
 /// The keyword options of `design` that are the shell's wall and load keys (checked as
 /// `balloon inflate` checks them).
@@ -42,15 +44,41 @@ fn design_err(e: anyhow::Error) -> PyErr {
     }
 }
 
-/// A real keyword option of the design solve, in `[lo, hi]`.
-fn real_in(v: &Bound<'_, PyAny>, name: &str, lo: f64, hi: f64) -> PyResult<f64> {
-    let x = crate::args::real(v, name)?;
-    if !(x >= lo && x <= hi) {
-        return Err(InvalidOption::new_err(format!(
-            "`{name}` = {x} is not allowed: it must lie in [{lo}, {hi}]"
-        )));
+/// Sets design option `key` ([`DESIGN_OPTIONS`]) from the Python value `v` (a bool, a string,
+/// or a number: int, float or a numpy scalar) with the scenario reader's checks
+/// ([`set_design_option`]).
+fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyResult<()> {
+    let shown = || v.repr().map(|r| r.to_string()).unwrap_or_default();
+    let value = if v.is_instance_of::<PyBool>() {
+        OptionValue::Bool(v.extract()?)
+    } else if let Ok(text) = v.extract::<String>() {
+        OptionValue::Text(text)
+    } else {
+        match crate::args::real(v, key) {
+            Ok(x) => OptionValue::Number(x),
+            // A value of no kind an option takes: say which kind this one takes.
+            Err(e) => match set_design_option(params, key, &OptionValue::Number(f64::NAN)) {
+                Err(OptionError::Expected(kind)) => {
+                    return Err(InvalidOption::new_err(spelled(&format!(
+                        "`{key}` must be {kind}, got {}",
+                        shown()
+                    ))));
+                }
+                _ => return Err(e),
+            },
+        }
+    };
+    match set_design_option(params, key, &value) {
+        Ok(_) => Ok(()),
+        Err(OptionError::Expected(kind)) => Err(InvalidOption::new_err(spelled(&format!(
+            "`{key}` must be {kind}, got {}",
+            shown()
+        )))),
+        Err(OptionError::Invalid(allowed)) => Err(InvalidOption::new_err(spelled(&format!(
+            "`{key}` = {} is not allowed: it must be {allowed}",
+            shown()
+        )))),
     }
-    Ok(x)
 }
 
 /// design(target_vertices, faces, pressure, **options)
@@ -60,12 +88,16 @@ fn real_in(v: &Bound<'_, PyAny>, name: &str, lo: f64, hi: f64) -> PyResult<f64> 
 /// the target surface (`target_vertices` (n, 3) float64 in m, `faces` (m, 3) int: a closed,
 /// outward-oriented mesh), and checks it by a forward static solve, as `balloon design` does
 /// (docs/design.md). Options: the wall as `balloon inflate` takes it (`thickness`, `material`,
-/// `young`, `poisson`, `mu`, ... and `material_preset`), `tolerance` (relative equilibrium
-/// residual, in (0, 1)), `tangential_weight` (>= 0), `fallback` ("unconverged" (default),
-/// "always" or "off": the shape optimisation that minimises the distance of the forward
-/// equilibrium to the target where the inverse has no exact answer; its record is
-/// `summary["inverse"]["fallback"]`), `fallback_iterations` (1 to 100000) and `out` (a folder
-/// for rest.obj, inflated.obj, distance.csv and summary.json). Returns {"rest": (n, 3) float64, "inflated":
+/// `young`, `poisson`, `mu`, ... and `material_preset`), the solve's options as a scenario's
+/// `[design]` table takes them: `tolerance` (relative equilibrium residual, in (0, 1)),
+/// `tangential_weight` (in [0, 1e6]), `fallback` ("unconverged" (default), "always" or "off":
+/// the shape optimisation that minimises the distance of the forward equilibrium to the target
+/// where the inverse has no exact answer; its record is `summary["inverse"]["fallback"]`),
+/// `fallback_iterations` (1 to 100000), `method` ("gauss-newton" (default) or "lbfgs"),
+/// `shape_weight` (the rest-mesh shape term's weight, in [0, 1e6], 0 = off), `shape_stages`
+/// (1 to 20), `newton_polish` and `warm_start` (bools); and `out` (a folder for rest.obj,
+/// inflated.obj, distance.csv and summary.json; the parameters used are
+/// `summary["params"]`). Returns {"rest": (n, 3) float64, "inflated":
 /// (n, 3) float64 (the check's equilibrium, rigidly aligned onto the target), "summary": dict
 /// (summary.json's keys)}. A design that does not reach the pressure or the tolerance is
 /// returned with `summary["converged"]` False (check it): the best rest shape found. Errors:
@@ -87,42 +119,14 @@ pub(crate) fn design<'py>(
     let wall = PyDict::new(py);
     wall.set_item("gas", "constant")?;
     wall.set_item("pressure", pressure)?;
-    let (mut tolerance, mut tangential_weight, mut out) = (None, 0.0, None);
-    let (mut fallback, mut fallback_iterations) = (None, None);
+    let mut params = DesignParams::default();
+    let mut out = None;
     if let Some(options) = options {
         for (k, v) in options.iter() {
             let key: String = k.extract()?;
             match key.as_str() {
-                "tolerance" => {
-                    tolerance = Some(real_in(
-                        &v,
-                        "tolerance",
-                        f64::MIN_POSITIVE,
-                        1.0 - f64::EPSILON,
-                    )?)
-                }
-                "tangential_weight" => {
-                    tangential_weight = real_in(&v, "tangential_weight", 0.0, 1e6)?
-                }
-                "fallback" => {
-                    let text: String = v.extract().map_err(|_| {
-                        InvalidOption::new_err(
-                            "`fallback` must be \"unconverged\", \"always\" or \"off\"",
-                        )
-                    })?;
-                    fallback = Some(
-                        text.parse::<balloon_design::FallbackMode>()
-                            .map_err(|e| InvalidOption::new_err(format!("`fallback`: {e}")))?,
-                    );
-                }
-                "fallback_iterations" => {
-                    let n = real_in(&v, "fallback_iterations", 1.0, 1e5)?;
-                    if n.fract() != 0.0 {
-                        return Err(InvalidOption::new_err(format!(
-                            "`fallback_iterations` = {n} is not a whole number"
-                        )));
-                    }
-                    fallback_iterations = Some(n as usize);
+                k if DESIGN_OPTIONS.iter().any(|(name, _)| *name == k) => {
+                    set_option(&mut params, k, &v)?;
                 }
                 "out" if !v.is_none() => {
                     let os = py.import("os")?;
@@ -140,13 +144,8 @@ pub(crate) fn design<'py>(
                         .copied()
                         .filter(|n| *n != "pressure")
                         .collect();
-                    known.extend([
-                        "tolerance",
-                        "tangential_weight",
-                        "fallback",
-                        "fallback_iterations",
-                        "out",
-                    ]);
+                    known.extend(DESIGN_OPTIONS.iter().map(|(name, _)| *name));
+                    known.push("out");
                     return Err(InvalidOption::new_err(format!(
                         "unknown option `{k}` (the options of design are {})",
                         known.join(", ")
@@ -162,16 +161,7 @@ pub(crate) fn design<'py>(
     let mut job = DesignJob::new(target, "<arrays>", shell.gas.pressure);
     job.thickness = shell.shell.thickness;
     job.material = shell.shell.material.clone();
-    if let Some(t) = tolerance {
-        job.tolerance = t;
-    }
-    job.tangential_weight = tangential_weight;
-    if let Some(f) = fallback {
-        job.fallback = f;
-    }
-    if let Some(n) = fallback_iterations {
-        job.fallback_iterations = n;
-    }
+    job.params = params;
     job.out = out;
     let result = py.detach(move || run(&job)).map_err(design_err)?;
     if result.interrupted.is_some() {

@@ -89,6 +89,17 @@ def test_design_errors_name_the_parameter():
         balloon.design(vertices, faces, pressure=100.0, fallback="sometimes")
     with pytest.raises(balloon.InvalidOption, match="fallback_iterations"):
         balloon.design(vertices, faces, pressure=100.0, fallback_iterations=0)
+    # The shape optimisation's options, checked as a scenario's [design] table checks them.
+    with pytest.raises(balloon.InvalidOption, match='`method` = .newton. is not allowed'):
+        balloon.design(vertices, faces, pressure=100.0, method="newton")
+    with pytest.raises(balloon.InvalidOption, match="`method` must be a string"):
+        balloon.design(vertices, faces, pressure=100.0, method=2)
+    with pytest.raises(balloon.InvalidOption, match="`shape_stages` = 2.5 is not allowed"):
+        balloon.design(vertices, faces, pressure=100.0, shape_stages=2.5)
+    with pytest.raises(balloon.InvalidOption, match="`shape_weight` must be a number"):
+        balloon.design(vertices, faces, pressure=100.0, shape_weight=[1.0])
+    with pytest.raises(balloon.InvalidOption, match="`newton_polish` must be true or false"):
+        balloon.design(vertices, faces, pressure=100.0, newton_polish="yes")
     with pytest.raises(balloon.MeshError):
         balloon.design(vertices, faces[:, :2], pressure=100.0)
     # An open surface is not a target.
@@ -118,3 +129,30 @@ def test_flat_faced_target_gets_the_shape_optimisation():
     assert abs(f["start"]["rms"] - plain["check"]["distance"]["rms"]) < 1e-9
     assert s["check"]["distance"]["rms"] < plain["check"]["distance"]["rms"]
     assert np.isfinite(r["rest"]).all()
+
+
+def test_the_shape_optimisations_options_reach_the_library():
+    # The flat-poled icosphere again, with L-BFGS, the shape term in two stages and warm starts:
+    # the record shows the loop and the stages asked for, and summary["params"] lists them.
+    vertices, faces = icosphere(0.1, 1)
+    vertices[:, 2] = np.clip(vertices[:, 2], -0.05, 0.05)
+    s = balloon.design(
+        vertices,
+        faces,
+        pressure=2000.0,
+        thickness=H,
+        material="membrane-neo-hookean",
+        mu=MU,
+        fallback_iterations=3,
+        method="lbfgs",
+        shape_weight=np.float64(1.0),
+        shape_stages=2,
+        warm_start=True,
+    )["summary"]
+    p = s["params"]["fallback"]
+    assert p["method"] == "lbfgs" and p["shape_weight"] == 1.0 and p["shape_stages"] == 2, p
+    assert p["warm_start"] is True and p["newton_polish"] is False and p["max_iterations"] == 3
+    f = s["inverse"]["fallback"]
+    assert f["gauss_newton_steps"] == 0, f
+    assert f["shape_stages"] == 2, f
+    assert 0 < f["iterations"] <= 9, f

@@ -14,9 +14,10 @@
 //! repeats it from `rest.obj` (`docs/design.md`, "Repeating the check").
 
 use anyhow::{Context, Result, bail};
-use balloon_design::{FallbackMode, FallbackParams, InverseParams};
+use balloon_design::{DesignParams, FallbackMode, FallbackParams, InverseParams};
 use balloon_mesh::TriMesh;
 use balloon_run::jobs::design::{DesignJob, DesignRun};
+use balloon_scenario::design::{OptionError, OptionValue, set_design_option};
 use std::path::PathBuf;
 
 use crate::material_args::MaterialArgs;
@@ -59,6 +60,25 @@ pub struct DesignArgs {
     #[arg(long, default_value_t = FallbackParams::default().max_iterations,
           value_parser = parse_steps)]
     pub fallback_iterations: usize,
+    /// The shape optimisation's outer loop: `gauss-newton` (Levenberg-Marquardt-damped
+    /// Gauss-Newton on the exact sensitivity) or `lbfgs` (docs/design.md D15, D13).
+    #[arg(long, default_value = "gauss-newton", value_parser = option_parser("method"))]
+    pub method: OptionValue,
+    /// Weight gamma_0 of the rest-mesh shape term in the shape optimisation, in [0, 1e6]
+    /// (0: off; docs/design.md D16).
+    #[arg(long, default_value = "0", value_parser = option_parser("shape_weight"))]
+    pub shape_weight: OptionValue,
+    /// Stages of the shape optimisation with the shape term (weights gamma_0 0.1^k), 1 to 20.
+    #[arg(long, default_value = "3", value_parser = option_parser("shape_stages"))]
+    pub shape_stages: OptionValue,
+    /// Hand the optimised rest shape to the inverse's Newton solve at the full pressure and keep
+    /// its answer when it converges closer to the target.
+    #[arg(long)]
+    pub newton_polish: bool,
+    /// Start each forward solve of the shape optimisation from the last equilibrium (faster;
+    /// where the forward problem has several equilibria the check may differ, docs/design.md).
+    #[arg(long)]
+    pub warm_start: bool,
     /// Output folder: rest.obj, inflated.obj, distance.csv, design.png (target and check side
     /// by side, coloured by the distance), summary.json (created; files of the same names are
     /// replaced).
@@ -67,6 +87,56 @@ pub struct DesignArgs {
     /// Print no progress.
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// A value parser for the flag of the design option `key`: the value read as a number where it
+/// is one, else as text, and checked by the one function that sets the option
+/// ([`set_design_option`], as a scenario's `[design]` table and Python are).
+fn option_parser(key: &'static str) -> impl Fn(&str) -> Result<OptionValue, String> + Clone {
+    move |s: &str| {
+        let number = s.trim().parse::<f64>().ok().map(OptionValue::Number);
+        let mut why = "";
+        for value in number.into_iter().chain([OptionValue::Text(s.to_owned())]) {
+            match set_design_option(&mut DesignParams::default(), key, &value) {
+                Ok(_) => return Ok(value),
+                Err(OptionError::Expected(kind)) => why = kind,
+                Err(OptionError::Invalid(kind)) => {
+                    why = kind;
+                    break;
+                }
+            }
+        }
+        Err(format!("`{s}` is not {}", allowed(why)))
+    }
+}
+
+/// "in (0, 1)" as "in (0, 1)", "a number" as "a number", a list of words as "one of ...".
+fn allowed(kind: &str) -> String {
+    if kind.starts_with('"') {
+        format!("one of {kind}")
+    } else {
+        kind.to_owned()
+    }
+}
+
+/// The job's parameters: the library's defaults with the flags set.
+fn params(args: &DesignArgs) -> DesignParams {
+    let mut p = DesignParams::default();
+    p.inverse.tolerance = args.tolerance;
+    p.inverse.tangential_weight = args.tangential_weight;
+    p.fallback.mode = args.fallback;
+    p.fallback.max_iterations = args.fallback_iterations;
+    p.fallback.newton_polish = args.newton_polish;
+    p.fallback.warm_start = args.warm_start;
+    for (key, value) in [
+        ("method", &args.method),
+        ("shape_weight", &args.shape_weight),
+        ("shape_stages", &args.shape_stages),
+    ] {
+        // Checked by the flag's value parser with the same function.
+        let _ = set_design_option(&mut p, key, value);
+    }
+    p
 }
 
 /// `--fallback`'s value.
@@ -108,10 +178,7 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         pressure: args.pressure,
         thickness: args.thickness,
         material: args.material.spec(),
-        tolerance: args.tolerance,
-        tangential_weight: args.tangential_weight,
-        fallback: args.fallback,
-        fallback_iterations: args.fallback_iterations,
+        params: params(args),
         out: Some(args.out.clone()),
         quiet: args.quiet,
     };

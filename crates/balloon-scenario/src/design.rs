@@ -5,9 +5,14 @@
 //! A scenario file with a `[design]` table holds only that table. Its keys are the flags of
 //! `balloon design` with `_` for `-`: `target` (a mesh path relative to the file, or
 //! `builtin:NAME`; required), `pressure` (Pa, required), `thickness`, `scale`, the material
-//! keys of `[shell]` (`material`, `young`, `poisson`, `mu`, ...), `tolerance`,
-//! `tangential_weight`, `fallback`, `fallback_iterations` and `out` (a folder relative to the file). Every error names the file,
-//! the line and the key.
+//! keys of `[shell]` (`material`, `young`, `poisson`, `mu`, ...), the solve's options
+//! ([`DESIGN_OPTIONS`]: `tolerance`, `tangential_weight`, `fallback`, `fallback_iterations`,
+//! `method`, `shape_weight`, `shape_stages`, `newton_polish`, `warm_start`) and `out` (a folder
+//! relative to the file). Every error names the file, the line and the key.
+//!
+//! The solve's options are set on [`balloon_design::DesignParams`] by one function,
+//! [`set_design_option`], which the Python package uses too, so a key means the same and is
+//! checked the same way in a scenario file and in `balloon.design(...)`.
 //!
 //! ```
 //! let dir = tempfile::tempdir().unwrap();
@@ -24,6 +29,7 @@
 use crate::error::ScenarioError;
 use crate::file::{Source, Span, parse, type_name};
 use crate::material::{MaterialChoice, MaterialSpec};
+use balloon_design::{DesignParams, FallbackMethod, FallbackMode};
 use std::path::{Path, PathBuf};
 
 /// The `[design]` table.
@@ -39,15 +45,8 @@ pub struct DesignScenario {
     pub scale: f64,
     /// The material keys.
     pub material: MaterialSpec,
-    /// Relative equilibrium residual at which the design stops [default: the library's].
-    pub tolerance: Option<f64>,
-    /// Weight of the tangential regulariser [default: 0].
-    pub tangential_weight: f64,
-    /// When the shape optimisation runs: `"unconverged"`, `"always"` or `"off"` [default:
-    /// the library's, `"unconverged"`].
-    pub fallback: Option<String>,
-    /// Steps allowed to the shape optimisation, 1 to 100000 [default: the library's].
-    pub fallback_iterations: Option<usize>,
+    /// The solve's parameters: the library's defaults with the table's [`DESIGN_OPTIONS`] set.
+    pub params: DesignParams,
     /// Output folder (joined to the file's folder).
     pub out: Option<PathBuf>,
 }
@@ -73,8 +72,163 @@ pub const DESIGN_KEYS: &[&str] = &[
     "tangential_weight",
     "fallback",
     "fallback_iterations",
+    "method",
+    "shape_weight",
+    "shape_stages",
+    "newton_polish",
+    "warm_start",
     "out",
 ];
+
+/// The options of the design solve (keys of `[design]` and of Python's `balloon.design`), with
+/// what each sets in [`DesignParams`] and the values it takes; [`set_design_option`] sets them.
+pub const DESIGN_OPTIONS: &[(&str, &str)] = &[
+    (
+        "tolerance",
+        "relative equilibrium residual at which the inverse solve stops (`inverse.tolerance`)",
+    ),
+    (
+        "tangential_weight",
+        "weight of the inverse solve's tangential regulariser (`inverse.tangential_weight`; 0: \
+         none, the design exact)",
+    ),
+    (
+        "fallback",
+        "when the shape optimisation runs after the inverse solve (`fallback.mode`)",
+    ),
+    (
+        "fallback_iterations",
+        "steps allowed to the shape optimisation (`fallback.max_iterations`)",
+    ),
+    (
+        "method",
+        "the shape optimisation's outer loop (`fallback.method`; docs/design.md D15, D13)",
+    ),
+    (
+        "shape_weight",
+        "weight gamma_0 of the rest-mesh shape term in the shape optimisation \
+         (`fallback.shape_weight`; 0: off; docs/design.md D16)",
+    ),
+    (
+        "shape_stages",
+        "stages of the shape optimisation with the shape term (`fallback.shape_stages`)",
+    ),
+    (
+        "newton_polish",
+        "hand the optimised rest shape to the inverse's Newton solve (`fallback.newton_polish`)",
+    ),
+    (
+        "warm_start",
+        "start each forward solve of the shape optimisation from the last equilibrium \
+         (`fallback.warm_start`; faster, see docs/design.md)",
+    ),
+];
+
+/// A value of a design option as a front end read it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum OptionValue {
+    /// A number (an integer is given as its value).
+    Number(f64),
+    /// A string.
+    Text(String),
+    /// A boolean.
+    Bool(bool),
+}
+
+/// Why [`set_design_option`] refused a value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OptionError {
+    /// A value of the wrong kind; this kind was expected (`"a number"`, ...).
+    Expected(&'static str),
+    /// A value of the right kind out of range; this is what is allowed.
+    Invalid(&'static str),
+}
+
+/// Sets the design option `key` ([`DESIGN_OPTIONS`]) to `value` in `params`; `Ok(false)` when
+/// `key` is not a design option (nothing changed).
+///
+/// ```
+/// use balloon_scenario::design::{OptionError, OptionValue, set_design_option};
+/// let mut p = balloon_design::DesignParams::default();
+/// assert_eq!(set_design_option(&mut p, "shape_weight", &OptionValue::Number(10.0)), Ok(true));
+/// assert_eq!(p.fallback.shape_weight, 10.0);
+/// assert_eq!(set_design_option(&mut p, "method", &OptionValue::Text("lbfgs".into())), Ok(true));
+/// assert_eq!(p.fallback.method, balloon_design::FallbackMethod::Lbfgs);
+/// assert_eq!(
+///     set_design_option(&mut p, "shape_stages", &OptionValue::Number(2.5)),
+///     Err(OptionError::Invalid("a whole number from 1 to 20"))
+/// );
+/// assert_eq!(set_design_option(&mut p, "thickness", &OptionValue::Number(1.0)), Ok(false));
+/// ```
+///
+/// # Errors
+/// [`OptionError`]: a value of the wrong kind, or out of range (nothing changed).
+pub fn set_design_option(
+    params: &mut DesignParams,
+    key: &str,
+    value: &OptionValue,
+) -> Result<bool, OptionError> {
+    let number = || match value {
+        OptionValue::Number(x) => Ok(*x),
+        _ => Err(OptionError::Expected("a number")),
+    };
+    let text = || match value {
+        OptionValue::Text(s) => Ok(s.as_str()),
+        _ => Err(OptionError::Expected("a string")),
+    };
+    let flag = || match value {
+        OptionValue::Bool(b) => Ok(*b),
+        _ => Err(OptionError::Expected("true or false")),
+    };
+    let real = |lo: f64, hi: f64, closed: bool, what: &'static str| {
+        in_range(number()?, lo, hi, closed, what).map_err(|_| OptionError::Invalid(what))
+    };
+    let whole = |lo: f64, hi: f64, what: &'static str| {
+        let x = number()?;
+        if x.fract() == 0.0 && x >= lo && x <= hi {
+            Ok(x as usize)
+        } else {
+            Err(OptionError::Invalid(what))
+        }
+    };
+    match key {
+        "tolerance" => {
+            let t = real(0.0, 1.0, false, "in (0, 1)")?;
+            if t >= 1.0 {
+                return Err(OptionError::Invalid("in (0, 1)"));
+            }
+            params.inverse.tolerance = t;
+        }
+        "tangential_weight" => {
+            params.inverse.tangential_weight = real(0.0, 1e6, true, "in [0, 1e6]")?;
+        }
+        "fallback" => {
+            params.fallback.mode = text()?
+                .parse::<FallbackMode>()
+                .map_err(|_| OptionError::Invalid("\"unconverged\", \"always\" or \"off\""))?;
+        }
+        "fallback_iterations" => {
+            params.fallback.max_iterations = whole(1.0, 1e5, "a whole number from 1 to 100000")?;
+        }
+        "method" => {
+            params.fallback.method = match text()?.trim().to_ascii_lowercase().as_str() {
+                "gauss-newton" | "gauss_newton" => FallbackMethod::GaussNewton,
+                "lbfgs" | "l-bfgs" => FallbackMethod::Lbfgs,
+                _ => return Err(OptionError::Invalid("\"gauss-newton\" or \"lbfgs\"")),
+            };
+        }
+        "shape_weight" => {
+            params.fallback.shape_weight = real(0.0, 1e6, true, "in [0, 1e6]")?;
+        }
+        "shape_stages" => {
+            params.fallback.shape_stages = whole(1.0, 20.0, "a whole number from 1 to 20")?;
+        }
+        "newton_polish" => params.fallback.newton_polish = flag()?,
+        "warm_start" => params.fallback.warm_start = flag()?,
+        _ => return Ok(false),
+    }
+    Ok(true)
+}
 
 /// A number in `(lo, hi]` (or `[lo, hi]` with `closed`), else what is allowed.
 fn in_range(x: f64, lo: f64, hi: f64, closed: bool, what: &str) -> Result<f64, String> {
@@ -135,10 +289,7 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
         thickness: 3.0e-4,
         scale: 1.0,
         material: MaterialSpec::default(),
-        tolerance: None,
-        tangential_weight: 0.0,
-        fallback: None,
-        fallback_iterations: None,
+        params: DesignParams::default(),
         out: None,
     };
     let (mut has_target, mut has_pressure) = (false, false);
@@ -208,42 +359,6 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
             "scale" => {
                 d.scale = in_range(number()?, 0.0, 1e6, false, "in (0, 1e6]").map_err(invalid)?;
             }
-            "tolerance" => {
-                d.tolerance = Some(
-                    in_range(number()?, 0.0, 1.0, false, "in (0, 1)")
-                        .and_then(|t| {
-                            if t < 1.0 {
-                                Ok(t)
-                            } else {
-                                Err("in (0, 1)".into())
-                            }
-                        })
-                        .map_err(invalid)?,
-                );
-            }
-            "tangential_weight" => {
-                d.tangential_weight =
-                    in_range(number()?, 0.0, 1e6, true, "in [0, 1e6]").map_err(invalid)?;
-            }
-            "fallback" => {
-                let s = text()?;
-                if !["unconverged", "always", "off"].contains(&s) {
-                    return Err(invalid("\"unconverged\", \"always\" or \"off\"".into()));
-                }
-                d.fallback = Some(s.to_owned());
-            }
-            "fallback_iterations" => {
-                let n = in_range(number()?, 1.0, 1e5, true, "a whole number from 1 to 100000")
-                    .and_then(|n| {
-                        if n.fract() == 0.0 {
-                            Ok(n)
-                        } else {
-                            Err("a whole number from 1 to 100000".into())
-                        }
-                    })
-                    .map_err(invalid)?;
-                d.fallback_iterations = Some(n as usize);
-            }
             "out" => d.out = Some(PathBuf::from(path_of(text()?))),
             "material" => {
                 let s = text()?;
@@ -268,6 +383,29 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
             "ogden_alpha" => d.material.ogden_alpha = Some(numbers()?),
             "yeoh" => d.material.yeoh = Some(numbers()?),
             _ => {
+                let option = match value {
+                    toml_edit::Value::Float(f) => OptionValue::Number(*f.value()),
+                    toml_edit::Value::Integer(i) => OptionValue::Number(*i.value() as f64),
+                    toml_edit::Value::String(t) => OptionValue::Text(t.value().clone()),
+                    toml_edit::Value::Boolean(b) => OptionValue::Bool(*b.value()),
+                    v if DESIGN_OPTIONS.iter().any(|(k, _)| *k == key) => {
+                        return Err(err(format!(
+                            "expected a single value, found {}",
+                            type_name(v)
+                        )));
+                    }
+                    _ => OptionValue::Bool(false),
+                };
+                let known =
+                    set_design_option(&mut d.params, key, &option).map_err(|e| match e {
+                        OptionError::Expected(kind) => {
+                            err(format!("expected {kind}, found {}", type_name(value)))
+                        }
+                        OptionError::Invalid(allowed) => invalid(allowed.to_owned()),
+                    })?;
+                if known {
+                    continue;
+                }
                 return Err(err(format!(
                     "unknown key (the keys of [design] are {})",
                     DESIGN_KEYS.join(", ")

@@ -187,16 +187,7 @@ fn run_design(args: &RunArgs, d: &balloon_scenario::design::DesignScenario) -> R
     );
     job.thickness = d.thickness;
     job.material = d.material.clone();
-    if let Some(t) = d.tolerance {
-        job.tolerance = t;
-    }
-    job.tangential_weight = d.tangential_weight;
-    if let Some(f) = &d.fallback {
-        job.fallback = f.parse().map_err(anyhow::Error::msg)?;
-    }
-    if let Some(n) = d.fallback_iterations {
-        job.fallback_iterations = n;
-    }
+    job.params = d.params;
     job.out.clone_from(&d.out);
     job.quiet = false;
     crate::cmd_design::report(&job, &balloon_run::jobs::design::run(&job)?)

@@ -137,6 +137,29 @@ fn design_errors_name_the_flag() {
     ]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no-such-file.obj"));
+    for (flag, value, why) in [
+        ("--method", "newton", "one of \"gauss-newton\" or \"lbfgs\""),
+        ("--shape-weight", "-2", "in [0, 1e6]"),
+        ("--shape-stages", "1.5", "a whole number from 1 to 20"),
+        ("--shape-stages", "many", "a number"),
+    ] {
+        let o = run_balloon(&[
+            "design",
+            "builtin:icosphere",
+            "--pressure",
+            "100",
+            flag,
+            value,
+            "--out",
+            dir.path().to_str().unwrap(),
+        ]);
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains(flag) && err.contains(why),
+            "{flag} {value}: {err}"
+        );
+    }
 }
 
 /// The stated forward check can be repeated: the `balloon inflate` command that `design` prints
@@ -298,6 +321,26 @@ fn design_scenario_errors_name_file_line_and_key() {
             "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nfallback_iterations = 0\n",
             "d.toml:4: `design.fallback_iterations`: invalid value",
         ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nmethod = \"newton\"\n",
+            "d.toml:4: `design.method`: invalid value 'newton': \"gauss-newton\" or \"lbfgs\"",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nnewton_polish = 1\n",
+            "d.toml:4: `design.newton_polish`: expected true or false, found an integer",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nshape_stages = 0\n",
+            "d.toml:4: `design.shape_stages`: invalid value '0': a whole number from 1 to 20",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nshape_weight = [1]\n",
+            "d.toml:4: `design.shape_weight`: expected a single value, found an array",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nshape_weight = -1\n",
+            "d.toml:4: `design.shape_weight`: invalid value '-1': in [0, 1e6]",
+        ),
     ];
     for (text, expected) in cases {
         std::fs::write(&file, text).unwrap();
@@ -357,5 +400,87 @@ fn design_of_a_flat_faced_box_runs_the_shape_optimisation() {
     assert!(
         (check - rms(&f["end"])).abs() <= 1e-6 * check,
         "{check} vs {f}"
+    );
+}
+
+/// The shape optimisation's options reach the library from the flags and from a scenario's
+/// `[design]` table alike: the run's record shows the outer loop and the stages they asked for
+/// (L-BFGS takes no Gauss-Newton step; the shape term's stages are counted by the optimisation
+/// itself), `summary.json` lists them under `params`, and the two front ends write the same
+/// rest shape.
+#[test]
+fn design_options_reach_the_shape_optimisation_from_flags_and_scenario() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("box.obj");
+    let mesh =
+        balloon_mesh::generate::box_mesh(nalgebra::Vector3::new(0.1, 0.08, 0.06), 2).unwrap();
+    balloon_mesh::io::write_obj(&target, &mesh).unwrap();
+    let by_flags = dir.path().join("flags");
+    let o = run_balloon(&[
+        "design",
+        target.to_str().unwrap(),
+        "--pressure",
+        "2000",
+        "--thickness",
+        "1e-3",
+        "--material",
+        "membrane-neo-hookean",
+        "--mu",
+        "4e5",
+        "--fallback-iterations",
+        "2",
+        "--method",
+        "lbfgs",
+        "--shape-weight",
+        "1",
+        "--shape-stages",
+        "2",
+        "--warm-start",
+        "--quiet",
+        "--out",
+        by_flags.to_str().unwrap(),
+    ]);
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("shape optimisation: "),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let read = |out: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+    };
+    let summary = read(&by_flags);
+    let p = &summary["params"]["fallback"];
+    assert_eq!(p["method"], "lbfgs", "{p}");
+    assert_eq!(p["shape_weight"], 1.0, "{p}");
+    assert_eq!(p["shape_stages"], 2, "{p}");
+    assert_eq!(p["warm_start"], true, "{p}");
+    assert_eq!(p["newton_polish"], false, "{p}");
+    assert_eq!(p["max_iterations"], 2, "{p}");
+    let f = &summary["inverse"]["fallback"];
+    assert_eq!(f["gauss_newton_steps"], 0, "{f}");
+    assert_eq!(f["shape_stages"], 2, "{f}");
+    // Two stages with the term and the last without it, each at most 2 steps.
+    assert!(f["iterations"].as_u64().unwrap() <= 6, "{f}");
+
+    let file = dir.path().join("d.toml");
+    std::fs::write(
+        &file,
+        "[design]\ntarget = \"box.obj\"\npressure = 2000\nthickness = 1e-3\n\
+         material = \"membrane-neo-hookean\"\nmu = 4e5\nfallback_iterations = 2\n\
+         method = \"lbfgs\"\nshape_weight = 1\nshape_stages = 2\nwarm_start = true\n\
+         out = \"scenario\"\n",
+    )
+    .unwrap();
+    let o = run_balloon(&["run", file.to_str().unwrap()]);
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("shape optimisation: "),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let by_scenario = dir.path().join("scenario");
+    assert_eq!(read(&by_scenario)["params"], summary["params"]);
+    assert_eq!(
+        std::fs::read(by_scenario.join("rest.obj")).unwrap(),
+        std::fs::read(by_flags.join("rest.obj")).unwrap()
     );
 }

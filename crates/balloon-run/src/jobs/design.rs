@@ -6,10 +6,7 @@
 
 use anyhow::{Context, Result};
 use balloon::mesh::TriMesh;
-use balloon_design::{
-    Design, DesignParams, DesignProblem, DesignProgress, FallbackMode, FallbackParams,
-    InverseParams, design,
-};
+use balloon_design::{Design, DesignParams, DesignProblem, DesignProgress, design};
 use balloon_render::{
     Camera, ColorScale, Framing, Image, Projection, RenderError, RenderOptions, Renderer, Surface,
     UpAxis,
@@ -31,15 +28,9 @@ pub struct DesignJob {
     pub thickness: f64,
     /// The wall's material keys.
     pub material: MaterialSpec,
-    /// Relative equilibrium residual at which the inverse solve stops.
-    pub tolerance: f64,
-    /// Weight of the tangential regulariser (0: none).
-    pub tangential_weight: f64,
-    /// When the shape optimisation runs after the inverse solve (default: when the inverse
-    /// did not converge).
-    pub fallback: FallbackMode,
-    /// Steps of the shape optimisation allowed.
-    pub fallback_iterations: usize,
+    /// The solve's parameters (the inverse solve, the forward check, the shape optimisation;
+    /// `balloon_scenario::design::set_design_option` sets the ones the front ends expose).
+    pub params: DesignParams,
     /// Output folder (none: nothing written).
     pub out: Option<PathBuf>,
     /// Print no progress.
@@ -48,7 +39,7 @@ pub struct DesignJob {
 
 impl DesignJob {
     /// A job with the defaults of `balloon design` (thickness 0.3 mm, the default material,
-    /// the inverse solve's tolerance, no regulariser, no output folder).
+    /// the library's [`DesignParams`], no output folder).
     pub fn new(target: TriMesh, target_name: impl Into<String>, pressure: f64) -> Self {
         Self {
             target,
@@ -56,10 +47,7 @@ impl DesignJob {
             pressure,
             thickness: 3.0e-4,
             material: MaterialSpec::default(),
-            tolerance: InverseParams::default().tolerance,
-            tangential_weight: 0.0,
-            fallback: FallbackMode::default(),
-            fallback_iterations: FallbackParams::default().max_iterations,
+            params: DesignParams::default(),
             out: None,
             quiet: true,
         }
@@ -85,6 +73,8 @@ pub struct DesignSummary {
     pub converged: bool,
     /// Whether Ctrl-C stopped the design.
     pub interrupted: bool,
+    /// The parameters the design ran with (`balloon_design::DesignParams`).
+    pub params: DesignParams,
     /// The inverse solve's record (iterations, stages, residual, seconds).
     pub inverse: balloon_design::InverseInfo,
     /// The forward check: converged, iterations, distance to the target (m and relative).
@@ -211,21 +201,8 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         material,
         job.pressure,
     )?;
-    let params = DesignParams {
-        inverse: InverseParams {
-            tolerance: job.tolerance,
-            tangential_weight: job.tangential_weight,
-            ..InverseParams::default()
-        },
-        fallback: FallbackParams {
-            mode: job.fallback,
-            max_iterations: job.fallback_iterations,
-            ..FallbackParams::default()
-        },
-        ..DesignParams::default()
-    };
     let quiet = job.quiet;
-    let result = design(&problem, &params, |p| {
+    let result = design(&problem, &job.params, |p| {
         if !quiet {
             match p {
                 DesignProgress::Inverse(p) => eprintln!(
@@ -254,6 +231,7 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         thickness: job.thickness,
         converged: result.inverse.converged,
         interrupted: interrupted.is_some(),
+        params: job.params,
         inverse: result.inverse.clone(),
         check: CheckSummary {
             converged: result.check.converged,
