@@ -77,10 +77,14 @@ class DesignResult(TypedDict):
     summary: Dict[str, Any]
 
 def design(
-    target_vertices: npt.ArrayLike, faces: npt.ArrayLike, pressure: float, **options: Option
+    target_vertices: npt.ArrayLike,
+    faces: npt.ArrayLike,
+    pressure: Optional[float] = None,
+    **options: Option,
 ) -> DesignResult:
-    """Designs the rest shape whose static equilibrium under ``pressure`` (Pa) is the target
-    (``balloon design``); check ``summary["converged"]``."""
+    """Designs the rest shape whose static equilibrium under ``pressure`` (Pa), or under
+    ``gas_amount=`` (J, nRT) of ideal gas, is the target (``balloon design``); check
+    ``summary["converged"]``."""
 
 def run_scenario(path: Union[str, os.PathLike], **overrides: Option) -> Dict[str, Any]:
     """Runs a scenario file (``balloon run``); ``overrides`` replace the file's values."""

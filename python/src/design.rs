@@ -81,11 +81,13 @@ fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyR
     }
 }
 
-/// design(target_vertices, faces, pressure, **options)
+/// design(target_vertices, faces, pressure=None, **options)
 /// --
 ///
 /// Designs the rest shape whose static equilibrium under the gauge pressure `pressure` (Pa) is
-/// the target surface (`target_vertices` (n, 3) float64 in m, `faces` (m, 3) int: a closed,
+/// the target surface (or, with `gas_amount=` instead of `pressure`, under an amount of
+/// isothermal ideal gas `nRT = p_abs V` in J against the `ambient` pressure, 101325 Pa unless
+/// given: its gauge pressure at the target is `gas_amount / V - ambient`) (`target_vertices` (n, 3) float64 in m, `faces` (m, 3) int: a closed,
 /// outward-oriented mesh), and checks it by a forward static solve, as `balloon design` does
 /// (docs/design.md). Options: the wall as `balloon inflate` takes it (`thickness`, `material`,
 /// `young`, `poisson`, `mu`, ... and `material_preset`), the solve's options as a scenario's
@@ -104,12 +106,12 @@ fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyR
 /// `InvalidOption` naming the parameter, `MeshError` for the arrays or a target that cannot be
 /// designed for, `SolverError` for a solve that failed. The GIL is released while it runs.
 #[pyfunction]
-#[pyo3(signature = (target_vertices, faces, pressure, **options))]
+#[pyo3(signature = (target_vertices, faces, pressure=None, **options))]
 pub(crate) fn design<'py>(
     py: Python<'py>,
     target_vertices: &Bound<'py, PyAny>,
     faces: &Bound<'py, PyAny>,
-    pressure: &Bound<'py, PyAny>,
+    pressure: Option<&Bound<'py, PyAny>>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let pair = PyTuple::new(py, [target_vertices, faces])?;
@@ -118,15 +120,38 @@ pub(crate) fn design<'py>(
     };
     let wall = PyDict::new(py);
     wall.set_item("gas", "constant")?;
-    wall.set_item("pressure", pressure)?;
+    if let Some(p) = pressure.filter(|p| !p.is_none()) {
+        wall.set_item("pressure", p)?;
+    }
     let mut params = DesignParams::default();
     let mut out = None;
+    let (mut gas_amount, mut ambient) = (None, None);
     if let Some(options) = options {
         for (k, v) in options.iter() {
             let key: String = k.extract()?;
             match key.as_str() {
                 k if DESIGN_OPTIONS.iter().any(|(name, _)| *name == k) => {
                     set_option(&mut params, k, &v)?;
+                }
+                "gas_amount" => {
+                    let a = crate::args::real(&v, "gas_amount")?;
+                    if !(a > 0.0 && a <= 1e12) {
+                        return Err(InvalidOption::new_err(format!(
+                            "`gas_amount` = {a} is not allowed: it must be a positive amount nRT \
+                             in J, at most 1e12"
+                        )));
+                    }
+                    gas_amount = Some(a);
+                }
+                "ambient" => {
+                    let a = crate::args::real(&v, "ambient")?;
+                    if !(a > 0.0 && a <= 1e7) {
+                        return Err(InvalidOption::new_err(format!(
+                            "`ambient` = {a} is not allowed: it must be a positive pressure in \
+                             Pa, at most 1e7"
+                        )));
+                    }
+                    ambient = Some(a);
                 }
                 "out" if !v.is_none() => {
                     let os = py.import("os")?;
@@ -145,7 +170,7 @@ pub(crate) fn design<'py>(
                         .filter(|n| *n != "pressure")
                         .collect();
                     known.extend(DESIGN_OPTIONS.iter().map(|(name, _)| *name));
-                    known.push("out");
+                    known.extend(["gas_amount", "ambient", "out"]);
                     return Err(InvalidOption::new_err(format!(
                         "unknown option `{k}` (the options of design are {})",
                         known.join(", ")
@@ -154,11 +179,34 @@ pub(crate) fn design<'py>(
             }
         }
     }
+    let given = pressure.is_some_and(|p| !p.is_none());
+    match (given, gas_amount, ambient) {
+        (false, None, _) => {
+            return Err(InvalidOption::new_err(
+                "give the load: `pressure` (Pa) or `gas_amount` (J)",
+            ));
+        }
+        (true, Some(_), _) => {
+            return Err(InvalidOption::new_err(
+                "give either `pressure` or `gas_amount`, not both",
+            ));
+        }
+        (_, None, Some(_)) => {
+            return Err(InvalidOption::new_err(
+                "`ambient` is the ambient pressure of `gas_amount`, which is not given",
+            ));
+        }
+        _ => {}
+    }
     let (scenario, _, _) = scenario_of(SystemKind::Shell, None, Some(&wall), Use::Stepwise)?;
     let Scenario::Shell(shell) = scenario else {
         return Err(BalloonError::new_err("not a shell scenario"));
     };
     let mut job = DesignJob::new(target, "<arrays>", shell.gas.pressure);
+    job.gas_amount = gas_amount;
+    if let Some(a) = ambient {
+        job.ambient = a;
+    }
     job.thickness = shell.shell.thickness;
     job.material = shell.shell.material.clone();
     job.params = params;

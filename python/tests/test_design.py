@@ -156,3 +156,34 @@ def test_the_shape_optimisations_options_reach_the_library():
     assert f["gauss_newton_steps"] == 0, f
     assert f["shape_stages"] == 2, f
     assert 0 < f["iterations"] <= 9, f
+
+
+def test_a_gas_amount_is_the_load_of_its_pressure_at_the_target():
+    # The amount of ideal gas that has the thin-sphere pressure over the atmosphere at the
+    # target: the same gauge pressure and (up to rounding) the same rest shape as the pressure
+    # design, and a forward check with the gas that lands on the target.
+    vertices, faces = icosphere(0.1, 2)
+    stretch = 1.25
+    p = thin_sphere_pressure(0.1 / stretch, stretch)
+    wall = dict(thickness=H, material="membrane-neo-hookean", mu=MU)
+    by_pressure = balloon.design(vertices, faces, pressure=p, **wall)
+    volume = by_pressure["summary"]["target_volume"]
+    amount = (p + 101325.0) * volume
+    by_gas = balloon.design(vertices, faces, gas_amount=amount, **wall)
+    s = by_gas["summary"]
+    assert s["converged"] and s["check"]["converged"], s
+    assert abs(s["pressure"] - p) < 1e-9 * p, s["pressure"]
+    assert s["gas_amount"] == amount and s["ambient"] == 101325.0
+    assert np.abs(by_gas["rest"] - by_pressure["rest"]).max() < 1e-9
+    assert abs(s["check"]["volume"] - volume) < 1e-6 * volume
+    with pytest.raises(balloon.InvalidOption, match="either"):
+        balloon.design(vertices, faces, pressure=p, gas_amount=amount)
+    with pytest.raises(balloon.InvalidOption, match="give the load"):
+        balloon.design(vertices, faces, **wall)
+    with pytest.raises(balloon.InvalidOption, match="ambient"):
+        balloon.design(vertices, faces, pressure=p, ambient=1e5)
+    with pytest.raises(balloon.InvalidOption, match="gas_amount"):
+        balloon.design(vertices, faces, gas_amount=-1.0)
+    # Below the atmosphere at the target: named, not a failed solve.
+    with pytest.raises(balloon.InvalidOption, match="gas_amount"):
+        balloon.design(vertices, faces, gas_amount=0.5 * 101325.0 * volume, **wall)

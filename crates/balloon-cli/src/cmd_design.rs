@@ -26,13 +26,22 @@ use balloon_scenario::range::End;
 
 /// The flags of `balloon design`.
 #[derive(Debug, clap::Args)]
+#[command(group = clap::ArgGroup::new("load").required(true).args(["pressure", "gas_amount"]))]
 pub struct DesignArgs {
     /// The target inflated shape: a closed, outward-oriented mesh file (.obj, .off, .ply, .stl)
     /// or `builtin[:NAME]`.
     pub target: String,
     /// Gauge pressure the balloon holds at the target shape, Pa (> 0).
     #[arg(long, value_parser = real(End::Open(0.0), End::Closed(1e9)))]
-    pub pressure: f64,
+    pub pressure: Option<f64>,
+    /// The load as an amount of isothermal ideal gas instead of a pressure: nRT = p_abs V, in
+    /// J (Pa m^3); its gauge pressure at the target is gas_amount / V - ambient, which must be
+    /// positive. The forward check and the shape optimisation solve with the gas.
+    #[arg(long, value_parser = real(End::Open(0.0), End::Closed(1e12)))]
+    pub gas_amount: Option<f64>,
+    /// Ambient pressure of --gas-amount, Pa (> 0) [default: 101325].
+    #[arg(long, value_parser = real(End::Open(0.0), End::Closed(1e7)))]
+    pub ambient: Option<f64>,
     /// Rest wall thickness, m, in (0, 1].
     #[arg(long, default_value_t = 3.0e-4, value_parser = real(End::Open(0.0), End::Closed(1.0)))]
     pub thickness: f64,
@@ -172,10 +181,17 @@ pub fn load_target(spec: &str, scale: f64) -> Result<TriMesh> {
 /// forward check, an output folder that cannot be written; an interruption after the records
 /// are written.
 pub fn run(args: &DesignArgs) -> Result<()> {
+    if args.ambient.is_some() && args.gas_amount.is_none() {
+        bail!("--ambient is the ambient pressure of --gas-amount, which is not given");
+    }
     let job = DesignJob {
         target: load_target(&args.target, args.scale)?,
         target_name: args.target.clone(),
-        pressure: args.pressure,
+        pressure: args.pressure.unwrap_or(f64::NAN),
+        gas_amount: args.gas_amount,
+        ambient: args
+            .ambient
+            .unwrap_or(balloon_run::jobs::design::DEFAULT_AMBIENT),
         thickness: args.thickness,
         material: args.material.spec(),
         params: params(args),
@@ -263,10 +279,16 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
     }
     if !result.inverse.converged {
         bail!(
-            "no rest shape holds the target at `pressure` = {} Pa (reached {:.3} of it, relative \
+            "no rest shape holds the target at {} (reached {:.3} of it, relative \
              residual {:.3e}); the best design so far is written: its forward equilibrium lies \
              within {:.3e} m of the target ({:.3e} of the diagonal, RMS {:.3e} m)",
-            job.pressure,
+            match job.gas_amount {
+                None => format!("`pressure` = {} Pa", run.summary.pressure),
+                Some(a) => format!(
+                    "`gas_amount` = {a} J (a gauge pressure of {} Pa at the target)",
+                    run.summary.pressure
+                ),
+            },
             result.inverse.load_reached,
             result.inverse.relative_residual,
             dist.max,

@@ -2,7 +2,7 @@
 //! solved by the shell's own static solver (`balloon_shell::statics`), and its distance to
 //! the target.
 
-use balloon_gas::{ConstantPressure, PressureLoad};
+use balloon_gas::{ConstantPressure, Gas, IdealGas, PressureLoad};
 use balloon_integrate::statics::{StaticParams, StaticSolver};
 use balloon_shell::statics::{GasTerm, StaticShell};
 use balloon_shell::{ShellMaterialModel, ShellSystem};
@@ -102,18 +102,33 @@ pub fn rigidly_aligned(shape: &[f64], reference: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// The shell of the rest shape `rest` under the problem's constant gauge pressure (follower
-/// term on, ambient 0): the forward problem of the design.
+/// The shell of the rest shape `rest` under the problem's load (follower term on): a constant
+/// gauge pressure (ambient 0), or the problem's amount of isothermal ideal gas against its
+/// ambient pressure: the forward problem of the design.
 pub(crate) fn shell_from_rest(
     problem: &DesignProblem,
     rest: &[f64],
-) -> Result<ShellSystem<ShellMaterialModel, ConstantPressure>, DesignError> {
+) -> Result<ShellSystem<ShellMaterialModel, Gas>, DesignError> {
     let forward = |e: &dyn std::fmt::Display| DesignError::Forward(e.to_string());
-    let gas =
-        PressureLoad::new(ConstantPressure::try_new(problem.pressure()).map_err(|e| forward(&e))?)
-            .with_ambient_pressure(0.0)
-            .map_err(|e| forward(&e))?
-            .with_follower_term(true);
+    let (model, ambient) = match problem.gas_amount() {
+        None => (
+            Gas::Constant(ConstantPressure::try_new(problem.pressure()).map_err(|e| forward(&e))?),
+            0.0,
+        ),
+        Some(g) => {
+            // The shell takes the rest volume as the gas's reference volume (keeping its
+            // pressure there), so give the pressure the amount has at that volume.
+            let v = crate::problem::enclosed_volume(rest, problem.triangles());
+            (
+                Gas::Ideal(IdealGas::try_new(g.amount / v, v).map_err(|e| forward(&e))?),
+                g.ambient,
+            )
+        }
+    };
+    let gas = PressureLoad::new(model)
+        .with_ambient_pressure(ambient)
+        .map_err(|e| forward(&e))?
+        .with_follower_term(true);
     ShellSystem::from_rest_shape(
         rest,
         problem.triangles().to_vec(),

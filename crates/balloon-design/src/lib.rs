@@ -64,7 +64,7 @@ pub use forward::{
 };
 pub use inverse::{InverseInfo, InverseParams, InverseProgress, design_rest_shape};
 pub use objective::{Evaluation, ShapeObjective};
-pub use problem::{DesignProblem, enclosed_volume, volume_gradient};
+pub use problem::{DesignProblem, GasAmount, enclosed_volume, volume_gradient};
 
 use balloon_integrate::statics::StaticParams;
 use serde::{Deserialize, Serialize};

@@ -44,7 +44,32 @@ pub struct ShapeObjective<'a> {
     lu: Option<(PinnedLu, [usize; 6])>,
     /// The linearisation at the last evaluation with a gradient.
     linear: Option<Linearisation>,
+    /// The gas's volume coupling there (none for a constant pressure).
+    gas: Option<GasCoupling>,
     forward_solves: usize,
+}
+
+/// The rank-one volume coupling `c u u^T` of a gas whose pressure follows the volume
+/// (`c = -dp/dV`, `u = dV/dx`) at the last linearised equilibrium, with `K0^-T u` and `K0^-1 u`
+/// on the factor of the assembled stiffness `K0`.
+struct GasCoupling {
+    coefficient: f64,
+    u: Vec<f64>,
+    kt_inv_u: Vec<f64>,
+    k_inv_u: Vec<f64>,
+}
+
+impl GasCoupling {
+    /// Turns `y = A^-1 b` into `(A + c u u^T)^-1 b` (Sherman-Morrison), given `a_inv_u =
+    /// A^-1 u` (`A` is `K0` or `K0^T`; the coupling is symmetric).
+    fn correct(&self, y: &mut [f64], a_inv_u: &[f64]) {
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(p, q)| p * q).sum::<f64>();
+        let c = self.coefficient;
+        let s = c * dot(&self.u, y) / (1.0 + c * dot(&self.u, a_inv_u));
+        for (yi, wi) in y.iter_mut().zip(a_inv_u) {
+            *yi -= s * wi;
+        }
+    }
 }
 
 /// What the Gauss-Newton products need at one equilibrium: the rest Jacobian `df/dX` there
@@ -81,6 +106,7 @@ impl<'a> ShapeObjective<'a> {
             warm_start: true,
             lu: None,
             linear: None,
+            gas: None,
             forward_solves: 0,
         })
     }
@@ -234,13 +260,15 @@ impl<'a> ShapeObjective<'a> {
         statics
             .forces(0.0, x, &mut f)
             .map_err(|e| DesignError::Forward(e.to_string()))?;
-        if statics
+        let coupling: Vec<_> = statics
             .low_rank_terms()
             .iter()
-            .any(|t| t.coefficient != 0.0)
-        {
+            .filter(|t| t.coefficient != 0.0)
+            .cloned()
+            .collect();
+        if coupling.len() > 1 {
             return Err(DesignError::Forward(
-                "the adjoint needs a pressure that does not depend on the volume".into(),
+                "the adjoint handles one volume coupling of the gas, not several".into(),
             ));
         }
         let mut triplets = Vec::new();
@@ -262,10 +290,39 @@ impl<'a> ShapeObjective<'a> {
                 "the forward stiffness at the equilibrium cannot be factorised".into(),
             ));
         }
+        // The gas's volume coupling `K = K0 + c u u^T` (Wang et al. 2015, Eq. 16-17) by
+        // Sherman-Morrison on the factor of `K0` (`docs/design.md`, "A gas amount as the load").
+        self.gas = match coupling.into_iter().next() {
+            None => None,
+            Some(t) => {
+                let non_finite = || {
+                    DesignError::Linear("the gas coupling's solve gave a non-finite value".into())
+                };
+                // The factor solves with the pinned unknowns held at zero and their equations
+                // dropped: the same reduced system of `K` keeps `u` without those entries.
+                let mut u = t.vector;
+                for &i in &pins {
+                    u[i] = 0.0;
+                }
+                // `step` solves `K0^T y = -rhs`.
+                let minus_u: Vec<f64> = u.iter().map(|a| -a).collect();
+                let kt_inv_u = lu.step(&minus_u).ok_or_else(non_finite)?;
+                let k_inv_u = lu.transpose_solve(&u).ok_or_else(non_finite)?;
+                Some(GasCoupling {
+                    coefficient: t.coefficient,
+                    u,
+                    kt_inv_u,
+                    k_inv_u,
+                })
+            }
+        };
         let minus_b: Vec<f64> = b.iter().map(|v| -v).collect();
-        let lambda = lu.step(&minus_b).ok_or(DesignError::Linear(
+        let mut lambda = lu.step(&minus_b).ok_or(DesignError::Linear(
             "the adjoint solve gave a non-finite value".into(),
         ))?;
+        if let Some(gas) = &self.gas {
+            gas.correct(&mut lambda, &gas.kt_inv_u);
+        }
         let mut j = vec![Matrix3::zeros(); self.pattern.j_blocks()];
         self.problem
             .rest_jacobian_at(x, rest, &self.pattern, &mut j)?;
@@ -288,9 +345,13 @@ impl<'a> ShapeObjective<'a> {
         let (linear, lu) = self.linearisation()?;
         let mut jv = vec![0.0; v.len()];
         self.pattern.apply(&linear.j, v, &mut jv);
-        lu.transpose_solve(&jv).ok_or(DesignError::Linear(
+        let mut y = lu.transpose_solve(&jv).ok_or(DesignError::Linear(
             "the sensitivity solve gave a non-finite value".into(),
-        ))
+        ))?;
+        if let Some(gas) = &self.gas {
+            gas.correct(&mut y, &gas.k_inv_u);
+        }
+        Ok(y)
     }
 
     /// `(dx/dX)^T y = (df/dX)^T K^-T y`, the transpose of [`ShapeObjective::sensitivity`]
@@ -302,9 +363,12 @@ impl<'a> ShapeObjective<'a> {
         self.check_length(y)?;
         let (linear, lu) = self.linearisation()?;
         let minus: Vec<f64> = y.iter().map(|a| -a).collect();
-        let lambda = lu.step(&minus).ok_or(DesignError::Linear(
+        let mut lambda = lu.step(&minus).ok_or(DesignError::Linear(
             "the adjoint solve gave a non-finite value".into(),
         ))?;
+        if let Some(gas) = &self.gas {
+            gas.correct(&mut lambda, &gas.kt_inv_u);
+        }
         let mut g = vec![0.0; y.len()];
         self.pattern.transpose_apply(&linear.j, &lambda, &mut g);
         Ok(g)

@@ -26,6 +26,25 @@ pub struct DesignProblem {
     pressure: f64,
     /// `p dV/dx` at the target (N), the pressure forces (Wang et al. 2015, Eq. 15).
     pressure_forces: Vec<f64>,
+    /// The gas when the load is an amount of gas ([`DesignProblem::with_gas_amount`]).
+    gas: Option<GasAmount>,
+}
+
+/// A load given as an amount of isothermal ideal gas (Wang et al. 2015, Eq. 12 and 14):
+/// `p_abs V = nRT`, so the gauge pressure at volume `V` is `nRT / V - p_ambient`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GasAmount {
+    /// `nRT = p_abs V`, J.
+    pub amount: f64,
+    /// The ambient (outside) pressure, Pa.
+    pub ambient: f64,
+}
+
+impl GasAmount {
+    /// The gauge pressure (Pa) of this gas at the volume `volume` (m^3).
+    pub fn gauge_pressure(&self, volume: f64) -> f64 {
+        self.amount / volume - self.ambient
+    }
 }
 
 /// Corner positions of triangle `t` in the flat array `x`.
@@ -125,7 +144,55 @@ impl DesignProblem {
             material,
             pressure,
             pressure_forces,
+            gas: None,
         })
+    }
+
+    /// The problem of [`DesignProblem::try_new`] with the load given as an amount of
+    /// isothermal ideal gas instead of a pressure: `amount = nRT = p_abs V` (J) against the
+    /// ambient pressure `ambient` (Pa). At the target its gauge pressure is
+    /// `amount / V* - ambient` (`V*` the target's enclosed volume), which must be positive;
+    /// the inverse solve is then the one at that pressure, and the forward check and the
+    /// shape optimisation solve with the gas, whose pressure follows the volume
+    /// (`docs/design.md`, "A gas amount as the load").
+    ///
+    /// # Errors
+    /// [`DesignError::InvalidParameter`] naming `gas_amount` or `ambient` (not positive and
+    /// finite, or a gas that would not be above the ambient pressure at the target), and the
+    /// errors of [`DesignProblem::try_new`].
+    pub fn with_gas_amount(
+        target: &TriMesh,
+        thickness: Vec<f64>,
+        material: ShellMaterialModel,
+        amount: f64,
+        ambient: f64,
+    ) -> Result<Self, DesignError> {
+        if !(ambient.is_finite() && ambient > 0.0) {
+            return Err(DesignError::InvalidParameter {
+                name: "ambient",
+                value: ambient,
+                allowed: "a positive ambient pressure in Pa",
+            });
+        }
+        let gas = GasAmount { amount, ambient };
+        let volume = enclosed_volume(&target.positions_flat(), &target.triangles);
+        let pressure = gas.gauge_pressure(volume);
+        if !(amount.is_finite() && amount > 0.0 && pressure > 0.0 && pressure.is_finite()) {
+            return Err(DesignError::InvalidParameter {
+                name: "gas_amount",
+                value: amount,
+                allowed: "an amount nRT in J above the ambient pressure times the target's \
+                          volume (a positive gauge pressure at the target)",
+            });
+        }
+        let mut problem = Self::try_new(target, thickness, material, pressure)?;
+        problem.gas = Some(gas);
+        Ok(problem)
+    }
+
+    /// The gas amount, when the load is one ([`DesignProblem::with_gas_amount`]).
+    pub fn gas_amount(&self) -> Option<GasAmount> {
+        self.gas
     }
 
     /// The target positions `x*` (flat, m).
@@ -148,7 +215,8 @@ impl DesignProblem {
         &self.material
     }
 
-    /// The gauge pressure (Pa).
+    /// The gauge pressure (Pa) at the target (for a gas amount: its pressure at the target's
+    /// volume).
     pub fn pressure(&self) -> f64 {
         self.pressure
     }

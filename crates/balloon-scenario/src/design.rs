@@ -4,7 +4,8 @@
 //!
 //! A scenario file with a `[design]` table holds only that table. Its keys are the flags of
 //! `balloon design` with `_` for `-`: `target` (a mesh path relative to the file, or
-//! `builtin:NAME`; required), `pressure` (Pa, required), `thickness`, `scale`, the material
+//! `builtin:NAME`; required), `pressure` (Pa; or `gas_amount`, the load as an amount of ideal
+//! gas `nRT` in J, with its `ambient` pressure in Pa), `thickness`, `scale`, the material
 //! keys of `[shell]` (`material`, `young`, `poisson`, `mu`, ...), the solve's options
 //! ([`DESIGN_OPTIONS`]: `tolerance`, `tangential_weight`, `fallback`, `fallback_iterations`,
 //! `method`, `shape_weight`, `shape_stages`, `newton_polish`, `warm_start`) and `out` (a folder
@@ -37,8 +38,12 @@ use std::path::{Path, PathBuf};
 pub struct DesignScenario {
     /// The target: a mesh path (joined to the file's folder) or `builtin[:NAME]`.
     pub target: String,
-    /// Gauge pressure at the target shape, Pa.
+    /// Gauge pressure at the target shape, Pa (NaN when the load is `gas_amount`).
     pub pressure: f64,
+    /// The load as an amount of ideal gas instead, `nRT` in J.
+    pub gas_amount: Option<f64>,
+    /// Ambient pressure of the gas amount, Pa [default: 101325].
+    pub ambient: Option<f64>,
     /// Rest wall thickness, m [default: 3e-4, as `balloon design`].
     pub thickness: f64,
     /// The target's coordinates times this factor are metres [default: 1].
@@ -55,6 +60,8 @@ pub struct DesignScenario {
 pub const DESIGN_KEYS: &[&str] = &[
     "target",
     "pressure",
+    "gas_amount",
+    "ambient",
     "thickness",
     "scale",
     "material",
@@ -286,6 +293,8 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
     let mut d = DesignScenario {
         target: String::new(),
         pressure: f64::NAN,
+        gas_amount: None,
+        ambient: None,
         thickness: 3.0e-4,
         scale: 1.0,
         material: MaterialSpec::default(),
@@ -294,6 +303,7 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
     };
     let (mut has_target, mut has_pressure) = (false, false);
     let mut material_span: Span = None;
+    let (mut gas_span, mut ambient_span): (Span, Span) = (None, None);
     for (key, value) in table.iter() {
         let span: Span = table.key(key).and_then(|k| k.span());
         let full = format!("design.{key}");
@@ -351,6 +361,27 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
                 )
                 .map_err(invalid)?;
                 has_pressure = true;
+            }
+            "gas_amount" => {
+                d.gas_amount = Some(
+                    in_range(number()?, 0.0, 1e12, false, "a positive amount nRT in J")
+                        .map_err(invalid)?,
+                );
+                has_pressure = true;
+                gas_span = span.clone();
+            }
+            "ambient" => {
+                d.ambient = Some(
+                    in_range(
+                        number()?,
+                        0.0,
+                        1e7,
+                        false,
+                        "a positive pressure in Pa, at most 1e7",
+                    )
+                    .map_err(invalid)?,
+                );
+                ambient_span = span.clone();
             }
             "thickness" => {
                 d.thickness =
@@ -418,9 +449,24 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
             return Err(src.key_error(
                 table_span.clone(),
                 &format!("design.{key}"),
-                "missing: [design] needs `target` and `pressure`".to_owned(),
+                "missing: [design] needs `target` and `pressure` (or `gas_amount`)".to_owned(),
             ));
         }
+    }
+    if d.gas_amount.is_some() && !d.pressure.is_nan() {
+        return Err(src.key_error(
+            gas_span,
+            "design.gas_amount",
+            "give the key pressure or the key gas_amount, not both".to_owned(),
+        ));
+    }
+    if d.ambient.is_some() && d.gas_amount.is_none() {
+        return Err(src.key_error(
+            ambient_span,
+            "design.ambient",
+            "the key ambient is the ambient pressure of the key gas_amount, which is not given"
+                .to_owned(),
+        ));
     }
     d.material
         .resolve()

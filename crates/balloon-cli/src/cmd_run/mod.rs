@@ -185,6 +185,10 @@ fn run_design(args: &RunArgs, d: &balloon_scenario::design::DesignScenario) -> R
         d.target.clone(),
         d.pressure,
     );
+    job.gas_amount = d.gas_amount;
+    if let Some(a) = d.ambient {
+        job.ambient = a;
+    }
     job.thickness = d.thickness;
     job.material = d.material.clone();
     job.params = d.params;

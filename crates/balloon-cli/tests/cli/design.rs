@@ -169,6 +169,71 @@ fn design_errors_name_the_flag() {
 #[test]
 fn design_check_is_repeated_by_the_printed_inflate_command() {
     let dir = tempfile::tempdir().unwrap();
+    let summary = design_and_repeat_the_check(dir.path(), &["--pressure", "2000"]);
+    // And the check is the target (the design converged onto it).
+    let checked = summary["check"]["volume"].as_f64().unwrap();
+    let target_volume = summary["target_volume"].as_f64().unwrap();
+    assert!(((checked - target_volume) / target_volume).abs() < 1e-6);
+    assert!(summary["gas_amount"].is_null());
+
+    // The same target with the load as the amount of ideal gas that holds it at 2 kPa over the
+    // atmosphere: the same gauge pressure at the target, a check command with the gas
+    // (`--gas ideal`, its gauge pressure at the rest volume), repeated to the same volume.
+    let amount = (2000.0 + 101_325.0) * target_volume;
+    let gas = dir.path().join("gas");
+    std::fs::create_dir_all(&gas).unwrap();
+    let with_gas = design_and_repeat_the_check(&gas, &["--gas-amount", &amount.to_string()]);
+    let p = with_gas["pressure"].as_f64().unwrap();
+    assert!((p - 2000.0).abs() < 1e-8 * 2000.0, "{with_gas}");
+    assert_eq!(with_gas["gas_amount"].as_f64(), Some(amount));
+    assert_eq!(with_gas["ambient"].as_f64(), Some(101_325.0));
+    assert!(
+        with_gas["check_command"]
+            .as_str()
+            .unwrap()
+            .contains("--gas ideal --pressure "),
+        "{with_gas}"
+    );
+    let checked = with_gas["check"]["volume"].as_f64().unwrap();
+    assert!(((checked - target_volume) / target_volume).abs() < 1e-6);
+
+    // The load is one of the two, and `--ambient` belongs to the gas amount.
+    for args in [
+        vec!["--pressure", "2000", "--gas-amount", "5000"],
+        vec!["--pressure", "2000", "--ambient", "1e5"],
+        vec![],
+    ] {
+        let mut all = vec!["design", "builtin:icosphere", "--out", "unused"];
+        all.extend(args.iter().copied());
+        let o = run_balloon(&all);
+        assert!(!o.status.success(), "{args:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains("--gas-amount") || err.contains("--ambient"),
+            "{args:?}: {err}"
+        );
+    }
+    // An amount that does not fill the target above the atmosphere is named.
+    let o = run_balloon(&[
+        "design",
+        "builtin:icosphere",
+        "--gas-amount",
+        "1",
+        "--out",
+        gas.join("low").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("gas-amount") || err.contains("gas_amount"),
+        "{err}"
+    );
+}
+
+/// Designs for the sphere that a neo-Hookean prism wall at its rest thickness holds at 2 kPa
+/// (inflated so into `dir/made`), with `load` as the load flags, runs the printed check
+/// command and checks that it repeats the design's check volume; returns `summary.json`.
+fn design_and_repeat_the_check(dir: &std::path::Path, load: &[&str]) -> serde_json::Value {
     let wall = [
         "--material",
         "neo-hookean",
@@ -180,7 +245,7 @@ fn design_check_is_repeated_by_the_printed_inflate_command() {
         "1e-3",
     ];
     // A target that a prism wall at its rest thickness holds exactly: a sphere inflated so.
-    let made = dir.path().join("made");
+    let made = dir.join("made");
     let mut args = vec![
         "inflate",
         "builtin:icosphere",
@@ -197,17 +262,16 @@ fn design_check_is_repeated_by_the_printed_inflate_command() {
     args.extend(wall);
     let o = run_balloon(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let out = dir.path().join("design");
+    let out = dir.join("design");
     let target = made.join("final.obj");
     let mut args = vec![
         "design",
         target.to_str().unwrap(),
-        "--pressure",
-        "2000",
         "--quiet",
         "--out",
         out.to_str().unwrap(),
     ];
+    args.extend(load);
     args.extend(wall);
     let o = run_balloon(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -232,9 +296,7 @@ fn design_check_is_repeated_by_the_printed_inflate_command() {
         ((repeated - checked) / checked).abs() < 1e-6,
         "design check {checked:e} m^3, `{command}` {repeated:e} m^3"
     );
-    // And the check is the target (the design converged onto it).
-    let target_volume = summary["target_volume"].as_f64().unwrap();
-    assert!(((checked - target_volume) / target_volume).abs() < 1e-6);
+    summary
 }
 
 /// `balloon run` on a scenario with a `[design]` table runs the job of `balloon design`: the
@@ -336,6 +398,18 @@ fn design_scenario_errors_name_file_line_and_key() {
         (
             "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nshape_weight = [1]\n",
             "d.toml:4: `design.shape_weight`: expected a single value, found an array",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\ngas_amount = 5e4\n",
+            "d.toml:4: `design.gas_amount`: give the key pressure or the key gas_amount, not both",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nambient = 1e5\n",
+            "d.toml:4: `design.ambient`: the key ambient is the ambient pressure of the key gas_amount",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\ngas_amount = -1\n",
+            "d.toml:3: `design.gas_amount`: invalid value '-1'",
         ),
         (
             "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nshape_weight = -1\n",

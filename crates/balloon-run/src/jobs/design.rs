@@ -15,6 +15,10 @@ use balloon_scenario::material::MaterialSpec;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
+/// The ambient pressure of a gas amount unless one is given, Pa (a standard atmosphere, as
+/// `balloon inflate`'s).
+pub const DEFAULT_AMBIENT: f64 = 101_325.0;
+
 /// What a design job needs: the target and the wall, the load and the solve's settings.
 #[derive(Clone, Debug)]
 pub struct DesignJob {
@@ -22,8 +26,14 @@ pub struct DesignJob {
     pub target: TriMesh,
     /// How the target was given (a path, `builtin:NAME`, `arrays`), for the summary.
     pub target_name: String,
-    /// Gauge pressure at the target shape, Pa.
+    /// Gauge pressure at the target shape, Pa (unused when `gas_amount` is given).
     pub pressure: f64,
+    /// The load as an amount of isothermal ideal gas instead, `nRT = p_abs V` in J
+    /// (`balloon_design::DesignProblem::with_gas_amount`): its gauge pressure at the target is
+    /// `gas_amount / V* - ambient`.
+    pub gas_amount: Option<f64>,
+    /// Ambient pressure of the gas amount, Pa [default: 101325].
+    pub ambient: f64,
     /// Rest wall thickness, m.
     pub thickness: f64,
     /// The wall's material keys.
@@ -45,6 +55,8 @@ impl DesignJob {
             target,
             target_name: target_name.into(),
             pressure,
+            gas_amount: None,
+            ambient: DEFAULT_AMBIENT,
             thickness: 3.0e-4,
             material: MaterialSpec::default(),
             params: DesignParams::default(),
@@ -65,8 +77,12 @@ pub struct DesignSummary {
     pub triangles: usize,
     /// The material's name.
     pub material: String,
-    /// Gauge pressure, Pa.
+    /// Gauge pressure at the target, Pa (of the gas amount when one was given).
     pub pressure: f64,
+    /// The gas amount `nRT` (J) when the load was one, else null.
+    pub gas_amount: Option<f64>,
+    /// Its ambient pressure (Pa), null without a gas amount.
+    pub ambient: Option<f64>,
     /// Rest wall thickness, m.
     pub thickness: f64,
     /// Whether the inverse solve reached the full pressure and the tolerance.
@@ -156,16 +172,39 @@ fn material_flags(spec: &MaterialSpec) -> Vec<String> {
     flags
 }
 
+/// How the design's load appears in its check command.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CheckLoad {
+    /// A constant gauge pressure, Pa.
+    Pressure(f64),
+    /// An amount of ideal gas, as `balloon inflate --gas ideal` takes it: the gauge pressure
+    /// at the rest volume (Pa) and the ambient pressure (Pa).
+    Ideal {
+        /// Gauge pressure at the rest shape's volume, Pa.
+        rest_gauge: f64,
+        /// Ambient pressure, Pa.
+        ambient: f64,
+    },
+}
+
 /// The `balloon inflate` command whose static solve is the design's forward check: the
-/// written rest shape (already in metres), the gauge pressure held constant, the wall at its
-/// rest thickness (`--volume-projection off`: the design's equations keep `h = H`,
+/// written rest shape (already in metres), the load (a constant gauge pressure, or the gas
+/// amount as `--gas ideal` with its gauge pressure at the rest volume), the wall at its rest
+/// thickness (`--volume-projection off`: the design's equations keep `h = H`,
 /// `docs/design.md`), and the same material flags.
-pub fn check_command(rest: &Path, pressure: f64, thickness: f64, spec: &MaterialSpec) -> String {
+pub fn check_command(rest: &Path, load: CheckLoad, thickness: f64, spec: &MaterialSpec) -> String {
+    let gas = match load {
+        CheckLoad::Pressure(p) => format!("--gas constant --pressure {p}"),
+        CheckLoad::Ideal {
+            rest_gauge,
+            ambient,
+        } => format!("--gas ideal --pressure {rest_gauge} --ambient {ambient}"),
+    };
     let mut words = vec![
         "balloon inflate".to_string(),
         shell_quoted(&rest.display().to_string()),
-        "--static --gas constant".to_string(),
-        format!("--pressure {pressure}"),
+        "--static".to_string(),
+        gas,
         "--volume-projection off".to_string(),
         format!("--thickness {thickness}"),
     ];
@@ -195,12 +234,14 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         .map_err(anyhow::Error::msg)
         .context("material")?;
     let material_name = material.name();
-    let problem = DesignProblem::try_new(
-        &job.target,
-        vec![job.thickness; job.target.num_triangles()],
-        material,
-        job.pressure,
-    )?;
+    let thickness = vec![job.thickness; job.target.num_triangles()];
+    let problem = match job.gas_amount {
+        None => DesignProblem::try_new(&job.target, thickness, material, job.pressure)?,
+        Some(amount) => {
+            DesignProblem::with_gas_amount(&job.target, thickness, material, amount, job.ambient)?
+        }
+    };
+    let pressure = problem.pressure();
     let quiet = job.quiet;
     let result = design(&problem, &job.params, |p| {
         if !quiet {
@@ -218,16 +259,19 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         crate::interrupt::pending().is_none()
     })?;
     let picture = match &job.out {
-        Some(out) => write_outputs(out, &job.target, &result, problem.target(), job.pressure)?,
+        Some(out) => write_outputs(out, &job.target, &result, problem.target(), pressure)?,
         None => None,
     };
     let interrupted = crate::interrupt::pending();
+    let rest_volume = balloon_design::enclosed_volume(&result.rest, problem.triangles());
     let summary = DesignSummary {
         target: job.target_name.clone(),
         vertices: job.target.num_vertices(),
         triangles: job.target.num_triangles(),
         material: material_name,
-        pressure: job.pressure,
+        pressure,
+        gas_amount: job.gas_amount,
+        ambient: job.gas_amount.map(|_| job.ambient),
         thickness: job.thickness,
         converged: result.inverse.converged,
         interrupted: interrupted.is_some(),
@@ -242,14 +286,16 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         },
         bbox_diagonal: balloon_design::bbox_diagonal(problem.target()),
         target_volume: balloon_design::enclosed_volume(problem.target(), problem.triangles()),
-        rest_volume: balloon_design::enclosed_volume(&result.rest, problem.triangles()),
+        rest_volume,
         check_command: job.out.as_ref().map(|out| {
-            check_command(
-                &out.join("rest.obj"),
-                job.pressure,
-                job.thickness,
-                &job.material,
-            )
+            let load = match problem.gas_amount() {
+                None => CheckLoad::Pressure(pressure),
+                Some(g) => CheckLoad::Ideal {
+                    rest_gauge: g.gauge_pressure(rest_volume),
+                    ambient: g.ambient,
+                },
+            };
+            check_command(&out.join("rest.obj"), load, job.thickness, &job.material)
         }),
         picture,
     };
