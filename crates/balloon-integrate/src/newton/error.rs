@@ -127,6 +127,72 @@ pub enum NewtonError {
         /// The static solve's load factor reached; `None` for a dynamic step.
         load_factor: Option<f64>,
     },
+    /// A static solve stopped because its load stages stalled: `stalled_stages` continuation
+    /// increments in a row ran [`crate::statics::StaticParams::stall_window`] Newton
+    /// iterations without halving their best residual, so smaller increments did not help
+    /// (module docs of [`crate::statics`], "Stalled stages"). The evidence: where the residual
+    /// of the last iterate concentrates, and (when the caller computed it) the smallest
+    /// eigenvalue of the stiffness there; a negative one says the energy is indefinite along a
+    /// mode (the wall wrinkles or buckles), so there is no smooth equilibrium near that path.
+    #[error("{}", no_equilibrium_message(*iterations, *residual, *load_factor, *stalled_stages, *vertex, position, *share, *smallest_eigenvalue, *relative_eigenvalue))]
+    NoEquilibrium {
+        /// Newton iterations done over all load stages.
+        iterations: usize,
+        /// Relative residual at the last iterate of the last stalled stage.
+        residual: f64,
+        /// The load factor of the last converged stage (0: none converged).
+        load_factor: f64,
+        /// Stalled increments in a row.
+        stalled_stages: usize,
+        /// The vertex with the largest residual force at the last iterate.
+        vertex: usize,
+        /// Its position there, m.
+        position: [f64; 3],
+        /// The share of `|r|^2` on the 5 % of vertices with the largest residual force.
+        share: f64,
+        /// The smallest eigenvalue of `K y = lambda M y` at the last iterate, 1/s^2, when
+        /// computed ([`crate::statics::StaticSolver::stability`]).
+        smallest_eigenvalue: Option<f64>,
+        /// The same relative to the stiffness scale `|diag K| / |m|`.
+        relative_eigenvalue: Option<f64>,
+    },
+}
+
+/// The message of [`NewtonError::NoEquilibrium`].
+#[allow(clippy::too_many_arguments)]
+fn no_equilibrium_message(
+    iterations: usize,
+    residual: f64,
+    load_factor: f64,
+    stalled: usize,
+    vertex: usize,
+    p: &[f64; 3],
+    share: f64,
+    eigenvalue: Option<f64>,
+    relative: Option<f64>,
+) -> String {
+    let eigen = match (eigenvalue, relative) {
+        (Some(l), Some(r)) if r < -1e-9 => format!(
+            "; the stiffness there is indefinite (smallest eigenvalue {l:.3e} 1/s^2, {r:.1e} of \
+             the stiffness scale): the wall wrinkles or buckles, no smooth equilibrium on this path"
+        ),
+        (Some(l), Some(r)) => format!(
+            "; the stiffness there is positive semi-definite (smallest eigenvalue {l:.3e} 1/s^2, \
+             {r:.1e} of the stiffness scale): a flat energy rather than a buckled wall"
+        ),
+        _ => String::new(),
+    };
+    format!(
+        "static solve found no smooth equilibrium: {stalled} load increments in a row stalled \
+         (the best residual did not halve over `stall_window` Newton iterations), the last at \
+         relative residual {residual:.3e}; {iterations} Newton iterations, last converged load \
+         factor {load_factor}; the residual concentrates at vertex {vertex} ({:.4}, {:.4}, \
+         {:.4}) m, {:.0} % of |r|^2 on the 5 % of vertices that carry most{eigen}",
+        p[0],
+        p[1],
+        p[2],
+        100.0 * share
+    )
 }
 
 impl NewtonError {

@@ -144,7 +144,7 @@ mod tests;
 
 pub use anderson::{Anderson, AndersonParams};
 pub use info::StaticInfo;
-pub use params::{DEFAULT_STATIC_ITERATIONS, StaticParams};
+pub use params::{DEFAULT_STALL_WINDOW, DEFAULT_STATIC_ITERATIONS, StaticParams};
 pub use solver::StaticSolver;
 pub use stability::{Stability, StabilityParams};
 
