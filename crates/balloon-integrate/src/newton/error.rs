@@ -174,7 +174,7 @@ fn no_equilibrium_message(
     let eigen = match (eigenvalue, relative) {
         (Some(l), Some(r)) if r < -1e-9 => format!(
             "; the stiffness there is indefinite (smallest eigenvalue {l:.3e} 1/s^2, {r:.1e} of \
-             the stiffness scale): the wall wrinkles or buckles, no smooth equilibrium on this path"
+             the stiffness scale): the wall wrinkles or buckles along this load path"
         ),
         (Some(l), Some(r)) => format!(
             "; the stiffness there is positive semi-definite (smallest eigenvalue {l:.3e} 1/s^2, \
@@ -183,7 +183,7 @@ fn no_equilibrium_message(
         _ => String::new(),
     };
     format!(
-        "static solve found no smooth equilibrium: {stalled} load increments in a row stalled \
+        "static solve stalled, no smooth equilibrium found: {stalled} load increments in a row stalled \
          (the best residual did not halve over `stall_window` Newton iterations), the last at \
          relative residual {residual:.3e}; {iterations} Newton iterations, last converged load \
          factor {load_factor}; the residual concentrates at vertex {vertex} ({:.4}, {:.4}, \

@@ -9,8 +9,10 @@ use crate::implicit::{DEFAULT_INEXACT_FORCING, DEFAULT_NEWTON_TOLERANCE};
 use crate::newton::{MAX_NEWTON_ITERATIONS, NewtonError, check_parameter};
 use crate::system::TangentKind;
 
-/// Default [`StaticParams::max_iterations`]: Newton iterations allowed per load stage.
-pub const DEFAULT_STATIC_ITERATIONS: usize = 200;
+/// Default [`StaticParams::max_iterations`]: Newton iterations allowed per load stage, the
+/// core's limit ([`MAX_NEWTON_ITERATIONS`]); a stage that stops making progress ends
+/// earlier, after [`StaticParams::stall_window`] iterations without halving its residual.
+pub const DEFAULT_STATIC_ITERATIONS: usize = MAX_NEWTON_ITERATIONS;
 
 /// Parameters of [`StaticSolver`](super::StaticSolver).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -59,7 +61,7 @@ pub struct StaticParams {
 
 /// Default [`StaticParams::stall_window`]: Newton iterations over which a stage's best
 /// relative residual must halve.
-pub const DEFAULT_STALL_WINDOW: usize = 40;
+pub const DEFAULT_STALL_WINDOW: usize = 100;
 
 impl StaticParams {
     /// Checks every parameter against its range (each field's docs); the error names the

@@ -455,7 +455,7 @@ fn a_solve_without_equilibrium_stops_after_its_stalled_stages_with_the_evidence(
     assert!(solver.stalled_iterate().is_some_and(|s| norm(s) > 1e3));
     let message = e.to_string();
     assert!(
-        message.contains("no smooth equilibrium") && message.contains("stall_window"),
+        message.contains("no smooth equilibrium found") && message.contains("stall_window"),
         "{message}"
     );
 

@@ -167,7 +167,8 @@ impl ShellError {
     pub fn static_residual(&self) -> Option<f64> {
         match self {
             Self::Static { source, .. } => match **source {
-                balloon_integrate::statics::StaticError::NotConverged { residual, .. } => {
+                balloon_integrate::statics::StaticError::NotConverged { residual, .. }
+                | balloon_integrate::statics::StaticError::NoEquilibrium { residual, .. } => {
                     Some(residual)
                 }
                 _ => None,
