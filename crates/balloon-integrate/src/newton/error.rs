@@ -134,43 +134,49 @@ pub enum NewtonError {
     /// of the last iterate concentrates, and (when the caller computed it) the smallest
     /// eigenvalue of the stiffness there; a negative one says the energy is indefinite along a
     /// mode (the wall wrinkles or buckles), so there is no smooth equilibrium near that path.
-    #[error("{}", no_equilibrium_message(*iterations, *residual, *load_factor, *stalled_stages, *vertex, position, *share, *smallest_eigenvalue, *relative_eigenvalue))]
-    NoEquilibrium {
-        /// Newton iterations done over all load stages.
-        iterations: usize,
-        /// Relative residual at the last iterate of the last stalled stage.
-        residual: f64,
-        /// The load factor of the last converged stage (0: none converged).
-        load_factor: f64,
-        /// Stalled increments in a row.
-        stalled_stages: usize,
-        /// The vertex with the largest residual force at the last iterate.
-        vertex: usize,
-        /// Its position there, m.
-        position: [f64; 3],
-        /// The share of `|r|^2` on the 5 % of vertices with the largest residual force.
-        share: f64,
-        /// The smallest eigenvalue of `K y = lambda M y` at the last iterate, 1/s^2, when
-        /// computed ([`crate::statics::StaticSolver::stability`]).
-        smallest_eigenvalue: Option<f64>,
-        /// The same relative to the stiffness scale `|diag K| / |m|`.
-        relative_eigenvalue: Option<f64>,
-    },
+    #[error("{}", no_equilibrium_message(.0))]
+    NoEquilibrium(Box<Stall>),
+}
+
+/// What a static solve that ended with [`NewtonError::NoEquilibrium`] found (boxed: the
+/// error stays small).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stall {
+    /// Newton iterations done over all load stages.
+    pub iterations: usize,
+    /// Relative residual at the last iterate of the last stalled stage.
+    pub residual: f64,
+    /// The load factor of the last converged stage (0: none converged).
+    pub load_factor: f64,
+    /// Stalled increments in a row.
+    pub stalled_stages: usize,
+    /// The vertex with the largest residual force at the last iterate.
+    pub vertex: usize,
+    /// Its position there, m.
+    pub position: [f64; 3],
+    /// The share of `|r|^2` on the 5 % of vertices with the largest residual force.
+    pub share: f64,
+    /// The smallest eigenvalue of `K y = lambda M y` at the last iterate, 1/s^2, when
+    /// computed ([`crate::statics::StaticSolver::stability`]).
+    pub smallest_eigenvalue: Option<f64>,
+    /// The same relative to the stiffness scale `|diag K| / |m|`.
+    pub relative_eigenvalue: Option<f64>,
 }
 
 /// The message of [`NewtonError::NoEquilibrium`].
-#[allow(clippy::too_many_arguments)]
-fn no_equilibrium_message(
-    iterations: usize,
-    residual: f64,
-    load_factor: f64,
-    stalled: usize,
-    vertex: usize,
-    p: &[f64; 3],
-    share: f64,
-    eigenvalue: Option<f64>,
-    relative: Option<f64>,
-) -> String {
+fn no_equilibrium_message(stall: &Stall) -> String {
+    let Stall {
+        iterations,
+        residual,
+        load_factor,
+        stalled_stages: stalled,
+        vertex,
+        position: p,
+        share,
+        smallest_eigenvalue: eigenvalue,
+        relative_eigenvalue: relative,
+    } = stall;
+    let (eigenvalue, relative) = (*eigenvalue, *relative);
     let eigen = match (eigenvalue, relative) {
         (Some(l), Some(r)) if r < -1e-9 => format!(
             "; the stiffness there is indefinite (smallest eigenvalue {l:.3e} 1/s^2, {r:.1e} of \

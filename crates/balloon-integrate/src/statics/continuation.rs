@@ -2,6 +2,7 @@
 //! when it does not converge directly (module docs of [`crate::statics`]).
 
 use super::{LoadScaling, StaticError, StaticInfo, StaticSolver};
+use crate::newton::Stall;
 
 impl StaticSolver {
     /// Solves for the equilibrium at the full load (factor 1) from `x`, with load continuation
@@ -100,7 +101,7 @@ impl StaticSolver {
                         self.stalled_iterate = x.to_vec();
                         x.copy_from_slice(&saved);
                         system.set_load_factor(done);
-                        return Err(StaticError::NoEquilibrium {
+                        return Err(StaticError::NoEquilibrium(Box::new(Stall {
                             iterations: info.iterations,
                             residual,
                             load_factor: done,
@@ -110,7 +111,7 @@ impl StaticSolver {
                             share,
                             smallest_eigenvalue: None,
                             relative_eigenvalue: None,
-                        });
+                        })));
                     }
                     x.copy_from_slice(&saved);
                     self.set_shift(saved_shift);

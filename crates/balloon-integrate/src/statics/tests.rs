@@ -426,7 +426,10 @@ fn a_solve_without_equilibrium_stops_after_its_stalled_stages_with_the_evidence(
     let e = solver
         .solve_with_continuation(&mut sys, 0.0, &mut x, None)
         .unwrap_err();
-    let StaticError::NoEquilibrium {
+    let StaticError::NoEquilibrium(stall) = &e else {
+        panic!("expected NoEquilibrium, got {e}");
+    };
+    let crate::newton::Stall {
         iterations,
         residual,
         load_factor,
@@ -435,10 +438,7 @@ fn a_solve_without_equilibrium_stops_after_its_stalled_stages_with_the_evidence(
         share,
         smallest_eigenvalue,
         ..
-    } = e
-    else {
-        panic!("expected NoEquilibrium, got {e}");
-    };
+    } = **stall;
     // The full load and three increments, one window of `stall_window` iterations each (the
     // residual never halves), instead of 13 stages of 200 iterations.
     assert_eq!(stalled_stages, params.max_stalled_stages);

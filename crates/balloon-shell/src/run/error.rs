@@ -167,9 +167,11 @@ impl ShellError {
     pub fn static_residual(&self) -> Option<f64> {
         match self {
             Self::Static { source, .. } => match **source {
-                balloon_integrate::statics::StaticError::NotConverged { residual, .. }
-                | balloon_integrate::statics::StaticError::NoEquilibrium { residual, .. } => {
+                balloon_integrate::statics::StaticError::NotConverged { residual, .. } => {
                     Some(residual)
+                }
+                balloon_integrate::statics::StaticError::NoEquilibrium(ref stall) => {
+                    Some(stall.residual)
                 }
                 _ => None,
             },

@@ -203,7 +203,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 let info = match solved {
                     Ok(info) => info,
                     Err(mut source) => {
-                        if matches!(source, StaticError::NoEquilibrium { .. }) {
+                        if matches!(source, StaticError::NoEquilibrium(_)) {
                             stalled_stability(
                                 &mut solver,
                                 &mut shell,
@@ -468,16 +468,8 @@ fn stalled_stability<M: ShellMaterial, G: GasModel>(
         }
         None => solver.stability(shell, time, &x, &[], &params),
     };
-    if let (
-        Ok(s),
-        StaticError::NoEquilibrium {
-            smallest_eigenvalue,
-            relative_eigenvalue,
-            ..
-        },
-    ) = (stability, error)
-    {
-        *smallest_eigenvalue = Some(s.smallest_eigenvalue);
-        *relative_eigenvalue = Some(s.relative_eigenvalue);
+    if let (Ok(s), StaticError::NoEquilibrium(stall)) = (stability, error) {
+        stall.smallest_eigenvalue = Some(s.smallest_eigenvalue);
+        stall.relative_eigenvalue = Some(s.relative_eigenvalue);
     }
 }
