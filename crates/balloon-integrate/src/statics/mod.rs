@@ -89,8 +89,8 @@
 //! (fins, wings, ears): their walls open by a nearly free motion, the exact tangent is
 //! indefinite along the wrinkles of the compressed band where a fin meets the body, and
 //! Newton's path at the full load is long but converging (a 0.1 m body with a 4 mm fin under
-//! 1500 Pa: best residual `1.3e-1` after 75 iterations, `2.3e-3` after 200, converged after
-//! about 205). A cap of 200 threw that away, and the continuation from the rest shape cannot
+//! 1500 Pa: best residual `1.3e-1` after 75 iterations, `2.3e-3` after 200, converged before
+//! 225). A cap of 200 threw that away, and the continuation from the rest shape cannot
 //! do better: a flat wall has no stiffness against the pressure until it curves, its
 //! deflection grows like the cube root of the load, so every load increment, however small,
 //! starts equally far from its equilibrium (the relative residual of the 6 mm fin's stages
