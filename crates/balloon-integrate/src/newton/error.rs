@@ -127,6 +127,78 @@ pub enum NewtonError {
         /// The static solve's load factor reached; `None` for a dynamic step.
         load_factor: Option<f64>,
     },
+    /// A static solve stopped because its load stages stalled: `stalled_stages` continuation
+    /// increments in a row ran [`crate::statics::StaticParams::stall_window`] Newton
+    /// iterations without halving their best residual, so smaller increments did not help
+    /// (module docs of [`crate::statics`], "Stalled stages"). The evidence: where the residual
+    /// of the last iterate concentrates, and (when the caller computed it) the smallest
+    /// eigenvalue of the stiffness there; a negative one says the energy is indefinite along a
+    /// mode (the wall wrinkles or buckles), so there is no smooth equilibrium near that path.
+    #[error("{}", no_equilibrium_message(.0))]
+    NoEquilibrium(Box<Stall>),
+}
+
+/// What a static solve that ended with [`NewtonError::NoEquilibrium`] found (boxed: the
+/// error stays small).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stall {
+    /// Newton iterations done over all load stages.
+    pub iterations: usize,
+    /// Relative residual at the last iterate of the last stalled stage.
+    pub residual: f64,
+    /// The load factor of the last converged stage (0: none converged).
+    pub load_factor: f64,
+    /// Stalled increments in a row.
+    pub stalled_stages: usize,
+    /// The vertex with the largest residual force at the last iterate.
+    pub vertex: usize,
+    /// Its position there, m.
+    pub position: [f64; 3],
+    /// The share of `|r|^2` on the 5 % of vertices with the largest residual force.
+    pub share: f64,
+    /// The smallest eigenvalue of `K y = lambda M y` at the last iterate, 1/s^2, when
+    /// computed ([`crate::statics::StaticSolver::stability`]).
+    pub smallest_eigenvalue: Option<f64>,
+    /// The same relative to the stiffness scale `|diag K| / |m|`.
+    pub relative_eigenvalue: Option<f64>,
+}
+
+/// The message of [`NewtonError::NoEquilibrium`].
+fn no_equilibrium_message(stall: &Stall) -> String {
+    let Stall {
+        iterations,
+        residual,
+        load_factor,
+        stalled_stages: stalled,
+        vertex,
+        position: p,
+        share,
+        smallest_eigenvalue: eigenvalue,
+        relative_eigenvalue: relative,
+    } = stall;
+    let (eigenvalue, relative) = (*eigenvalue, *relative);
+    let eigen = match (eigenvalue, relative) {
+        (Some(l), Some(r)) if r < -1e-9 => format!(
+            "; the stiffness there is indefinite (smallest eigenvalue {l:.3e} 1/s^2, {r:.1e} of \
+             the stiffness scale): the wall wrinkles or buckles along this load path"
+        ),
+        (Some(l), Some(r)) => format!(
+            "; the stiffness there is positive semi-definite (smallest eigenvalue {l:.3e} 1/s^2, \
+             {r:.1e} of the stiffness scale): a flat energy rather than a buckled wall"
+        ),
+        _ => String::new(),
+    };
+    format!(
+        "static solve stalled, no smooth equilibrium found: {stalled} load increments in a row stalled \
+         (the best residual did not halve over `stall_window` Newton iterations), the last at \
+         relative residual {residual:.3e}; {iterations} Newton iterations, last converged load \
+         factor {load_factor}; the residual concentrates at vertex {vertex} ({:.4}, {:.4}, \
+         {:.4}) m, {:.0} % of |r|^2 on the 5 % of vertices that carry most{eigen}",
+        p[0],
+        p[1],
+        p[2],
+        100.0 * share
+    )
 }
 
 impl NewtonError {

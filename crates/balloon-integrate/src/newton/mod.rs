@@ -26,8 +26,8 @@ pub mod regularization;
 
 pub use cancel::{cancel_requested, set_cancel_check};
 pub use convergence::{MAX_NEWTON_ITERATIONS, NEWTON_STALL_WINDOW, Residual};
-pub use error::NewtonError;
 pub(crate) use error::check_parameter;
+pub use error::{NewtonError, Stall};
 pub(crate) use linear::{NewtonMatrix, SystemStiffness};
 pub(crate) use objective::Objective;
 pub(crate) use regularization::{NoStep, Regularization};

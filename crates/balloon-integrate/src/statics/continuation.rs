@@ -2,6 +2,7 @@
 //! when it does not converge directly (module docs of [`crate::statics`]).
 
 use super::{LoadScaling, StaticError, StaticInfo, StaticSolver};
+use crate::newton::Stall;
 
 impl StaticSolver {
     /// Solves for the equilibrium at the full load (factor 1) from `x`, with load continuation
@@ -61,6 +62,7 @@ impl StaticSolver {
         let p = *self.params();
         let (mut done, mut increment) = (0.0f64, 0.5f64);
         let mut halvings = 1;
+        let mut stalls = 0;
         info.load_halvings += 1;
         let mut saved = x.to_vec();
         loop {
@@ -84,11 +86,33 @@ impl StaticSolver {
                         return Ok(());
                     }
                     done = target;
+                    stalls = 0;
                     saved.copy_from_slice(x);
                     increment = (2.0 * increment).min(1.0 - done);
                 }
                 Err(e) if !e.is_recoverable() => return Err(e),
                 Err(e) => {
+                    stalls = if self.last_stalled { stalls + 1 } else { 0 };
+                    if p.max_stalled_stages > 0 && stalls >= p.max_stalled_stages {
+                        // Smaller increments did not help: stop with the evidence, at the
+                        // last converged load factor.
+                        let (vertex, position, share) = self.residual_concentration(x);
+                        let residual = info.relative_residual;
+                        self.stalled_iterate = x.to_vec();
+                        x.copy_from_slice(&saved);
+                        system.set_load_factor(done);
+                        return Err(StaticError::NoEquilibrium(Box::new(Stall {
+                            iterations: info.iterations,
+                            residual,
+                            load_factor: done,
+                            stalled_stages: stalls,
+                            vertex,
+                            position,
+                            share,
+                            smallest_eigenvalue: None,
+                            relative_eigenvalue: None,
+                        })));
+                    }
                     x.copy_from_slice(&saved);
                     self.set_shift(saved_shift);
                     halvings += 1;

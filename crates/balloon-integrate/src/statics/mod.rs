@@ -80,6 +80,31 @@
 //! [`StaticParams::max_load_halvings`] times. The last stage, at the full load, converges to
 //! [`StaticParams::tolerance`].
 //!
+//! # Stalled stages
+//!
+//! A stage runs while it makes progress: Newton iterates in windows of
+//! [`StaticParams::stall_window`] (100) iterations, and a window that does not halve the best
+//! relative residual of the stage ends it as stalled; otherwise it runs to
+//! [`StaticParams::max_iterations`] (1000). A fixed cap per stage does not suit thin flat parts
+//! (fins, wings, ears): their walls open by a nearly free motion, the exact tangent is
+//! indefinite along the wrinkles of the compressed band where a fin meets the body, and
+//! Newton's path at the full load is long but converging (a 0.1 m body with a 4 mm fin under
+//! 1500 Pa: best residual `1.3e-1` after 75 iterations, `2.3e-3` after 200, converged before
+//! 225). A cap of 200 threw that away, and the continuation from the rest shape cannot
+//! do better: a flat wall has no stiffness against the pressure until it curves, its
+//! deflection grows like the cube root of the load, so every load increment, however small,
+//! starts equally far from its equilibrium (the relative residual of the 6 mm fin's stages
+//! stalls at 0.2-0.28 from load factor 0.5 down to `2^-12`). Load halvings do not help there:
+//! after [`StaticParams::max_stalled_stages`] (3) stalled increments in a row the solve stops
+//! with [`StaticError::NoEquilibrium`](crate::newton::NewtonError::NoEquilibrium), which says
+//! where the residual of the last iterate concentrates (the vertex with the largest residual
+//! force and the share of `|r|^2` on the 5 % of vertices with the largest), keeps that iterate
+//! ([`StaticSolver::stalled_iterate`]) for the caller to compute the smallest eigenvalue of the
+//! stiffness there ([`StaticSolver::stability`]; the shell's static solve does), and leaves
+//! `x` at the last converged load factor. Windows are calls of the same Newton core that
+//! carry its state (iterate, residual, energy, shift), so a stage that does not stall takes
+//! exactly the iterates of one call.
+//!
 //! ```
 //! use balloon_integrate::linear::LinearSolverKind;
 //! use balloon_integrate::statics::{StaticParams, StaticSolver};
@@ -144,7 +169,7 @@ mod tests;
 
 pub use anderson::{Anderson, AndersonParams};
 pub use info::StaticInfo;
-pub use params::{DEFAULT_STATIC_ITERATIONS, StaticParams};
+pub use params::{DEFAULT_STALL_WINDOW, DEFAULT_STATIC_ITERATIONS, StaticParams};
 pub use solver::StaticSolver;
 pub use stability::{Stability, StabilityParams};
 

@@ -9,8 +9,10 @@ use crate::implicit::{DEFAULT_INEXACT_FORCING, DEFAULT_NEWTON_TOLERANCE};
 use crate::newton::{MAX_NEWTON_ITERATIONS, NewtonError, check_parameter};
 use crate::system::TangentKind;
 
-/// Default [`StaticParams::max_iterations`]: Newton iterations allowed per load stage.
-pub const DEFAULT_STATIC_ITERATIONS: usize = 200;
+/// Default [`StaticParams::max_iterations`]: Newton iterations allowed per load stage, the
+/// core's limit ([`MAX_NEWTON_ITERATIONS`]); a stage that stops making progress ends
+/// earlier, after [`StaticParams::stall_window`] iterations without halving its residual.
+pub const DEFAULT_STATIC_ITERATIONS: usize = MAX_NEWTON_ITERATIONS;
 
 /// Parameters of [`StaticSolver`](super::StaticSolver).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -45,7 +47,21 @@ pub struct StaticParams {
     /// default [`crate::implicit::DEFAULT_INEXACT_FORCING`], `0`: every solve to the linear
     /// solver's own tolerance).
     pub inexact_forcing: f64,
+    /// A load stage whose best relative residual has not halved over this many Newton
+    /// iterations is stopped as stalled (default [`DEFAULT_STALL_WINDOW`]; `0`: never, the
+    /// stage runs to [`StaticParams::max_iterations`]). A converging stage halves its residual
+    /// in a few iterations; a stage that wanders for this long is on a flat, indefinite
+    /// energy (a wrinkling or buckling membrane, module docs "Stalled stages").
+    pub stall_window: usize,
+    /// Continuation increments in a row that stall (above) before the solve stops with
+    /// [`NewtonError::NoEquilibrium`] (default 3; `0`: a stall is handled like any failed
+    /// increment, up to [`StaticParams::max_load_halvings`]).
+    pub max_stalled_stages: usize,
 }
+
+/// Default [`StaticParams::stall_window`]: Newton iterations over which a stage's best
+/// relative residual must halve.
+pub const DEFAULT_STALL_WINDOW: usize = 100;
 
 impl StaticParams {
     /// Checks every parameter against its range (each field's docs); the error names the
@@ -95,6 +111,8 @@ impl Default for StaticParams {
             min_shift: 1e-9,
             max_load_halvings: 12,
             inexact_forcing: DEFAULT_INEXACT_FORCING,
+            stall_window: DEFAULT_STALL_WINDOW,
+            max_stalled_stages: 3,
         }
     }
 }

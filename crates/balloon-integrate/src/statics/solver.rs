@@ -51,6 +51,11 @@ pub struct StaticSolver {
     linear_iterations: usize,
     /// Newton iterations of the last solve, converged or not.
     pub(super) last_iterations: usize,
+    /// Whether the last load stage stopped as stalled ([`StaticParams::stall_window`]).
+    pub(super) last_stalled: bool,
+    /// The last iterate of the stalled stage that ended the last solve with
+    /// [`StaticError::NoEquilibrium`] (empty otherwise).
+    pub(super) stalled_iterate: Vec<f64>,
 }
 
 impl Default for StaticSolver {
@@ -78,6 +83,8 @@ impl StaticSolver {
             last_converged: false,
             linear_iterations: 0,
             last_iterations: 0,
+            last_stalled: false,
+            stalled_iterate: Vec::new(),
         })
     }
 
@@ -180,6 +187,13 @@ impl StaticSolver {
         self.last_iterations
     }
 
+    /// The last iterate of the stalled load stage when the last solve ended with
+    /// [`StaticError::NoEquilibrium`] (`None` otherwise): where to look at the stiffness
+    /// ([`StaticSolver::stability`]) for the evidence of a wrinkling or buckling wall.
+    pub fn stalled_iterate(&self) -> Option<&[f64]> {
+        (!self.stalled_iterate.is_empty()).then_some(self.stalled_iterate.as_slice())
+    }
+
     /// Moves the counters of the solve into `info`: factorisations since `before`, linear
     /// iterations and phase times.
     pub(super) fn finish_info(&mut self, before: u64, info: &mut StaticInfo) {
@@ -206,6 +220,7 @@ impl StaticSolver {
         self.core.objective.time = time;
         self.core.times = PhaseTimes::default();
         self.linear_iterations = 0;
+        self.stalled_iterate.clear();
         let initial = self.params.initial_shift;
         if let Regularization::LevenbergMarquardt { shift, scale, .. } = &mut self.regularization
             && !(self.warm_start && self.last_converged && *scale > 0.0)
@@ -269,25 +284,61 @@ impl StaticSolver {
             .core
             .energy(system, x)?
             .ok_or(StaticError::NoPotential)?;
-        let settings = Settings {
+        let window = match p.stall_window {
+            0 => p.max_iterations,
+            w => w.min(p.max_iterations),
+        };
+        let mut settings = Settings {
             tolerance: tol,
-            max_iterations: p.max_iterations,
+            max_iterations: window,
             min_accepted: 0,
             inexact_forcing: p.inexact_forcing,
             linear_tolerance: p.solver.linear.relative_tolerance,
             stall_test: false,
             fixed_steps: false,
         };
+        self.last_stalled = false;
+        // Newton in windows of `stall_window` iterations (the same iterates as one call: the
+        // core's state between calls is `x`, its residual and energy, and the shift), so that
+        // a stage whose best residual did not halve over a window can be stopped.
         let mut record = NewtonRecord::default();
-        let outcome = self.core.minimize(
-            system,
-            x,
-            (res, Some(energy)),
-            &settings,
-            &mut self.regularization,
-            false,
-            &mut record,
-        );
+        let mut start = (res, Some(energy));
+        let mut best_before = res.relative();
+        let mut done = 0;
+        let outcome = loop {
+            settings.max_iterations = window.min(p.max_iterations - done);
+            let mut chunk = NewtonRecord::default();
+            let outcome = self.core.minimize(
+                system,
+                x,
+                start,
+                &settings,
+                &mut self.regularization,
+                false,
+                &mut chunk,
+            );
+            done += chunk.iterations;
+            let continued = !record.relative_residuals.is_empty();
+            merge(&mut record, chunk, continued);
+            let Ok(outcome) = outcome else {
+                break outcome;
+            };
+            if outcome.converged || done >= p.max_iterations {
+                break Ok(outcome);
+            }
+            let best = record
+                .relative_residuals
+                .iter()
+                .copied()
+                .fold(f64::INFINITY, f64::min);
+            if p.stall_window > 0 && best > 0.5 * best_before {
+                self.last_stalled = true;
+                break Ok(outcome);
+            }
+            best_before = best;
+            let energy = record.energies.last().copied();
+            start = (outcome.residual, energy);
+        };
         info.iterations += record.iterations;
         info.line_search_cuts += record.line_search_cuts;
         info.regularized_solves += record.regularized_solves;
@@ -309,6 +360,55 @@ impl StaticSolver {
             load_factor: Some(1.0),
         })
     }
+
+    /// Where the residual of the last evaluation concentrates: the vertex with the largest
+    /// residual force, its position in `x`, and the share of `|r|^2` on the 5 % of vertices
+    /// with the largest residual force.
+    pub(super) fn residual_concentration(&self, x: &[f64]) -> (usize, [f64; 3], f64) {
+        let r = &self.core.objective.rhs;
+        let mut per: Vec<(f64, usize)> = r
+            .chunks_exact(3)
+            .enumerate()
+            .map(|(v, c)| (c.iter().map(|a| a * a).sum::<f64>(), v))
+            .collect();
+        let total: f64 = per.iter().map(|p| p.0).sum();
+        per.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let Some(&(_, vertex)) = per.first() else {
+            return (0, [0.0; 3], 0.0);
+        };
+        let top = per.len().div_ceil(20);
+        let share = if total > 0.0 {
+            per[..top].iter().map(|p| p.0).sum::<f64>() / total
+        } else {
+            0.0
+        };
+        let position = [x[3 * vertex], x[3 * vertex + 1], x[3 * vertex + 2]];
+        (vertex, position, share)
+    }
+}
+
+/// Appends the record of a later window of Newton iterations to `total` (`continued`: its
+/// first iterate is `total`'s last, already recorded).
+fn merge(total: &mut NewtonRecord, chunk: NewtonRecord, continued: bool) {
+    let skip = usize::from(continued);
+    total.iterations += chunk.iterations;
+    total.linear_iterations.extend(chunk.linear_iterations);
+    total.linear_residuals.extend(chunk.linear_residuals);
+    total
+        .residual_norms
+        .extend(chunk.residual_norms.into_iter().skip(skip));
+    total
+        .relative_residuals
+        .extend(chunk.relative_residuals.into_iter().skip(skip));
+    total.energies.extend(chunk.energies.into_iter().skip(skip));
+    total.line_search_cuts += chunk.line_search_cuts;
+    total.regularized_solves += chunk.regularized_solves;
+    total.max_regularization = total.max_regularization.max(chunk.max_regularization);
+    total.linear_converged = if continued {
+        total.linear_converged && chunk.linear_converged
+    } else {
+        chunk.linear_converged
+    };
 }
 
 /// `mu_ref = k / |m|` for the stiffness norm `k` ([`stiffness_norm`]), 1/s^2; 1 when that is

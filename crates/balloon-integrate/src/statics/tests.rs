@@ -366,3 +366,113 @@ fn bad_input_and_missing_potential_are_typed_errors() {
     }
     assert_eq!(solver.params().tolerance, StaticParams::default().tolerance);
 }
+
+/// A particle on the potential `W(x) = -s ln(1 + |x|^2)` (`s` the load factor): convex for
+/// `|x| > 1` but unbounded below, so there is no equilibrium to find; Newton runs outward for
+/// ever with a relative residual of 1.
+#[derive(Debug, Clone)]
+struct Unbounded {
+    m: [f64; 3],
+    factor: f64,
+    x: [f64; 3],
+}
+
+impl ForceSystem for Unbounded {
+    fn num_dofs(&self) -> usize {
+        3
+    }
+    fn masses(&self) -> &[f64] {
+        &self.m
+    }
+    fn forces(&mut self, _t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+        self.x.copy_from_slice(x);
+        let q = 1.0 + norm(x).powi(2);
+        for i in 0..3 {
+            f[i] = 2.0 * self.factor * x[i] / q;
+        }
+        Ok(())
+    }
+    fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+        // f = 2 s x / q: df = 2 s (dx / q - 2 x (x . dx) / q^2).
+        let q = 1.0 + norm(&self.x).powi(2);
+        let xdx: f64 = self.x.iter().zip(dx).map(|(a, b)| a * b).sum();
+        for i in 0..3 {
+            df[i] += 2.0 * self.factor * (dx[i] / q - 2.0 * self.x[i] * xdx / (q * q));
+        }
+    }
+    fn potential_energy(&mut self, _t: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+        Ok(Some(-self.factor * (1.0 + norm(x).powi(2)).ln()))
+    }
+}
+
+impl LoadScaling for Unbounded {
+    fn set_load_factor(&mut self, factor: f64) {
+        self.factor = factor;
+    }
+}
+
+#[test]
+fn a_solve_without_equilibrium_stops_after_its_stalled_stages_with_the_evidence() {
+    let mut params = StaticParams::default();
+    params.solver.linear.kind = LinearSolverKind::MatrixFreeCg;
+    let start = [2.0, 1.0, 0.5];
+    let mut sys = Unbounded {
+        m: [1.0; 3],
+        factor: 1.0,
+        x: [0.0; 3],
+    };
+    let mut solver = StaticSolver::new(params).unwrap();
+    let mut x = start.to_vec();
+    let e = solver
+        .solve_with_continuation(&mut sys, 0.0, &mut x, None)
+        .unwrap_err();
+    let StaticError::NoEquilibrium(stall) = &e else {
+        panic!("expected NoEquilibrium, got {e}");
+    };
+    let crate::newton::Stall {
+        iterations,
+        residual,
+        load_factor,
+        stalled_stages,
+        vertex,
+        share,
+        smallest_eigenvalue,
+        ..
+    } = **stall;
+    // The full load and three increments, one window of `stall_window` iterations each (the
+    // residual never halves), instead of 13 stages of 200 iterations.
+    assert_eq!(stalled_stages, params.max_stalled_stages);
+    assert!(
+        iterations <= (1 + params.max_stalled_stages) * params.stall_window,
+        "{iterations}"
+    );
+    assert!((residual - 1.0).abs() < 1e-6, "{residual}");
+    assert_eq!((load_factor, vertex, share), (0.0, 0, 1.0));
+    assert_eq!(smallest_eigenvalue, None);
+    // Left at the last converged point (none: the start) with its load factor.
+    assert_eq!(x, start);
+    assert_eq!(sys.factor, 0.0);
+    assert!(solver.stalled_iterate().is_some_and(|s| norm(s) > 1e3));
+    let message = e.to_string();
+    assert!(
+        message.contains("no smooth equilibrium found") && message.contains("stall_window"),
+        "{message}"
+    );
+
+    // Without the stall test the same solve runs every stage to its iteration limit.
+    let params = StaticParams {
+        stall_window: 0,
+        max_iterations: 30,
+        max_load_halvings: 2,
+        ..params
+    };
+    let mut x = start.to_vec();
+    let e = StaticSolver::new(params)
+        .unwrap()
+        .solve_with_continuation(&mut sys, 0.0, &mut x, None)
+        .unwrap_err();
+    assert!(
+        matches!(e, StaticError::NotConverged { iterations: 90, .. }),
+        "{e}"
+    );
+}

@@ -8,17 +8,21 @@
 //! * [`teddy::teddy`]: the procedural teddy bear (Wang et al. 2015, Fig. 4), built on the implicit mesher;
 //! * [`tube::tube`]: a closed cylinder with hemispherical end caps (the bulging tube);
 //! * [`fin::finned_ellipsoid`]: a flattened ellipsoid with a thin fin (thin flat parts under
-//!   pressure).
+//!   pressure);
+//! * [`wing::winged_ellipsoid`]: a small flattened ellipsoid with two thin wings, mapped from an
+//!   icosphere (thin flat parts at a few hundred to a few thousand vertices).
 
 pub mod fin;
 pub mod implicit;
 pub mod teddy;
 pub mod tube;
+pub mod wing;
 
 pub use fin::{FinParams, finned_ellipsoid};
 pub use implicit::{ImplicitParams, implicit_surface};
 pub use teddy::{TeddyParams, TeddyPart, teddy, teddy_vertex_parts};
 pub use tube::tube;
+pub use wing::{WingParams, winged_ellipsoid};
 
 use crate::{MeshError, TriMesh};
 use nalgebra::{Point3, Vector3};

@@ -170,6 +170,9 @@ impl ShellError {
                 balloon_integrate::statics::StaticError::NotConverged { residual, .. } => {
                     Some(residual)
                 }
+                balloon_integrate::statics::StaticError::NoEquilibrium(ref stall) => {
+                    Some(stall.residual)
+                }
                 _ => None,
             },
             Self::StaticNotConverged { residual, .. } => Some(*residual),

@@ -8,7 +8,7 @@ use std::time::Instant;
 use balloon_constraint::projector::ShellProjectionInput;
 use balloon_gas::GasModel;
 use balloon_integrate::ForceSystem;
-use balloon_integrate::decorators::Pinned;
+use balloon_integrate::decorators::{Pinned, Pins};
 use balloon_integrate::statics::{
     Anderson, AndersonParams, StabilityParams, StaticError, StaticParams, StaticSolver,
 };
@@ -193,18 +193,32 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 })?;
             let (info, gauge, volume) = {
                 let mut shell = StaticShell::new(&mut self.system, gas, options.follower_term);
-                let info = if pinned {
+                let solved = if pinned {
                     let mut held = Pinned::new(&mut shell, &mut self.pins.dofs)
                         .map_err(|e| ShellError::from_decorator("pinned_vertices", e))?;
                     solver.solve_with_continuation(&mut held, time, &mut x, external.as_deref())
                 } else {
                     solver.solve_with_continuation(&mut shell, time, &mut x, external.as_deref())
-                }
-                .map_err(|source| ShellError::Static {
-                    outer,
-                    newton_iterations: report.newton_iterations + solver.last_iterations(),
-                    source: Box::new(source),
-                })?;
+                };
+                let info = match solved {
+                    Ok(info) => info,
+                    Err(mut source) => {
+                        if matches!(source, StaticError::NoEquilibrium(_)) {
+                            stalled_stability(
+                                &mut solver,
+                                &mut shell,
+                                pinned.then_some(&mut self.pins.dofs),
+                                time,
+                                &mut source,
+                            );
+                        }
+                        return Err(ShellError::Static {
+                            outer,
+                            newton_iterations: report.newton_iterations + solver.last_iterations(),
+                            source: Box::new(source),
+                        });
+                    }
+                };
                 (info, shell.gauge_pressure(), shell.volume())
             };
             report.outer_iterations = outer + 1;
@@ -424,5 +438,38 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         report.shell_volume_ratio = self.shell_volume() / self.rest_shell_volume;
         report.converged = true;
         report.solve_ms = started.elapsed().as_secs_f64() * 1e3;
+    }
+}
+
+/// Fills the smallest eigenvalue of the stiffness at the stalled iterate into a
+/// [`StaticError::NoEquilibrium`] (the evidence of a wrinkling or buckling wall); left `None`
+/// when it cannot be computed.
+fn stalled_stability<M: ShellMaterial, G: GasModel>(
+    solver: &mut StaticSolver,
+    shell: &mut StaticShell<'_, M, G>,
+    pins: Option<&mut Pins>,
+    time: f64,
+    error: &mut StaticError,
+) {
+    let Some(x) = solver.stalled_iterate().map(<[f64]>::to_vec) else {
+        return;
+    };
+    let params = StabilityParams {
+        rigid_modes: pins.is_none(),
+        ..StabilityParams::default()
+    };
+    let stability = match pins {
+        Some(dofs) => {
+            let fixed = dofs.pinned_dofs().to_vec();
+            match Pinned::new(shell, dofs) {
+                Ok(mut held) => solver.stability(&mut held, time, &x, &fixed, &params),
+                Err(_) => return,
+            }
+        }
+        None => solver.stability(shell, time, &x, &[], &params),
+    };
+    if let (Ok(s), StaticError::NoEquilibrium(stall)) = (stability, error) {
+        stall.smallest_eigenvalue = Some(s.smallest_eigenvalue);
+        stall.relative_eigenvalue = Some(s.relative_eigenvalue);
     }
 }
