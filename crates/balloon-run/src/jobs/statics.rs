@@ -434,6 +434,21 @@ fn failure_message(e: &balloon::shell::ShellError, args: &ShellScenario) -> Stri
         )
     });
     match e {
+        // A stall is its own evidence (where the residual sits, the smallest eigenvalue): the
+        // wall wrinkles or buckles along the load path, under any material, so the rubber
+        // limit-point hint does not apply.
+        ShellError::Static { outer, source, .. }
+            if matches!(
+                **source,
+                balloon::integrate::statics::StaticError::NoEquilibrium(_)
+            ) =>
+        {
+            format!(
+                "static solve (outer iteration {outer}): {source}; the dynamic run \
+                 (`until_converged`) follows such a wall through its wrinkling or buckling in \
+                 time, where the static solve finds no smooth path"
+            )
+        }
         ShellError::Static { outer, source, .. } => {
             let mut tries = vec!["a looser `newton_tol`"];
             if args.run.tangent != TangentKind::Projected {
@@ -484,6 +499,49 @@ fn write_pressure_volume_plot(out: &OutputDir, mesh: &str, curve: &[(f64, f64)])
 #[cfg(test)]
 mod tests {
     use super::unstable_warning;
+
+    /// A stalled static solve is reported with its evidence and the dynamic run, not with the
+    /// rubber limit-point hint (a StVK wall has no limit point); a solve that did not converge
+    /// keeps the hint.
+    #[test]
+    fn a_stalled_static_solve_is_not_blamed_on_the_limit_point() {
+        use balloon::integrate::newton::Stall;
+        use balloon::integrate::statics::StaticError;
+        use balloon::shell::ShellError;
+        let mut args = balloon_scenario::shell::ShellScenario::default();
+        args.gas.model = balloon_scenario::gas::GasControl::Constant;
+        args.gas.pressure = 1500.0;
+        let stall = Stall {
+            iterations: 400,
+            residual: 0.2,
+            load_factor: 0.0,
+            stalled_stages: 3,
+            vertex: 17,
+            position: [-0.047, -0.006, 0.004],
+            share: 0.48,
+            smallest_eigenvalue: Some(-3.0e6),
+            relative_eigenvalue: Some(-1.1e-3),
+        };
+        let stalled = ShellError::Static {
+            outer: 0,
+            newton_iterations: 400,
+            source: Box::new(StaticError::NoEquilibrium(Box::new(stall))),
+        };
+        let m = super::failure_message(&stalled, &args);
+        assert!(m.contains("until_converged") && m.contains("-3.0"), "{m}");
+        assert!(!m.contains("limit point"), "{m}");
+        let unconverged = ShellError::Static {
+            outer: 0,
+            newton_iterations: 2600,
+            source: Box::new(StaticError::NotConverged {
+                iterations: 2600,
+                residual: 0.28,
+                tolerance: 1e-6,
+                load_factor: Some(0.5),
+            }),
+        };
+        assert!(super::failure_message(&unconverged, &args).contains("limit point"));
+    }
 
     #[test]
     fn a_failure_after_an_unstable_point_says_so() {
