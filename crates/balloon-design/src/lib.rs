@@ -42,6 +42,7 @@
 //!
 //! Features: none.
 
+mod bending_term;
 mod error;
 mod fallback;
 mod forward;

@@ -319,6 +319,9 @@ fn round_trips_on_real_meshes() {
                 // solve from the optimised rest shape.
                 shape_weight: std::env::var("DESIGN_SHAPE_WEIGHT")
                     .map_or(0.0, |b| b.parse().expect("DESIGN_SHAPE_WEIGHT: a number")),
+                // `DESIGN_BENDING_WEIGHT=k`: the rest-mesh bending term's first weight (D17).
+                bending_weight: std::env::var("DESIGN_BENDING_WEIGHT")
+                    .map_or(0.0, |b| b.parse().expect("DESIGN_BENDING_WEIGHT: a number")),
                 shape_stages: std::env::var("DESIGN_SHAPE_STAGES").map_or(3, |b| {
                     b.parse().expect("DESIGN_SHAPE_STAGES: a whole number")
                 }),
@@ -384,6 +387,16 @@ fn round_trips_on_real_meshes() {
             design(&problem, &params, report).unwrap()
         };
         let x0 = mesh.positions_flat();
+        // `DESIGN_SAVE_REST=DIR`: write the designed rest shape as DIR/NAME-rest.obj.
+        if let Ok(dir) = std::env::var("DESIGN_SAVE_REST") {
+            let mut out = mesh.clone();
+            out.set_positions_flat(&result.rest);
+            balloon_mesh::io::write_mesh(
+                &std::path::Path::new(&dir).join(format!("{name}-rest.obj")),
+                &out,
+            )
+            .unwrap();
+        }
         let recovered = distance(&rigidly_aligned(&result.rest, &x0), &x0);
         let inflation = distance(&x_star, &x0);
         eprintln!(
