@@ -132,6 +132,28 @@ impl BendingTerm {
         (value, g)
     }
 
+    /// Adds `scale` times the Gauss-Newton matrix `sum_e w_e g_e g_e^T` at the rest shape
+    /// `rest` into the vertex blocks `a` of `J^T J` laid out by `pattern` (a hinge's four
+    /// corners lie within two rings of each other).
+    pub(crate) fn add_gauss_newton_blocks(
+        &self,
+        rest: &[f64],
+        scale: f64,
+        pattern: &crate::normal::NormalPattern,
+        a: &mut [nalgebra::Matrix3<f64>],
+    ) {
+        for (h, w) in self.hinges.iter().zip(&self.weights) {
+            let Some((_, grad)) = angle_and_gradient(rest, h) else {
+                continue;
+            };
+            for (p, gp) in h.iter().zip(&grad) {
+                for (q, gq) in h.iter().zip(&grad) {
+                    a[pattern.a_slot(*p, *q)] += gp * gq.transpose() * (scale * w);
+                }
+            }
+        }
+    }
+
     /// The Gauss-Newton product `sum_e w_e g_e (g_e · u)` at the rest shape `rest`.
     pub(crate) fn gauss_newton_product(&self, rest: &[f64], u: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; u.len()];
