@@ -328,6 +328,10 @@ fn round_trips_on_real_meshes() {
                 bending_weight: std::env::var("DESIGN_INVERSE_BENDING").map_or(0.0, |b| {
                     b.parse().expect("DESIGN_INVERSE_BENDING: a number")
                 }),
+                bending_stages: std::env::var("DESIGN_INVERSE_BENDING_STAGES").map_or(3, |b| {
+                    b.parse()
+                        .expect("DESIGN_INVERSE_BENDING_STAGES: a whole number")
+                }),
                 ..InverseParams::default()
             },
             fallback: balloon_design::FallbackParams {

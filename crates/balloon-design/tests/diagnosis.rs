@@ -327,12 +327,18 @@ fn near_null_modes_of_the_inverse() {
         .map(|(i, m)| (format!("mode {i} (sigma {:.3e})", sigma[i]), m.clone()))
         .collect();
     fields.push(("smooth field".into(), smooth));
+    if std::env::var("DESIGN_AMPLITUDES").is_ok() {
+        fields.drain(1..3);
+    }
     for (label, v) in fields {
         let largest = v
             .chunks(3)
             .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
             .fold(0.0, f64::max);
-        for amp in [1e-2, 1e-3] {
+        let amps: Vec<f64> = std::env::var("DESIGN_AMPLITUDES").map_or(vec![1e-2, 1e-3], |a| {
+            a.split(',').map(|v| v.parse().unwrap()).collect()
+        });
+        for &amp in &amps {
             let s = amp * diag / largest;
             let rest: Vec<f64> = x0.iter().zip(&v).map(|(a, b)| a + s * b).collect();
             let r = problem.residual(&rest, 1.0).unwrap();
@@ -345,10 +351,17 @@ fn near_null_modes_of_the_inverse() {
                 &base.positions,
             );
             let rest_d = distance(&rigidly_aligned(&rest, &x0), &x0);
+            let per = balloon_design::vertex_distances(
+                &rigidly_aligned(&check.positions, &base.positions),
+                &base.positions,
+            );
+            let worst = (0..per.len())
+                .max_by(|a, b| per[*a].total_cmp(&per[*b]))
+                .unwrap();
             eprintln!(
                 "(b) {label}, rest moved {:.2e} of the diagonal (max {:.2e} m, RMS {:.2e} m): \
                  inverse residual {rel:.3e}; forward equilibrium moved max {:.3e} m = {:.3e} of \
-                 the diagonal, RMS {:.3e} m (converged {})",
+                 the diagonal, RMS {:.3e} m (converged {}, largest at vertex {worst})",
                 rest_d.max_relative,
                 rest_d.max,
                 rest_d.rms,
@@ -449,7 +462,32 @@ fn forward_tangent_near_instability() {
     order.sort_by(|a, b| d[*b].total_cmp(&d[*a]));
     let m2: Vec<f64> = (0..d.len()).map(|v| p3(&vectors[0], v).norm()).collect();
     let mmax = m2.iter().copied().fold(0.0, f64::max);
+    // The forward error field e = x - x*: its share in the soft modes and the stiffness it
+    // sees, e^T K e / e^T e, against the smallest eigenvalue and the mean diagonal.
+    let mut e: Vec<f64> = aligned.iter().zip(&x_star).map(|(a, b)| a - b).collect();
+    for b in &null {
+        let a = dot(b, &e);
+        for (ei, bi) in e.iter_mut().zip(b) {
+            *ei -= a * bi;
+        }
+    }
+    let ee = dot(&e, &e);
+    if ee > 0.0 {
+        let soft: f64 = vectors.iter().map(|u| dot(u, &e).powi(2)).sum::<f64>() / ee;
+        let rq = dot(&e, &mv(&kmat, &e)) / ee;
+        eprintln!(
+            "forward error: |e| = {:.3e} m, share in the {} softest modes {soft:.3e}, e^T K e / e^T e = {rq:.3e} N/m",
+            ee.sqrt(),
+            vectors.len()
+        );
+    }
+    let (_, defect) = normals_and_defects(&x, &tri);
     for &v in order.iter().take(6) {
+        let p = p3(&x, v);
+        eprintln!(
+            "  vertex {v} at ({:.3},{:.3},{:.3}), angle defect {:.2e}",
+            p.x, p.y, p.z, defect[v]
+        );
         eprintln!(
             "  worst vertex {v}: forward distance {:.3e} m, |lowest K mode| there {:.3} of its max",
             d[v],
