@@ -96,7 +96,18 @@ impl BendingTerm {
             rest_angles.push(theta);
             raw.push(3.0 * e.norm_squared() / areas);
         }
-        let edge = crate::inverse::mean_edge(problem);
+        // The target's mean edge length (every triangle's three edges).
+        let edge = {
+            let t = problem.triangles();
+            let sum: f64 = t
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|v| point(x, v));
+                    (b - a).norm() + (c - b).norm() + (a - c).norm()
+                })
+                .sum();
+            sum / (3 * t.len()).max(1) as f64
+        };
         let mean = raw.iter().sum::<f64>() / raw.len().max(1) as f64;
         let weights = raw.iter().map(|w| edge * edge * w / mean).collect();
         Self {
