@@ -8,6 +8,7 @@ use balloon_integrate::statics::StaticParams;
 use serde::{Deserialize, Serialize};
 
 use crate::DesignError;
+use crate::bending_term::BendingTerm;
 use crate::forward::Distance;
 use crate::gauss_newton::{conjugate_gradient, dot};
 use crate::objective::{Evaluation, ShapeObjective, point};
@@ -102,8 +103,17 @@ pub struct FallbackParams {
     /// last stage without it, so the result is not biased by it.
     #[serde(default)]
     pub shape_weight: f64,
-    /// Stages with the shape term (default 3), each at most [`FallbackParams::max_iterations`]
-    /// steps; unused when [`FallbackParams::shape_weight`] is 0.
+    /// Weight `kappa_0` of the rest-mesh bending term (`docs/design.md`, D17; default 0: off):
+    /// the hinge energy `kappa/2 l^2 sum_e (w_e / mean w) (theta_e(X) - theta_e(x*))^2` of the
+    /// rest mesh's dihedral angles against the target's (Grinspun et al. 2003), which resists
+    /// the bendings of the rest mesh that the equilibrium hardly sees, in the same stages as
+    /// the shape term (`kappa_k = kappa_0 0.1^k`, `k < shape_stages`, then a last stage
+    /// without either).
+    #[serde(default)]
+    pub bending_weight: f64,
+    /// Stages with the shape or bending term (default 3), each at most
+    /// [`FallbackParams::max_iterations`] steps; unused when [`FallbackParams::shape_weight`]
+    /// and [`FallbackParams::bending_weight`] are 0.
     #[serde(default = "default_shape_stages")]
     pub shape_stages: usize,
     /// Hand the optimised rest shape to the inverse's Newton solve at the full pressure
@@ -136,6 +146,7 @@ impl Default for FallbackParams {
             max_move: 0.25,
             warm_start: false,
             shape_weight: 0.0,
+            bending_weight: 0.0,
             shape_stages: default_shape_stages(),
             newton_polish: false,
         }
@@ -172,6 +183,11 @@ impl FallbackParams {
             ),
             ("max_move", self.max_move, self.max_move > 0.0),
             ("shape_weight", self.shape_weight, self.shape_weight >= 0.0),
+            (
+                "bending_weight",
+                self.bending_weight,
+                self.bending_weight >= 0.0,
+            ),
         ] {
             if !(value.is_finite() && ok) {
                 return Err(DesignError::InvalidParameter {
@@ -236,7 +252,8 @@ pub struct FallbackInfo {
     pub stopped: FallbackStop,
     /// Wall-clock seconds.
     pub seconds: f64,
-    /// Shape-term stages run ([`FallbackParams::shape_weight`]; the last, unweighted stage
+    /// Stages run with the shape or bending term ([`FallbackParams::shape_weight`],
+    /// [`FallbackParams::bending_weight`]; the last, unweighted stage
     /// not counted).
     #[serde(default)]
     pub shape_stages: usize,
@@ -316,6 +333,7 @@ pub fn optimise_rest_shape(
     let reference = rest.to_vec();
     let max_step = params.max_move * crate::inverse::mean_edge(problem);
     let shape = (params.shape_weight > 0.0).then(|| ShapeTerm::new(problem));
+    let bending = (params.bending_weight > 0.0).then(|| BendingTerm::new(problem));
     info.start = Some(first.distance);
     info.end = Some(first.distance);
     info.objective_start = first.objective;
@@ -323,7 +341,7 @@ pub fn optimise_rest_shape(
     info.gradient_reduction = 1.0;
     let mut trial = rest.to_vec();
     let mut current = first;
-    let stages = if shape.is_some() {
+    let stages = if shape.is_some() || bending.is_some() {
         params.shape_stages + 1
     } else {
         1
@@ -331,10 +349,11 @@ pub fn optimise_rest_shape(
     let mut done = false;
     for stage in 0..stages {
         // gamma_k = gamma_0 0.1^k, the last stage without the shape term (D16).
-        let gamma = if stage + 1 < stages {
-            params.shape_weight * 0.1f64.powi(stage as i32)
+        let (gamma, kappa) = if stage + 1 < stages {
+            let f = 0.1f64.powi(stage as i32);
+            (params.shape_weight * f, params.bending_weight * f)
         } else {
-            0.0
+            (0.0, 0.0)
         };
         // The regulariser's value and gradient at `x`, and its (Gauss-Newton) product at
         // `x` with `v`.
@@ -356,6 +375,13 @@ pub fn optimise_rest_shape(
                     *a += gamma * b;
                 }
             }
+            if let (Some(term), true) = (&bending, kappa > 0.0) {
+                let (s, gs) = term.value_gradient(x);
+                phi += kappa * s;
+                for (a, b) in g.iter_mut().zip(gs) {
+                    *a += kappa * b;
+                }
+            }
             (phi, g)
         };
         let regulariser_product = |x: &[f64], u: &[f64]| -> Vec<f64> {
@@ -370,6 +396,11 @@ pub fn optimise_rest_shape(
                     *a += gamma * b;
                 }
             }
+            if let (Some(term), true) = (&bending, kappa > 0.0) {
+                for (a, b) in out.iter_mut().zip(term.gauss_newton_product(x, u)) {
+                    *a += kappa * b;
+                }
+            }
             out
         };
         let (mut phi, mut g) = total(&regulariser, rest, &current);
@@ -378,7 +409,7 @@ pub fn optimise_rest_shape(
             std::collections::VecDeque::new();
         let mut damping = GaussNewtonDamping::default();
         let mut steps = 0;
-        if gamma > 0.0 {
+        if gamma > 0.0 || kappa > 0.0 {
             info.shape_stages += 1;
         }
         info.stopped = FallbackStop::Iterations;

@@ -42,6 +42,23 @@ pub struct InverseParams {
     /// back to one Levenberg-Marquardt step. Used only when `tangential_weight` is zero (the
     /// tangential term makes the problem a least-squares one).
     pub newton: bool,
+    /// Weight `kappa_0` of the rest-mesh bending term in the inverse solve relative to the
+    /// mean diagonal of `J^T J` (`docs/design.md`, D17; default `0`: off). When positive the
+    /// solve first runs the pressure continuation on the regularised least-squares problem
+    /// `|r|^2/2 + kappa m/2 sum_e w_e (theta_e(X) - theta_e(x*))^2` (Levenberg-Marquardt, no
+    /// Newton steps; a stage ends when a step decreases the objective by less than `1e-8` of
+    /// it), then repeats it at the full pressure with `kappa_k = kappa_0 0.1^k`,
+    /// `k < bending_stages`, and ends with the unregularised solve (Newton steps as usual)
+    /// from the result, so that an exact design is not biased by the term.
+    #[serde(default)]
+    pub bending_weight: f64,
+    /// Stages with the bending term (default 3); unused when `bending_weight` is 0.
+    #[serde(default = "default_bending_stages")]
+    pub bending_stages: usize,
+}
+
+fn default_bending_stages() -> usize {
+    3
 }
 
 impl Default for InverseParams {
@@ -55,6 +72,8 @@ impl Default for InverseParams {
             tangential_weight: 0.0,
             acceleration: true,
             newton: true,
+            bending_weight: 0.0,
+            bending_stages: default_bending_stages(),
         }
     }
 }
@@ -81,6 +100,11 @@ impl InverseParams {
                 "tangential_weight",
                 self.tangential_weight,
                 self.tangential_weight >= 0.0,
+            ),
+            (
+                "bending_weight",
+                self.bending_weight,
+                self.bending_weight >= 0.0,
             ),
             (
                 "max_iterations",
@@ -160,6 +184,9 @@ struct Solver<'a> {
     newton_wait: usize,
     /// Damped steps taken after the last refused Newton step (doubles per refusal in a row).
     newton_backoff: usize,
+    /// The bending term of D17 and its weight relative to the mean diagonal of `J^T J`
+    /// (`None` or 0: off).
+    bending: Option<(crate::bending_term::BendingTerm, f64)>,
 }
 
 /// Finds the rest shape `X` whose static equilibrium under the problem's pressure is the
@@ -209,6 +236,7 @@ pub fn design_rest_shape(
         edge: mean_edge(problem),
         newton_wait: 0,
         newton_backoff: 0,
+        bending: None,
     };
     let mut info = InverseInfo {
         converged: false,
@@ -221,39 +249,59 @@ pub fn design_rest_shape(
         seconds: 0.0,
         fallback: None,
     };
-    let mut load = 0.0;
-    let mut step = 1.0f64;
     let mut stopped = false;
-    while load < 1.0 && !stopped {
-        let next = (load + step).min(1.0);
-        let tol = if next >= 1.0 {
-            params.tolerance
-        } else {
-            params.stage_tolerance.max(params.tolerance)
-        };
-        let mut trial = start.to_vec();
-        let outcome = solver.stage(&mut trial, next, tol, &mut info, &mut progress)?;
-        match outcome {
-            Stage::Converged(res) => {
-                start.copy_from_slice(&trial);
-                load = next;
-                info.stages += 1;
-                info.load_reached = load;
-                info.relative_residual = res;
-                // Grow the increment again after an easy stage.
-                step = (step * 2.0).min(1.0);
+    let mut load;
+    if params.bending_weight > 0.0 {
+        // D17: the regularised continuation, then the full pressure with smaller weights.
+        let term = crate::bending_term::BendingTerm::new(problem);
+        solver.bending = Some((term, params.bending_weight));
+        load = solver.continuation(start, 0.0, &mut info, &mut stopped, &mut progress)?;
+        for k in 1..params.bending_stages {
+            if stopped || load < 1.0 {
+                break;
             }
-            Stage::Stopped => {
-                stopped = true;
+            if let Some((_, kappa)) = solver.bending.as_mut() {
+                *kappa = params.bending_weight * 0.1f64.powi(k as i32);
             }
-            Stage::Failed => {
-                if info.halvings >= params.max_halvings {
-                    break;
-                }
-                info.halvings += 1;
-                step *= 0.5;
+            solver.damping = params.initial_damping;
+            let mut trial = start.to_vec();
+            match solver.stage(
+                &mut trial,
+                1.0,
+                params.stage_tolerance,
+                &mut info,
+                &mut progress,
+            )? {
+                Stage::Converged(_) => start.copy_from_slice(&trial),
+                Stage::Stopped => stopped = true,
+                Stage::Failed => break,
             }
         }
+        solver.bending = None;
+        solver.damping = params.initial_damping;
+        if !stopped && load >= 1.0 {
+            // The unregularised solve at the full pressure from the regularised design.
+            let mut trial = start.to_vec();
+            match solver.stage(&mut trial, 1.0, params.tolerance, &mut info, &mut progress)? {
+                Stage::Converged(res) => {
+                    start.copy_from_slice(&trial);
+                    info.stages += 1;
+                    info.relative_residual = res;
+                }
+                Stage::Stopped | Stage::Failed => {}
+            }
+            if info.relative_residual > params.tolerance {
+                info.relative_residual = match problem.residual(start, 1.0) {
+                    Ok(r) => norm(&r) / scale,
+                    Err(_) => f64::INFINITY,
+                };
+            }
+        } else if !stopped {
+            // The regularised continuation stalled: the unregularised one from there.
+            load = solver.continuation(start, load, &mut info, &mut stopped, &mut progress)?;
+        }
+    } else {
+        load = solver.continuation(start, 0.0, &mut info, &mut stopped, &mut progress)?;
     }
     if load < 1.0 {
         // Report the residual of the kept shape at the full pressure.
@@ -331,6 +379,57 @@ pub(crate) fn tangential_weights(problem: &DesignProblem) -> Vec<nalgebra::Matri
 }
 
 impl Solver<'_> {
+    /// The pressure continuation from the load factor `from` (its rest shape in `start`) to
+    /// the full pressure, halving the increment on a failed stage; returns the load factor
+    /// reached (`start` holds that stage's rest shape).
+    fn continuation(
+        &mut self,
+        start: &mut [f64],
+        from: f64,
+        info: &mut InverseInfo,
+        stopped: &mut bool,
+        progress: &mut impl FnMut(&InverseProgress) -> bool,
+    ) -> Result<f64, DesignError> {
+        let params = self.params;
+        let mut load = from;
+        let mut step = 1.0f64;
+        // Every halving of this continuation counts against `max_halvings`.
+        let mut halvings = 0;
+        while load < 1.0 && !*stopped {
+            let next = (load + step).min(1.0);
+            let tol = if next >= 1.0 {
+                params.tolerance
+            } else {
+                params.stage_tolerance.max(params.tolerance)
+            };
+            let mut trial = start.to_vec();
+            let outcome = self.stage(&mut trial, next, tol, info, progress)?;
+            match outcome {
+                Stage::Converged(res) => {
+                    start.copy_from_slice(&trial);
+                    load = next;
+                    info.stages += 1;
+                    info.load_reached = load;
+                    info.relative_residual = res;
+                    // Grow the increment again after an easy stage.
+                    step = (step * 2.0).min(1.0);
+                }
+                Stage::Stopped => {
+                    *stopped = true;
+                }
+                Stage::Failed => {
+                    if halvings >= params.max_halvings {
+                        break;
+                    }
+                    halvings += 1;
+                    info.halvings += 1;
+                    step *= 0.5;
+                }
+            }
+        }
+        Ok(load)
+    }
+
     /// The progress report after an accepted iteration of the stage to `load` with residual
     /// `r`.
     fn report(&self, load: f64, r: &[f64], info: &InverseInfo) -> InverseProgress {
@@ -435,6 +534,9 @@ impl Solver<'_> {
                     phi += 0.5 * beta * mean_diag * d.dot(&(w * d));
                 }
             }
+            if let Some((term, kappa)) = &s.bending {
+                phi += kappa * mean_diag * term.value_gradient(x).0;
+            }
             phi
         };
         let mut r = vec![0.0; n];
@@ -454,7 +556,8 @@ impl Solver<'_> {
         let mut g = vec![0.0; n];
         let (mut jdx, mut rvv, mut acc) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let mut mean_diag = 0.0;
-        let newton = self.params.newton && beta == 0.0;
+        let newton = self.params.newton && beta == 0.0 && self.bending.is_none();
+        let mut phi_last = f64::INFINITY;
         for _ in 0..self.params.max_iterations {
             let res = norm(&r) / self.scale;
             if res <= tol {
@@ -484,6 +587,14 @@ impl Solver<'_> {
             self.pattern.normal(&j, &r, &mut jtj, &mut g);
             if mean_diag == 0.0 {
                 mean_diag = self.pattern.trace(&jtj) / n as f64;
+            }
+            if let Some((term, kappa)) = &self.bending {
+                // D17: the bending term's gradient and Gauss-Newton matrix.
+                let (_, gb) = term.value_gradient(x);
+                for (a, b) in g.iter_mut().zip(gb) {
+                    *a += kappa * mean_diag * b;
+                }
+                term.add_gauss_newton_blocks(x, kappa * mean_diag, &self.pattern, &mut jtj);
             }
             if beta > 0.0 {
                 for (v, w) in self.tangential.iter().enumerate() {
@@ -570,6 +681,15 @@ impl Solver<'_> {
             info.iterations += 1;
             if !accepted {
                 return Ok(Stage::Failed);
+            }
+            if self.bending.is_some() {
+                // The regularised problem has no zero residual: a stage ends where a step no
+                // longer decreases its objective (D17).
+                let phi = objective(self, x, &r, mean_diag);
+                if phi0 - phi <= 1e-8 * phi0 || (phi_last - phi).abs() <= 1e-10 * phi0 {
+                    return Ok(Stage::Converged(norm(&r) / self.scale));
+                }
+                phi_last = phi;
             }
             if !progress(&self.report(load, &r, info)) {
                 return Ok(Stage::Stopped);

@@ -17,7 +17,9 @@
 //! target over the rest shape, with the adjoint gradient through the static solve and
 //! Gauss-Newton steps on the exact sensitivity of the equilibrium (L-BFGS where they fail, or
 //! throughout: [`FallbackMethod`]), optionally through stages with a conformal shape term on
-//! the rest triangles ([`FallbackParams::shape_weight`]), and reports the remaining distance
+//! the rest triangles ([`FallbackParams::shape_weight`]) or a bending term on its dihedral
+//! angles ([`FallbackParams::bending_weight`], also in the inverse solve:
+//! [`InverseParams::bending_weight`]), and reports the remaining distance
 //! ([`FallbackInfo`]) instead of claiming success. Works for the three-prism shell (St.
 //! Venant-Kirchhoff, neo-Hookean; Wang et al. 2015, Eq. 4-8) and the incompressible membranes
 //! (`docs/membranes.md`). The equations, the regulariser and what the method can and cannot
@@ -42,6 +44,7 @@
 //!
 //! Features: none.
 
+mod bending_term;
 mod error;
 mod fallback;
 mod forward;

@@ -202,6 +202,11 @@ impl NormalPattern {
         }
     }
 
+    /// The slot in `J^T J` of block `(a, b)` (`b` within two rings of `a`).
+    pub(crate) fn a_slot(&self, a: usize, b: usize) -> usize {
+        self.a_ptr[a] + find(&self.a_col[self.a_ptr[a]..self.a_ptr[a + 1]], b)
+    }
+
     /// Sum of the diagonal of `J^T J` from its blocks `a`.
     pub(crate) fn trace(&self, a: &[Matrix3<f64>]) -> f64 {
         self.a_diag.iter().map(|&s| a[s].trace()).sum()

@@ -73,12 +73,17 @@ fn neo_hookean_sphere_matches_the_thin_sphere_curve() {
 
 /// Inflate `rest`, design from the inflated shape, and compare.
 fn round_trip(rest: &TriMesh, material: ShellMaterialModel, p: f64) {
+    round_trip_with(rest, material, p, &DesignParams::default());
+}
+
+/// [`round_trip`] with the given design parameters.
+fn round_trip_with(rest: &TriMesh, material: ShellMaterialModel, p: f64, params: &DesignParams) {
     let x_star = inflate(rest, &material, p);
     let mut target = rest.clone();
     target.set_positions_flat(&x_star);
     let problem =
         DesignProblem::try_new(&target, vec![H; target.num_triangles()], material, p).unwrap();
-    let result = design(&problem, &DesignParams::default(), |_| true).unwrap();
+    let result = design(&problem, params, |_| true).unwrap();
     assert!(result.inverse.converged, "{:?}", result.inverse);
     let x0 = rest.positions_flat();
     let recovered = distance(&rigidly_aligned(&result.rest, &x0), &x0);
@@ -106,6 +111,26 @@ fn round_trip_neo_hookean_prism_ellipsoid() {
         &ellipsoid(2),
         ShellMaterialModel::Solid(MaterialModel::NeoHookean(NeoHookean::new(lame))),
         4.0e3,
+    );
+}
+
+/// The inverse with the bending term of D17 (three regularised stages, then the exact solve)
+/// ends on the same exact design.
+#[test]
+fn round_trip_with_the_bending_stages() {
+    let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
+    let params = DesignParams {
+        inverse: InverseParams {
+            bending_weight: 1e-2,
+            ..InverseParams::default()
+        },
+        ..DesignParams::default()
+    };
+    round_trip_with(
+        &ellipsoid(2),
+        ShellMaterialModel::Solid(MaterialModel::NeoHookean(NeoHookean::new(lame))),
+        4.0e3,
+        &params,
     );
 }
 
@@ -299,6 +324,14 @@ fn round_trips_on_real_meshes() {
         let params = DesignParams {
             inverse: InverseParams {
                 newton,
+                // `DESIGN_INVERSE_BENDING=k`: the inverse's bending stages (D17).
+                bending_weight: std::env::var("DESIGN_INVERSE_BENDING").map_or(0.0, |b| {
+                    b.parse().expect("DESIGN_INVERSE_BENDING: a number")
+                }),
+                bending_stages: std::env::var("DESIGN_INVERSE_BENDING_STAGES").map_or(3, |b| {
+                    b.parse()
+                        .expect("DESIGN_INVERSE_BENDING_STAGES: a whole number")
+                }),
                 ..InverseParams::default()
             },
             fallback: balloon_design::FallbackParams {
@@ -319,6 +352,9 @@ fn round_trips_on_real_meshes() {
                 // solve from the optimised rest shape.
                 shape_weight: std::env::var("DESIGN_SHAPE_WEIGHT")
                     .map_or(0.0, |b| b.parse().expect("DESIGN_SHAPE_WEIGHT: a number")),
+                // `DESIGN_BENDING_WEIGHT=k`: the rest-mesh bending term's first weight (D17).
+                bending_weight: std::env::var("DESIGN_BENDING_WEIGHT")
+                    .map_or(0.0, |b| b.parse().expect("DESIGN_BENDING_WEIGHT: a number")),
                 shape_stages: std::env::var("DESIGN_SHAPE_STAGES").map_or(3, |b| {
                     b.parse().expect("DESIGN_SHAPE_STAGES: a whole number")
                 }),
@@ -384,6 +420,16 @@ fn round_trips_on_real_meshes() {
             design(&problem, &params, report).unwrap()
         };
         let x0 = mesh.positions_flat();
+        // `DESIGN_SAVE_REST=DIR`: write the designed rest shape as DIR/NAME-rest.obj.
+        if let Ok(dir) = std::env::var("DESIGN_SAVE_REST") {
+            let mut out = mesh.clone();
+            out.set_positions_flat(&result.rest);
+            balloon_mesh::io::write_mesh(
+                &std::path::Path::new(&dir).join(format!("{name}-rest.obj")),
+                &out,
+            )
+            .unwrap();
+        }
         let recovered = distance(&rigidly_aligned(&result.rest, &x0), &x0);
         let inflation = distance(&x_star, &x0);
         eprintln!(

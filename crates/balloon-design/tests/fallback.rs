@@ -315,6 +315,36 @@ fn the_shape_term_continuation_ends_on_the_exact_design() {
     assert!(check.distance.max_relative <= 1e-7, "{:?}", check.distance);
 }
 
+/// The same continuation with the bending term of D17 instead of the shape term (`kappa_0 =
+/// 1`): it too ends on the exact design, so the bending term biases only the stages that
+/// carry it.
+#[test]
+fn the_bending_term_continuation_ends_on_the_exact_design() {
+    let (x0, problem) = exact_round_trip();
+    let mut rest = problem.target().to_vec();
+    let params = FallbackParams {
+        max_iterations: 12,
+        distance_tolerance: 1e-7,
+        bending_weight: 1.0,
+        newton_polish: true,
+        ..FallbackParams::default()
+    };
+    let info = balloon_design::optimise_rest_shape(
+        &problem,
+        &params,
+        &StaticParams::default(),
+        &mut rest,
+        |_| true,
+    )
+    .unwrap();
+    eprintln!("{info:?}");
+    assert_eq!(info.shape_stages, 3, "{info:?}");
+    assert!(info.end.unwrap().max_relative <= 1e-7, "{info:?}");
+    let recovered = balloon_design::distance(&balloon_design::rigidly_aligned(&rest, &x0), &x0);
+    eprintln!("rest vs X0: {recovered:?}");
+    assert!(recovered.max_relative < 1e-6, "{recovered:?}");
+}
+
 /// A flat-faced target (a box, 56 vertices): no rest shape holds a flat face under pressure,
 /// so the inverse solve does not converge; the shape optimisation that follows reduces the
 /// distance of the forward equilibrium to the target strictly, the independent forward check
