@@ -97,7 +97,9 @@ fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyR
 /// where the inverse has no exact answer; its record is `summary["inverse"]["fallback"]`),
 /// `fallback_iterations` (1 to 100000), `method` ("gauss-newton" (default) or "lbfgs"),
 /// `shape_weight` (the rest-mesh shape term's weight, in [0, 1e6], 0 = off), `shape_stages`
-/// (1 to 20), `newton_polish` and `warm_start` (bools); and `out` (a folder for rest.obj,
+/// (1 to 20), `newton_polish` and `warm_start` (bools), `bending_weight`,
+/// `inverse_bending_weight` (the rest-mesh bending term of D17, in [0, 1e6], 0 = off) and
+/// `inverse_bending_stages` (1 to 20); and `out` (a folder for rest.obj,
 /// inflated.obj, distance.csv and summary.json; the parameters used are
 /// `summary["params"]`). Returns {"rest": (n, 3) float64, "inflated":
 /// (n, 3) float64 (the check's equilibrium, rigidly aligned onto the target), "summary": dict

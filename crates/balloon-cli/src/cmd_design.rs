@@ -80,6 +80,18 @@ pub struct DesignArgs {
     /// Stages of the shape optimisation with the shape term (weights gamma_0 0.1^k), 1 to 20.
     #[arg(long, default_value = "3", value_parser = option_parser("shape_stages"))]
     pub shape_stages: OptionValue,
+    /// Weight kappa_0 of the rest-mesh bending term (dihedral angles against the target's) in
+    /// the shape optimisation, in [0, 1e6] (0: off; stages as --shape-stages; docs/design.md
+    /// D17).
+    #[arg(long, default_value = "0", value_parser = option_parser("bending_weight"))]
+    pub bending_weight: OptionValue,
+    /// Weight of the rest-mesh bending term in the inverse solve's continuation, in [0, 1e6]
+    /// (0: off; docs/design.md D17).
+    #[arg(long, default_value = "0", value_parser = option_parser("inverse_bending_weight"))]
+    pub inverse_bending_weight: OptionValue,
+    /// Stages of the inverse solve with the bending term, 1 to 20.
+    #[arg(long, default_value = "3", value_parser = option_parser("inverse_bending_stages"))]
+    pub inverse_bending_stages: OptionValue,
     /// Hand the optimised rest shape to the inverse's Newton solve at the full pressure and keep
     /// its answer when it converges closer to the target.
     #[arg(long)]
@@ -141,6 +153,9 @@ fn params(args: &DesignArgs) -> DesignParams {
         ("method", &args.method),
         ("shape_weight", &args.shape_weight),
         ("shape_stages", &args.shape_stages),
+        ("bending_weight", &args.bending_weight),
+        ("inverse_bending_weight", &args.inverse_bending_weight),
+        ("inverse_bending_stages", &args.inverse_bending_stages),
     ] {
         // Checked by the flag's value parser with the same function.
         let _ = set_design_option(&mut p, key, value);

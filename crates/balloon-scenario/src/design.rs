@@ -8,7 +8,8 @@
 //! gas `nRT` in J, with its `ambient` pressure in Pa), `thickness`, `scale`, the material
 //! keys of `[shell]` (`material`, `young`, `poisson`, `mu`, ...), the solve's options
 //! ([`DESIGN_OPTIONS`]: `tolerance`, `tangential_weight`, `fallback`, `fallback_iterations`,
-//! `method`, `shape_weight`, `shape_stages`, `newton_polish`, `warm_start`) and `out` (a folder
+//! `method`, `shape_weight`, `shape_stages`, `newton_polish`, `warm_start`, `bending_weight`,
+//! `inverse_bending_weight`, `inverse_bending_stages`) and `out` (a folder
 //! relative to the file). Every error names the file, the line and the key.
 //!
 //! The solve's options are set on [`balloon_design::DesignParams`] by one function,
@@ -84,6 +85,9 @@ pub const DESIGN_KEYS: &[&str] = &[
     "shape_stages",
     "newton_polish",
     "warm_start",
+    "bending_weight",
+    "inverse_bending_weight",
+    "inverse_bending_stages",
     "out",
 ];
 
@@ -123,6 +127,20 @@ pub const DESIGN_OPTIONS: &[(&str, &str)] = &[
     (
         "newton_polish",
         "hand the optimised rest shape to the inverse's Newton solve (`fallback.newton_polish`)",
+    ),
+    (
+        "bending_weight",
+        "weight kappa_0 of the rest-mesh bending term in the shape optimisation \
+         (`fallback.bending_weight`; 0: off; stages as `shape_stages`; docs/design.md D17)",
+    ),
+    (
+        "inverse_bending_weight",
+        "weight of the rest-mesh bending term in the inverse solve's continuation \
+         (`inverse.bending_weight`; 0: off; docs/design.md D17)",
+    ),
+    (
+        "inverse_bending_stages",
+        "stages of the inverse solve with the bending term (`inverse.bending_stages`)",
     ),
     (
         "warm_start",
@@ -231,6 +249,15 @@ pub fn set_design_option(
             params.fallback.shape_stages = whole(1.0, 20.0, "a whole number from 1 to 20")?;
         }
         "newton_polish" => params.fallback.newton_polish = flag()?,
+        "bending_weight" => {
+            params.fallback.bending_weight = real(0.0, 1e6, true, "in [0, 1e6]")?;
+        }
+        "inverse_bending_weight" => {
+            params.inverse.bending_weight = real(0.0, 1e6, true, "in [0, 1e6]")?;
+        }
+        "inverse_bending_stages" => {
+            params.inverse.bending_stages = whole(1.0, 20.0, "a whole number from 1 to 20")?;
+        }
         "warm_start" => params.fallback.warm_start = flag()?,
         _ => return Ok(false),
     }

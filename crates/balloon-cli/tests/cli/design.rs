@@ -508,6 +508,10 @@ fn design_options_reach_the_shape_optimisation_from_flags_and_scenario() {
             "1",
             "--shape-stages",
             "2",
+            "--bending-weight",
+            "0.5",
+            "--inverse-bending-stages",
+            "4",
             "--warm-start",
         ],
     );
@@ -527,6 +531,8 @@ fn design_options_reach_the_shape_optimisation_from_flags_and_scenario() {
     assert_eq!(p["warm_start"], true, "{p}");
     assert_eq!(p["newton_polish"], false, "{p}");
     assert_eq!(p["max_iterations"], 2, "{p}");
+    assert_eq!(p["bending_weight"], 0.5, "{p}");
+    assert_eq!(summary["params"]["inverse"]["bending_stages"], 4);
     let f = &summary["inverse"]["fallback"];
     assert_eq!(f["gauss_newton_steps"], 0, "{f}");
     assert_eq!(f["shape_stages"], 2, "{f}");
@@ -539,6 +545,7 @@ fn design_options_reach_the_shape_optimisation_from_flags_and_scenario() {
         "[design]\ntarget = \"box.obj\"\npressure = 2000\nthickness = 1e-3\n\
          material = \"membrane-neo-hookean\"\nmu = 4e5\nfallback_iterations = 2\n\
          method = \"lbfgs\"\nshape_weight = 1\nshape_stages = 2\nwarm_start = true\n\
+         bending_weight = 0.5\ninverse_bending_stages = 4\n\
          out = \"scenario\"\n",
     )
     .unwrap();
