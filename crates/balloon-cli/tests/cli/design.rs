@@ -203,7 +203,13 @@ fn design_check_is_repeated_by_the_printed_inflate_command() {
         vec!["--pressure", "2000", "--ambient", "1e5"],
         vec![],
     ] {
-        let mut all = vec!["design", "builtin:icosphere", "--out", "unused"];
+        let unused = gas.join("unused");
+        let mut all = vec![
+            "design",
+            "builtin:icosphere",
+            "--out",
+            unused.to_str().unwrap(),
+        ];
         all.extend(args.iter().copied());
         let o = run_balloon(&all);
         assert!(!o.status.success(), "{args:?}");
