@@ -216,6 +216,7 @@ pub fn uv_sphere(radius: f64, slices: usize, stacks: usize) -> Result<TriMesh, M
     Ok(TriMesh::new(vertices, triangles))
 }
 
+/// `value` as a positive finite length (m), else an error naming `name`.
 fn check_positive(name: &'static str, value: f64) -> Result<(), MeshError> {
     if value.is_finite() && value > 0.0 {
         Ok(())

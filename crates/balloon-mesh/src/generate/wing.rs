@@ -58,17 +58,7 @@ fn smoothstep(a: f64, b: f64, x: f64) -> f64 {
 }
 
 fn check(q: &WingParams) -> Result<(), MeshError> {
-    let positive = |name: &'static str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(MeshError::InvalidParameter {
-                name,
-                value: v.to_string(),
-                reason: "must be a positive finite length in metres".into(),
-            })
-        }
-    };
+    let positive = super::check_positive;
     for k in 0..3 {
         positive("semi_axes", q.semi_axes[k])?;
     }

@@ -21,16 +21,23 @@ fn norm(a: &[f64]) -> f64 {
 /// kg/m^3, the global volume projection) holding an ideal gas `gauge` Pa over the atmosphere,
 /// with the follower term in the tangent.
 fn ideal_gas_balloon(mesh: &TriMesh, gauge: f64) -> ShellSimulation {
-    let x = mesh.positions_flat();
-    let v0 = balloon_gas::enclosed_volume(&x, &mesh.triangles).unwrap();
+    let v0 = balloon_gas::enclosed_volume(&mesh.positions_flat(), &mesh.triangles).unwrap();
     let gas = Gas::Ideal(IdealGas::try_new(STANDARD_ATMOSPHERE + gauge, v0).unwrap());
+    stvk_balloon(mesh, gas, 3.0e-4)
+}
+
+/// A StVK shell (E = 1 MPa, nu = 0.45, 950 kg/m^3) of rest shape `mesh` and uniform thickness
+/// `thickness` (m) holding `gas` against the atmosphere (follower term in the tangent), with
+/// the backward Euler step and the global volume projection of the `balloon` facade's default.
+fn stvk_balloon(mesh: &TriMesh, gas: Gas, thickness: f64) -> ShellSimulation {
+    let x = mesh.positions_flat();
     let load = PressureLoad::new(gas)
         .with_ambient_pressure(STANDARD_ATMOSPHERE)
         .unwrap()
         .with_follower_term(true);
     let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
     let material = MaterialModel::from_lame(MaterialKind::StVenantKirchhoff, lame);
-    let thickness = vec![3.0e-4; mesh.num_triangles()];
+    let thickness = vec![thickness; mesh.num_triangles()];
     let system =
         ShellSystem::from_rest_shape(&x, mesh.triangles.clone(), thickness, 950.0, material, load)
             .unwrap();
@@ -189,32 +196,10 @@ fn a_failed_static_solve_reports_its_newton_iterations_and_residual() {
 /// pressure, the global volume projection: the setting in which models with thin flat parts
 /// stall (docs/benchmarks.md, "The static solve on thin parts and sharp edges").
 fn constant_pressure_balloon(mesh: &TriMesh) -> ShellSimulation {
-    let x = mesh.positions_flat();
     let gas = Gas::Constant(
         balloon_gas::ConstantPressure::try_from_gauge(1500.0, STANDARD_ATMOSPHERE).unwrap(),
     );
-    let load = PressureLoad::new(gas)
-        .with_ambient_pressure(STANDARD_ATMOSPHERE)
-        .unwrap()
-        .with_follower_term(true);
-    let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
-    let material = MaterialModel::from_lame(MaterialKind::StVenantKirchhoff, lame);
-    let thickness = vec![5.0e-4; mesh.num_triangles()];
-    let system =
-        ShellSystem::from_rest_shape(&x, mesh.triangles.clone(), thickness, 950.0, material, load)
-            .unwrap();
-    let integrator = BackwardEuler::new(BackwardEulerParams::default()).unwrap();
-    let projection = ShellVolumeProjection::new(ShellVolumeParams::default());
-    ShellSimulation::new(
-        system,
-        x,
-        950.0,
-        integrator,
-        Some(Box::new(projection)),
-        0.01,
-        10,
-    )
-    .unwrap()
+    stvk_balloon(mesh, gas, 5.0e-4)
 }
 
 /// Thin wings (4 mm, `builtin:wing`) and sharp edges (`builtin:box`) reach a stable
