@@ -99,11 +99,17 @@ fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyR
 /// `shape_weight` (the rest-mesh shape term's weight, in [0, 1e6], 0 = off), `shape_stages`
 /// (1 to 20), `newton_polish` and `warm_start` (bools), `bending_weight`,
 /// `inverse_bending_weight` (the rest-mesh bending term of D17, in [0, 1e6], 0 = off) and
-/// `inverse_bending_stages` (1 to 20); and `out` (a folder for rest.obj,
-/// inflated.obj, distance.csv and summary.json; the parameters used are
-/// `summary["params"]`). Returns {"rest": (n, 3) float64, "inflated":
-/// (n, 3) float64 (the check's equilibrium, rigidly aligned onto the target), "summary": dict
-/// (summary.json's keys)}. A design that does not reach the pressure or the tolerance is
+/// `inverse_bending_stages` (1 to 20), `fit_thickness` (bool: after the rest shape, fit the
+/// wall's thickness per face with that rest shape fixed, docs/design.md D18), `thickness_min`
+/// and `thickness_max` (its bounds, m) and `thickness_iterations` (1 to 100000); and `out` (a
+/// folder for rest.obj, inflated.obj, distance.csv and summary.json, and rest.ply with a fitted
+/// thickness; the parameters used are `summary["params"]`), `rest` ((n, 3) float64: a rest
+/// shape to keep instead of designing one, with the target's faces; it is checked, and its
+/// wall fitted with `fit_thickness`). Returns {"rest": (n, 3) float64,
+/// "inflated": (n, 3) float64 (the check's equilibrium, rigidly aligned onto the target),
+/// "thickness": (m,) float64 (the rest thickness per face: the fitted one with
+/// `fit_thickness`, else the wall's), "summary": dict (summary.json's keys; the fit's record is
+/// `summary["thickness_fit"]`)}. A design that does not reach the pressure or the tolerance is
 /// returned with `summary["converged"]` False (check it): the best rest shape found. Errors:
 /// `InvalidOption` naming the parameter, `MeshError` for the arrays or a target that cannot be
 /// designed for, `SolverError` for a solve that failed. The GIL is released while it runs.
@@ -128,6 +134,7 @@ pub(crate) fn design<'py>(
     let mut params = DesignParams::default();
     let mut out = None;
     let (mut gas_amount, mut ambient) = (None, None);
+    let mut rest = None;
     if let Some(options) = options {
         for (k, v) in options.iter() {
             let key: String = k.extract()?;
@@ -164,6 +171,14 @@ pub(crate) fn design<'py>(
                     ));
                 }
                 "out" => {}
+                "rest" if !v.is_none() => {
+                    let pair = PyTuple::new(py, [&v, faces])?;
+                    let (_, Some(mesh)) = mesh_spec(pair.as_any())?.split() else {
+                        return Err(MeshError::new_err("`rest` must be an (n, 3) array"));
+                    };
+                    rest = Some(mesh);
+                }
+                "rest" => {}
                 k if WALL_KEYS.contains(&k) && k != "pressure" => wall.set_item(k, v)?,
                 k => {
                     let mut known: Vec<&str> = WALL_KEYS
@@ -172,7 +187,7 @@ pub(crate) fn design<'py>(
                         .filter(|n| *n != "pressure")
                         .collect();
                     known.extend(DESIGN_OPTIONS.iter().map(|(name, _)| *name));
-                    known.extend(["gas_amount", "ambient", "out"]);
+                    known.extend(["gas_amount", "ambient", "rest", "out"]);
                     return Err(InvalidOption::new_err(format!(
                         "unknown option `{k}` (the options of design are {})",
                         known.join(", ")
@@ -213,6 +228,7 @@ pub(crate) fn design<'py>(
     job.material = shell.shell.material.clone();
     job.params = params;
     job.out = out;
+    job.rest = rest;
     let result = py.detach(move || run(&job)).map_err(design_err)?;
     if result.interrupted.is_some() {
         return Err(crate::errors::to_py_err(anyhow::Error::new(
@@ -234,6 +250,11 @@ pub(crate) fn design<'py>(
         "inflated",
         points_array(py, &result.design.check.positions)?,
     )?;
+    let thickness = match &result.design.thickness {
+        Some(fit) => fit.thickness.clone(),
+        None => vec![result.summary.thickness; result.summary.triangles],
+    };
+    d.set_item("thickness", numpy::PyArray1::from_vec(py, thickness))?;
     let summary =
         serde_json::to_value(&result.summary).map_err(|e| BalloonError::new_err(e.to_string()))?;
     d.set_item("summary", json_to_py(py, &summary)?)?;

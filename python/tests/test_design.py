@@ -187,3 +187,65 @@ def test_a_gas_amount_is_the_load_of_its_pressure_at_the_target():
     # Below the atmosphere at the target: named, not a failed solve.
     with pytest.raises(balloon.InvalidOption, match="gas_amount"):
         balloon.design(vertices, faces, gas_amount=0.5 * 101325.0 * volume, **wall)
+
+
+def test_the_thickness_fit_runs_on_the_designed_rest_shape(tmp_path):
+    # The flat-poled icosphere again, without the shape optimisation: the wall-thickness fit
+    # (rest shape fixed, one thickness per face within the bounds) reduces the distance the
+    # inverse left, returns the map, and writes it into rest.ply for `balloon inflate`.
+    vertices, faces = icosphere(0.1, 1)
+    vertices[:, 2] = np.clip(vertices[:, 2], -0.05, 0.05)
+    r = balloon.design(
+        vertices,
+        faces,
+        pressure=2000.0,
+        thickness=H,
+        material="membrane-neo-hookean",
+        mu=MU,
+        fallback="off",
+        fit_thickness=True,
+        thickness_min=0.5 * H,
+        thickness_max=2.0 * H,
+        thickness_iterations=10,
+        out=tmp_path / "d",
+    )
+    s = r["summary"]
+    fit = s["thickness_fit"]
+    assert fit["iterations"] > 0, fit
+    assert fit["end"]["rms"] < fit["start"]["rms"], fit
+    assert (fit["lower"], fit["upper"]) == (0.5 * H, 2.0 * H)
+    assert r["thickness"].shape == (len(faces),)
+    assert (r["thickness"] >= 0.5 * H).all() and (r["thickness"] <= 2.0 * H).all()
+    assert abs(r["thickness"].min() - fit["min"]) < 1e-15
+    assert np.ptp(r["thickness"]) > 0.0
+    assert (tmp_path / "d" / "rest.ply").exists()
+    assert "rest.ply" in s["check_command"]
+    # The check uses the fitted wall: its distance is the fit's end.
+    assert abs(s["check"]["distance"]["rms"] - fit["end"]["rms"]) < 1e-9
+    with pytest.raises(balloon.InvalidOption, match="thickness_min"):
+        balloon.design(vertices, faces, pressure=2000.0, thickness_min=-1.0)
+
+
+def test_a_given_rest_shape_is_kept_and_its_wall_fitted():
+    # The icosphere shrunk by 10 % as the rest shape to keep (a mould one has), the icosphere as
+    # the target: no inverse iterations, the rest shape returned as given, the wall fitted.
+    vertices, faces = icosphere(0.1, 1)
+    rest = 0.9 * vertices
+    r = balloon.design(
+        vertices,
+        faces,
+        pressure=2000.0,
+        thickness=H,
+        material="membrane-neo-hookean",
+        mu=MU,
+        rest=rest,
+        fit_thickness=True,
+        thickness_iterations=20,
+    )
+    s = r["summary"]
+    assert s["inverse"]["iterations"] == 0
+    assert np.abs(r["rest"] - rest).max() < 1e-12
+    fit = s["thickness_fit"]
+    assert fit["end"]["rms"] < fit["start"]["rms"], fit
+    with pytest.raises(balloon.MeshError):
+        balloon.design(vertices, faces, pressure=2000.0, rest=rest[:-1])

@@ -100,9 +100,30 @@ pub struct DesignArgs {
     /// where the forward problem has several equilibria the check may differ, docs/design.md).
     #[arg(long)]
     pub warm_start: bool,
+    /// Keep this rest shape instead of designing one (a mould one has; read with --scale, with
+    /// the target's vertices and triangles): it is checked, and with --fit-thickness its wall
+    /// is fitted.
+    #[arg(long)]
+    pub rest: Option<String>,
+    /// After the rest shape, fit the wall's rest thickness per face to the target with that
+    /// rest shape fixed (docs/design.md D18); writes rest.ply with the fitted `thickness` as a
+    /// face property, which `balloon inflate rest.ply` reads.
+    #[arg(long)]
+    pub fit_thickness: bool,
+    /// Smallest thickness the fit may give a face, m, in (0, 1] [default: a quarter of
+    /// --thickness].
+    #[arg(long, value_parser = option_parser("thickness_min"))]
+    pub thickness_min: Option<OptionValue>,
+    /// Largest thickness the fit may give a face, m, in (0, 1] [default: four times
+    /// --thickness].
+    #[arg(long, value_parser = option_parser("thickness_max"))]
+    pub thickness_max: Option<OptionValue>,
+    /// Steps allowed to the thickness fit (each one forward static solve or more), 1 to 100000.
+    #[arg(long, default_value = "40", value_parser = option_parser("thickness_iterations"))]
+    pub thickness_iterations: OptionValue,
     /// Output folder: rest.obj, inflated.obj, distance.csv, design.png (target and check side
-    /// by side, coloured by the distance), summary.json (created; files of the same names are
-    /// replaced).
+    /// by side, coloured by the distance), summary.json, and rest.ply with --fit-thickness
+    /// (created; files of the same names are replaced).
     #[arg(long)]
     pub out: PathBuf,
     /// Print no progress.
@@ -149,7 +170,18 @@ fn params(args: &DesignArgs) -> DesignParams {
     p.fallback.max_iterations = args.fallback_iterations;
     p.fallback.newton_polish = args.newton_polish;
     p.fallback.warm_start = args.warm_start;
+    p.thickness.enabled = args.fit_thickness;
     for (key, value) in [
+        ("thickness_min", &args.thickness_min),
+        ("thickness_max", &args.thickness_max),
+    ] {
+        if let Some(value) = value {
+            // Checked by the flag's value parser with the same function.
+            let _ = set_design_option(&mut p, key, value);
+        }
+    }
+    for (key, value) in [
+        ("thickness_iterations", &args.thickness_iterations),
         ("method", &args.method),
         ("shape_weight", &args.shape_weight),
         ("shape_stages", &args.shape_stages),
@@ -189,6 +221,19 @@ pub fn load_target(spec: &str, scale: f64) -> Result<TriMesh> {
     Ok(mesh)
 }
 
+/// The rest shape `spec` to keep (`--rest`, a scenario's `rest`), scaled by `scale`.
+///
+/// # Errors
+/// A mesh that cannot be loaded.
+pub fn load_rest(spec: &str, scale: f64) -> Result<TriMesh> {
+    let mut mesh =
+        balloon_mesh::load(spec).with_context(|| format!("cannot load rest shape `{spec}`"))?;
+    if scale != 1.0 {
+        mesh.scale(scale);
+    }
+    Ok(mesh)
+}
+
 /// Runs `balloon design`.
 ///
 /// # Errors
@@ -210,6 +255,11 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         thickness: args.thickness,
         material: args.material.spec(),
         params: params(args),
+        rest: args
+            .rest
+            .as_deref()
+            .map(|r| load_rest(r, args.scale))
+            .transpose()?,
         out: Some(args.out.clone()),
         quiet: args.quiet,
     };
@@ -281,6 +331,45 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
             ),
         }
     }
+    if job.rest.is_some() {
+        println!(
+            "rest shape given and kept: relative equilibrium residual {:.3e} at the target with \
+             the wall given, {} the design tolerance {:e}",
+            result.inverse.relative_residual,
+            if result.inverse.converged {
+                "within"
+            } else {
+                "above"
+            },
+            job.params.inverse.tolerance
+        );
+    }
+    if let Some(fit) = &run.summary.thickness_fit {
+        let f = &fit.info;
+        match (f.start, f.end) {
+            (Some(a), Some(b)) => println!(
+                "thickness fit: {} steps ({} forward solves, stopped: {}), forward distance max \
+                 {:.3e} m -> {:.3e} m ({:.3e} of the diagonal), RMS {:.3e} m -> {:.3e} m; \
+                 thickness {:.3e} to {:.3e} m (mean {:.3e} m, bounds {:.3e} to {:.3e} m, {} faces \
+                 at a bound)",
+                f.iterations,
+                f.forward_solves,
+                stop_reason(f.stopped),
+                a.max,
+                b.max,
+                b.max_relative,
+                a.rms,
+                b.rms,
+                fit.min,
+                fit.max,
+                fit.mean,
+                f.lower,
+                f.upper,
+                f.at_bounds
+            ),
+            _ => println!("thickness fit: not run, the rest shape has no forward equilibrium"),
+        }
+    }
     if let Some(command) = &run.summary.check_command {
         println!("repeat the check: {command}");
     }
@@ -288,9 +377,18 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
         return Err(balloon_run::interrupt::Interrupted {
             signal,
             steps: result.inverse.iterations
-                + result.inverse.fallback.as_ref().map_or(0, |f| f.iterations),
+                + result.inverse.fallback.as_ref().map_or(0, |f| f.iterations)
+                + result.thickness.as_ref().map_or(0, |f| f.info.iterations),
         }
         .into());
+    }
+    if job.rest.is_some() {
+        // A given rest shape is checked, not designed: the residual and distances above say
+        // how well it holds the target; only a failed check is an error.
+        if !result.check.converged {
+            bail!("the forward check from the given rest shape did not converge");
+        }
+        return Ok(());
     }
     if !result.inverse.converged {
         bail!(

@@ -24,7 +24,7 @@
 
 use nalgebra::Vector3;
 
-use crate::problem::DesignProblem;
+use crate::problem::{DesignProblem, point};
 
 /// The bending term's hinges: the four corners `[x0, x1, x2, x3]` of each interior edge, the
 /// target's dihedral angle and the weight `l^2 w_e / mean w`.
@@ -32,10 +32,6 @@ pub(crate) struct BendingTerm {
     hinges: Vec<[usize; 4]>,
     rest_angles: Vec<f64>,
     weights: Vec<f64>,
-}
-
-fn point(x: &[f64], v: usize) -> Vector3<f64> {
-    Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])
 }
 
 /// The dihedral angle of the hinge `h` at `x` and its gradient with respect to the four
@@ -96,18 +92,7 @@ impl BendingTerm {
             rest_angles.push(theta);
             raw.push(3.0 * e.norm_squared() / areas);
         }
-        // The target's mean edge length (every triangle's three edges).
-        let edge = {
-            let t = problem.triangles();
-            let sum: f64 = t
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.map(|v| point(x, v));
-                    (b - a).norm() + (c - b).norm() + (a - c).norm()
-                })
-                .sum();
-            sum / (3 * t.len()).max(1) as f64
-        };
+        let edge = problem.mean_edge_length();
         let mean = raw.iter().sum::<f64>() / raw.len().max(1) as f64;
         let weights = raw.iter().map(|w| edge * edge * w / mean).collect();
         Self {
@@ -172,12 +157,7 @@ impl BendingTerm {
             let Some((_, grad)) = angle_and_gradient(rest, h) else {
                 continue;
             };
-            let gu: f64 = h.iter().zip(&grad).map(|(&v, d)| d.dot(&point(u, v))).sum();
-            for (&v, d) in h.iter().zip(&grad) {
-                for k in 0..3 {
-                    out[3 * v + k] += w * gu * d[k];
-                }
-            }
+            crate::gauss_newton::add_rank_one_product(h, &grad, *w, u, &mut out);
         }
         out
     }
@@ -186,21 +166,10 @@ impl BendingTerm {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use balloon_material::{Lame, MaterialModel, NeoHookean};
-    use balloon_shell::ShellMaterialModel;
 
-    fn problem() -> DesignProblem {
-        let mut mesh = balloon_mesh::generate::icosphere(0.05, 1).unwrap();
-        let x: Vec<f64> = mesh
-            .positions_flat()
-            .chunks(3)
-            .flat_map(|p| [p[0] * 1.2, p[1], p[2] * 0.8])
-            .collect();
-        mesh.set_positions_flat(&x);
-        let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
-        let material = ShellMaterialModel::Solid(MaterialModel::NeoHookean(NeoHookean::new(lame)));
-        DesignProblem::try_new(&mesh, vec![1e-3; mesh.num_triangles()], material, 1e3).unwrap()
-    }
+    use crate::test_fixtures::{
+        check_gauss_newton_product, check_gradient, ellipsoid_problem as problem,
+    };
 
     fn similar(problem: &DesignProblem, scale: f64) -> Vec<f64> {
         let rot = nalgebra::Rotation3::from_euler_angles(0.3, -0.7, 1.1);
@@ -284,47 +253,14 @@ mod tests {
                 [p[0] * s, p[1] * s + 0.1 * p[0], p[2] * s]
             })
             .collect();
-        let (value, g) = term.value_gradient(&rest);
-        assert!(value > 1e-8);
-        for seed in 0..4 {
-            let dir: Vec<f64> = (0..rest.len())
-                .map(|i| ((i * 7 + seed * 13) as f64 * 0.61).sin())
-                .collect();
-            let h = 1e-7;
-            let shifted = |s: f64| -> Vec<f64> {
-                rest.iter().zip(&dir).map(|(x, d)| x + s * h * d).collect()
-            };
-            let fd = (term.value_gradient(&shifted(1.0)).0 - term.value_gradient(&shifted(-1.0)).0)
-                / (2.0 * h);
-            let exact: f64 = g.iter().zip(&dir).map(|(a, b)| a * b).sum();
-            assert!(
-                (fd - exact).abs() <= 1e-6 * exact.abs(),
-                "seed {seed}: {fd:e} vs {exact:e}"
-            );
-        }
+        assert!(term.value_gradient(&rest).0 > 1e-8);
+        check_gradient(|x| term.value_gradient(x), &rest, 1e-7, 1e-6, 0.0);
         let at = similar(&problem, 0.9);
-        for seed in 0..3 {
-            let dir: Vec<f64> = (0..at.len())
-                .map(|i| ((i * 5 + seed * 11) as f64 * 0.83).cos())
-                .collect();
-            let h = 1e-7;
-            let shifted =
-                |s: f64| -> Vec<f64> { at.iter().zip(&dir).map(|(x, d)| x + s * h * d).collect() };
-            let (gp, gm) = (
-                term.value_gradient(&shifted(1.0)).1,
-                term.value_gradient(&shifted(-1.0)).1,
-            );
-            let product = term.gauss_newton_product(&at, &dir);
-            let scale = product.iter().map(|v| v.abs()).fold(0.0, f64::max);
-            assert!(scale > 0.0);
-            for i in 0..at.len() {
-                let fd = (gp[i] - gm[i]) / (2.0 * h);
-                assert!(
-                    (fd - product[i]).abs() <= 1e-6 * scale,
-                    "seed {seed}, {i}: {fd:e} vs {:e}",
-                    product[i]
-                );
-            }
-        }
+        check_gauss_newton_product(
+            |x| term.value_gradient(x),
+            |x, d| term.gauss_newton_product(x, d),
+            &at,
+            1e-7,
+        );
     }
 }

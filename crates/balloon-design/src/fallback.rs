@@ -10,9 +10,9 @@ use serde::{Deserialize, Serialize};
 use crate::DesignError;
 use crate::bending_term::BendingTerm;
 use crate::forward::Distance;
-use crate::gauss_newton::{conjugate_gradient, dot};
-use crate::objective::{Evaluation, ShapeObjective, point};
-use crate::problem::DesignProblem;
+use crate::gauss_newton::{conjugate_gradient, dot, lbfgs_direction};
+use crate::objective::{Evaluation, ShapeObjective};
+use crate::problem::{DesignProblem, point};
 use crate::shape_term::ShapeTerm;
 
 /// When [`crate::design`] runs the shape optimisation after the inverse solve.
@@ -331,7 +331,7 @@ pub fn optimise_rest_shape(
     let beta = params.tangential_weight;
     let projectors = crate::inverse::tangential_weights(problem);
     let reference = rest.to_vec();
-    let max_step = params.max_move * crate::inverse::mean_edge(problem);
+    let max_step = params.max_move * problem.mean_edge_length();
     let shape = (params.shape_weight > 0.0).then(|| ShapeTerm::new(problem));
     let bending = (params.bending_weight > 0.0).then(|| BendingTerm::new(problem));
     info.start = Some(first.distance);
@@ -673,28 +673,7 @@ impl Step<'_> {
     ) -> Result<Accepted, DesignError> {
         let g = self.gradient;
         let gn = dot(g, g).sqrt();
-        // L-BFGS two-loop recursion: d = -H g.
-        let mut d: Vec<f64> = g.iter().map(|v| -v).collect();
-        let mut alphas = Vec::with_capacity(memory.len());
-        for (s, y, rho) in memory.iter().rev() {
-            let a = rho * dot(s, &d);
-            for (di, yi) in d.iter_mut().zip(y) {
-                *di -= a * yi;
-            }
-            alphas.push(a);
-        }
-        if let Some((s, y, _)) = memory.back() {
-            let gamma = dot(s, y) / dot(y, y);
-            for di in d.iter_mut() {
-                *di *= gamma;
-            }
-        }
-        for ((s, y, rho), a) in memory.iter().zip(alphas.iter().rev()) {
-            let b = rho * dot(y, &d);
-            for (di, si) in d.iter_mut().zip(s) {
-                *di += (a - b) * si;
-            }
-        }
+        let mut d = lbfgs_direction(memory, g);
         let mut slope = dot(g, &d);
         if slope.is_nan() || slope >= 0.0 {
             memory.clear();

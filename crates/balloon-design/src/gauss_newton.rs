@@ -5,12 +5,63 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-fn point(x: &[f64], v: usize) -> Vector3<f64> {
-    Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])
-}
+use crate::problem::point;
 
 pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// The L-BFGS direction `d = -H g` by the two-loop recursion on the curvature pairs
+/// `(s, y, 1 / s.y)` of `memory` (oldest first), the initial matrix scaled by `s.y / y.y` of
+/// the newest pair (Nocedal and Wright 2006, Algorithm 7.4).
+pub(crate) fn lbfgs_direction(
+    memory: &std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)>,
+    g: &[f64],
+) -> Vec<f64> {
+    let mut d: Vec<f64> = g.iter().map(|v| -v).collect();
+    let mut alphas = Vec::with_capacity(memory.len());
+    for (s, y, rho) in memory.iter().rev() {
+        let a = rho * dot(s, &d);
+        for (di, yi) in d.iter_mut().zip(y) {
+            *di -= a * yi;
+        }
+        alphas.push(a);
+    }
+    if let Some((s, y, _)) = memory.back() {
+        let gamma = dot(s, y) / dot(y, y);
+        for di in d.iter_mut() {
+            *di *= gamma;
+        }
+    }
+    for ((s, y, rho), a) in memory.iter().zip(alphas.iter().rev()) {
+        let b = rho * dot(y, &d);
+        for (di, si) in d.iter_mut().zip(s) {
+            *di += (a - b) * si;
+        }
+    }
+    d
+}
+
+/// `out += w g (g . u)` over the corner vectors `g` of the vertices `vertices` (flat `u` and
+/// `out`, one 3-vector per vertex): the Gauss-Newton product of one scalar residual whose
+/// gradient has the corner vectors `g`, weighted by `w`.
+pub(crate) fn add_rank_one_product(
+    vertices: &[usize],
+    g: &[Vector3<f64>],
+    w: f64,
+    u: &[f64],
+    out: &mut [f64],
+) {
+    let gu: f64 = vertices
+        .iter()
+        .zip(g)
+        .map(|(&v, d)| d.dot(&point(u, v)))
+        .sum();
+    for (&v, d) in vertices.iter().zip(g) {
+        for k in 0..3 {
+            out[3 * v + k] += w * gu * d[k];
+        }
+    }
 }
 
 /// Removes from the displacement field `u` (flat, one 3-vector per vertex) its weighted

@@ -217,12 +217,7 @@ pub fn design_rest_shape(
         });
     }
     let started = std::time::Instant::now();
-    let scale = problem
-        .pressure_forces()
-        .iter()
-        .map(|v| v * v)
-        .sum::<f64>()
-        .sqrt();
+    let scale = norm(problem.pressure_forces());
     let pattern = NormalPattern::new(problem.num_dofs() / 3, problem.triangles());
     let mut solver = Solver {
         problem,
@@ -233,7 +228,7 @@ pub fn design_rest_shape(
         lu: PinnedLu::new(&pattern, problem.target()),
         pattern,
         damping: params.initial_damping,
-        edge: mean_edge(problem),
+        edge: problem.mean_edge_length(),
         newton_wait: 0,
         newton_backoff: 0,
         bending: None,
@@ -340,18 +335,16 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|a| a * a).sum::<f64>().sqrt()
 }
 
-/// Mean edge length of the target (m; interior edges counted twice).
-pub(crate) fn mean_edge(problem: &DesignProblem) -> f64 {
-    let x = problem.target();
-    let t = problem.triangles();
-    let sum: f64 = t
-        .iter()
-        .map(|t| {
-            let [a, b, c] = crate::problem::corners(x, t);
-            (b - a).norm() + (c - b).norm() + (a - c).norm()
-        })
-        .sum();
-    sum / (3 * t.len()).max(1) as f64
+/// The relative equilibrium residual `|r(X)| / |p g|` of the rest shape `rest` at the full
+/// load: the measure [`design_rest_shape`] stops on ([`InverseParams::tolerance`]); 0 when
+/// `rest` holds the target exactly.
+///
+/// # Errors
+/// [`DesignError::InvalidParameter`] for a `rest` of the wrong length, and
+/// [`DesignError::RestElement`] for a degenerate rest triangle.
+pub fn relative_residual(problem: &DesignProblem, rest: &[f64]) -> Result<f64, DesignError> {
+    let scale = norm(problem.pressure_forces());
+    Ok(norm(&problem.residual(rest, 1.0)?) / scale)
 }
 
 /// Per vertex `a_v (I - n_v n_v^T)` with `n_v` the area-weighted unit normal of the target and

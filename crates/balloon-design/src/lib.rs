@@ -55,6 +55,9 @@ mod objective;
 mod pinned;
 mod problem;
 mod shape_term;
+#[cfg(test)]
+mod test_fixtures;
+mod thickness_fit;
 
 pub use error::DesignError;
 pub use fallback::{
@@ -65,9 +68,12 @@ pub use forward::{
     Distance, ForwardCheck, bbox_diagonal, distance, forward_check, rigidly_aligned,
     vertex_distances,
 };
-pub use inverse::{InverseInfo, InverseParams, InverseProgress, design_rest_shape};
+pub use inverse::{
+    InverseInfo, InverseParams, InverseProgress, design_rest_shape, relative_residual,
+};
 pub use objective::{Evaluation, ShapeObjective};
 pub use problem::{DesignProblem, GasAmount, enclosed_volume, volume_gradient};
+pub use thickness_fit::{ThicknessFit, ThicknessFitInfo, ThicknessFitParams, fit_thickness};
 
 use balloon_integrate::statics::StaticParams;
 use serde::{Deserialize, Serialize};
@@ -83,6 +89,8 @@ pub struct DesignParams {
     /// The shape optimisation after the inverse solve (by default when the inverse did not
     /// converge).
     pub fallback: FallbackParams,
+    /// The wall-thickness fit after the rest shape (off by default).
+    pub thickness: ThicknessFitParams,
 }
 
 /// Progress of a [`design`]: the inverse solve's or the shape optimisation's.
@@ -92,6 +100,8 @@ pub enum DesignProgress {
     Inverse(InverseProgress),
     /// After an accepted step of the shape optimisation.
     Fallback(FallbackProgress),
+    /// After an accepted step of the wall-thickness fit.
+    Thickness(FallbackProgress),
 }
 
 /// A designed rest shape and its check.
@@ -101,15 +111,21 @@ pub struct Design {
     pub rest: Vec<f64>,
     /// How the inverse solve went.
     pub inverse: InverseInfo,
-    /// The forward static solve from the rest shape and its distance to the target.
+    /// The forward static solve from the rest shape and its distance to the target (with the
+    /// fitted thickness when there is one).
     pub check: ForwardCheck,
+    /// The fitted wall thickness ([`ThicknessFitParams::enabled`]; absent otherwise).
+    #[serde(default)]
+    pub thickness: Option<ThicknessFit>,
 }
 
 /// Designs the rest shape of `problem` (from the target as the start, [`design_rest_shape`]);
 /// when the inverse solve does not converge (or always, [`FallbackParams::mode`]) minimises
 /// the distance of the forward equilibrium to the target from its best rest shape
 /// ([`optimise_rest_shape`], recorded in [`InverseInfo::fallback`]); and checks the result
-/// with a forward static solve ([`forward_check`]). `progress` is called after every accepted
+/// with a forward static solve ([`forward_check`]). With [`ThicknessFitParams::enabled`] it
+/// then fits the wall's thickness per face to the target with that rest shape fixed
+/// ([`fit_thickness`]), and the check uses the fitted thickness. `progress` is called after every accepted
 /// step of either; returning `false` stops the design and keeps the best rest shape so far
 /// (which is then checked; the shape optimisation does not start after a stopped inverse
 /// solve).
@@ -140,14 +156,81 @@ pub fn design(
     if run && !stopped {
         let info =
             optimise_rest_shape(problem, &params.fallback, &params.forward, &mut rest, |p| {
-                progress(&DesignProgress::Fallback(*p))
+                let go = progress(&DesignProgress::Fallback(*p));
+                stopped |= !go;
+                go
             })?;
         inverse.fallback = Some(info);
     }
-    let check = forward_check(problem, &rest, &params.forward)?;
+    wall_and_check(problem, rest, inverse, params, !stopped, progress)
+}
+
+/// The design for a given rest shape `rest` (flat, m; same connectivity as the target), kept
+/// fixed: a mould one already has. No inverse solve and no shape optimisation run;
+/// [`InverseInfo`] records the equilibrium residual of `rest` at the full load
+/// ([`relative_residual`]; `converged` when it is within [`InverseParams::tolerance`], i.e. the
+/// rest shape holds the target exactly), then the wall-thickness fit runs when
+/// [`ThicknessFitParams::enabled`], and the forward check from `rest` (with the fitted wall).
+///
+/// # Errors
+/// A `rest` of the wrong length or with a degenerate triangle, and those of [`fit_thickness`]
+/// and [`forward_check`].
+pub fn design_for_rest(
+    problem: &DesignProblem,
+    rest: Vec<f64>,
+    params: &DesignParams,
+    progress: impl FnMut(&DesignProgress) -> bool,
+) -> Result<Design, DesignError> {
+    params.inverse.validate()?;
+    let started = std::time::Instant::now();
+    let residual = relative_residual(problem, &rest)?;
+    let inverse = InverseInfo {
+        converged: residual <= params.inverse.tolerance,
+        load_reached: 1.0,
+        relative_residual: residual,
+        iterations: 0,
+        damped_steps: 0,
+        stages: 0,
+        halvings: 0,
+        seconds: started.elapsed().as_secs_f64(),
+        fallback: None,
+    };
+    wall_and_check(problem, rest, inverse, params, true, progress)
+}
+
+/// The end of a design: the wall-thickness fit on the rest shape `rest` when `fit` and
+/// [`ThicknessFitParams::enabled`], then the forward check (with the fitted wall).
+fn wall_and_check(
+    problem: &DesignProblem,
+    rest: Vec<f64>,
+    inverse: InverseInfo,
+    params: &DesignParams,
+    fit: bool,
+    mut progress: impl FnMut(&DesignProgress) -> bool,
+) -> Result<Design, DesignError> {
+    let fitted = if fit && params.thickness.enabled {
+        Some(fit_thickness(
+            problem,
+            &rest,
+            &params.thickness,
+            &params.forward,
+            |p| progress(&DesignProgress::Thickness(*p)),
+        )?)
+    } else {
+        None
+    };
+    let check = match &fitted {
+        None => forward_check(problem, &rest, &params.forward)?,
+        Some(fit) => forward_check(
+            &problem.with_thickness(fit.thickness.clone())?,
+            &rest,
+            &params.forward,
+        )?,
+    };
     Ok(Design {
         rest,
         inverse,
         check,
+        thickness: fitted,
     })
 }

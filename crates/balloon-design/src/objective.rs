@@ -8,12 +8,14 @@ use balloon_integrate::statics::{StaticParams, StaticSolver};
 use balloon_shell::statics::{GasTerm, StaticShell};
 use nalgebra::{Matrix3, Vector3};
 
+use std::borrow::Cow;
+
 use crate::DesignError;
 use crate::forward::{Distance, distance, rigidly_aligned, shell_from_rest};
-use crate::gauss_newton::remove_rigid_motion;
+use crate::gauss_newton::{dot, remove_rigid_motion};
 use crate::normal::NormalPattern;
 use crate::pinned::{PinnedLu, pinned_unknowns};
-use crate::problem::DesignProblem;
+use crate::problem::{DesignProblem, point};
 
 /// The objective at one rest shape: [`ShapeObjective::evaluate`].
 #[derive(Clone, Debug, PartialEq)]
@@ -33,7 +35,8 @@ pub struct Evaluation {
 /// The distance objective `D(X)` of the shape optimisation and its adjoint gradient, with the
 /// forward static solver and the last equilibrium kept between calls (the warm start).
 pub struct ShapeObjective<'a> {
-    problem: &'a DesignProblem,
+    /// Borrowed; owned once the thickness fit changes its wall ([`ShapeObjective::set_thickness`]).
+    problem: Cow<'a, DesignProblem>,
     pattern: NormalPattern,
     weights: Vec<f64>,
     solver: StaticSolver,
@@ -63,7 +66,6 @@ impl GasCoupling {
     /// Turns `y = A^-1 b` into `(A + c u u^T)^-1 b` (Sherman-Morrison), given `a_inv_u =
     /// A^-1 u` (`A` is `K0` or `K0^T`; the coupling is symmetric).
     fn correct(&self, y: &mut [f64], a_inv_u: &[f64]) {
-        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(p, q)| p * q).sum::<f64>();
         let c = self.coefficient;
         let s = c * dot(&self.u, y) / (1.0 + c * dot(&self.u, a_inv_u));
         for (yi, wi) in y.iter_mut().zip(a_inv_u) {
@@ -72,11 +74,20 @@ impl GasCoupling {
     }
 }
 
+/// The adjoint solve's results (D12): `dD/dX`, the rest Jacobian `df/dX` and `lambda`.
+struct Adjoint {
+    gradient: Vec<f64>,
+    j: Vec<Matrix3<f64>>,
+    lambda: Vec<f64>,
+}
+
 /// What the Gauss-Newton products need at one equilibrium: the rest Jacobian `df/dX` there
 /// (the forward stiffness's factor is kept in [`ShapeObjective`]'s `lu`), the weighted
 /// alignment's rotation and the aligned equilibrium.
 struct Linearisation {
     j: Vec<Matrix3<f64>>,
+    /// The adjoint `lambda` of D12 (`K^T lambda = dD/dx`).
+    lambda: Vec<f64>,
     rotation: Matrix3<f64>,
     aligned: Vec<f64>,
 }
@@ -98,7 +109,7 @@ impl<'a> ShapeObjective<'a> {
         };
         let solver = StaticSolver::new(params).map_err(|e| DesignError::Forward(e.to_string()))?;
         Ok(Self {
-            problem,
+            problem: Cow::Borrowed(problem),
             pattern: NormalPattern::new(problem.num_dofs() / 3, problem.triangles()),
             weights: vertex_weights(problem),
             solver,
@@ -137,6 +148,54 @@ impl<'a> ShapeObjective<'a> {
         self.forward_solves
     }
 
+    /// The wall's rest thickness per face (m) in the objective's problem.
+    pub fn thickness(&self) -> &[f64] {
+        self.problem.thickness()
+    }
+
+    /// Gives the wall the rest thickness `thickness` (one per face, m) for the next
+    /// evaluations (the thickness fit, `docs/design.md` D18); the kept equilibrium stays the
+    /// next warm start, the last linearisation is dropped.
+    ///
+    /// # Errors
+    /// [`DesignError::InvalidParameter`] naming `thickness` (wrong length, not positive and
+    /// finite); nothing is changed then.
+    pub fn set_thickness(&mut self, thickness: &[f64]) -> Result<(), DesignError> {
+        crate::problem::check_thickness(thickness, self.problem.triangles().len())?;
+        self.problem.to_mut().set_thickness(thickness);
+        self.linear = None;
+        Ok(())
+    }
+
+    /// `dD/dH_e = sum_a lambda_a . df_a/dH_e` over the corners `a` of face `e` (m^2 per m),
+    /// at the last evaluation with a gradient, whose rest shape was `rest` (D18). The elastic
+    /// forces of both elements are linear in their rest thickness at fixed rest and deformed
+    /// positions (`E = A0 H W(F)` with `F` independent of `H` when the prism's current
+    /// thickness is `H`), so `df_e/dH_e = f_e / H_e`; the pressure forces do not depend on
+    /// `H`.
+    ///
+    /// # Errors
+    /// [`DesignError::Linear`] when there is no such evaluation, and the element errors of a
+    /// degenerate rest triangle.
+    pub fn thickness_gradient(&self, rest: &[f64]) -> Result<Vec<f64>, DesignError> {
+        let (linear, _) = self.linearisation()?;
+        let x = self.equilibrium.as_deref().ok_or(DesignError::Linear(
+            "no equilibrium linearised yet (evaluate with the gradient first)".into(),
+        ))?;
+        let problem: &DesignProblem = &self.problem;
+        let mut g = vec![0.0; problem.triangles().len()];
+        for (e, (t, ge)) in problem.triangles().iter().zip(&mut g).enumerate() {
+            let (f, _) = problem.element_at(e, x, rest)?;
+            let sum: f64 = t
+                .iter()
+                .zip(&f)
+                .map(|(&v, fa)| fa.dot(&point(&linear.lambda, v)))
+                .sum();
+            *ge = sum / problem.thickness()[e];
+        }
+        Ok(g)
+    }
+
     /// `D(X)` at the rest shape `rest`, and `dD/dX` when `gradient`. The forward solve starts
     /// from the last equilibrium (from `rest` with load continuation when there is none or
     /// that fails). `Ok(None)` when the rest shape has no forward equilibrium the solver finds
@@ -169,7 +228,7 @@ impl<'a> ShapeObjective<'a> {
         gradient: bool,
         solve: bool,
     ) -> Result<Option<Evaluation>, DesignError> {
-        let Ok(mut shell) = shell_from_rest(self.problem, rest) else {
+        let Ok(mut shell) = shell_from_rest(&self.problem, rest) else {
             return Ok(None);
         };
         let mut x = self.equilibrium.clone().unwrap_or_else(|| rest.to_vec());
@@ -226,9 +285,14 @@ impl<'a> ShapeObjective<'a> {
         let dist = distance(&aligned, target);
         let gradient = if gradient {
             self.linear = None;
-            let (g, j) = self.adjoint(statics, rest, &x, &b)?;
+            let Adjoint {
+                gradient: g,
+                j,
+                lambda,
+            } = self.adjoint(statics, rest, &x, &b)?;
             self.linear = Some(Linearisation {
                 j,
+                lambda,
                 rotation: r,
                 aligned: weighted,
             });
@@ -254,7 +318,7 @@ impl<'a> ShapeObjective<'a> {
         rest: &[f64],
         x: &[f64],
         b: &[f64],
-    ) -> Result<(Vec<f64>, Vec<Matrix3<f64>>), DesignError> {
+    ) -> Result<Adjoint, DesignError> {
         let n = x.len();
         let mut f = vec![0.0; n];
         statics
@@ -328,7 +392,11 @@ impl<'a> ShapeObjective<'a> {
             .rest_jacobian_at(x, rest, &self.pattern, &mut j)?;
         let mut g = vec![0.0; n];
         self.pattern.transpose_apply(&j, &lambda, &mut g);
-        Ok((g, j))
+        Ok(Adjoint {
+            gradient: g,
+            j,
+            lambda,
+        })
     }
 
     /// `dx/dX v = K^-1 (df/dX) v`: the change of the equilibrium (solver frame) along the
@@ -416,10 +484,6 @@ impl<'a> ShapeObjective<'a> {
             )),
         }
     }
-}
-
-pub(crate) fn point(x: &[f64], v: usize) -> Vector3<f64> {
-    Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])
 }
 
 /// The target's vertex areas (a third of each adjacent triangle's) over their mean.

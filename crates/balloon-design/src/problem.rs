@@ -47,9 +47,33 @@ impl GasAmount {
     }
 }
 
+/// Checks a rest thickness map: one positive, finite value (m) per face of `faces`.
+pub(crate) fn check_thickness(thickness: &[f64], faces: usize) -> Result<(), DesignError> {
+    if thickness.len() != faces {
+        return Err(DesignError::InvalidParameter {
+            name: "thickness",
+            value: thickness.len() as f64,
+            allowed: "one value per face of the target",
+        });
+    }
+    if let Some(&h) = thickness.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
+        return Err(DesignError::InvalidParameter {
+            name: "thickness",
+            value: h,
+            allowed: "positive and finite, in m",
+        });
+    }
+    Ok(())
+}
+
+/// Position of vertex `v` in the flat array `x`.
+pub(crate) fn point(x: &[f64], v: usize) -> Vector3<f64> {
+    Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])
+}
+
 /// Corner positions of triangle `t` in the flat array `x`.
 pub(crate) fn corners(x: &[f64], t: &[usize; 3]) -> [Vector3<f64>; 3] {
-    t.map(|v| Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]))
+    t.map(|v| point(x, v))
 }
 
 /// `dV/dx` of the enclosed volume `V = sum_t x1 . (x2 x x3) / 6` of an outward-oriented closed
@@ -100,20 +124,7 @@ impl DesignProblem {
                 allowed: "a positive gauge pressure in Pa",
             });
         }
-        if thickness.len() != target.num_triangles() {
-            return Err(DesignError::InvalidParameter {
-                name: "thickness",
-                value: thickness.len() as f64,
-                allowed: "one value per face of the target",
-            });
-        }
-        if let Some(&h) = thickness.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
-            return Err(DesignError::InvalidParameter {
-                name: "thickness",
-                value: h,
-                allowed: "positive and finite, in m",
-            });
-        }
+        check_thickness(&thickness, target.num_triangles())?;
         let x = target.positions_flat();
         if x.iter().any(|v| !v.is_finite()) {
             return Err(DesignError::Target(
@@ -200,6 +211,20 @@ impl DesignProblem {
         &self.target
     }
 
+    /// Mean edge length of the target (m; every triangle's three edges, so interior edges
+    /// count twice): the length scale of the rest-mesh terms and of the step limits.
+    pub fn mean_edge_length(&self) -> f64 {
+        let sum: f64 = self
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = corners(&self.target, t);
+                (b - a).norm() + (c - b).norm() + (a - c).norm()
+            })
+            .sum();
+        sum / (3 * self.triangles.len()).max(1) as f64
+    }
+
     /// The triangles (shared by the target and the rest shape).
     pub fn triangles(&self) -> &[[usize; 3]] {
         &self.triangles
@@ -208,6 +233,24 @@ impl DesignProblem {
     /// The rest thickness per face (m).
     pub fn thickness(&self) -> &[f64] {
         &self.thickness
+    }
+
+    /// Replaces the rest thickness map (checked by the caller with [`check_thickness`]).
+    pub(crate) fn set_thickness(&mut self, thickness: &[f64]) {
+        self.thickness.copy_from_slice(thickness);
+    }
+
+    /// The problem with the rest thickness map `thickness` (one per face, m) instead of its
+    /// own: the same target, material and load.
+    ///
+    /// # Errors
+    /// [`DesignError::InvalidParameter`] naming `thickness`.
+    pub fn with_thickness(&self, thickness: Vec<f64>) -> Result<Self, DesignError> {
+        check_thickness(&thickness, self.triangles.len())?;
+        Ok(Self {
+            thickness,
+            ..self.clone()
+        })
     }
 
     /// The material.
@@ -243,7 +286,7 @@ impl DesignProblem {
 
     /// Forces and rest Jacobian of element `e` at the deformed positions `deformed` for rest
     /// positions `rest` (flat, m).
-    fn element_at(
+    pub(crate) fn element_at(
         &self,
         e: usize,
         deformed: &[f64],

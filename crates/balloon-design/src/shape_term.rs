@@ -43,7 +43,7 @@ impl ShapeTerm {
     /// The term of `problem`'s target (degenerate target triangles are left out).
     pub(crate) fn new(problem: &DesignProblem) -> Self {
         let x = problem.target();
-        let edge = crate::inverse::mean_edge(problem);
+        let edge = problem.mean_edge_length();
         let mut triangles = Vec::new();
         let mut frames = Vec::new();
         let mut areas = Vec::new();
@@ -130,16 +130,7 @@ impl ShapeTerm {
             let w = self.weights[n];
             let t = &self.triangles[n];
             for row in &l.rows {
-                let ju: f64 = t
-                    .iter()
-                    .zip(row)
-                    .map(|(&v, d)| d.dot(&Vector3::new(u[3 * v], u[3 * v + 1], u[3 * v + 2])))
-                    .sum();
-                for (&v, d) in t.iter().zip(row) {
-                    for k in 0..3 {
-                        out[3 * v + k] += w * ju * d[k];
-                    }
-                }
+                crate::gauss_newton::add_rank_one_product(t, row, w, u, &mut out);
             }
         }
         out
@@ -149,21 +140,10 @@ impl ShapeTerm {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use balloon_material::{Lame, MaterialModel, NeoHookean};
-    use balloon_shell::ShellMaterialModel;
 
-    fn problem() -> DesignProblem {
-        let mut mesh = balloon_mesh::generate::icosphere(0.05, 1).unwrap();
-        let x: Vec<f64> = mesh
-            .positions_flat()
-            .chunks(3)
-            .flat_map(|p| [p[0] * 1.2, p[1], p[2] * 0.8])
-            .collect();
-        mesh.set_positions_flat(&x);
-        let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
-        let material = ShellMaterialModel::Solid(MaterialModel::NeoHookean(NeoHookean::new(lame)));
-        DesignProblem::try_new(&mesh, vec![1e-3; mesh.num_triangles()], material, 1e3).unwrap()
-    }
+    use crate::test_fixtures::{
+        check_gauss_newton_product, check_gradient, ellipsoid_problem as problem,
+    };
 
     /// A rest shape that is the target up to a rotation, a translation and a uniform scale
     /// costs nothing; a sheared one does.
@@ -207,57 +187,15 @@ mod tests {
                 [p[0] + 0.3 * p[1] + s, p[1] - s, p[2] * 1.1 + 0.5 * s]
             })
             .collect();
-        let (_, g) = term.value_gradient(&rest);
-        for seed in 0..4 {
-            let dir: Vec<f64> = (0..rest.len())
-                .map(|i| ((i * 7 + seed * 13) as f64 * 0.61).sin())
-                .collect();
-            let h = 1e-6;
-            let shifted = |s: f64| -> Vec<f64> {
-                rest.iter().zip(&dir).map(|(x, d)| x + s * h * d).collect()
-            };
-            let fd = (term.value_gradient(&shifted(1.0)).0 - term.value_gradient(&shifted(-1.0)).0)
-                / (2.0 * h);
-            let exact: f64 = g.iter().zip(&dir).map(|(a, b)| a * b).sum();
-            assert!(
-                (fd - exact).abs() <= 1e-7 * exact.abs().max(1e-12),
-                "seed {seed}: {fd:e} vs {exact:e}"
-            );
-        }
+        check_gradient(|x| term.value_gradient(x), &rest, 1e-6, 1e-7, 1e-12);
         // At a similar shape (zero residual) the Hessian is J^T J: compare with the
         // gradient's central differences.
         let at = problem.target().to_vec();
-        for seed in 0..3 {
-            let dir: Vec<f64> = (0..at.len())
-                .map(|i| ((i * 5 + seed * 11) as f64 * 0.83).cos())
-                .collect();
-            let h = 1e-6;
-            let gp = term
-                .value_gradient(
-                    &at.iter()
-                        .zip(&dir)
-                        .map(|(x, d)| x + h * d)
-                        .collect::<Vec<_>>(),
-                )
-                .1;
-            let gm = term
-                .value_gradient(
-                    &at.iter()
-                        .zip(&dir)
-                        .map(|(x, d)| x - h * d)
-                        .collect::<Vec<_>>(),
-                )
-                .1;
-            let product = term.gauss_newton_product(&at, &dir);
-            let scale = product.iter().map(|v| v.abs()).fold(0.0, f64::max);
-            for i in 0..at.len() {
-                let fd = (gp[i] - gm[i]) / (2.0 * h);
-                assert!(
-                    (fd - product[i]).abs() <= 1e-6 * scale,
-                    "seed {seed}, {i}: {fd:e} vs {:e}",
-                    product[i]
-                );
-            }
-        }
+        check_gauss_newton_product(
+            |x| term.value_gradient(x),
+            |x, d| term.gauss_newton_product(x, d),
+            &at,
+            1e-6,
+        );
     }
 }

@@ -12,7 +12,7 @@ use balloon_mesh::TriMesh;
 use balloon_shell::ShellMaterialModel;
 
 mod support;
-use support::{H, ellipsoid, inflate};
+use support::{H, ellipsoid, inflate, model_at_10cm};
 
 const MU: f64 = 4.0e5;
 
@@ -228,28 +228,6 @@ fn bad_parameters_are_named() {
     assert!(e.to_string().contains("outward"), "{e}");
 }
 
-/// Scales `mesh` so that its largest bounding-box side is `size` (m), centred at the origin.
-fn fit(mut mesh: TriMesh, size: f64) -> TriMesh {
-    let x = mesh.positions_flat();
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in x.chunks(3) {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let side = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
-    let s = size / side;
-    let c: Vec<f64> = (0..3).map(|k| 0.5 * (lo[k] + hi[k])).collect();
-    let y: Vec<f64> = x
-        .chunks(3)
-        .flat_map(|p| [(p[0] - c[0]) * s, (p[1] - c[1]) * s, (p[2] - c[2]) * s])
-        .collect();
-    mesh.set_positions_flat(&y);
-    mesh
-}
-
 /// Round trips on the built-in teddy and a shared real mesh at 0.1 m, with the timing of the
 /// design against one forward static solve (release build:
 /// `cargo test --release -p balloon-design --test design -- --ignored --nocapture`).
@@ -259,7 +237,6 @@ fn round_trips_on_real_meshes() {
     let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
     let nh: ShellMaterialModel =
         ShellMaterialModel::Solid(MaterialModel::NeoHookean(NeoHookean::new(lame)));
-    let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
     let mut meshes = Vec::new();
     // `DESIGN_MESHES=teddy,spot.obj` runs only those; `DESIGN_NEWTON=off` runs the
     // Levenberg-Marquardt iteration alone (for comparison); `DESIGN_FALLBACK=gauss-newton` or
@@ -288,15 +265,9 @@ fn round_trips_on_real_meshes() {
         {
             continue;
         }
-        if name == "teddy" {
-            meshes.push((name, fit(balloon_mesh::builtin("teddy").unwrap(), 0.1)));
-            continue;
-        }
-        let path = shared.join(name);
-        if path.exists() {
-            meshes.push((name, fit(balloon_mesh::io::read_mesh(&path).unwrap(), 0.1)));
-        } else {
-            eprintln!("skipping {name}: {} not found", path.display());
+        match model_at_10cm(name) {
+            Some(mesh) => meshes.push((name, mesh)),
+            None => eprintln!("skipping {name}: not found beside the checkout"),
         }
     }
     for (name, mesh) in meshes {
@@ -366,7 +337,8 @@ fn round_trips_on_real_meshes() {
         let report = |p: &balloon_design::DesignProgress| {
             let p = match p {
                 balloon_design::DesignProgress::Inverse(p) => p,
-                balloon_design::DesignProgress::Fallback(f) => {
+                balloon_design::DesignProgress::Fallback(f)
+                | balloon_design::DesignProgress::Thickness(f) => {
                     eprintln!(
                         "  {name}: shape optimisation step {}, max {:.3e} m, RMS {:.3e} m ({:.1} s)",
                         f.iteration,
@@ -415,6 +387,7 @@ fn round_trips_on_real_meshes() {
                 rest,
                 inverse,
                 check,
+                thickness: None,
             }
         } else {
             design(&problem, &params, report).unwrap()
@@ -512,7 +485,6 @@ fn newton_near_the_known_rest_shape() {
     let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
     let nh: ShellMaterialModel =
         ShellMaterialModel::Solid(MaterialModel::NeoHookean(NeoHookean::new(lame)));
-    let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
     let only = std::env::var("DESIGN_MESHES").ok();
     for name in ["bunny_closed_libigl.off", "teddy", "spot.obj"] {
         if only
@@ -521,15 +493,9 @@ fn newton_near_the_known_rest_shape() {
         {
             continue;
         }
-        let mesh = if name == "teddy" {
-            fit(balloon_mesh::builtin("teddy").unwrap(), 0.1)
-        } else {
-            let path = shared.join(name);
-            if !path.exists() {
-                eprintln!("skipping {name}");
-                continue;
-            }
-            fit(balloon_mesh::io::read_mesh(&path).unwrap(), 0.1)
+        let Some(mesh) = model_at_10cm(name) else {
+            eprintln!("skipping {name}");
+            continue;
         };
         let x_star = inflate(&mesh, &nh, 2.0e3);
         let mut target = mesh.clone();

@@ -17,7 +17,7 @@ use nalgebra::{DMatrix, Vector3};
 
 #[allow(dead_code)]
 mod support;
-use support::{H, inflate};
+use support::{H, inflate, model_at_10cm};
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
@@ -25,26 +25,6 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 fn p3(x: &[f64], v: usize) -> Vector3<f64> {
     Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])
-}
-
-fn fit(mut mesh: TriMesh, size: f64) -> TriMesh {
-    let x = mesh.positions_flat();
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in x.chunks(3) {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let side = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
-    let s = size / side;
-    let y: Vec<f64> = x
-        .chunks(3)
-        .flat_map(|p| (0..3).map(move |k| (p[k] - 0.5 * (lo[k] + hi[k])) * s))
-        .collect();
-    mesh.set_positions_flat(&y);
-    mesh
 }
 
 /// The six rigid motions of the points `x`, orthonormal.
@@ -221,14 +201,7 @@ fn bunny() -> (TriMesh, ShellMaterialModel, Vec<f64>, DesignProblem) {
     let lame = Lame::try_from_young_poisson(1.0e6, 0.45).unwrap();
     let nh = ShellMaterialModel::Solid(MaterialModel::NeoHookean(NeoHookean::new(lame)));
     let name = std::env::var("DESIGN_MESHES").unwrap_or("bunny_closed_libigl.off".into());
-    let mesh = if name == "teddy" {
-        fit(balloon_mesh::builtin("teddy").unwrap(), 0.1)
-    } else {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../../shared/meshes")
-            .join(&name);
-        fit(balloon_mesh::io::read_mesh(&path).unwrap(), 0.1)
-    };
+    let mesh = model_at_10cm(&name).expect("the model beside the checkout");
     let x_star = inflate(&mesh, &nh, 2.0e3);
     let mut target = mesh.clone();
     target.set_positions_flat(&x_star);

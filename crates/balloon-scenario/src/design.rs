@@ -9,7 +9,9 @@
 //! keys of `[shell]` (`material`, `young`, `poisson`, `mu`, ...), the solve's options
 //! ([`DESIGN_OPTIONS`]: `tolerance`, `tangential_weight`, `fallback`, `fallback_iterations`,
 //! `method`, `shape_weight`, `shape_stages`, `newton_polish`, `warm_start`, `bending_weight`,
-//! `inverse_bending_weight`, `inverse_bending_stages`) and `out` (a folder
+//! `inverse_bending_weight`, `inverse_bending_stages`, and the wall-thickness fit's
+//! `fit_thickness`, `thickness_min`, `thickness_max`, `thickness_iterations`), `rest` (a rest
+//! shape to keep instead of designing one, relative to the file) and `out` (a folder
 //! relative to the file). Every error names the file, the line and the key.
 //!
 //! The solve's options are set on [`balloon_design::DesignParams`] by one function,
@@ -53,6 +55,10 @@ pub struct DesignScenario {
     pub material: MaterialSpec,
     /// The solve's parameters: the library's defaults with the table's [`DESIGN_OPTIONS`] set.
     pub params: DesignParams,
+    /// A rest shape to keep instead of designing one (a mesh path joined to the file's folder,
+    /// read with the target's `scale`; the target's connectivity): its wall is fitted with
+    /// `fit_thickness` and it is checked.
+    pub rest: Option<String>,
     /// Output folder (joined to the file's folder).
     pub out: Option<PathBuf>,
 }
@@ -88,6 +94,11 @@ pub const DESIGN_KEYS: &[&str] = &[
     "bending_weight",
     "inverse_bending_weight",
     "inverse_bending_stages",
+    "fit_thickness",
+    "thickness_min",
+    "thickness_max",
+    "thickness_iterations",
+    "rest",
     "out",
 ];
 
@@ -146,6 +157,25 @@ pub const DESIGN_OPTIONS: &[(&str, &str)] = &[
         "warm_start",
         "start each forward solve of the shape optimisation from the last equilibrium \
          (`fallback.warm_start`; faster, see docs/design.md)",
+    ),
+    (
+        "fit_thickness",
+        "after the rest shape, fit the wall's rest thickness per face to the target with that \
+         rest shape fixed (`thickness.enabled`; docs/design.md D18)",
+    ),
+    (
+        "thickness_min",
+        "smallest thickness the fit may give a face, m (`thickness.lower`; default a quarter \
+         of the wall)",
+    ),
+    (
+        "thickness_max",
+        "largest thickness the fit may give a face, m (`thickness.upper`; default four times \
+         the wall)",
+    ),
+    (
+        "thickness_iterations",
+        "steps allowed to the thickness fit (`thickness.max_iterations`)",
     ),
 ];
 
@@ -259,6 +289,16 @@ pub fn set_design_option(
             params.inverse.bending_stages = whole(1.0, 20.0, "a whole number from 1 to 20")?;
         }
         "warm_start" => params.fallback.warm_start = flag()?,
+        "fit_thickness" => params.thickness.enabled = flag()?,
+        "thickness_min" => {
+            params.thickness.lower = Some(real(0.0, 1.0, false, "in (0, 1] m")?);
+        }
+        "thickness_max" => {
+            params.thickness.upper = Some(real(0.0, 1.0, false, "in (0, 1] m")?);
+        }
+        "thickness_iterations" => {
+            params.thickness.max_iterations = whole(1.0, 1e5, "a whole number from 1 to 100000")?;
+        }
         _ => return Ok(false),
     }
     Ok(true)
@@ -326,6 +366,7 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
         scale: 1.0,
         material: MaterialSpec::default(),
         params: DesignParams::default(),
+        rest: None,
         out: None,
     };
     let (mut has_target, mut has_pressure) = (false, false);
@@ -418,6 +459,14 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
                 d.scale = in_range(number()?, 0.0, 1e6, false, "in (0, 1e6]").map_err(invalid)?;
             }
             "out" => d.out = Some(PathBuf::from(path_of(text()?))),
+            "rest" => {
+                let s = text()?;
+                d.rest = Some(if s.starts_with("builtin") {
+                    s.to_owned()
+                } else {
+                    path_of(s)
+                });
+            }
             "material" => {
                 let s = text()?;
                 d.material.material = Some(s.parse::<MaterialChoice>().map_err(invalid)?);

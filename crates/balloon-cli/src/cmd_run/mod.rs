@@ -193,6 +193,11 @@ fn run_design(args: &RunArgs, d: &balloon_scenario::design::DesignScenario) -> R
     job.material = d.material.clone();
     job.params = d.params;
     job.out.clone_from(&d.out);
+    job.rest = d
+        .rest
+        .as_deref()
+        .map(|r| crate::cmd_design::load_rest(r, d.scale))
+        .transpose()?;
     job.quiet = false;
     crate::cmd_design::report(&job, &balloon_run::jobs::design::run(&job)?)
 }

@@ -142,6 +142,12 @@ fn design_errors_name_the_flag() {
         ("--shape-weight", "-2", "in [0, 1e6]"),
         ("--shape-stages", "1.5", "a whole number from 1 to 20"),
         ("--shape-stages", "many", "a number"),
+        ("--thickness-min", "0", "in (0, 1] m"),
+        (
+            "--thickness-iterations",
+            "0",
+            "a whole number from 1 to 100000",
+        ),
     ] {
         let o = run_balloon(&[
             "design",
@@ -196,6 +202,42 @@ fn design_check_is_repeated_by_the_printed_inflate_command() {
     );
     let checked = with_gas["check"]["volume"].as_f64().unwrap();
     assert!(((checked - target_volume) / target_volume).abs() < 1e-6);
+
+    // With the wall-thickness fit after an inexact inverse solve (stopped at a relative
+    // residual of 0.5, no shape optimisation): the fitted map is written as rest.ply's
+    // `thickness` face property, and the printed command inflates rest.ply with it to the
+    // check's volume.
+    let fit = dir.path().join("fit");
+    std::fs::create_dir_all(&fit).unwrap();
+    let fitted = design_and_repeat_the_check(
+        &fit,
+        &[
+            "--pressure",
+            "2000",
+            "--tolerance",
+            "0.5",
+            "--fallback",
+            "off",
+            "--fit-thickness",
+            "--thickness-iterations",
+            "5",
+        ],
+    );
+    let f = &fitted["thickness_fit"];
+    assert!(f["iterations"].as_u64().unwrap() >= 1, "{fitted}");
+    assert!(
+        f["min"].as_f64().unwrap() < f["max"].as_f64().unwrap(),
+        "{fitted}"
+    );
+    assert!(f["end"]["rms"].as_f64().unwrap() < f["start"]["rms"].as_f64().unwrap());
+    assert!(
+        fitted["check_command"]
+            .as_str()
+            .unwrap()
+            .contains("rest.ply"),
+        "{fitted}"
+    );
+    assert!(fit.join("design/rest.ply").exists());
 
     // The load is one of the two, and `--ambient` belongs to the gas amount.
     for args in [
@@ -566,5 +608,133 @@ fn design_options_reach_the_shape_optimisation_from_flags_and_scenario() {
     assert_eq!(
         std::fs::read(by_scenario.join("rest.obj")).unwrap(),
         std::fs::read(by_flags.join("rest.obj")).unwrap()
+    );
+}
+
+/// `--rest FILE` keeps a given rest shape instead of designing one: the icosphere that a
+/// neo-Hookean prism wall inflates onto the target holds it (residual near zero, no inverse
+/// iterations, the check on the target, exit 0); a rest shape with other vertices is refused
+/// with both counts; a scenario's `rest` key does the same as the flag.
+#[test]
+fn a_given_rest_shape_is_kept_checked_and_refused_when_it_does_not_match() {
+    let dir = tempfile::tempdir().unwrap();
+    let wall = [
+        "--material",
+        "neo-hookean",
+        "--young",
+        "1e6",
+        "--poisson",
+        "0.45",
+        "--thickness",
+        "1e-3",
+    ];
+    let made = dir.path().join("made");
+    let mut args = vec![
+        "inflate",
+        "builtin:icosphere",
+        "--static",
+        "--gas",
+        "constant",
+        "--pressure",
+        "2000",
+        "--volume-projection",
+        "off",
+        "--out",
+        made.to_str().unwrap(),
+    ];
+    args.extend(wall);
+    let o = run_balloon(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let target = made.join("final.obj");
+    let out = dir.path().join("kept");
+    let mut args = vec![
+        "design",
+        target.to_str().unwrap(),
+        "--rest",
+        "builtin:icosphere",
+        "--pressure",
+        "2000",
+        "--tolerance",
+        "1e-6",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(wall);
+    let o = run_balloon(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    // The target was written by a static solve to its default tolerance, so it is an
+    // equilibrium of the icosphere to about 1e-7.
+    assert!(stdout.contains("within the design tolerance"), "{stdout}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(
+        summary["inverse"]["iterations"].as_u64(),
+        Some(0),
+        "{summary}"
+    );
+    assert!(
+        summary["inverse"]["relative_residual"].as_f64().unwrap() < 1e-6,
+        "{summary}"
+    );
+    assert!(
+        summary["check"]["distance"]["max_relative"]
+            .as_f64()
+            .unwrap()
+            < 1e-6
+    );
+    // The rest shape written is the one given.
+    let given = balloon_mesh::builtin::builtin("icosphere").unwrap();
+    let written = balloon_mesh::io::read_mesh(&out.join("rest.obj")).unwrap();
+    let gap = given
+        .vertices
+        .iter()
+        .zip(&written.vertices)
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, f64::max);
+    assert!(gap < 1e-9, "{gap:e}");
+
+    // Another mesh as the rest shape: both counts named.
+    let bad = dir.path().join("bad");
+    let mut args = vec![
+        "design",
+        target.to_str().unwrap(),
+        "--rest",
+        "builtin:teddy",
+        "--pressure",
+        "2000",
+        "--out",
+        bad.to_str().unwrap(),
+    ];
+    args.extend(wall);
+    let o = run_balloon(&args);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("vertices") && err.contains("target's vertices"),
+        "{err}"
+    );
+
+    // The scenario key.
+    let file = dir.path().join("d.toml");
+    std::fs::write(
+        &file,
+        "[design]\ntarget = \"made/final.obj\"\nrest = \"builtin:icosphere\"\npressure = 2000\n\
+         tolerance = 1e-6\n\
+         material = \"neo-hookean\"\nyoung = 1e6\npoisson = 0.45\nthickness = 1e-3\n\
+         out = \"from-file\"\n",
+    )
+    .unwrap();
+    let o = run_balloon(&["run", file.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let from_file: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("from-file/summary.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(from_file["inverse"]["iterations"].as_u64(), Some(0));
+    assert_eq!(
+        std::fs::read(out.join("rest.obj")).unwrap(),
+        std::fs::read(dir.path().join("from-file/rest.obj")).unwrap()
     );
 }

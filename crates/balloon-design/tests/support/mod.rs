@@ -13,6 +13,16 @@ pub const H: f64 = 1.0e-3;
 /// to a relative residual of 1e-11, the wall at its rest thickness [`H`] as the design
 /// assumes): the forward problem a round trip starts from.
 pub fn inflate(rest: &TriMesh, material: &ShellMaterialModel, p: f64) -> Vec<f64> {
+    inflate_with_thickness(rest, material, p, vec![H; rest.num_triangles()])
+}
+
+/// [`inflate`] with the rest thickness map `thickness` (one per face, m).
+pub fn inflate_with_thickness(
+    rest: &TriMesh,
+    material: &ShellMaterialModel,
+    p: f64,
+    thickness: Vec<f64>,
+) -> Vec<f64> {
     let gas = PressureLoad::new(ConstantPressure::try_new(p).unwrap())
         .with_ambient_pressure(0.0)
         .unwrap()
@@ -21,7 +31,7 @@ pub fn inflate(rest: &TriMesh, material: &ShellMaterialModel, p: f64) -> Vec<f64
     let mut shell = ShellSystem::from_rest_shape(
         &x,
         rest.triangles.clone(),
-        vec![H; rest.num_triangles()],
+        thickness,
         1000.0,
         material.clone(),
         gas,
@@ -49,4 +59,40 @@ pub fn ellipsoid(level: u32) -> TriMesh {
         v.z *= 0.6;
     }
     m
+}
+
+/// The model `name` (`teddy`: the built-in Teddy; else a file of the shared meshes beside the
+/// checkout) scaled to a largest bounding-box side of 0.1 m, centred at the origin; `None`
+/// when the shared file is not there.
+#[allow(dead_code)] // Used by the real-mesh tests, not by every test file.
+pub fn model_at_10cm(name: &str) -> Option<TriMesh> {
+    if name == "teddy" {
+        return Some(fit(balloon_mesh::builtin("teddy").unwrap(), 0.1));
+    }
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/meshes")
+        .join(name);
+    path.exists()
+        .then(|| fit(balloon_mesh::io::read_mesh(&path).unwrap(), 0.1))
+}
+
+/// `mesh` scaled so that its largest bounding-box side is `size` (m), centred at the origin.
+fn fit(mut mesh: TriMesh, size: f64) -> TriMesh {
+    let x = mesh.positions_flat();
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in x.chunks(3) {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let side = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    let s = size / side;
+    let y: Vec<f64> = x
+        .chunks(3)
+        .flat_map(|p| (0..3).map(move |k| (p[k] - 0.5 * (lo[k] + hi[k])) * s))
+        .collect();
+    mesh.set_positions_flat(&y);
+    mesh
 }

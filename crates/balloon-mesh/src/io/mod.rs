@@ -187,22 +187,58 @@ pub fn write_stl_binary(path: &Path, mesh: &TriMesh) -> Result<(), MeshError> {
 /// Writes `mesh` as a binary little-endian PLY file (`vertex` x, y, z as float64; `face` as a
 /// uchar count and int32 indices).
 pub fn write_ply_binary(path: &Path, mesh: &TriMesh) -> Result<(), MeshError> {
+    write_ply_binary_with_face_property(path, mesh, None)
+}
+
+/// [`write_ply_binary`] with a scalar float64 property of the faces, `(name, one value per
+/// triangle)`, after the vertex indices (for example a `thickness` map, which
+/// [`read_ply_with_property`] reads back).
+///
+/// # Errors
+/// [`MeshError::InvalidParameter`] naming the property when its values are not one per
+/// triangle or its name is not one word; the write's errors.
+pub fn write_ply_binary_with_face_property(
+    path: &Path,
+    mesh: &TriMesh,
+    property: Option<(&str, &[f64])>,
+) -> Result<(), MeshError> {
+    if let Some((name, values)) = property
+        && (values.len() != mesh.triangles.len()
+            || name.is_empty()
+            || name.chars().any(|c| c.is_whitespace()))
+    {
+        return Err(MeshError::InvalidParameter {
+            name: "property",
+            value: format!("`{name}` ({} values)", values.len()),
+            reason: format!(
+                "one value per triangle ({}) and a name of one word",
+                mesh.triangles.len()
+            ),
+        });
+    }
     write_with(path, |w| {
         write!(
             w,
-            "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+            "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nelement face {}\nproperty list uchar int vertex_indices\n",
             mesh.vertices.len(),
             mesh.triangles.len()
         )?;
+        if let Some((name, _)) = property {
+            writeln!(w, "property double {name}")?;
+        }
+        writeln!(w, "end_header")?;
         for p in &mesh.vertices {
             for c in [p.x, p.y, p.z] {
                 w.write_all(&c.to_le_bytes())?;
             }
         }
-        for t in &mesh.triangles {
+        for (k, t) in mesh.triangles.iter().enumerate() {
             w.write_all(&[3u8])?;
             for &i in t {
                 w.write_all(&(i as i32).to_le_bytes())?;
+            }
+            if let Some((_, values)) = property {
+                w.write_all(&values[k].to_le_bytes())?;
             }
         }
         Ok(())

@@ -573,3 +573,24 @@ fn devices_directories_fifos_and_huge_files_are_refused_before_reading() {
     assert!(matches!(e, MeshError::FileTooLarge { .. }), "{e}");
     assert!(e.to_string().contains("big.ply"), "{e}");
 }
+
+/// A face property written by `write_ply_binary_with_face_property` reads back as the same
+/// values, face by face, and the mesh as the same mesh; a property of the wrong length is
+/// refused and names it.
+#[test]
+fn a_face_property_written_to_ply_reads_back() {
+    let m = crate::generate::icosphere(0.1, 1).unwrap();
+    let values: Vec<f64> = (0..m.num_triangles())
+        .map(|i| 1e-3 + i as f64 * 1e-6)
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.ply");
+    write_ply_binary_with_face_property(&path, &m, Some(("thickness", &values))).unwrap();
+    let (back, property) = read_ply_with_property(&path, "thickness").unwrap();
+    assert_eq!(back.triangles, m.triangles);
+    assert_eq!(back.vertices, m.vertices);
+    assert_eq!(property, PlyProperty::PerFace(values.clone()));
+    let err = write_ply_binary_with_face_property(&path, &m, Some(("thickness", &values[1..])))
+        .unwrap_err();
+    assert!(err.to_string().contains("thickness"), "{err}");
+}

@@ -41,6 +41,10 @@ pub struct DesignJob {
     /// The solve's parameters (the inverse solve, the forward check, the shape optimisation;
     /// `balloon_scenario::design::set_design_option` sets the ones the front ends expose).
     pub params: DesignParams,
+    /// A rest shape to keep instead of designing one (same vertices and triangles as the
+    /// target; `balloon_design::design_for_rest`): it is checked, and its wall fitted when
+    /// `params.thickness.enabled`.
+    pub rest: Option<TriMesh>,
     /// Output folder (none: nothing written).
     pub out: Option<PathBuf>,
     /// Print no progress.
@@ -60,6 +64,7 @@ impl DesignJob {
             thickness: 3.0e-4,
             material: MaterialSpec::default(),
             params: DesignParams::default(),
+            rest: None,
             out: None,
             quiet: true,
         }
@@ -93,6 +98,8 @@ pub struct DesignSummary {
     pub params: DesignParams,
     /// The inverse solve's record (iterations, stages, residual, seconds).
     pub inverse: balloon_design::InverseInfo,
+    /// The wall-thickness fit's record (`--fit-thickness`), null without one.
+    pub thickness_fit: Option<ThicknessFitSummary>,
     /// The forward check: converged, iterations, distance to the target (m and relative).
     pub check: CheckSummary,
     /// Target bounding-box diagonal, m.
@@ -102,11 +109,29 @@ pub struct DesignSummary {
     /// Enclosed volume of the rest shape, m^3.
     pub rest_volume: f64,
     /// The `balloon inflate` command that repeats the forward check from the written
-    /// `rest.obj` (its enclosed volume is `check.volume`); null without an output folder.
+    /// `rest.obj` (`rest.ply` with a fitted thickness; its enclosed volume is `check.volume`); null
+    /// without an output folder.
     pub check_command: Option<String>,
     /// The picture of target and check side by side (`design.png`, [`design_picture`]); null
     /// without an output folder or when it could not be rendered (a warning says why).
     pub picture: Option<String>,
+}
+
+/// The wall-thickness fit in `summary.json`.
+#[derive(Debug, Serialize)]
+pub struct ThicknessFitSummary {
+    /// Steps, forward solves, distances before and after, why it stopped, the bounds.
+    #[serde(flatten)]
+    pub info: balloon_design::ThicknessFitInfo,
+    /// The thinnest fitted face, m.
+    pub min: f64,
+    /// The thickest fitted face, m.
+    pub max: f64,
+    /// The area-weighted mean of the fitted thickness over the target, m.
+    pub mean: f64,
+    /// The file with the fitted thickness as a face property (`rest.ply`); null without an
+    /// output folder.
+    pub file: Option<String>,
 }
 
 /// The forward check in `summary.json`.
@@ -243,7 +268,7 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
     };
     let pressure = problem.pressure();
     let quiet = job.quiet;
-    let result = design(&problem, &job.params, |p| {
+    let show = |p: &DesignProgress| {
         if !quiet {
             match p {
                 DesignProgress::Inverse(p) => eprintln!(
@@ -254,10 +279,34 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
                     "design: shape optimisation step {}, distance max {:.4e} m, RMS {:.4e} m",
                     p.iteration, p.max_distance, p.rms_distance
                 ),
+                DesignProgress::Thickness(p) => eprintln!(
+                    "design: thickness fit step {}, distance max {:.4e} m, RMS {:.4e} m",
+                    p.iteration, p.max_distance, p.rms_distance
+                ),
             }
         }
         crate::interrupt::pending().is_none()
-    })?;
+    };
+    let result = match &job.rest {
+        None => design(&problem, &job.params, show)?,
+        Some(rest) => {
+            if rest.num_vertices() != job.target.num_vertices()
+                || rest.triangles != job.target.triangles
+            {
+                anyhow::bail!(
+                    "the rest shape has {} vertices and {} triangles, the target `{}` {} and {}: \
+                     a rest shape to keep must have the target's vertices and triangles, in the \
+                     same order",
+                    rest.num_vertices(),
+                    rest.num_triangles(),
+                    job.target_name,
+                    job.target.num_vertices(),
+                    job.target.num_triangles()
+                );
+            }
+            balloon_design::design_for_rest(&problem, rest.positions_flat(), &job.params, show)?
+        }
+    };
     let picture = match &job.out {
         Some(out) => write_outputs(out, &job.target, &result, problem.target(), pressure)?,
         None => None,
@@ -277,6 +326,23 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         interrupted: interrupted.is_some(),
         params: job.params,
         inverse: result.inverse.clone(),
+        thickness_fit: result.thickness.as_ref().map(|fit| {
+            let areas = triangle_areas(problem.target(), problem.triangles());
+            let total: f64 = areas.iter().sum();
+            ThicknessFitSummary {
+                info: fit.info.clone(),
+                min: fit.thickness.iter().copied().fold(f64::INFINITY, f64::min),
+                max: fit.thickness.iter().copied().fold(0.0, f64::max),
+                mean: fit
+                    .thickness
+                    .iter()
+                    .zip(&areas)
+                    .map(|(h, a)| h * a)
+                    .sum::<f64>()
+                    / total,
+                file: job.out.as_ref().map(|_| FITTED_REST.to_string()),
+            }
+        }),
         check: CheckSummary {
             converged: result.check.converged,
             iterations: result.check.iterations,
@@ -295,7 +361,12 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
                     ambient: g.ambient,
                 },
             };
-            check_command(&out.join("rest.obj"), load, job.thickness, &job.material)
+            let rest = if result.thickness.is_some() {
+                FITTED_REST
+            } else {
+                "rest.obj"
+            };
+            check_command(&out.join(rest), load, job.thickness, &job.material)
         }),
         picture,
     };
@@ -330,6 +401,15 @@ fn write_outputs(
         let path = out.join(name);
         balloon::mesh::io::write_obj(&path, mesh)
             .with_context(|| format!("cannot write `{}`", path.display()))?;
+    }
+    if let Some(fit) = &result.thickness {
+        let path = out.join(FITTED_REST);
+        balloon::mesh::io::write_ply_binary_with_face_property(
+            &path,
+            &rest,
+            Some(("thickness", &fit.thickness)),
+        )
+        .with_context(|| format!("cannot write `{}`", path.display()))?;
     }
     let d = balloon_design::vertex_distances(&result.check.positions, target_x);
     let csv: String = std::iter::once("vertex,distance_m\n".to_string())
@@ -366,6 +446,18 @@ fn write_outputs(
             None
         }
     })
+}
+
+/// File name of the rest shape with the fitted wall thickness (a `thickness` face property).
+pub const FITTED_REST: &str = "rest.ply";
+
+/// The area (m^2) of each triangle of the flat positions `x`.
+fn triangle_areas(x: &[f64], triangles: &[[usize; 3]]) -> Vec<f64> {
+    let p = |v: usize| nalgebra::Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
+    triangles
+        .iter()
+        .map(|t| (p(t[1]) - p(t[0])).cross(&(p(t[2]) - p(t[0]))).norm() / 2.0)
+        .collect()
 }
 
 /// File name of the design's picture in the output folder.
