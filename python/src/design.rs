@@ -97,7 +97,8 @@ fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyR
 /// where the inverse has no exact answer; its record is `summary["inverse"]["fallback"]`),
 /// `fallback_iterations` (1 to 100000), `method` ("gauss-newton" (default) or "lbfgs"),
 /// `shape_weight` (the rest-mesh shape term's weight, in [0, 1e6], 0 = off), `shape_stages`
-/// (1 to 20), `newton_polish` and `warm_start` (bools), `bending_weight`,
+/// (1 to 20), `newton_polish` and `warm_start` (bools; `warm_start` also for the thickness
+/// fit), `bending_weight`,
 /// `inverse_bending_weight` (the rest-mesh bending term of D17, in [0, 1e6], 0 = off) and
 /// `inverse_bending_stages` (1 to 20), `fit_thickness` (bool: after the rest shape, fit the
 /// wall's thickness per face with that rest shape fixed, docs/design.md D18), `thickness_min`

@@ -96,8 +96,9 @@ pub struct DesignArgs {
     /// its answer when it converges closer to the target.
     #[arg(long)]
     pub newton_polish: bool,
-    /// Start each forward solve of the shape optimisation from the last equilibrium (faster;
-    /// where the forward problem has several equilibria the check may differ, docs/design.md).
+    /// Start each forward solve of the shape optimisation and of the thickness fit from the last
+    /// equilibrium (faster; where the forward problem has several equilibria the check, which
+    /// solves from the rest shape, may differ, docs/design.md).
     #[arg(long)]
     pub warm_start: bool,
     /// Keep this rest shape instead of designing one (a mould one has; read with --scale, with
@@ -170,6 +171,7 @@ fn params(args: &DesignArgs) -> DesignParams {
     p.fallback.max_iterations = args.fallback_iterations;
     p.fallback.newton_polish = args.newton_polish;
     p.fallback.warm_start = args.warm_start;
+    p.thickness.warm_start = args.warm_start;
     p.thickness.enabled = args.fit_thickness;
     for (key, value) in [
         ("thickness_min", &args.thickness_min),

@@ -156,7 +156,8 @@ pub const DESIGN_OPTIONS: &[(&str, &str)] = &[
     (
         "warm_start",
         "start each forward solve of the shape optimisation from the last equilibrium \
-         (`fallback.warm_start`; faster, see docs/design.md)",
+         and of the thickness fit (`fallback.warm_start`, `thickness.warm_start`; faster, see \
+         docs/design.md)",
     ),
     (
         "fit_thickness",
@@ -288,7 +289,10 @@ pub fn set_design_option(
         "inverse_bending_stages" => {
             params.inverse.bending_stages = whole(1.0, 20.0, "a whole number from 1 to 20")?;
         }
-        "warm_start" => params.fallback.warm_start = flag()?,
+        "warm_start" => {
+            params.fallback.warm_start = flag()?;
+            params.thickness.warm_start = params.fallback.warm_start;
+        }
         "fit_thickness" => params.thickness.enabled = flag()?,
         "thickness_min" => {
             params.thickness.lower = Some(real(0.0, 1.0, false, "in (0, 1] m")?);

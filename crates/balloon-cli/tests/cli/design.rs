@@ -581,6 +581,8 @@ fn design_options_reach_the_shape_optimisation_from_flags_and_scenario() {
     assert_eq!(p["max_iterations"], 2, "{p}");
     assert_eq!(p["bending_weight"], 0.5, "{p}");
     assert_eq!(summary["params"]["inverse"]["bending_stages"], 4);
+    // `--warm-start` is the thickness fit's too.
+    assert_eq!(summary["params"]["thickness"]["warm_start"], true);
     let f = &summary["inverse"]["fallback"];
     assert_eq!(f["gauss_newton_steps"], 0, "{f}");
     assert_eq!(f["shape_stages"], 2, "{f}");
