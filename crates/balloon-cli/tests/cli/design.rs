@@ -278,21 +278,22 @@ fn design_check_is_repeated_by_the_printed_inflate_command() {
     );
 }
 
-/// Designs for the sphere that a neo-Hookean prism wall at its rest thickness holds at 2 kPa
-/// (inflated so into `dir/made`), with `load` as the load flags, runs the printed check
-/// command and checks that it repeats the design's check volume; returns `summary.json`.
-fn design_and_repeat_the_check(dir: &std::path::Path, load: &[&str]) -> serde_json::Value {
-    let wall = [
-        "--material",
-        "neo-hookean",
-        "--young",
-        "1e6",
-        "--poisson",
-        "0.45",
-        "--thickness",
-        "1e-3",
-    ];
-    // A target that a prism wall at its rest thickness holds exactly: a sphere inflated so.
+/// The wall of the designs on the inflated icosphere: a neo-Hookean prism, 1 mm.
+const PRISM_WALL: [&str; 8] = [
+    "--material",
+    "neo-hookean",
+    "--young",
+    "1e6",
+    "--poisson",
+    "0.45",
+    "--thickness",
+    "1e-3",
+];
+
+/// A target that the [`PRISM_WALL`] at its rest thickness holds exactly at 2 kPa: the built-in
+/// icosphere inflated so (statically, without the shell-volume projection) into `dir/made`;
+/// returns the path of its `final.obj`.
+fn inflated_icosphere_target(dir: &std::path::Path) -> std::path::PathBuf {
     let made = dir.join("made");
     let mut args = vec![
         "inflate",
@@ -307,11 +308,18 @@ fn design_and_repeat_the_check(dir: &std::path::Path, load: &[&str]) -> serde_js
         "--out",
         made.to_str().unwrap(),
     ];
-    args.extend(wall);
+    args.extend(PRISM_WALL);
     let o = run_balloon(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    made.join("final.obj")
+}
+
+/// Designs for the sphere that a neo-Hookean prism wall at its rest thickness holds at 2 kPa
+/// (inflated so into `dir/made`), with `load` as the load flags, runs the printed check
+/// command and checks that it repeats the design's check volume; returns `summary.json`.
+fn design_and_repeat_the_check(dir: &std::path::Path, load: &[&str]) -> serde_json::Value {
+    let target = inflated_icosphere_target(dir);
     let out = dir.join("design");
-    let target = made.join("final.obj");
     let mut args = vec![
         "design",
         target.to_str().unwrap(),
@@ -320,7 +328,7 @@ fn design_and_repeat_the_check(dir: &std::path::Path, load: &[&str]) -> serde_js
         out.to_str().unwrap(),
     ];
     args.extend(load);
-    args.extend(wall);
+    args.extend(PRISM_WALL);
     let o = run_balloon(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let summary: serde_json::Value =
@@ -620,34 +628,7 @@ fn design_options_reach_the_shape_optimisation_from_flags_and_scenario() {
 #[test]
 fn a_given_rest_shape_is_kept_checked_and_refused_when_it_does_not_match() {
     let dir = tempfile::tempdir().unwrap();
-    let wall = [
-        "--material",
-        "neo-hookean",
-        "--young",
-        "1e6",
-        "--poisson",
-        "0.45",
-        "--thickness",
-        "1e-3",
-    ];
-    let made = dir.path().join("made");
-    let mut args = vec![
-        "inflate",
-        "builtin:icosphere",
-        "--static",
-        "--gas",
-        "constant",
-        "--pressure",
-        "2000",
-        "--volume-projection",
-        "off",
-        "--out",
-        made.to_str().unwrap(),
-    ];
-    args.extend(wall);
-    let o = run_balloon(&args);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let target = made.join("final.obj");
+    let target = inflated_icosphere_target(dir.path());
     let out = dir.path().join("kept");
     let mut args = vec![
         "design",
@@ -662,7 +643,7 @@ fn a_given_rest_shape_is_kept_checked_and_refused_when_it_does_not_match() {
         "--out",
         out.to_str().unwrap(),
     ];
-    args.extend(wall);
+    args.extend(PRISM_WALL);
     let o = run_balloon(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
@@ -709,7 +690,7 @@ fn a_given_rest_shape_is_kept_checked_and_refused_when_it_does_not_match() {
         "--out",
         bad.to_str().unwrap(),
     ];
-    args.extend(wall);
+    args.extend(PRISM_WALL);
     let o = run_balloon(&args);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
