@@ -48,6 +48,14 @@ def thin_sphere_pressure(r0, stretch):
     return 2.0 * MU * H / r0 * (1.0 / stretch - stretch**-7)
 
 
+def flat_poled_icosphere():
+    """The level-1 icosphere of radius 0.1 m with its poles cut flat (|z| <= 0.05 m): a target
+    that no rest shape holds exactly under pressure (a flat membrane face)."""
+    vertices, faces = icosphere(0.1, 1)
+    vertices[:, 2] = np.clip(vertices[:, 2], -0.05, 0.05)
+    return vertices, faces
+
+
 def test_sphere_rest_radius_matches_the_thin_sphere_curve(tmp_path):
     vertices, faces = icosphere(0.1, 3)
     assert vertices.shape == (642, 3)
@@ -114,8 +122,7 @@ def test_flat_faced_target_gets_the_shape_optimisation():
     # An icosphere with its poles cut flat (|z| <= 0.05 m): no rest shape holds a flat
     # membrane face under pressure, so the inverse does not converge; the shape optimisation
     # reduces the distance of the forward equilibrium and the design still says NOT converged.
-    vertices, faces = icosphere(0.1, 1)
-    vertices[:, 2] = np.clip(vertices[:, 2], -0.05, 0.05)
+    vertices, faces = flat_poled_icosphere()
     options = dict(pressure=2000.0, thickness=H, material="membrane-neo-hookean", mu=MU)
     plain = balloon.design(vertices, faces, fallback="off", **options)["summary"]
     assert not plain["converged"]
@@ -134,8 +141,7 @@ def test_flat_faced_target_gets_the_shape_optimisation():
 def test_the_shape_optimisations_options_reach_the_library():
     # The flat-poled icosphere again, with L-BFGS, the shape term in two stages and warm starts:
     # the record shows the loop and the stages asked for, and summary["params"] lists them.
-    vertices, faces = icosphere(0.1, 1)
-    vertices[:, 2] = np.clip(vertices[:, 2], -0.05, 0.05)
+    vertices, faces = flat_poled_icosphere()
     s = balloon.design(
         vertices,
         faces,
@@ -193,8 +199,7 @@ def test_the_thickness_fit_runs_on_the_designed_rest_shape(tmp_path):
     # The flat-poled icosphere again, without the shape optimisation: the wall-thickness fit
     # (rest shape fixed, one thickness per face within the bounds) reduces the distance the
     # inverse left, returns the map, and writes it into rest.ply for `balloon inflate`.
-    vertices, faces = icosphere(0.1, 1)
-    vertices[:, 2] = np.clip(vertices[:, 2], -0.05, 0.05)
+    vertices, faces = flat_poled_icosphere()
     r = balloon.design(
         vertices,
         faces,
