@@ -281,6 +281,31 @@ fn stop_reason(stop: balloon_design::FallbackStop) -> &'static str {
     }
 }
 
+/// "N steps (M forward solves, stopped: why), forward distance max a -> b m (of the
+/// diagonal), RMS a -> b m (of the diagonal)": a descent of the shape optimisation or the
+/// thickness fit, from its record; `None` when it has no start or end (it did not run).
+fn descent(
+    steps: usize,
+    forward_solves: usize,
+    stopped: balloon_design::FallbackStop,
+    start: Option<balloon_design::Distance>,
+    end: Option<balloon_design::Distance>,
+) -> Option<String> {
+    let (a, b) = (start?, end?);
+    Some(format!(
+        "{steps} steps ({forward_solves} forward solves, stopped: {}), forward distance max \
+         {:.3e} m -> {:.3e} m ({:.3e} of the diagonal), RMS {:.3e} m -> {:.3e} m ({:.3e} of the \
+         diagonal)",
+        stop_reason(stopped),
+        a.max,
+        b.max,
+        b.max_relative,
+        a.rms,
+        b.rms,
+        b.rms_relative
+    ))
+}
+
 /// Prints a design's summary line and the command that repeats its check; an interruption or
 /// an unconverged design as the error (after the outputs are written).
 ///
@@ -313,22 +338,9 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
             .unwrap_or_default(),
     );
     if let Some(f) = &result.inverse.fallback {
-        match (f.start, f.end) {
-            (Some(a), Some(b)) => println!(
-                "shape optimisation: {} steps ({} forward solves, stopped: {}), forward distance \
-                 max {:.3e} m -> {:.3e} m ({:.3e} of the diagonal), RMS {:.3e} m -> {:.3e} m \
-                 ({:.3e} of the diagonal)",
-                f.iterations,
-                f.forward_solves,
-                stop_reason(f.stopped),
-                a.max,
-                b.max,
-                b.max_relative,
-                a.rms,
-                b.rms,
-                b.rms_relative
-            ),
-            _ => println!(
+        match descent(f.iterations, f.forward_solves, f.stopped, f.start, f.end) {
+            Some(line) => println!("shape optimisation: {line}"),
+            None => println!(
                 "shape optimisation: not run, the best inverse design has no forward equilibrium"
             ),
         }
@@ -348,28 +360,13 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
     }
     if let Some(fit) = &run.summary.thickness_fit {
         let f = &fit.info;
-        match (f.start, f.end) {
-            (Some(a), Some(b)) => println!(
-                "thickness fit: {} steps ({} forward solves, stopped: {}), forward distance max \
-                 {:.3e} m -> {:.3e} m ({:.3e} of the diagonal), RMS {:.3e} m -> {:.3e} m; \
-                 thickness {:.3e} to {:.3e} m (mean {:.3e} m, bounds {:.3e} to {:.3e} m, {} faces \
-                 at a bound)",
-                f.iterations,
-                f.forward_solves,
-                stop_reason(f.stopped),
-                a.max,
-                b.max,
-                b.max_relative,
-                a.rms,
-                b.rms,
-                fit.min,
-                fit.max,
-                fit.mean,
-                f.lower,
-                f.upper,
-                f.at_bounds
+        match descent(f.iterations, f.forward_solves, f.stopped, f.start, f.end) {
+            Some(line) => println!(
+                "thickness fit: {line}; thickness {:.3e} to {:.3e} m (mean {:.3e} m, bounds \
+                 {:.3e} to {:.3e} m, {} faces at a bound)",
+                fit.min, fit.max, fit.mean, f.lower, f.upper, f.at_bounds
             ),
-            _ => println!("thickness fit: not run, the rest shape has no forward equilibrium"),
+            None => println!("thickness fit: not run, the rest shape has no forward equilibrium"),
         }
     }
     if let Some(command) = &run.summary.check_command {
