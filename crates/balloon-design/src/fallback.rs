@@ -350,8 +350,10 @@ pub fn optimise_rest_shape(
     for stage in 0..stages {
         // gamma_k = gamma_0 0.1^k, the last stage without the shape term (D16).
         let (gamma, kappa) = if stage + 1 < stages {
-            let f = 0.1f64.powi(stage as i32);
-            (params.shape_weight * f, params.bending_weight * f)
+            (
+                crate::stage_weight(params.shape_weight, stage),
+                crate::stage_weight(params.bending_weight, stage),
+            )
         } else {
             (0.0, 0.0)
         };

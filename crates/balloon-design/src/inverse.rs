@@ -256,7 +256,7 @@ pub fn design_rest_shape(
                 break;
             }
             if let Some((_, kappa)) = solver.bending.as_mut() {
-                *kappa = params.bending_weight * 0.1f64.powi(k as i32);
+                *kappa = crate::stage_weight(params.bending_weight, k);
             }
             solver.damping = params.initial_damping;
             let mut trial = start.to_vec();

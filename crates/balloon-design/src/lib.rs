@@ -119,6 +119,12 @@ pub struct Design {
     pub thickness: Option<ThicknessFit>,
 }
 
+/// The weight of a regulariser in its stage `k` (from 0): `w0 0.1^k`, the decreasing stages of
+/// the shape and bending terms (`docs/design.md` D16, D17).
+fn stage_weight(w0: f64, k: usize) -> f64 {
+    w0 * 0.1f64.powi(i32::try_from(k).unwrap_or(i32::MAX))
+}
+
 /// Designs the rest shape of `problem` (from the target as the start, [`design_rest_shape`]);
 /// when the inverse solve does not converge (or always, [`FallbackParams::mode`]) minimises
 /// the distance of the forward equilibrium to the target from its best rest shape
