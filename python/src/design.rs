@@ -102,7 +102,10 @@ fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyR
 /// `inverse_bending_weight` (the rest-mesh bending term of D17, in [0, 1e6], 0 = off) and
 /// `inverse_bending_stages` (1 to 20), `fit_thickness` (bool: after the rest shape, fit the
 /// wall's thickness per face with that rest shape fixed, docs/design.md D18), `thickness_min`
-/// and `thickness_max` (its bounds, m) and `thickness_iterations` (1 to 100000); and `out` (a
+/// and `thickness_max` (its bounds, m) and `thickness_iterations` (1 to 100000),
+/// `conditioning` (bool: after the check, the smallest singular values of the inverse's
+/// Jacobian at the rest shape, `summary["conditioning"]`, docs/design.md D19) with
+/// `conditioning_modes` (1 to 64) and `conditioning_iterations` (1 to 1000); and `out` (a
 /// folder for rest.obj, inflated.obj, distance.csv and summary.json, and rest.ply with a fitted
 /// thickness; the parameters used are `summary["params"]`), `rest` ((n, 3) float64: a rest
 /// shape to keep instead of designing one, with the target's faces; it is checked, and its

@@ -254,3 +254,23 @@ def test_a_given_rest_shape_is_kept_and_its_wall_fitted():
     assert fit["end"]["rms"] < fit["start"]["rms"], fit
     with pytest.raises(balloon.MeshError):
         balloon.design(vertices, faces, pressure=2000.0, rest=rest[:-1])
+
+
+def test_the_rest_shape_conditioning_is_returned_when_asked():
+    # The icosphere kept as the rest shape of itself at 2 kPa (a membrane wall): with
+    # conditioning=True the summary has the smallest singular values of dr/dX outside the
+    # rigid motions (ascending, below the largest) and the forward gain of each; without, None.
+    vertices, faces = icosphere(0.1, 1)
+    options = dict(
+        pressure=2000.0, thickness=H, material="membrane-neo-hookean", mu=MU, rest=0.9 * vertices
+    )
+    c = balloon.design(vertices, faces, conditioning=True, **options)["summary"]["conditioning"]
+    smallest = np.array(c["smallest"])
+    assert smallest.shape == (6,)
+    assert (smallest > 0.0).all() and (np.diff(smallest) >= 0.0).all(), c
+    assert smallest[-1] < c["largest"]
+    assert np.allclose(c["relative"], smallest / c["largest"], rtol=1e-12)
+    assert len(c["forward_gain"]) == 6
+    assert balloon.design(vertices, faces, **options)["summary"]["conditioning"] is None
+    with pytest.raises(balloon.InvalidOption, match="conditioning"):
+        balloon.design(vertices, faces, conditioning=1.5, **options)

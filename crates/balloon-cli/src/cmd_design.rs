@@ -122,6 +122,17 @@ pub struct DesignArgs {
     /// Steps allowed to the thickness fit (each one forward static solve or more), 1 to 100000.
     #[arg(long, default_value = "40", value_parser = option_parser("thickness_iterations"))]
     pub thickness_iterations: OptionValue,
+    /// After the check, compute the smallest singular values of the inverse's Jacobian at the
+    /// rest shape (how well the target determines the rest shape, docs/design.md D19): printed
+    /// and written to summary.json as `conditioning`.
+    #[arg(long)]
+    pub conditioning: bool,
+    /// Singular values the conditioning report seeks, 1 to 64.
+    #[arg(long, default_value = "6", value_parser = option_parser("conditioning_modes"))]
+    pub conditioning_modes: OptionValue,
+    /// Block inverse iterations of the conditioning report, 1 to 1000.
+    #[arg(long, default_value = "30", value_parser = option_parser("conditioning_iterations"))]
+    pub conditioning_iterations: OptionValue,
     /// Output folder: rest.obj, inflated.obj, distance.csv, design.png (target and check side
     /// by side, coloured by the distance), summary.json, and rest.ply with --fit-thickness
     /// (created; files of the same names are replaced).
@@ -173,6 +184,7 @@ fn params(args: &DesignArgs) -> DesignParams {
     p.fallback.warm_start = args.warm_start;
     p.thickness.warm_start = args.warm_start;
     p.thickness.enabled = args.fit_thickness;
+    p.conditioning.enabled = args.conditioning;
     for (key, value) in [
         ("thickness_min", &args.thickness_min),
         ("thickness_max", &args.thickness_max),
@@ -184,6 +196,8 @@ fn params(args: &DesignArgs) -> DesignParams {
     }
     for (key, value) in [
         ("thickness_iterations", &args.thickness_iterations),
+        ("conditioning_modes", &args.conditioning_modes),
+        ("conditioning_iterations", &args.conditioning_iterations),
         ("method", &args.method),
         ("shape_weight", &args.shape_weight),
         ("shape_stages", &args.shape_stages),
@@ -306,6 +320,31 @@ fn descent(
     ))
 }
 
+/// The printed line of a [`balloon_design::RestConditioning`]: the smallest singular values of
+/// `dr/dX` outside the rigid motions, relative to the largest, and how much of them is normal
+/// to the rest surface.
+fn conditioning_line(c: &balloon_design::RestConditioning) -> String {
+    let list = |v: &[f64], f: &dyn Fn(f64) -> String| {
+        v.iter().map(|x| f(*x)).collect::<Vec<_>>().join(", ")
+    };
+    format!(
+        "rest-shape conditioning: the {} smallest singular values of dr/dX outside the rigid \
+         motions are at most {} N/m, {} of the largest ({:.3e} N/m); normal to the rest surface: {}; \
+         the inflated shape moves by {} of a rest change along them ({:.1} s). Small values \
+         are rest changes the target hardly determines (docs/design.md D19).",
+        c.smallest.len(),
+        list(&c.smallest, &|x| format!("{x:.2e}")),
+        list(&c.relative, &|x| format!("{x:.1e}")),
+        c.largest,
+        list(&c.normal_fraction, &|x| format!("{:.0} %", 100.0 * x)),
+        c.forward_gain.as_deref().map_or_else(
+            || "(no forward equilibrium)".to_string(),
+            |g| list(g, &|x| format!("{x:.1e}"))
+        ),
+        c.seconds
+    )
+}
+
 /// Prints a design's summary line and the command that repeats its check; an interruption or
 /// an unconverged design as the error (after the outputs are written).
 ///
@@ -368,6 +407,9 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
             ),
             None => println!("thickness fit: not run, the rest shape has no forward equilibrium"),
         }
+    }
+    if let Some(c) = &run.design.conditioning {
+        println!("{}", conditioning_line(c));
     }
     if let Some(command) = &run.summary.check_command {
         println!("repeat the check: {command}");

@@ -45,6 +45,7 @@
 //! Features: none.
 
 mod bending_term;
+mod conditioning;
 mod error;
 mod fallback;
 mod forward;
@@ -59,6 +60,7 @@ mod shape_term;
 mod test_fixtures;
 mod thickness_fit;
 
+pub use conditioning::{ConditioningParams, RestConditioning, rest_conditioning};
 pub use error::DesignError;
 pub use fallback::{
     FallbackInfo, FallbackMethod, FallbackMode, FallbackParams, FallbackProgress, FallbackStop,
@@ -91,6 +93,9 @@ pub struct DesignParams {
     pub fallback: FallbackParams,
     /// The wall-thickness fit after the rest shape (off by default).
     pub thickness: ThicknessFitParams,
+    /// How well the target determines the rest shape, after the check (off by default;
+    /// [`rest_conditioning`]).
+    pub conditioning: ConditioningParams,
 }
 
 /// Progress of a [`design`]: the inverse solve's or the shape optimisation's.
@@ -117,6 +122,10 @@ pub struct Design {
     /// The fitted wall thickness ([`ThicknessFitParams::enabled`]; absent otherwise).
     #[serde(default)]
     pub thickness: Option<ThicknessFit>,
+    /// The smallest singular values of the inverse's Jacobian at the rest shape
+    /// ([`ConditioningParams::enabled`]; absent otherwise).
+    #[serde(default)]
+    pub conditioning: Option<RestConditioning>,
 }
 
 /// The weight of a regulariser in its stage `k` (from 0): `w0 0.1^k`, the decreasing stages of
@@ -131,7 +140,9 @@ fn stage_weight(w0: f64, k: usize) -> f64 {
 /// ([`optimise_rest_shape`], recorded in [`InverseInfo::fallback`]); and checks the result
 /// with a forward static solve ([`forward_check`]). With [`ThicknessFitParams::enabled`] it
 /// then fits the wall's thickness per face to the target with that rest shape fixed
-/// ([`fit_thickness`]), and the check uses the fitted thickness. `progress` is called after every accepted
+/// ([`fit_thickness`]), and the check uses the fitted thickness. With
+/// [`ConditioningParams::enabled`] it ends with [`rest_conditioning`] at the rest shape found
+/// (how well the target determines it). `progress` is called after every accepted
 /// step of either; returning `false` stops the design and keeps the best rest shape so far
 /// (which is then checked; the shape optimisation does not start after a stopped inverse
 /// solve).
@@ -147,6 +158,7 @@ pub fn design(
     params: &DesignParams,
     mut progress: impl FnMut(&DesignProgress) -> bool,
 ) -> Result<Design, DesignError> {
+    params.conditioning.validate()?;
     let mut rest = problem.target().to_vec();
     let mut stopped = false;
     let mut inverse = design_rest_shape(problem, &params.inverse, &mut rest, |p| {
@@ -188,6 +200,7 @@ pub fn design_for_rest(
     progress: impl FnMut(&DesignProgress) -> bool,
 ) -> Result<Design, DesignError> {
     params.inverse.validate()?;
+    params.conditioning.validate()?;
     let started = std::time::Instant::now();
     let residual = relative_residual(problem, &rest)?;
     let inverse = InverseInfo {
@@ -233,10 +246,25 @@ fn wall_and_check(
             &params.forward,
         )?,
     };
+    let conditioning = if params.conditioning.enabled {
+        let problem = match &fitted {
+            None => std::borrow::Cow::Borrowed(problem),
+            Some(fit) => std::borrow::Cow::Owned(problem.with_thickness(fit.thickness.clone())?),
+        };
+        Some(rest_conditioning(
+            &problem,
+            &rest,
+            &params.conditioning,
+            &params.forward,
+        )?)
+    } else {
+        None
+    };
     Ok(Design {
         rest,
         inverse,
         check,
         thickness: fitted,
+        conditioning,
     })
 }

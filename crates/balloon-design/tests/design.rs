@@ -388,6 +388,7 @@ fn round_trips_on_real_meshes() {
                 inverse,
                 check,
                 thickness: None,
+                conditioning: None,
             }
         } else {
             design(&problem, &params, report).unwrap()

@@ -10,7 +10,8 @@
 //! ([`DESIGN_OPTIONS`]: `tolerance`, `tangential_weight`, `fallback`, `fallback_iterations`,
 //! `method`, `shape_weight`, `shape_stages`, `newton_polish`, `warm_start`, `bending_weight`,
 //! `inverse_bending_weight`, `inverse_bending_stages`, and the wall-thickness fit's
-//! `fit_thickness`, `thickness_min`, `thickness_max`, `thickness_iterations`), `rest` (a rest
+//! `fit_thickness`, `thickness_min`, `thickness_max`, `thickness_iterations`; and
+//! `conditioning`, `conditioning_modes`, `conditioning_iterations`), `rest` (a rest
 //! shape to keep instead of designing one, relative to the file) and `out` (a folder
 //! relative to the file). Every error names the file, the line and the key.
 //!
@@ -98,6 +99,9 @@ pub const DESIGN_KEYS: &[&str] = &[
     "thickness_min",
     "thickness_max",
     "thickness_iterations",
+    "conditioning",
+    "conditioning_modes",
+    "conditioning_iterations",
     "rest",
     "out",
 ];
@@ -177,6 +181,19 @@ pub const DESIGN_OPTIONS: &[(&str, &str)] = &[
     (
         "thickness_iterations",
         "steps allowed to the thickness fit (`thickness.max_iterations`)",
+    ),
+    (
+        "conditioning",
+        "after the check, the smallest singular values of the inverse's Jacobian at the rest \
+         shape: how well the target determines it (`conditioning.enabled`; docs/design.md D19)",
+    ),
+    (
+        "conditioning_modes",
+        "singular values the conditioning report seeks (`conditioning.modes`)",
+    ),
+    (
+        "conditioning_iterations",
+        "block inverse iterations of the conditioning report (`conditioning.iterations`)",
     ),
 ];
 
@@ -294,6 +311,13 @@ pub fn set_design_option(
             params.thickness.warm_start = params.fallback.warm_start;
         }
         "fit_thickness" => params.thickness.enabled = flag()?,
+        "conditioning" => params.conditioning.enabled = flag()?,
+        "conditioning_modes" => {
+            params.conditioning.modes = whole(1.0, 64.0, "a whole number from 1 to 64")?;
+        }
+        "conditioning_iterations" => {
+            params.conditioning.iterations = whole(1.0, 1000.0, "a whole number from 1 to 1000")?;
+        }
         "thickness_min" => {
             params.thickness.lower = Some(real(0.0, 1.0, false, "in (0, 1] m")?);
         }

@@ -148,6 +148,12 @@ fn design_errors_name_the_flag() {
             "0",
             "a whole number from 1 to 100000",
         ),
+        ("--conditioning-modes", "65", "a whole number from 1 to 64"),
+        (
+            "--conditioning-iterations",
+            "0",
+            "a whole number from 1 to 1000",
+        ),
     ] {
         let o = run_balloon(&[
             "design",
@@ -471,6 +477,10 @@ fn design_scenario_errors_name_file_line_and_key() {
             "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nshape_weight = -1\n",
             "d.toml:4: `design.shape_weight`: invalid value '-1': in [0, 1e6]",
         ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nconditioning = 1\n",
+            "d.toml:4: `design.conditioning`: expected true or false, found an integer",
+        ),
     ];
     for (text, expected) in cases {
         std::fs::write(&file, text).unwrap();
@@ -720,4 +730,90 @@ fn a_given_rest_shape_is_kept_checked_and_refused_when_it_does_not_match() {
         std::fs::read(out.join("rest.obj")).unwrap(),
         std::fs::read(dir.path().join("from-file/rest.obj")).unwrap()
     );
+}
+
+/// `--conditioning` (and the scenario key `conditioning`) reports how well the target
+/// determines the rest shape: on the icosphere kept as the rest of its own inflated target,
+/// six singular values of `dr/dX` outside the rigid motions, ascending, positive, over the
+/// largest as `relative`, with the forward gain of each; the printed line names them. Without
+/// the flag the record is null.
+#[test]
+fn the_rest_shape_conditioning_is_reported_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = inflated_icosphere_target(dir.path());
+    let design = |out: &std::path::Path, extra: &[&str]| {
+        let mut args = vec![
+            "design",
+            target.to_str().unwrap(),
+            "--rest",
+            "builtin:icosphere",
+            "--pressure",
+            "2000",
+            "--tolerance",
+            "1e-6",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(PRISM_WALL);
+        args.extend(extra);
+        let o = run_balloon(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        (String::from_utf8_lossy(&o.stdout).into_owned(), summary)
+    };
+    let (stdout, summary) = design(&dir.path().join("with"), &["--conditioning"]);
+    assert!(
+        stdout.contains("rest-shape conditioning: the 6 smallest"),
+        "{stdout}"
+    );
+    let c = &summary["conditioning"];
+    let numbers = |key: &str| -> Vec<f64> {
+        c[key]
+            .as_array()
+            .unwrap_or_else(|| panic!("{key}: {c}"))
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect()
+    };
+    let smallest = numbers("smallest");
+    let largest = c["largest"].as_f64().unwrap();
+    assert_eq!(smallest.len(), 6, "{c}");
+    assert!(
+        smallest[0] > 0.0 && smallest.windows(2).all(|w| w[0] <= w[1]),
+        "{c}"
+    );
+    assert!(smallest[5] < largest, "{c}");
+    for (r, s) in numbers("relative").iter().zip(&smallest) {
+        assert!(
+            (r - s / largest).abs() <= 1e-12 * r.abs().max(1e-300),
+            "{c}"
+        );
+    }
+    let gains = numbers("forward_gain");
+    assert_eq!(gains.len(), 6, "{c}");
+    assert!(gains.iter().all(|g| *g > 0.0 && *g < 10.0), "{c}");
+    // Without the flag: no record, no line.
+    let (stdout, summary) = design(&dir.path().join("without"), &[]);
+    assert!(summary["conditioning"].is_null(), "{summary}");
+    assert!(!stdout.contains("conditioning"), "{stdout}");
+    // The scenario key does the same (the same numbers: the computation is deterministic).
+    let file = dir.path().join("d.toml");
+    std::fs::write(
+        &file,
+        "[design]\ntarget = \"made/final.obj\"\nrest = \"builtin:icosphere\"\npressure = 2000\n\
+         tolerance = 1e-6\nconditioning = true\n\
+         material = \"neo-hookean\"\nyoung = 1e6\npoisson = 0.45\nthickness = 1e-3\n\
+         out = \"from-file\"\n",
+    )
+    .unwrap();
+    let o = run_balloon(&["run", file.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let from_file: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("from-file/summary.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(from_file["conditioning"]["smallest"], c["smallest"]);
 }

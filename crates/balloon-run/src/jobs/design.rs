@@ -102,6 +102,9 @@ pub struct DesignSummary {
     pub thickness_fit: Option<ThicknessFitSummary>,
     /// The forward check: converged, iterations, distance to the target (m and relative).
     pub check: CheckSummary,
+    /// How well the target determines the rest shape (`--conditioning`; docs/design.md D19):
+    /// the smallest singular values of the inverse's Jacobian, null without it.
+    pub conditioning: Option<balloon_design::RestConditioning>,
     /// Target bounding-box diagonal, m.
     pub bbox_diagonal: f64,
     /// Enclosed volume of the target, m^3.
@@ -350,6 +353,7 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
             volume: result.check.volume,
             seconds: result.check.seconds,
         },
+        conditioning: result.conditioning.clone(),
         bbox_diagonal: balloon_design::bbox_diagonal(problem.target()),
         target_volume: balloon_design::enclosed_volume(problem.target(), problem.triangles()),
         rest_volume,
