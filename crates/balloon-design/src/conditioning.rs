@@ -95,8 +95,70 @@ pub struct RestConditioning {
     pub seconds: f64,
 }
 
-/// The six rigid motions of the points `x` (flat), orthonormal.
-fn rigid_motions(x: &[f64]) -> Vec<Vec<f64>> {
+/// The `k` smallest eigenvalues (ascending) and unit eigenvectors of a symmetric positive
+/// semi-definite operator `A` on `n` unknowns, outside the span of the orthonormal vectors
+/// `null`: block inverse iteration (`iterations` times) from a fixed start, each new block
+/// orthonormalised against `null` and itself, with Rayleigh-Ritz on the block.
+///
+/// `solve` overwrites a vector `u` with `(A + s I)^-1 u` for a shift `s >= 0` of the caller's
+/// choice (a factor); `quadratic` returns `Q^T A Q` for the orthonormal block `Q` (for
+/// `A = J^T J`, as `(J Q)^T (J Q)`, which keeps the small values' accuracy). The values are
+/// Ritz values, each at least the true eigenvalue of its rank; values well below `s` converge
+/// slowly.
+///
+/// # Errors
+/// Those of `solve`.
+pub fn smallest_eigenpairs(
+    n: usize,
+    null: &[Vec<f64>],
+    k: usize,
+    iterations: usize,
+    mut solve: impl FnMut(&mut [f64]) -> Result<(), DesignError>,
+    quadratic: impl Fn(&[Vec<f64>]) -> DMatrix<f64>,
+) -> Result<(Vec<f64>, Vec<Vec<f64>>), DesignError> {
+    // A deterministic start that is not special on any mesh.
+    let mut block: Vec<Vec<f64>> = (0..k)
+        .map(|c| {
+            (0..n)
+                .map(|i| ((i * (c + 3)) as f64 * 0.731 + c as f64).sin())
+                .collect()
+        })
+        .collect();
+    let mut values = vec![0.0; k];
+    for _ in 0..iterations {
+        let mut q: Vec<Vec<f64>> = Vec::with_capacity(k);
+        for mut u in block.drain(..) {
+            solve(&mut u)?;
+            let mut against = null.to_vec();
+            against.extend(q.iter().cloned());
+            orthonormalise(&against, &mut u);
+            q.push(u);
+        }
+        let eig = quadratic(&q).symmetric_eigen();
+        let mut order: Vec<usize> = (0..k).collect();
+        order.sort_by(|&x, &y| eig.eigenvalues[x].total_cmp(&eig.eigenvalues[y]));
+        block = order
+            .iter()
+            .map(|&c| {
+                let mut u = vec![0.0; n];
+                for (i, qi) in q.iter().enumerate() {
+                    let w = eig.eigenvectors[(i, c)];
+                    for (ui, qv) in u.iter_mut().zip(qi) {
+                        *ui += w * qv;
+                    }
+                }
+                u
+            })
+            .collect();
+        values = order.iter().map(|&c| eig.eigenvalues[c]).collect();
+    }
+    Ok((values, block))
+}
+
+/// The six rigid motions of the points `x` (flat), orthonormal: the null space of the
+/// inverse's Jacobian `dr/dX` at the rest shape `x` (and of a free shell's stiffness at the
+/// positions `x`).
+pub fn rigid_motions(x: &[f64]) -> Vec<Vec<f64>> {
     let nv = x.len() / 3;
     let c = (0..nv).map(|v| point(x, v)).sum::<Vector3<f64>>() / nv.max(1) as f64;
     let mut basis: Vec<Vec<f64>> = Vec::with_capacity(6);
@@ -150,13 +212,7 @@ pub fn rest_conditioning(
     forward: &StaticParams,
 ) -> Result<RestConditioning, DesignError> {
     params.validate()?;
-    if rest.len() != problem.num_dofs() {
-        return Err(DesignError::InvalidParameter {
-            name: "rest",
-            value: rest.len() as f64,
-            allowed: "three coordinates per target vertex",
-        });
-    }
+    problem.check_length("rest", rest)?;
     let started = std::time::Instant::now();
     let n = rest.len();
     let mut pattern = NormalPattern::new(n / 3, problem.triangles());
@@ -188,48 +244,21 @@ pub fn rest_conditioning(
         pattern.apply(&j, u, &mut out);
         out
     };
-    // A deterministic start that is not special on any mesh.
-    let mut block: Vec<Vec<f64>> = (0..k)
-        .map(|c| {
-            (0..n)
-                .map(|i| ((i * (c + 3)) as f64 * 0.731 + c as f64).sin())
-                .collect()
-        })
-        .collect();
-    let mut values = vec![0.0; k];
-    for _ in 0..params.iterations {
-        let mut q: Vec<Vec<f64>> = Vec::with_capacity(k);
-        for mut u in block.drain(..) {
-            chol.solve_in_place(&mut u)
-                .map_err(|e| DesignError::Linear(e.to_string()))?;
-            let mut against = null.clone();
-            against.extend(q.iter().cloned());
-            orthonormalise(&against, &mut u);
-            q.push(u);
-        }
-        let jq: Vec<Vec<f64>> = q.iter().map(|u| apply(u)).collect();
-        let h = DMatrix::from_fn(k, k, |a, b| dot(&jq[a], &jq[b]));
-        let eig = h.symmetric_eigen();
-        let mut order: Vec<usize> = (0..k).collect();
-        order.sort_by(|&x, &y| eig.eigenvalues[x].total_cmp(&eig.eigenvalues[y]));
-        block = order
-            .iter()
-            .map(|&c| {
-                let mut u = vec![0.0; n];
-                for (i, qi) in q.iter().enumerate() {
-                    let w = eig.eigenvectors[(i, c)];
-                    for (ui, qv) in u.iter_mut().zip(qi) {
-                        *ui += w * qv;
-                    }
-                }
-                u
-            })
-            .collect();
-        values = order
-            .iter()
-            .map(|&c| eig.eigenvalues[c].max(0.0).sqrt())
-            .collect();
-    }
+    let (squares, block) = smallest_eigenpairs(
+        n,
+        &null,
+        k,
+        params.iterations,
+        |u| {
+            chol.solve_in_place(u)
+                .map_err(|e| DesignError::Linear(e.to_string()))
+        },
+        |q| {
+            let jq: Vec<Vec<f64>> = q.iter().map(|u| apply(u)).collect();
+            DMatrix::from_fn(q.len(), q.len(), |a, b| dot(&jq[a], &jq[b]))
+        },
+    )?;
+    let values: Vec<f64> = squares.iter().map(|v| v.max(0.0).sqrt()).collect();
     // The largest by power iteration on J^T J.
     let mut v: Vec<f64> = (0..n).map(|i| (i as f64 * 0.377 + 0.1).cos()).collect();
     orthonormalise(&[], &mut v);

@@ -297,13 +297,7 @@ pub fn optimise_rest_shape(
     mut progress: impl FnMut(&FallbackProgress) -> bool,
 ) -> Result<FallbackInfo, DesignError> {
     params.validate()?;
-    if rest.len() != problem.num_dofs() {
-        return Err(DesignError::InvalidParameter {
-            name: "rest",
-            value: rest.len() as f64,
-            allowed: "three coordinates per target vertex",
-        });
-    }
+    problem.check_length("rest", rest)?;
     let started = std::time::Instant::now();
     let tolerance = params.forward_tolerance.unwrap_or(forward.tolerance);
     let mut objective = ShapeObjective::new(problem, forward, tolerance)?;

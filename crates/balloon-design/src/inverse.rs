@@ -209,13 +209,7 @@ pub fn design_rest_shape(
     mut progress: impl FnMut(&InverseProgress) -> bool,
 ) -> Result<InverseInfo, DesignError> {
     params.validate()?;
-    if start.len() != problem.num_dofs() {
-        return Err(DesignError::InvalidParameter {
-            name: "start",
-            value: start.len() as f64,
-            allowed: "three coordinates per target vertex",
-        });
-    }
+    problem.check_length("start", start)?;
     let started = std::time::Instant::now();
     let scale = norm(problem.pressure_forces());
     let pattern = NormalPattern::new(problem.num_dofs() / 3, problem.triangles());

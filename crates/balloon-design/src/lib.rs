@@ -60,7 +60,9 @@ mod shape_term;
 mod test_fixtures;
 mod thickness_fit;
 
-pub use conditioning::{ConditioningParams, RestConditioning, rest_conditioning};
+pub use conditioning::{
+    ConditioningParams, RestConditioning, rest_conditioning, rigid_motions, smallest_eigenpairs,
+};
 pub use error::DesignError;
 pub use fallback::{
     FallbackInfo, FallbackMethod, FallbackMode, FallbackParams, FallbackProgress, FallbackStop,

@@ -465,15 +465,7 @@ impl<'a> ShapeObjective<'a> {
     }
 
     fn check_length(&self, v: &[f64]) -> Result<(), DesignError> {
-        if v.len() == self.problem.num_dofs() {
-            Ok(())
-        } else {
-            Err(DesignError::InvalidParameter {
-                name: "direction",
-                value: v.len() as f64,
-                allowed: "three coordinates per target vertex",
-            })
-        }
+        self.problem.check_length("direction", v)
     }
 
     fn linearisation(&self) -> Result<(&Linearisation, &PinnedLu), DesignError> {

@@ -269,6 +269,20 @@ impl DesignProblem {
         &self.pressure_forces
     }
 
+    /// `Ok` when `v` has three coordinates per target vertex, else
+    /// [`DesignError::InvalidParameter`] naming it `name`.
+    pub(crate) fn check_length(&self, name: &'static str, v: &[f64]) -> Result<(), DesignError> {
+        if v.len() == self.num_dofs() {
+            Ok(())
+        } else {
+            Err(DesignError::InvalidParameter {
+                name,
+                value: v.len() as f64,
+                allowed: "three coordinates per target vertex",
+            })
+        }
+    }
+
     /// Number of degrees of freedom (3 per vertex).
     pub fn num_dofs(&self) -> usize {
         self.target.len()
@@ -387,13 +401,7 @@ impl DesignProblem {
         jacobian: bool,
     ) -> Result<(Vec<f64>, Option<sprs::CsMat<f64>>), DesignError> {
         let n = self.num_dofs();
-        if rest.len() != n {
-            return Err(DesignError::InvalidParameter {
-                name: "rest",
-                value: rest.len() as f64,
-                allowed: "three coordinates per target vertex",
-            });
-        }
+        self.check_length("rest", rest)?;
         let mut r: Vec<f64> = self.pressure_forces.iter().map(|f| load * f).collect();
         let mut tri =
             jacobian.then(|| sprs::TriMat::with_capacity((n, n), 81 * self.triangles.len()));

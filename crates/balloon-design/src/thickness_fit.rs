@@ -188,13 +188,7 @@ pub fn fit_thickness(
     mut progress: impl FnMut(&FallbackProgress) -> bool,
 ) -> Result<ThicknessFit, DesignError> {
     params.validate()?;
-    if rest.len() != problem.num_dofs() {
-        return Err(DesignError::InvalidParameter {
-            name: "rest",
-            value: rest.len() as f64,
-            allowed: "three coordinates per target vertex",
-        });
-    }
+    problem.check_length("rest", rest)?;
     let started = std::time::Instant::now();
     let (lower, upper) = params.bounds(problem.thickness())?;
     let span = upper - lower;

@@ -27,45 +27,10 @@ fn p3(x: &[f64], v: usize) -> Vector3<f64> {
     Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])
 }
 
-/// The six rigid motions of the points `x`, orthonormal.
-fn rigid_basis(x: &[f64]) -> Vec<Vec<f64>> {
-    let nv = x.len() / 3;
-    let c = (0..nv).map(|v| p3(x, v)).sum::<Vector3<f64>>() / nv as f64;
-    let mut basis: Vec<Vec<f64>> = Vec::new();
-    for k in 0..6 {
-        let mut u = vec![0.0; x.len()];
-        for v in 0..nv {
-            let d = if k < 3 {
-                Vector3::ith(k, 1.0)
-            } else {
-                Vector3::ith(k - 3, 1.0).cross(&(p3(x, v) - c))
-            };
-            u[3 * v..3 * v + 3].copy_from_slice(d.as_slice());
-        }
-        orthonormalise_against(&basis, &mut u);
-        basis.push(u);
-    }
-    basis
-}
-
-fn orthonormalise_against(basis: &[Vec<f64>], u: &mut [f64]) {
-    for _ in 0..2 {
-        for b in basis {
-            let a = dot(b, u);
-            for (ui, bi) in u.iter_mut().zip(b) {
-                *ui -= a * bi;
-            }
-        }
-    }
-    let n = dot(u, u).sqrt();
-    for ui in u.iter_mut() {
-        *ui /= n;
-    }
-}
-
 /// The `k` smallest eigenvalues (and vectors) of the symmetric `a` outside the span of
-/// `null`, by block inverse iteration with a Cholesky factor of `a + s I` (`s` raised until
-/// the factorisation succeeds) and Rayleigh-Ritz; returns them and the shift used.
+/// `null`, by the library's block inverse iteration with a Cholesky factor of `a + s I` (`s`
+/// raised until the factorisation succeeds) and Rayleigh-Ritz with `a`; returns them and the
+/// shift used.
 fn smallest_eigen(
     a: &sprs::CsMat<f64>,
     null: &[Vec<f64>],
@@ -92,44 +57,24 @@ fn smallest_eigen(
         }
         shift *= 10.0;
     }
-    let mut block: Vec<Vec<f64>> = (0..k)
-        .map(|j| {
-            (0..n)
-                .map(|i| ((i * (j + 3)) as f64 * 0.731 + j as f64).sin())
-                .collect()
-        })
-        .collect();
-    let mut values = vec![0.0; k];
-    for _ in 0..iterations {
-        let mut q: Vec<Vec<f64>> = Vec::new();
-        for mut u in block.drain(..) {
-            chol.solve_in_place(&mut u).unwrap();
-            let mut all = null.to_vec();
-            all.extend(q.iter().cloned());
-            orthonormalise_against(&all, &mut u);
-            q.push(u);
-        }
+    let (values, block) = balloon_design::smallest_eigenpairs(
+        n,
+        null,
+        k,
+        iterations,
+        |u| {
+            chol.solve_in_place(u).unwrap();
+            Ok(())
+        },
         // Rayleigh-Ritz with a itself.
-        let aq: Vec<Vec<f64>> = q.iter().map(|u| mv(a, u)).collect();
-        let h = DMatrix::from_fn(k, k, |i, j| 0.5 * (dot(&q[i], &aq[j]) + dot(&q[j], &aq[i])));
-        let eig = h.symmetric_eigen();
-        let mut order: Vec<usize> = (0..k).collect();
-        order.sort_by(|&x, &y| eig.eigenvalues[x].total_cmp(&eig.eigenvalues[y]));
-        block = order
-            .iter()
-            .map(|&c| {
-                let mut u = vec![0.0; n];
-                for (i, qi) in q.iter().enumerate() {
-                    let w = eig.eigenvectors[(i, c)];
-                    for (ui, qv) in u.iter_mut().zip(qi) {
-                        *ui += w * qv;
-                    }
-                }
-                u
+        |q| {
+            let aq: Vec<Vec<f64>> = q.iter().map(|u| mv(a, u)).collect();
+            DMatrix::from_fn(q.len(), q.len(), |i, j| {
+                0.5 * (dot(&q[i], &aq[j]) + dot(&q[j], &aq[i]))
             })
-            .collect();
-        values = order.iter().map(|&c| eig.eigenvalues[c]).collect();
-    }
+        },
+    )
+    .unwrap();
     (values, block, shift)
 }
 
@@ -223,7 +168,7 @@ fn jacobian_spectrum(
     let (r, j) = problem.residual_and_jacobian(rest, load).unwrap();
     let jt = j.transpose_view().to_csr();
     let a = &jt * &j;
-    let null = rigid_basis(rest);
+    let null = balloon_design::rigid_motions(rest);
     let (values, vectors, shift) = smallest_eigen(&a, &null, k, 40);
     // Largest by power iteration.
     let mut u: Vec<f64> = (0..rest.len()).map(|i| (i as f64 * 0.37).cos()).collect();
@@ -411,7 +356,7 @@ fn forward_tangent_near_instability() {
         tm.add_triplet(j, i, 0.5 * v);
     }
     let kmat: sprs::CsMat<f64> = tm.to_csr();
-    let null = rigid_basis(&x);
+    let null = balloon_design::rigid_motions(&x);
     let (values, vectors, shift) = smallest_eigen(&kmat, &null, 6, 40);
     let mean_diag = (0..n).map(|i| *kmat.get(i, i).unwrap_or(&0.0)).sum::<f64>() / n as f64;
     eprintln!(

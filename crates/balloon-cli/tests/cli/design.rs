@@ -320,6 +320,52 @@ fn inflated_icosphere_target(dir: &std::path::Path) -> std::path::PathBuf {
     made.join("final.obj")
 }
 
+/// `balloon design TARGET --rest builtin:icosphere` at 2 kPa with the [`PRISM_WALL`] and a
+/// tolerance of 1e-6 into `out`, with the `extra` flags: the icosphere kept as the rest shape
+/// of `target` ([`inflated_icosphere_target`]).
+fn keep_the_icosphere(
+    target: &std::path::Path,
+    out: &std::path::Path,
+    extra: &[&str],
+) -> std::process::Output {
+    let mut args = vec![
+        "design",
+        target.to_str().unwrap(),
+        "--rest",
+        "builtin:icosphere",
+        "--pressure",
+        "2000",
+        "--tolerance",
+        "1e-6",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(PRISM_WALL);
+    args.extend(extra);
+    run_balloon(&args)
+}
+
+/// [`keep_the_icosphere`] from a scenario file in `dir` (beside `made/`, with the `extra`
+/// `[design]` lines) into `dir/from-file`; returns its `summary.json`.
+fn keep_the_icosphere_from_a_scenario(dir: &std::path::Path, extra: &str) -> serde_json::Value {
+    let file = dir.join("d.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "[design]\ntarget = \"made/final.obj\"\nrest = \"builtin:icosphere\"\n\
+             pressure = 2000\ntolerance = 1e-6\n{extra}\
+             material = \"neo-hookean\"\nyoung = 1e6\npoisson = 0.45\nthickness = 1e-3\n\
+             out = \"from-file\"\n"
+        ),
+    )
+    .unwrap();
+    let o = run_balloon(&["run", file.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    serde_json::from_str(&std::fs::read_to_string(dir.join("from-file/summary.json")).unwrap())
+        .unwrap()
+}
+
 /// Designs for the sphere that a neo-Hookean prism wall at its rest thickness holds at 2 kPa
 /// (inflated so into `dir/made`), with `load` as the load flags, runs the printed check
 /// command and checks that it repeats the design's check volume; returns `summary.json`.
@@ -640,21 +686,7 @@ fn a_given_rest_shape_is_kept_checked_and_refused_when_it_does_not_match() {
     let dir = tempfile::tempdir().unwrap();
     let target = inflated_icosphere_target(dir.path());
     let out = dir.path().join("kept");
-    let mut args = vec![
-        "design",
-        target.to_str().unwrap(),
-        "--rest",
-        "builtin:icosphere",
-        "--pressure",
-        "2000",
-        "--tolerance",
-        "1e-6",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend(PRISM_WALL);
-    let o = run_balloon(&args);
+    let o = keep_the_icosphere(&target, &out, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
     // The target was written by a static solve to its default tolerance, so it is an
@@ -710,21 +742,7 @@ fn a_given_rest_shape_is_kept_checked_and_refused_when_it_does_not_match() {
     );
 
     // The scenario key.
-    let file = dir.path().join("d.toml");
-    std::fs::write(
-        &file,
-        "[design]\ntarget = \"made/final.obj\"\nrest = \"builtin:icosphere\"\npressure = 2000\n\
-         tolerance = 1e-6\n\
-         material = \"neo-hookean\"\nyoung = 1e6\npoisson = 0.45\nthickness = 1e-3\n\
-         out = \"from-file\"\n",
-    )
-    .unwrap();
-    let o = run_balloon(&["run", file.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let from_file: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(dir.path().join("from-file/summary.json")).unwrap(),
-    )
-    .unwrap();
+    let from_file = keep_the_icosphere_from_a_scenario(dir.path(), "");
     assert_eq!(from_file["inverse"]["iterations"].as_u64(), Some(0));
     assert_eq!(
         std::fs::read(out.join("rest.obj")).unwrap(),
@@ -742,22 +760,7 @@ fn the_rest_shape_conditioning_is_reported_when_asked() {
     let dir = tempfile::tempdir().unwrap();
     let target = inflated_icosphere_target(dir.path());
     let design = |out: &std::path::Path, extra: &[&str]| {
-        let mut args = vec![
-            "design",
-            target.to_str().unwrap(),
-            "--rest",
-            "builtin:icosphere",
-            "--pressure",
-            "2000",
-            "--tolerance",
-            "1e-6",
-            "--quiet",
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        args.extend(PRISM_WALL);
-        args.extend(extra);
-        let o = run_balloon(&args);
+        let o = keep_the_icosphere(&target, out, extra);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
@@ -800,20 +803,6 @@ fn the_rest_shape_conditioning_is_reported_when_asked() {
     assert!(summary["conditioning"].is_null(), "{summary}");
     assert!(!stdout.contains("conditioning"), "{stdout}");
     // The scenario key does the same (the same numbers: the computation is deterministic).
-    let file = dir.path().join("d.toml");
-    std::fs::write(
-        &file,
-        "[design]\ntarget = \"made/final.obj\"\nrest = \"builtin:icosphere\"\npressure = 2000\n\
-         tolerance = 1e-6\nconditioning = true\n\
-         material = \"neo-hookean\"\nyoung = 1e6\npoisson = 0.45\nthickness = 1e-3\n\
-         out = \"from-file\"\n",
-    )
-    .unwrap();
-    let o = run_balloon(&["run", file.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let from_file: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(dir.path().join("from-file/summary.json")).unwrap(),
-    )
-    .unwrap();
+    let from_file = keep_the_icosphere_from_a_scenario(dir.path(), "conditioning = true\n");
     assert_eq!(from_file["conditioning"]["smallest"], c["smallest"]);
 }
