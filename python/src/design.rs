@@ -8,6 +8,7 @@ use balloon_design::DesignParams;
 use balloon_run::jobs::design::{DesignJob, run};
 use balloon_scenario::design::{DESIGN_OPTIONS, OptionError, OptionValue, set_design_option};
 use balloon_scenario::{Scenario, SystemKind};
+use numpy::PyArrayMethods;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyTuple};
 
@@ -112,7 +113,9 @@ fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyR
 /// wall fitted with `fit_thickness`). Returns {"rest": (n, 3) float64,
 /// "inflated": (n, 3) float64 (the check's equilibrium, rigidly aligned onto the target),
 /// "thickness": (m,) float64 (the rest thickness per face: the fitted one with
-/// `fit_thickness`, else the wall's), "summary": dict (summary.json's keys; the fit's record is
+/// `fit_thickness`, else the wall's), "conditioning_modes": (k, n, 3) float64 (the
+/// conditioning report's singular vectors, unit norm each, in the order of
+/// `summary["conditioning"]["smallest"]`; None without `conditioning`), "summary": dict (summary.json's keys; the fit's record is
 /// `summary["thickness_fit"]`)}. A design that does not reach the pressure or the tolerance is
 /// returned with `summary["converged"]` False (check it): the best rest shape found. Errors:
 /// `InvalidOption` naming the parameter, `MeshError` for the arrays or a target that cannot be
@@ -259,6 +262,19 @@ pub(crate) fn design<'py>(
         None => vec![result.summary.thickness; result.summary.triangles],
     };
     d.set_item("thickness", numpy::PyArray1::from_vec(py, thickness))?;
+    let modes = match &result.design.conditioning {
+        Some(c) if !c.modes.is_empty() => {
+            let flat: Vec<f64> = c.modes.concat();
+            let n = c.modes[0].len() / 3;
+            Some(
+                numpy::PyArray1::from_vec(py, flat)
+                    .reshape([c.modes.len(), n, 3])?
+                    .into_any(),
+            )
+        }
+        _ => None,
+    };
+    d.set_item("conditioning_modes", modes)?;
     let summary =
         serde_json::to_value(&result.summary).map_err(|e| BalloonError::new_err(e.to_string()))?;
     d.set_item("summary", json_to_py(py, &summary)?)?;

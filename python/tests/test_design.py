@@ -264,13 +264,18 @@ def test_the_rest_shape_conditioning_is_returned_when_asked():
     options = dict(
         pressure=2000.0, thickness=H, material="membrane-neo-hookean", mu=MU, rest=0.9 * vertices
     )
-    c = balloon.design(vertices, faces, conditioning=True, **options)["summary"]["conditioning"]
+    r = balloon.design(vertices, faces, conditioning=True, **options)
+    c = r["summary"]["conditioning"]
     smallest = np.array(c["smallest"])
     assert smallest.shape == (6,)
     assert (smallest > 0.0).all() and (np.diff(smallest) >= 0.0).all(), c
     assert smallest[-1] < c["largest"]
     assert np.allclose(c["relative"], smallest / c["largest"], rtol=1e-12)
     assert len(c["forward_gain"]) == 6
-    assert balloon.design(vertices, faces, **options)["summary"]["conditioning"] is None
+    modes = r["conditioning_modes"]
+    assert modes.shape == (6, len(vertices), 3)
+    assert np.allclose((modes**2).sum(axis=(1, 2)), 1.0)
+    plain = balloon.design(vertices, faces, **options)
+    assert plain["summary"]["conditioning"] is None and plain["conditioning_modes"] is None
     with pytest.raises(balloon.InvalidOption, match="conditioning"):
         balloon.design(vertices, faces, conditioning=1.5, **options)

@@ -88,6 +88,10 @@ pub struct RestConditioning {
     /// a rest change hardly shows in the inflated shape. Absent when that forward solve
     /// failed.
     pub forward_gain: Option<Vec<f64>>,
+    /// The singular vectors of `smallest` (flat, unit norm, three entries per vertex): the
+    /// rest-shape directions in question. Not serialised (three numbers per vertex each).
+    #[serde(skip)]
+    pub modes: Vec<Vec<f64>>,
     /// The shift `s` of the factor of `J^T J + s I` used by the inverse iteration (N^2/m^2):
     /// values well below `sqrt(s)` are separated more slowly.
     pub shift: f64,
@@ -290,6 +294,7 @@ pub fn rest_conditioning(
         smallest: values,
         largest,
         normal_fraction,
+        modes: block,
         shift,
         seconds: started.elapsed().as_secs_f64(),
     })
@@ -388,6 +393,17 @@ mod tests {
                 );
             }
             assert!((c.largest - largest).abs() < 1e-3 * largest, "{c:?}");
+            // The vectors: unit, orthogonal to the rigid motions, and `|J u_k| = sigma_k` with
+            // the problem's own sparse Jacobian.
+            let rigid = rigid_motions(&rest);
+            assert_eq!(c.modes.len(), c.smallest.len());
+            for (u, sigma) in c.modes.iter().zip(&c.smallest) {
+                assert!((dot(u, u) - 1.0).abs() < 1e-12);
+                assert!(rigid.iter().all(|b| dot(b, u).abs() < 1e-10));
+                let ju = &dense * nalgebra::DVector::from_column_slice(u);
+                let norm = ju.norm();
+                assert!((norm - sigma).abs() < 1e-9 * sigma, "{norm:e} vs {sigma:e}");
+            }
             assert!(
                 c.normal_fraction
                     .iter()

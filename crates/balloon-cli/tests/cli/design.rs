@@ -798,9 +798,33 @@ fn the_rest_shape_conditioning_is_reported_when_asked() {
     let gains = numbers("forward_gain");
     assert_eq!(gains.len(), 6, "{c}");
     assert!(gains.iter().all(|g| *g > 0.0 && *g < 10.0), "{c}");
+    // The singular vectors: one row per vertex, three columns per mode, unit norm each.
+    assert_eq!(summary["conditioning_modes"], "conditioning_modes.csv");
+    let csv = std::fs::read_to_string(dir.path().join("with/conditioning_modes.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header.len(), 1 + 3 * 6, "{header:?}");
+    assert_eq!(header[1], "mode_1_x");
+    let mut norms = [0.0f64; 6];
+    let mut rows = 0;
+    for line in lines {
+        let values: Vec<f64> = line
+            .split(',')
+            .skip(1)
+            .map(|v| v.parse().unwrap())
+            .collect();
+        for (k, n) in norms.iter_mut().enumerate() {
+            *n += values[3 * k..3 * k + 3].iter().map(|x| x * x).sum::<f64>();
+        }
+        rows += 1;
+    }
+    assert_eq!(rows, summary["vertices"].as_u64().unwrap() as usize);
+    assert!(norms.iter().all(|n| (n - 1.0).abs() < 1e-9), "{norms:?}");
     // Without the flag: no record, no line.
     let (stdout, summary) = design(&dir.path().join("without"), &[]);
     assert!(summary["conditioning"].is_null(), "{summary}");
+    assert!(summary["conditioning_modes"].is_null(), "{summary}");
+    assert!(!dir.path().join("without/conditioning_modes.csv").exists());
     assert!(!stdout.contains("conditioning"), "{stdout}");
     // The scenario key does the same (the same numbers: the computation is deterministic).
     let from_file = keep_the_icosphere_from_a_scenario(dir.path(), "conditioning = true\n");

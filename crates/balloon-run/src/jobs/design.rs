@@ -13,6 +13,7 @@ use balloon_render::{
 };
 use balloon_scenario::material::MaterialSpec;
 use serde::Serialize;
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// The ambient pressure of a gas amount unless one is given, Pa (a standard atmosphere, as
@@ -105,6 +106,9 @@ pub struct DesignSummary {
     /// How well the target determines the rest shape (`--conditioning`; docs/design.md D19):
     /// the smallest singular values of the inverse's Jacobian, null without it.
     pub conditioning: Option<balloon_design::RestConditioning>,
+    /// The file of the conditioning report's singular vectors ([`CONDITIONING_MODES`]), null
+    /// without the report or an output folder.
+    pub conditioning_modes: Option<String>,
     /// Target bounding-box diagonal, m.
     pub bbox_diagonal: f64,
     /// Enclosed volume of the target, m^3.
@@ -354,6 +358,11 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
             seconds: result.check.seconds,
         },
         conditioning: result.conditioning.clone(),
+        conditioning_modes: job
+            .out
+            .as_ref()
+            .and(result.conditioning.as_ref())
+            .map(|_| CONDITIONING_MODES.to_string()),
         bbox_diagonal: balloon_design::bbox_diagonal(problem.target()),
         target_volume: balloon_design::enclosed_volume(problem.target(), problem.triangles()),
         rest_volume,
@@ -386,7 +395,8 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
     })
 }
 
-/// Writes `rest.obj`, `inflated.obj`, `distance.csv` and `design.png` into `out` (created);
+/// Writes `rest.obj`, `inflated.obj`, `distance.csv`, `design.png` (and `rest.ply` with a
+/// fitted wall, [`CONDITIONING_MODES`] with the conditioning report) into `out` (created);
 /// returns the picture's file name, or `None` (with a warning on stderr) when it could not be
 /// rendered: a missing picture does not fail the design.
 fn write_outputs(
@@ -414,6 +424,11 @@ fn write_outputs(
             Some(("thickness", &fit.thickness)),
         )
         .with_context(|| format!("cannot write `{}`", path.display()))?;
+    }
+    if let Some(c) = &result.conditioning {
+        let path = out.join(CONDITIONING_MODES);
+        std::fs::write(&path, modes_csv(&c.modes, target.num_vertices()))
+            .with_context(|| format!("cannot write `{}`", path.display()))?;
     }
     let d = balloon_design::vertex_distances(&result.check.positions, target_x);
     let csv: String = std::iter::once("vertex,distance_m\n".to_string())
@@ -462,6 +477,32 @@ fn triangle_areas(x: &[f64], triangles: &[[usize; 3]]) -> Vec<f64> {
         .iter()
         .map(|t| (p(t[1]) - p(t[0])).cross(&(p(t[2]) - p(t[0]))).norm() / 2.0)
         .collect()
+}
+
+/// File name of the conditioning report's singular vectors (`--conditioning`): a CSV with one
+/// row per vertex, `vertex,mode_1_x,mode_1_y,mode_1_z,mode_2_x,...` (unit vectors over all
+/// vertices, in the order of the summary's `conditioning.smallest`).
+pub const CONDITIONING_MODES: &str = "conditioning_modes.csv";
+
+/// [`CONDITIONING_MODES`]'s text for the flat vectors `modes` over `vertices` vertices.
+fn modes_csv(modes: &[Vec<f64>], vertices: usize) -> String {
+    let mut csv = String::from("vertex");
+    for k in 1..=modes.len() {
+        for axis in ["x", "y", "z"] {
+            let _ = write!(csv, ",mode_{k}_{axis}");
+        }
+    }
+    csv.push('\n');
+    for v in 0..vertices {
+        let _ = write!(csv, "{v}");
+        for u in modes {
+            for c in &u[3 * v..3 * v + 3] {
+                let _ = write!(csv, ",{c:e}");
+            }
+        }
+        csv.push('\n');
+    }
+    csv
 }
 
 /// File name of the design's picture in the output folder.
