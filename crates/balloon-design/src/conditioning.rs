@@ -9,11 +9,10 @@
 //! along `u`, and rest shapes that differ along it inflate to nearly the same shape. On a wall
 //! without bending stiffness these are the bendings of the rest mesh (D17's diagnosis).
 
+use balloon_integrate::statics::StaticParams;
 use balloon_linalg::SparseCholesky;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
-
-use balloon_integrate::statics::StaticParams;
 
 use crate::DesignError;
 use crate::gauss_newton::dot;
@@ -204,7 +203,10 @@ fn orthonormalise(basis: &[Vec<f64>], u: &mut [f64]) {
 /// `rest` (flat, m) and the full load, outside the rigid motions of `rest`, and the largest
 /// (`docs/design.md`, D19): block inverse iteration with a sparse Cholesky factor of
 /// `J^T J + s I` (`s` = 1e-16 of the mean diagonal, raised tenfold until it factorises),
-/// Rayleigh-Ritz with `(J Q)^T (J Q)`; power iteration for the largest.
+/// Rayleigh-Ritz with `(J Q)^T (J Q)`; power iteration for the largest. The forward gains are
+/// taken at `equilibrium` when given (a forward equilibrium of `rest` under the load, in any
+/// rigid placement: the forward check's positions), else at the forward check's solve from
+/// `rest`.
 ///
 /// # Errors
 /// An invalid parameter, a `rest` of the wrong length or with a degenerate triangle, non-finite
@@ -214,6 +216,7 @@ pub fn rest_conditioning(
     rest: &[f64],
     params: &ConditioningParams,
     forward: &StaticParams,
+    equilibrium: Option<&[f64]>,
 ) -> Result<RestConditioning, DesignError> {
     params.validate()?;
     problem.check_length("rest", rest)?;
@@ -287,7 +290,7 @@ pub fn rest_conditioning(
             along / dot(u, u).max(f64::MIN_POSITIVE)
         })
         .collect();
-    let forward_gain = forward_gains(problem, rest, &block, forward)?;
+    let forward_gain = forward_gains(problem, rest, &block, forward, equilibrium)?;
     Ok(RestConditioning {
         forward_gain,
         relative: values.iter().map(|s| s / largest).collect(),
@@ -300,17 +303,23 @@ pub fn rest_conditioning(
     })
 }
 
-/// `|dx| / |dX|` along each of `modes` at the forward equilibrium of `rest` (solved as the
-/// forward check does), the rigid motions of the equilibrium removed from `dx`; `None` when the
-/// rest shape has no forward equilibrium the solver finds.
+/// `|dx| / |dX|` along each of `modes` at the forward equilibrium of `rest`, the rigid motions
+/// of the equilibrium removed from `dx`: at `equilibrium` when one is given (a forward
+/// equilibrium of `rest` found before, e.g. the check's, in any rigid placement), else solved
+/// as the forward check does; `None` when the rest shape has no forward equilibrium the solver
+/// finds.
 fn forward_gains(
     problem: &DesignProblem,
     rest: &[f64],
     modes: &[Vec<f64>],
     forward: &StaticParams,
+    equilibrium: Option<&[f64]>,
 ) -> Result<Option<Vec<f64>>, DesignError> {
     let mut objective = ShapeObjective::new(problem, forward, forward.tolerance)?;
-    objective.set_warm_start(false);
+    // From a given equilibrium the forward solve starts converged (a rigid motion of an
+    // equilibrium is one); without one it is the check's solve from the rest shape.
+    objective.set_warm_start(equilibrium.is_some());
+    objective.set_equilibrium(equilibrium.map(<[f64]>::to_vec));
     if objective.evaluate(rest, true)?.is_none() {
         return Ok(None);
     }
@@ -383,6 +392,7 @@ mod tests {
                     iterations: 200,
                 },
                 &StaticParams::default(),
+                None,
             )
             .unwrap();
             eprintln!("dense {:?}, inverse iteration {:?}", &sv[6..10], c.smallest);
@@ -434,7 +444,7 @@ mod tests {
                 u
             })
             .collect();
-        let gains = forward_gains(&problem, &rest, &directions, &forward)
+        let gains = forward_gains(&problem, &rest, &directions, &forward, None)
             .unwrap()
             .expect("the rest shape has an equilibrium");
         let at = |s: f64, u: &[f64]| {
@@ -444,6 +454,16 @@ mod tests {
             c.positions
         };
         let centre = at(0.0, &directions[0]);
+        // At a given equilibrium (the check's, aligned onto the target): the same gains.
+        let given = forward_gains(&problem, &rest, &directions, &forward, Some(&centre))
+            .unwrap()
+            .unwrap();
+        for (a, b) in gains.iter().zip(&given) {
+            assert!(
+                (a - b).abs() < 1e-8 * a,
+                "{a:e} vs {b:e} at the given equilibrium"
+            );
+        }
         let rigid = rigid_motions(&centre);
         let h = 1e-7;
         for (u, gain) in directions.iter().zip(&gains) {
@@ -487,7 +507,8 @@ mod tests {
                 "iterations",
             ),
         ] {
-            let e = rest_conditioning(&problem, &rest, &p, &StaticParams::default()).unwrap_err();
+            let e =
+                rest_conditioning(&problem, &rest, &p, &StaticParams::default(), None).unwrap_err();
             assert!(e.to_string().contains(name), "{e}");
         }
         let e = rest_conditioning(
@@ -495,6 +516,7 @@ mod tests {
             &rest[3..],
             &ConditioningParams::default(),
             &StaticParams::default(),
+            None,
         )
         .unwrap_err();
         assert!(e.to_string().contains("rest"), "{e}");

@@ -253,11 +253,13 @@ fn wall_and_check(
             None => std::borrow::Cow::Borrowed(problem),
             Some(fit) => std::borrow::Cow::Owned(problem.with_thickness(fit.thickness.clone())?),
         };
+        // At the check's equilibrium: its forward solve is not repeated.
         Some(rest_conditioning(
             &problem,
             &rest,
             &params.conditioning,
             &params.forward,
+            check.converged.then_some(check.positions.as_slice()),
         )?)
     } else {
         None
