@@ -50,8 +50,16 @@ const mm = (m) => `${(m * 1000).toFixed(2)} mm`;
 // The server applies a message between two steps, so a drag, a pinch or a release reaches its
 // state only after the step in progress: a step of a scenario run with converged Newton on a
 // 2562-vertex icosphere (static-sphere, both balloons of `connect`) took several seconds right
-// after a drag in a debug build at load average 10, beyond the 5 s these waits had.
-const STEP_WAIT = 30000;
+// after a drag in a debug build at load average 10, and `connect` waited more than 30 s for a
+// pinch on 2 busy cores. So a wait for a message's effect (`untilApplied`) is not a fixed time:
+// it lasts while the server keeps stepping, and fails when the server took
+// APPLIED_WITHIN_STEPS steps (and at least APPLIED_WITHIN_MS) without showing the effect (the
+// message was lost), when no step ended for STEP_WAIT (the server is stuck), or after
+// APPLY_CAP in all.
+const STEP_WAIT = 120000;
+const APPLIED_WITHIN_STEPS = 3;
+const APPLIED_WITHIN_MS = 5000;
+const APPLY_CAP = 300000;
 
 class Failure extends Error {}
 function check(cond, what) {
@@ -66,6 +74,35 @@ async function until(what, fn, ms = 15000, every = 100) {
     if (v) return v;
     if (Date.now() > end) throw new Failure(`timed out after ${ms / 1000} s waiting for ${what}`);
     await sleep(every);
+  }
+}
+
+/** Polls the server's state until `fn(state)` is truthy: the effect of a message the server
+ *  applies between two steps (see STEP_WAIT); fails naming `what` and why. */
+async function untilApplied(url, what, fn) {
+  const t0 = Date.now();
+  const s0 = await state(url);
+  if (fn(s0)) return s0;
+  const first = s0.step;
+  let last = first;
+  let lastChange = t0;
+  for (;;) {
+    await sleep(100);
+    const s = await state(url);
+    if (fn(s)) return s;
+    const now = Date.now();
+    if (s.step !== last) {
+      last = s.step;
+      lastChange = now;
+    }
+    const steps = last - first;
+    if (steps >= APPLIED_WITHIN_STEPS && now - t0 > APPLIED_WITHIN_MS) {
+      throw new Failure(`${what}: not seen after ${steps} steps of the server (${((now - t0) / 1000).toFixed(1)} s)`);
+    }
+    if (now - lastChange > STEP_WAIT) {
+      throw new Failure(`timed out waiting for ${what}: the server ended no step for ${STEP_WAIT / 1000} s (at step ${last})`);
+    }
+    if (now - t0 > APPLY_CAP) throw new Failure(`timed out after ${APPLY_CAP / 1000} s waiting for ${what}`);
   }
 }
 
@@ -206,10 +243,8 @@ async function testSystem(browser, system) {
     const size = norm(sub(s0.bbox_max, s0.bbox_min));
     const pull = Math.min(box.width, box.height) * Number(opt('pull', '0.1'));
     await page.mouse.move(start[0] + pull, start[1] - pull, { steps: 8 });
-    const target = await until('the drag target to move', async () => {
-      const d = (await state(url)).drag;
-      return d && norm(sub(d.target, grabbed.target)) > 1e-6 * size && d.target;
-    }, 5000);
+    const moving = (s) => s.drag && norm(sub(s.drag.target, grabbed.target)) > 1e-6 * size;
+    const target = (await untilApplied(url, 'the drag target to move', moving)).drag.target;
     const sDrag = await state(url);
     check(!sDrag.last_error, `the simulation failed during the drag: ${sDrag.last_error}`);
     const want = sub(target, p0);
@@ -224,7 +259,7 @@ async function testSystem(browser, system) {
     notes.push(`drag moved vertex ${vertex} ${mm(moved)} towards the target (body ${mm(size)})`);
     await page.screenshot({ path: join(outDir, `viewer-${name}.png`) });
     await page.mouse.up();
-    await until('the drag to be released', async () => (await state(url)).drag === null, STEP_WAIT);
+    await untilApplied(url, 'the drag to be released', (s) => s.drag === null);
 
     // 3b. Where the system offers pinching, the drag-mode select switches the server's mode.
     const modes = await page.$$eval('#drag-mode option', (os) => os.map((o) => o.value));
@@ -233,9 +268,9 @@ async function testSystem(browser, system) {
       const at = await pointOverBody(page, box);
       await page.mouse.down();
       await page.mouse.move(at[0] + 5, at[1] + 5);
-      await until('a pinch drag on the server', async () => (await state(url)).drag?.mode === 'pinch', STEP_WAIT);
+      await untilApplied(url, 'a pinch drag on the server', (s) => s.drag?.mode === 'pinch');
       await page.mouse.up();
-      await until('the pinch to be released', async () => (await state(url)).drag === null, STEP_WAIT);
+      await untilApplied(url, 'the pinch to be released', (s) => s.drag === null);
       await page.selectOption('#drag-mode', 'grab');
       const sPinch = await state(url);
       check(!sPinch.last_error, `the simulation failed during the pinch: ${sPinch.last_error}`);
