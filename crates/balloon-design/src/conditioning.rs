@@ -181,8 +181,9 @@ pub fn rigid_motions(x: &[f64]) -> Vec<Vec<f64>> {
     basis
 }
 
-/// `u` made orthogonal to the orthonormal `basis` (twice, for rounding) and of unit norm.
-fn orthonormalise(basis: &[Vec<f64>], u: &mut [f64]) {
+/// `u` made orthogonal to the orthonormal `basis`: its components along `basis` removed
+/// twice (for rounding).
+fn remove_components(basis: &[Vec<f64>], u: &mut [f64]) {
     for _ in 0..2 {
         for b in basis {
             let a = dot(b, u);
@@ -191,6 +192,11 @@ fn orthonormalise(basis: &[Vec<f64>], u: &mut [f64]) {
             }
         }
     }
+}
+
+/// `u` made orthogonal to the orthonormal `basis` ([`remove_components`]) and of unit norm.
+fn orthonormalise(basis: &[Vec<f64>], u: &mut [f64]) {
+    remove_components(basis, u);
     let n = dot(u, u).sqrt();
     if n > 0.0 {
         for ui in u.iter_mut() {
@@ -330,14 +336,7 @@ fn forward_gains(
     let mut gains = Vec::with_capacity(modes.len());
     for u in modes {
         let mut dx = objective.sensitivity(u)?;
-        for _ in 0..2 {
-            for b in &rigid {
-                let a = dot(b, &dx);
-                for (d, bi) in dx.iter_mut().zip(b) {
-                    *d -= a * bi;
-                }
-            }
-        }
+        remove_components(&rigid, &mut dx);
         gains.push((dot(&dx, &dx) / dot(u, u)).sqrt());
     }
     Ok(Some(gains))
@@ -473,14 +472,7 @@ mod tests {
                 .zip(&minus)
                 .map(|(p, m)| (p - m) / (2.0 * h))
                 .collect();
-            for _ in 0..2 {
-                for b in &rigid {
-                    let a = dot(b, &dx);
-                    for (d, bi) in dx.iter_mut().zip(b) {
-                        *d -= a * bi;
-                    }
-                }
-            }
+            remove_components(&rigid, &mut dx);
             let fd = dot(&dx, &dx).sqrt();
             eprintln!("forward gain {gain:e}, central difference {fd:e}");
             assert!((gain - fd).abs() < 1e-5 * fd, "{gain:e} vs {fd:e}");
