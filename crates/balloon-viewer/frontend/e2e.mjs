@@ -60,6 +60,9 @@ const STEP_WAIT = 120000;
 const APPLIED_WITHIN_STEPS = 3;
 const APPLIED_WITHIN_MS = 5000;
 const APPLY_CAP = 300000;
+// What the page shows after a step (a new frame, the legend of a new colour field) and motion
+// over several steps: a time limit, generous for the same reason.
+const FRAME_WAIT = 60000;
 
 class Failure extends Error {}
 function check(cond, what) {
@@ -90,6 +93,8 @@ async function untilApplied(url, what, fn) {
     await sleep(100);
     const s = await state(url);
     if (fn(s)) return s;
+    // A failed step stops the run: say so instead of waiting for a step that never comes.
+    check(!s.last_error, `the simulation failed while waiting for ${what}: ${s.last_error}`);
     const now = Date.now();
     if (s.step !== last) {
       last = s.step;
@@ -180,7 +185,7 @@ async function testSystem(browser, system) {
     await page.goto(url);
     await until('the first frame (#frame shows a number)', async () => Number.isFinite(await frameOf(page)));
     const f0 = await frameOf(page);
-    const f1 = await until('#frame to advance', async () => { const f = await frameOf(page); return f > f0 && f; });
+    const f1 = await until('#frame to advance', async () => { const f = await frameOf(page); return f > f0 && f; }, FRAME_WAIT);
     notes.push(`frames ${f0}->${f1}`);
     check(await page.isVisible('#legend'), 'the colour legend is not shown');
     // 1b. A static scenario is shown stepping, and the page says so; nothing else has a note.
@@ -205,12 +210,12 @@ async function testSystem(browser, system) {
 
     // 2. Pause stops the simulated time, resume restarts it.
     await page.click('#pause');
-    const tp = await until('the server to report paused', async () => { const s = await state(url); return s.paused && [s.time]; });
+    const tp = [(await untilApplied(url, 'the server to report paused', (s) => s.paused)).time];
     await sleep(500);
     check((await state(url)).time === tp[0], 'the simulated time moved while paused');
     await until('#pause to offer "resume"', async () => (await page.textContent('#pause')).trim() === 'resume', 3000);
     await page.click('#pause');
-    await until('the simulated time to advance after resume', async () => (await state(url)).time > tp[0]);
+    await untilApplied(url, 'the simulated time to advance after resume', (s) => s.time > tp[0]);
     await until('#pause to offer "pause"', async () => (await page.textContent('#pause')).trim() === 'pause', 3000);
 
     // 3. Drag the body: find a point of the canvas over the body (the cursor changes there), press,
@@ -255,7 +260,7 @@ async function testSystem(browser, system) {
       check(!s.last_error, `the simulation failed during the drag: ${s.last_error}`);
       moved = dot(sub(s.vertex.position, p0), want) / norm(want);
       return moved > 0.02 * size;
-    }, 20000, 200);
+    }, FRAME_WAIT, 200);
     notes.push(`drag moved vertex ${vertex} ${mm(moved)} towards the target (body ${mm(size)})`);
     await page.screenshot({ path: join(outDir, `viewer-${name}.png`) });
     await page.mouse.up();
@@ -316,7 +321,7 @@ async function testSystem(browser, system) {
       const want = dt / 2;
       await page.fill('#control-dt', String(want));
       await page.press('#control-dt', 'Enter');
-      await until(`dt = ${want} on the server`, async () => (await state(url)).controls.dt === want, 10000);
+      await untilApplied(url, `dt = ${want} on the server`, (s) => s.controls.dt === want);
       const [download] = await Promise.all([page.waitForEvent('download', { timeout: 10000 }), page.click('#save')]);
       const saved = join(outDir, `viewer-${name}-scenario.toml`);
       await download.saveAs(saved);
@@ -338,14 +343,14 @@ async function testSystem(browser, system) {
     const field = fields.find((f) => f !== shown) ?? fields[0];
     check(field, 'the colour select offers no scalar field');
     await page.selectOption('#scalar', field);
-    await until(`the legend to show ${field}`, async () => (await page.textContent('#legend-name')) === field, 10000);
+    await until(`the legend to show ${field}`, async () => (await page.textContent('#legend-name')) === field, FRAME_WAIT);
     notes.push(`colour ${field}`);
 
     // 6. Reset: the simulated time starts again.
     const before = (await state(url)).time;
     await page.click('#reset');
-    await until('the simulated time to restart after #reset', async () => (await state(url)).time < before, 10000);
-    await until('#frame to advance after #reset', async () => { const f = await frameOf(page); return f > 0; });
+    await untilApplied(url, 'the simulated time to restart after #reset', (s) => s.time < before);
+    await until('#frame to advance after #reset', async () => { const f = await frameOf(page); return f > 0; }, FRAME_WAIT);
 
     check(problems.length === 0, problems.join('\n'));
     return notes.join('; ');
