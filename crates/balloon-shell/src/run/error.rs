@@ -64,9 +64,9 @@ pub enum ShellError {
         #[source]
         source: balloon_constraint::ConstraintError,
     },
-    /// The gas volume ran away (non-finite, non-positive or beyond
-    /// [`RUNAWAY_VOLUME_FACTOR`] times the rest volume): a physical runaway, not retried with
-    /// smaller steps.
+    /// The gas volume ran away (beyond [`RUNAWAY_VOLUME_FACTOR`] times the rest volume): a
+    /// physical runaway, not retried with smaller steps. (A volume that is not positive or not
+    /// finite is [`ShellError::Diverged`], retried like any numerical failure.)
     #[error(
         "step {step} (t = {time:.6} s): diverged: gas volume: {volume:e} m^3 vs rest {rest_volume:e} m^3 (runaway above {RUNAWAY_VOLUME_FACTOR}x): the pressure exceeds what the shell can hold (e.g. above the neo-Hookean limit point) or the run is unstable"
     )]

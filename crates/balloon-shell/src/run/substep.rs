@@ -111,7 +111,21 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         }
         let vol =
             balloon_gas::enclosed_volume(&self.x, self.system.triangles()).unwrap_or(f64::NAN);
-        if !(vol.is_finite() && vol > 0.0 && vol < RUNAWAY_VOLUME_FACTOR * self.rest_gas_volume) {
+        // A surface that turned inside out (or a volume that is not a number) is a numerical
+        // failure of the step, retried at a smaller sub-step; only growth beyond the runaway
+        // factor is the physical runaway, which is not.
+        if !(vol.is_finite() && vol > 0.0) {
+            return Err(ShellError::Diverged {
+                step,
+                time,
+                quantity: "gas volume".into(),
+                detail: format!(
+                    "{vol:e} m^3 (rest {:e} m^3) is not positive: the surface turned inside out or tangled; reduce `dt`",
+                    self.rest_gas_volume
+                ),
+            });
+        }
+        if vol >= RUNAWAY_VOLUME_FACTOR * self.rest_gas_volume {
             return Err(ShellError::RunawayVolume {
                 step,
                 time,

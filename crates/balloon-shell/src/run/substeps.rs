@@ -160,6 +160,8 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use balloon_gas::Gas;
+    use balloon_material::StVenantKirchhoff;
 
     /// A rolled-back sub-step leaves the simulation as it was, its enclosed gas volume included
     /// (the volume is what `gas_volume()` reports after a failed step).
@@ -183,5 +185,38 @@ mod tests {
         stepper.restore(start);
         assert_eq!(sim.gas_volume(), v0);
         assert_eq!(sim.positions(), &x[..]);
+    }
+
+    /// A state whose surface turned inside out (negative enclosed volume) is a numerical
+    /// divergence that the sub-step controller retries at a smaller size; a volume grown beyond
+    /// the runaway factor is the physical runaway, which it does not retry. (The dragged run of
+    /// the viewer's `connect`, three fixed Newton iterations, once ended on a negative gas
+    /// volume reported as a runaway.)
+    #[test]
+    fn an_inverted_surface_is_retried_and_a_runaway_is_not() {
+        let (system, x, integrator) = super::super::tests::parts();
+        let mut sim =
+            ShellSimulation::new(system, x.clone(), 950.0, integrator, None, 0.01, 10).unwrap();
+        // Point reflection: the same surface with every triangle's orientation reversed.
+        sim.x = x.iter().map(|v| -v).collect();
+        let e = sim.check_state(3, 0.02).unwrap_err();
+        assert!(
+            matches!(&e, ShellError::Diverged { quantity, .. } if quantity == "gas volume"),
+            "{e}"
+        );
+        let msg = e.to_string();
+        assert!(
+            msg.contains("step 3") && msg.contains("inside out"),
+            "{msg}"
+        );
+        assert!(ShellSubsteps::<'_, StVenantKirchhoff, Gas>::may_retry(&e));
+        // Thirty times the size: 27000 times the volume, beyond the runaway factor.
+        sim.x = x.iter().map(|v| 30.0 * v).collect();
+        let e = sim.check_state(3, 0.02).unwrap_err();
+        assert!(matches!(e, ShellError::RunawayVolume { .. }), "{e}");
+        assert!(!ShellSubsteps::<'_, StVenantKirchhoff, Gas>::may_retry(&e));
+        // The state itself passes.
+        sim.x = x;
+        assert!(sim.check_state(3, 0.02).is_ok());
     }
 }
