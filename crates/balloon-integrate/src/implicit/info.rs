@@ -31,8 +31,10 @@ pub struct StepInfo {
     /// at every accepted one, when the system has a potential and the energy line search runs
     /// (empty otherwise). Non-increasing by construction (up to round-off).
     pub energies: Vec<f64>,
-    /// Whether the step converged: with `newton_tolerance > 0` always `true` for a returned
-    /// step (a non-converged one is [`IntegrateError::NotConverged`](super::IntegrateError::NotConverged)); in the paper's mode
+    /// Whether the step converged: with `newton_tolerance > 0` whether the residual test
+    /// passed, always `true` for a returned step unless
+    /// [`BackwardEulerParams::accept_unconverged`](super::BackwardEulerParams::accept_unconverged) is set (otherwise a non-converged step is
+    /// [`IntegrateError::NotConverged`](super::IntegrateError::NotConverged)); in the paper's mode
     /// (`newton_tolerance = 0`, no residual test) whether every linear solve met its
     /// tolerance.
     pub converged: bool,
@@ -53,6 +55,12 @@ pub struct StepInfo {
     /// [`BackwardEulerParams::tangent_reuse_steps`](super::BackwardEulerParams::tangent_reuse_steps)) and its step was taken.
     #[serde(default)]
     pub reused_tangent: bool,
+    /// The system could not be evaluated at the usual first iterate `v_(0) = v^n` (the
+    /// predictor `x^n + dt v^n` inverted an element or turned the surface inside out), so
+    /// Newton started from `v_(0) = 0`, the step's start positions (module docs of
+    /// [`crate::implicit`], "First iterate").
+    #[serde(default)]
+    pub started_at_rest: bool,
 }
 
 impl StepInfo {

@@ -30,6 +30,15 @@ pub struct BackwardEulerParams {
     /// `newton_iterations` is [`IntegrateError::NotConverged`](super::IntegrateError::NotConverged). `0` is the paper's mode:
     /// `newton_iterations` full Newton steps, no line search, no residual test.
     pub newton_tolerance: f64,
+    /// With `newton_tolerance > 0`: a step that has not met the tolerance after
+    /// `newton_iterations` line-searched iterations (or whose line search finds no decrease)
+    /// is accepted at its last iterate, reported with [`StepInfo::converged`](super::StepInfo::converged) `false`, instead
+    /// of [`IntegrateError::NotConverged`](super::IntegrateError::NotConverged); the stall test is off. Every accepted
+    /// iterate still lowers the incremental potential (the line search of the module docs),
+    /// so, unlike the paper's mode of full steps, a few iterations cannot pump energy into the
+    /// system. For interactive use, where a step must end in a bounded time (default
+    /// `false`).
+    pub accept_unconverged: bool,
     /// The linear solver and its tolerances.
     pub linear: LinearSolverParams,
     /// Rayleigh mass damping `alpha`, 1/s (`C = alpha M + beta K`; default 0).
@@ -156,6 +165,7 @@ impl Default for BackwardEulerParams {
         Self {
             newton_iterations: DEFAULT_NEWTON_ITERATIONS,
             newton_tolerance: DEFAULT_NEWTON_TOLERANCE,
+            accept_unconverged: false,
             linear: LinearSolverParams::default(),
             mass_damping: 0.0,
             stiffness_damping: 0.0,

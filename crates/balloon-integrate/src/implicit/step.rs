@@ -10,7 +10,7 @@ use balloon_linalg::{LinearSolver, Preconditioner, SolveError, SolverSettings};
 use super::reuse::TangentReuse;
 use super::{BackwardEulerParams, IntegrateError, StepInfo, check_time_step};
 use crate::newton::convergence::{extent, first_non_finite, norm};
-use crate::newton::{NewtonCore, NewtonRecord, Regularization, Settings};
+use crate::newton::{NewtonCore, NewtonRecord, Regularization, Residual, Settings};
 use crate::system::ForceSystem;
 use crate::timing::PhaseTimes;
 
@@ -252,6 +252,27 @@ impl BackwardEuler {
         Ok(())
     }
 
+    /// The residual at the first iterate `v` (the stiffness too, unless the first direction
+    /// reuses the last step's matrix: `chord`) and, with `wants_energy`, the incremental
+    /// potential there.
+    fn first_iterate<S: ForceSystem>(
+        &mut self,
+        system: &mut S,
+        v: &[f64],
+        chord: bool,
+        wants_energy: bool,
+    ) -> Result<(Residual, Option<f64>), IntegrateError> {
+        let (res, mut energy) = if wants_energy && chord && self.core.fuses_energy(system) {
+            self.core.evaluate(system, v, 0, false, true)?
+        } else {
+            (self.core.evaluate(system, v, 0, !chord, false)?.0, None)
+        };
+        if wants_energy && energy.is_none() {
+            energy = self.core.energy(system, v)?;
+        }
+        Ok((res, energy))
+    }
+
     /// Advances `x` (m) and `v` (m/s) from `time` to `time + dt` (s) by backward Euler with
     /// Newton (Eq. 18-23). `external_forces` (N, per dof) are added to gravity.
     ///
@@ -315,24 +336,27 @@ impl BackwardEuler {
             self.core.matrix.solver.needs_assembled_matrix() && self.core.matrix.assembled_last,
         );
 
-        // The first iterate, v_(0) = v^n (its stiffness only when it is needed).
+        // The first iterate, v_(0) = v^n, or v_(0) = 0 where the system cannot be evaluated at
+        // the predictor (module docs, "First iterate").
         let wants_energy = !paper_mode && beta == 0.0;
-        let (res, mut energy) = if wants_energy && chord && self.core.fuses_energy(system) {
-            self.core.evaluate(system, v, 0, false, true)?
-        } else {
-            (self.core.evaluate(system, v, 0, !chord, false)?.0, None)
+        let mut started_at_rest = false;
+        let (res, energy) = match self.first_iterate(system, v, chord, wants_energy) {
+            Err(IntegrateError::System { .. }) if v.iter().any(|&a| a != 0.0) => {
+                v.fill(0.0);
+                started_at_rest = true;
+                self.first_iterate(system, v, chord, wants_energy)?
+            }
+            first => first?,
         };
-        if wants_energy && energy.is_none() {
-            energy = self.core.energy(system, v)?;
-        }
         let settings = Settings {
             tolerance: p.newton_tolerance,
             max_iterations: p.newton_iterations,
             min_accepted: 1,
             inexact_forcing: p.inexact_forcing,
             linear_tolerance: p.linear.relative_tolerance,
-            stall_test: !paper_mode,
+            stall_test: !paper_mode && !p.accept_unconverged,
             fixed_steps: paper_mode,
+            accept_unconverged: p.accept_unconverged,
         };
         let mut record = NewtonRecord::default();
         let outcome = self.core.minimize(
@@ -358,7 +382,7 @@ impl BackwardEuler {
             });
         }
         let relative_residual = outcome.residual.relative();
-        if !paper_mode && !outcome.converged {
+        if !paper_mode && !outcome.converged && !p.accept_unconverged {
             return Err(IntegrateError::NotConverged {
                 iterations: record.iterations,
                 residual: relative_residual,
@@ -375,13 +399,18 @@ impl BackwardEuler {
             relative_residual,
             line_search_cuts: record.line_search_cuts,
             energies: record.energies,
-            converged: !paper_mode || record.linear_converged,
+            converged: if paper_mode {
+                record.linear_converged
+            } else {
+                outcome.converged
+            },
             regularized_solves: record.regularized_solves,
             max_regularization: record.max_regularization,
             factorizations: (self.core.matrix.solver.factorizations() - factorizations_before)
                 as usize,
             times: self.core.times - times_before,
             reused_tangent: outcome.chord_taken,
+            started_at_rest,
         };
         self.reuse.after_step(
             outcome.last_solve_reused,

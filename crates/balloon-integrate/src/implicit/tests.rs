@@ -1542,3 +1542,150 @@ fn the_relative_residual_does_not_depend_on_units() {
         assert!((a - b).abs() <= 1e-6 * a, "{a} vs {b}");
     }
 }
+
+/// Three line-searched iterations accepted whatever their residual
+/// (`accept_unconverged`) lower the incremental potential where three full Newton steps (the
+/// paper's mode) raise it, far out on the saturating spring; without `accept_unconverged` the
+/// same step is not converged.
+#[test]
+fn accepted_unconverged_steps_lower_the_potential_where_full_steps_raise_it() {
+    let (dt, m) = (0.01, 1e-3);
+    let x0 = vec![0.3, -0.2, 0.25];
+    // The incremental potential of a step from rest at x0, computed here from its definition.
+    let potential = |sys: &mut Saturating, x: &[f64]| {
+        let inertia: f64 = x.iter().zip(&x0).map(|(x, x0)| (x - x0).powi(2)).sum();
+        m / (2.0 * dt * dt) * inertia + sys.potential_energy(0.0, x).unwrap().unwrap()
+    };
+    for kind in [LinearSolverKind::Cholesky, LinearSolverKind::MatrixFreeCg] {
+        let start = potential(&mut Saturating::new(true), &x0);
+        let live = BackwardEulerParams {
+            accept_unconverged: true,
+            ..converging(kind, 3, 1e-10)
+        };
+        let mut sys = Saturating::new(true);
+        let mut be = BackwardEuler::new(live).unwrap();
+        let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
+        let info = be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).unwrap();
+        assert!(
+            !info.converged && info.newton_iterations == 3,
+            "{kind}: {info:?}"
+        );
+        assert!(info.relative_residual > 1e-10, "{kind}: {info:?}");
+        for w in info.energies.windows(2) {
+            assert!(w[1] < w[0], "{kind}: energy rose: {:?}", info.energies);
+        }
+        let accepted = potential(&mut sys, &x);
+        assert!(accepted < start, "{kind}: E {accepted} from {start}");
+        // The velocity is the one of the positions.
+        for c in 0..3 {
+            assert!((v[c] - (x[c] - x0[c]) / dt).abs() < 1e-9 * v[c].abs().max(1.0));
+        }
+
+        // The paper's three full steps overshoot: the potential rises (or the state blows up).
+        let mut sys = Saturating::new(true);
+        let mut be = BackwardEuler::new(params(kind, 3)).unwrap();
+        let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
+        if be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).is_ok() {
+            let full = potential(&mut sys, &x);
+            assert!(
+                full > start,
+                "{kind}: full steps gave E {full} from {start}"
+            );
+        }
+
+        // The same three iterations without accepting: not converged.
+        let mut be = BackwardEuler::new(converging(kind, 3, 1e-10)).unwrap();
+        let (mut x, mut v) = (x0.clone(), vec![0.0; 3]);
+        let e = be
+            .step(&mut Saturating::new(true), 0.0, dt, &mut x, &mut v, None)
+            .unwrap_err();
+        assert!(
+            matches!(e, IntegrateError::NotConverged { .. }),
+            "{kind}: {e}"
+        );
+    }
+}
+
+/// A linear spring `f = -k x` (one dof per particle) that refuses to be evaluated beyond a wall
+/// at `x < wall`, as a shell refuses a surface turned inside out.
+#[derive(Debug)]
+struct Walled {
+    masses: Vec<f64>,
+    k: f64,
+    wall: f64,
+}
+
+#[derive(Debug, thiserror::Error)]
+#[error("beyond the wall")]
+struct BeyondTheWall;
+
+impl ForceSystem for Walled {
+    fn num_dofs(&self) -> usize {
+        3
+    }
+    fn masses(&self) -> &[f64] {
+        &self.masses
+    }
+    fn forces(&mut self, _t: f64, x: &[f64], f: &mut [f64]) -> Result<(), SystemError> {
+        if x.iter().any(|&x| x < self.wall) {
+            return Err(SystemError::component("wall", BeyondTheWall));
+        }
+        f.iter_mut().zip(x).for_each(|(f, x)| *f = -self.k * x);
+        Ok(())
+    }
+    fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
+        df.iter_mut()
+            .zip(dx)
+            .for_each(|(df, dx)| *df -= self.k * dx);
+    }
+    fn add_stiffness_triplets(&self, t: &mut Vec<(usize, usize, f64)>) -> Result<(), SystemError> {
+        t.extend((0..3).map(|i| (i, i, self.k)));
+        Ok(())
+    }
+    fn potential_energy(&mut self, _t: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+        if x.iter().any(|&x| x < self.wall) {
+            return Err(SystemError::component("wall", BeyondTheWall));
+        }
+        Ok(Some(0.5 * self.k * x.iter().map(|x| x * x).sum::<f64>()))
+    }
+}
+
+/// Where the predictor `x^n + dt v^n` is beyond what the system can evaluate, Newton starts
+/// from the step's start positions and reaches the backward Euler solution (closed form for a
+/// linear spring), in every mode; a predictor the system accepts is used as before.
+#[test]
+fn a_predictor_the_system_refuses_starts_newton_at_rest() {
+    let (dt, m, k) = (0.01, 1.0, 1e4);
+    let x0 = vec![0.1; 3];
+    for (v0, refused) in [(-100.0, true), (-10.0, false)] {
+        // Backward Euler on the spring: v1 = (m v0 - dt k x0) / (m + dt^2 k).
+        let v1 = (m * v0 - dt * k * x0[0]) / (m + dt * dt * k);
+        // Predictor 0.1 - 1.0 = -0.9 (refused) or 0.0; the solution -0.45 or 0.0 is valid.
+        assert!(x0[0] + dt * v1 > -0.5);
+        for p in [
+            converging(LinearSolverKind::Cholesky, 10, 1e-10),
+            params(LinearSolverKind::Cholesky, 2),
+            BackwardEulerParams {
+                accept_unconverged: true,
+                ..converging(LinearSolverKind::MatrixFreeCg, 3, 1e-10)
+            },
+        ] {
+            let mut sys = Walled {
+                masses: vec![m; 3],
+                k,
+                wall: -0.5,
+            };
+            let mut be = BackwardEuler::new(p).unwrap();
+            let (mut x, mut v) = (x0.clone(), vec![v0; 3]);
+            let info = be.step(&mut sys, 0.0, dt, &mut x, &mut v, None).unwrap();
+            assert_eq!(info.started_at_rest, refused, "v0 {v0}: {info:?}");
+            for c in 0..3 {
+                assert!(
+                    (v[c] - v1).abs() < 1e-8 * v1.abs().max(1.0),
+                    "v0 {v0}: v {v:?}, want {v1}"
+                );
+                assert!((x[c] - (x0[c] + dt * v1)).abs() < 1e-10);
+            }
+        }
+    }
+}

@@ -58,6 +58,9 @@ pub(crate) struct Settings {
     pub(crate) stall_test: bool,
     /// The paper's mode: `max_iterations` full Newton steps, no line search, no residual test.
     pub(crate) fixed_steps: bool,
+    /// Stop at the last accepted iterate, without an error, when the line search finds no
+    /// acceptable step and the regularisation would fail the solve.
+    pub(crate) accept_unconverged: bool,
 }
 
 /// What one Newton solve did, iteration by iteration.
@@ -317,6 +320,11 @@ impl NewtonCore {
                     continue;
                 }
                 match regularization.no_step() {
+                    NoStep::Fail if settings.accept_unconverged => {
+                        // The forces at `u` must be current for the caller.
+                        res = self.evaluate(system, u, k + 1, false, false)?.0;
+                        break;
+                    }
                     NoStep::Fail => {
                         return Err(NewtonError::NotConverged {
                             iterations: record.iterations,

@@ -296,6 +296,7 @@ impl StaticSolver {
             linear_tolerance: p.solver.linear.relative_tolerance,
             stall_test: false,
             fixed_steps: false,
+            accept_unconverged: false,
         };
         self.last_stalled = false;
         // Newton in windows of `stall_window` iterations (the same iterates as one call: the
