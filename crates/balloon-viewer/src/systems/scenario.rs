@@ -10,7 +10,7 @@ use crate::ViewerError;
 use crate::protocol::{ControlSpec, ControlValue, DragMode};
 use balloon::Simulation;
 use balloon::integrate::TangentKind;
-use balloon::integrate::implicit::{BackwardEulerParams, DEFAULT_NEWTON_TOLERANCE};
+use balloon::integrate::implicit::BackwardEulerParams;
 use balloon::material::membrane::MembraneMaterial;
 use balloon::shell::{AnchorSpring, ShellMaterialModel};
 use balloon::two_layer::{DragTarget, TwoLayerSimulation};
@@ -228,11 +228,7 @@ impl ScenarioView {
             return Ok(());
         }
         let live = |p: &mut BackwardEulerParams| {
-            p.newton_iterations = super::shell::VIEWER_NEWTON_ITERATIONS;
-            if p.newton_tolerance == 0.0 {
-                p.newton_tolerance = DEFAULT_NEWTON_TOLERANCE;
-            }
-            p.accept_unconverged = true;
+            super::shell::dragged_newton(p);
             p.tangent = TangentKind::Projected;
         };
         match &mut self.running {

@@ -3,6 +3,8 @@
 //! during the drag keeps it), and goes away on release.
 
 use super::scenario::ScenarioView;
+use super::scenario::builtin_connect;
+use super::test_support::{DragSequence, random_drag_sequences};
 use super::view::{DragRequest, ViewSystem};
 use crate::protocol::DragMode;
 use balloon_scenario::Scenario;
@@ -256,81 +258,6 @@ fn a_stiff_sphere_keeps_stepping_after_a_drag_and_a_pinch() {
     );
 }
 
-/// One drag sequence on the built-in `connect` as a user's mouse makes it in the page: `pre`
-/// steps, a grab of vertex `grab` pulled `pull` (m) up and right in 8 moves and held `hold`
-/// steps, released for `gap` steps, a pinch of vertex `pinch` towards where the page last drew
-/// it (`stale` steps ago, shifted by `jitter` m) held `pinch_hold` steps, then `after` steps.
-/// The error of the first step that fails, named by its phase.
-#[derive(Clone, Copy, Debug)]
-struct DragSequence {
-    pre: usize,
-    grab: usize,
-    pull: f64,
-    hold: usize,
-    gap: usize,
-    pinch: usize,
-    stale: usize,
-    jitter: f64,
-    pinch_hold: usize,
-    after: usize,
-}
-
-impl DragSequence {
-    fn run(&self) -> Result<(), String> {
-        let mut view =
-            ScenarioView::new(Scenario::Connect(super::scenario::builtin_connect())).unwrap();
-        // What the page has drawn: the positions after every step.
-        let mut drawn: Vec<Vec<f64>> = Vec::new();
-        let mut step = |view: &mut ScenarioView, phase: &str, k: usize| {
-            view.step().map_err(|e| format!("{phase} step {k}: {e}"))?;
-            drawn.push(view.positions().to_vec());
-            Ok::<_, String>(drawn[drawn.len() - 1 - self.stale.min(drawn.len() - 1)].clone())
-        };
-        let mut seen = Vec::new();
-        for k in 0..self.pre {
-            seen = step(&mut view, "before", k)?;
-        }
-        let mut target = point(&view, self.grab);
-        for k in 0..self.hold {
-            if k < 8 {
-                target[0] += self.pull / 8.0;
-                target[1] += self.pull / 8.0;
-            }
-            let grab = DragRequest {
-                vertex: self.grab,
-                target,
-                mode: DragMode::Grab,
-            };
-            view.apply_drag(Some(&grab)).unwrap();
-            seen = step(&mut view, "grab", k)?;
-        }
-        view.apply_drag(None).unwrap();
-        for k in 0..self.gap {
-            seen = step(&mut view, "gap", k)?;
-        }
-        let w = self.pinch;
-        let target = [
-            seen[3 * w] + self.jitter,
-            seen[3 * w + 1] - self.jitter,
-            seen[3 * w + 2],
-        ];
-        let pinch = DragRequest {
-            vertex: w,
-            target,
-            mode: DragMode::Pinch,
-        };
-        for k in 0..self.pinch_hold {
-            view.apply_drag(Some(&pinch)).unwrap();
-            step(&mut view, "pinch", k)?;
-        }
-        view.apply_drag(None).unwrap();
-        for k in 0..self.after {
-            step(&mut view, "after the pinch", k)?;
-        }
-        Ok(())
-    }
-}
-
 /// A grab and a pinch of the built-in `connect` (two rubber balloons joined by a tube) as the
 /// page makes them, where the pinch target is where the page last drew the vertex: the
 /// dragged run keeps stepping. With the paper's three full Newton steps per step (the live
@@ -350,57 +277,17 @@ fn connected_balloons_keep_stepping_after_a_grab_and_a_stale_pinch() {
         pinch_hold: 2,
         after: 6,
     };
-    if let Err(e) = sequence.run() {
+    let mut view = ScenarioView::new(Scenario::Connect(builtin_connect())).unwrap();
+    if let Err(e) = sequence.run(&mut view) {
         panic!("{sequence:?}: {e}");
     }
 }
 
-/// Random drag sequences of [`DragSequence`]; prints each and the first error. The
-/// measurement of docs/viewer.md ("Dragging connected balloons"):
-/// `SEED=2 TRIALS=60 cargo test --release -p balloon-viewer --lib random_drag_sequences -- --ignored --nocapture`.
+/// Random drag sequences ([`DragSequence::random`]) of the built-in `connect`; prints each and
+/// the first error. The measurement of docs/viewer.md ("Dragging connected balloons"):
+/// `SEED=2 TRIALS=60 cargo test --release -p balloon-viewer --lib random_drag_sequences_of_connected -- --ignored --nocapture`.
 #[test]
 #[ignore = "a measurement (minutes in release): SEED, TRIALS"]
 fn random_drag_sequences_of_connected_balloons() {
-    let var = |name: &str, default: u64| {
-        std::env::var(name)
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(default)
-    };
-    let (trials, seed) = (var("TRIALS", 10), var("SEED", 1));
-    // A linear congruential generator (Knuth's MMIX constants), uniform in [0, 1).
-    let mut state = seed
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    let mut uniform = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 11) as f64) / ((1u64 << 53) as f64)
-    };
-    let nv = ScenarioView::new(Scenario::Connect(super::scenario::builtin_connect()))
-        .unwrap()
-        .positions()
-        .len()
-        / 3;
-    let mut failed = 0;
-    for trial in 0..trials {
-        let pick = |u: f64, n: usize| (u * n as f64) as usize % n;
-        let sequence = DragSequence {
-            pre: 5 + pick(uniform(), 25),
-            grab: pick(uniform(), nv),
-            pull: 0.02 + 0.13 * uniform(),
-            hold: 3 + pick(uniform(), 12),
-            gap: pick(uniform(), 4),
-            pinch: pick(uniform(), nv),
-            stale: pick(uniform(), 10),
-            jitter: 0.005 * uniform(),
-            pinch_hold: 1 + pick(uniform(), 5),
-            after: 30,
-        };
-        let outcome = sequence.run();
-        failed += usize::from(outcome.is_err());
-        eprintln!("trial {trial}: {sequence:?}: {outcome:?}");
-    }
-    eprintln!("{failed} of {trials} sequences failed");
+    random_drag_sequences(|| ScenarioView::new(Scenario::Connect(builtin_connect())).unwrap());
 }
