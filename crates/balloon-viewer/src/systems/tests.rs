@@ -513,9 +513,17 @@ fn the_shell_keeps_stepping_after_a_far_grab_and_a_stale_pinch() {
 /// default coarse teddy); prints each and the first error. The measurement of docs/viewer.md
 /// ("Dragging connected balloons"):
 /// `SEED=5 TRIALS=150 cargo test --release -p balloon-viewer --lib random_drag_sequences_of_the_shell -- --ignored --nocapture`.
+/// `MESH=PATH` (and `SCALE=S`, a factor on its coordinates) drags that mesh instead.
 #[test]
-#[ignore = "a measurement (a minute in release): SEED, TRIALS"]
+#[ignore = "a measurement (a minute in release): SEED, TRIALS, MESH, SCALE"]
 fn random_drag_sequences_of_the_shell() {
-    let mesh = crate::default_mesh(crate::SystemKind::Shell).unwrap();
+    let mut mesh = match std::env::var("MESH") {
+        Ok(path) => balloon_mesh::io::read_mesh(std::path::Path::new(&path)).unwrap(),
+        Err(_) => crate::default_mesh(crate::SystemKind::Shell).unwrap(),
+    };
+    let scale: f64 = std::env::var("SCALE").map_or(1.0, |s| s.parse().unwrap());
+    for p in &mut mesh.vertices {
+        *p = Point3::from(p.coords * scale);
+    }
     test_support::random_drag_sequences(|| ShellView::new(mesh.clone()).unwrap());
 }
