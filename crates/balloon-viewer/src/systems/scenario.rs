@@ -211,8 +211,8 @@ impl ScenarioView {
     /// three Newton iterations, each line-searched on the incremental potential and the last
     /// one accepted whatever its residual ([`BackwardEulerParams::accept_unconverged`]), until
     /// the run is rebuilt (reset, a changed control), which brings back the scenario's own.
-    /// The paper's three full steps (as the built-in shell takes) turned a pinched balloon of
-    /// `connect` inside out in 6 of 100 random drag sequences
+    /// The paper's three full steps (which the built-in shell takes while not dragged) turned a
+    /// pinched balloon of `connect` inside out in 6 of 100 random drag sequences
     /// (`random_drag_sequences_of_connected_balloons`, seeds 1 and 2); with the line search and
     /// the first iterate at rest where the predictor is inside out (module docs of
     /// `balloon::integrate::implicit`), none of 160 (seeds 2 and 3) did. With

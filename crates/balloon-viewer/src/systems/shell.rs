@@ -610,7 +610,7 @@ impl ViewSystem for ShellView {
             None => self.drag = None,
             Some(d) => {
                 if !self.sim.integrator_params().accept_unconverged {
-                    // Until the next rebuild (module docs of `dragged_newton`).
+                    // Until the next rebuild (the docs of `dragged_newton`).
                     self.sim.configure_integrator(dragged_newton)?;
                 }
                 let state = ShellDrag::follow(
