@@ -48,6 +48,12 @@ pub struct InflateArgs {
     #[arg(long, default_value_t = Wall::default().thickness, allow_hyphen_values = true,
           value_parser = parse_real)]
     pub thickness: f64,
+    /// Bending stiffness of the wall, as a factor on that of a plate of its material and
+    /// thickness, `Y h^3 / (12 (1 - nu^2))`, in [0, 1e6]. 0 (the default): none, the wall of
+    /// Wang et al. 2015, whose three-prism elements resist only stretching.
+    #[arg(long, default_value_t = Wall::default().bending, allow_hyphen_values = true,
+          value_parser = parse_real)]
+    pub bending: f64,
     /// Thickness maps, anchors and loads: --thickness-file, --thickness-rule, --pin,
     /// --pin-stiffness, --load.
     #[command(flatten)]
@@ -287,6 +293,7 @@ impl InflateArgs {
                 pin_stiffness: self.setup.pin_stiffness,
                 density: self.density,
                 volume_projection: self.volume_projection.map(Into::into),
+                bending: self.bending,
             },
             gas: Gas {
                 model: self.gas.into(),

@@ -17,6 +17,7 @@
 //! | [`HyperMembrane`] | 3 vertices, incompressible (`h = H / sqrt(det C)`) | `C = Fm^T Fm` (2x2) into a `MembraneMaterial` | `docs/membranes.md` (not yet wired into the shell system) |
 //! | [`Spring`] | 2 particles | Hooke + axial dashpot | Song 2009, Eq. 4.2-4.6 (two-layer bodies) |
 //! | [`TargetSpring`] | 1 particle + a driven target | Hooke + axial dashpot | Song 2009, Eq. 4.7 (drag) |
+//! | [`Hinge`] | 4 vertices (an interior edge and its two opposite vertices) | dihedral angle `theta`, `E = D/2 w (theta - theta_bar)^2` | Grinspun et al. 2003, Eq. 3; angle gradient of Bridson et al. 2003 |
 //!
 //! Sign conventions, shared by all elements: `forces = -dE/dx`; `force_differential(dx) = df =
 //! -K dx`; `stiffness = K = d^2E/dx^2` (symmetric), vertex-major `[x1 y1 z1 x2 ...]`.
@@ -44,12 +45,14 @@
 
 mod error;
 mod expand;
+mod hinge;
 mod hyper_membrane;
 mod prism;
 mod spring;
 mod triangle;
 
 pub use error::ElementError;
+pub use hinge::Hinge;
 pub use hyper_membrane::{HyperMembrane, HyperMembraneLinearization};
 pub use prism::{ThreePrism, ThreePrismLinearization};
 pub use spring::{Spring, TargetSpring};

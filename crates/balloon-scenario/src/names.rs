@@ -31,6 +31,7 @@ pub const PARAMETERS: &[(&str, &str)] = &[
     // The scenario keys of every system (`crate::keys`: each key's `name`).
     ("ambient", "ambient"),
     ("band_voxels", "band-voxels"),
+    ("bending", "bending"),
     ("box", "box"),
     ("c1", "c1"),
     ("c2", "c2"),
@@ -159,6 +160,7 @@ pub const PARAMETERS: &[(&str, &str)] = &[
     ("newton_iterations", "newton-iters"),
     ("newton_tolerance", "newton-tol"),
     ("static_solve", "static"),
+    ("wall_bending", "bending"),
 ];
 
 /// Parameters whose messages keep the library's name beside the front end's spelling

@@ -39,4 +39,14 @@ pub enum ShellSystemError {
         #[source]
         source: balloon_element::ElementError,
     },
+    /// A parameter of the system is out of its range. Fix: the value named in `allowed`.
+    #[error("`{name}` = {value}: must be {allowed}")]
+    InvalidParameter {
+        /// The parameter's name.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+        /// What is allowed.
+        allowed: &'static str,
+    },
 }

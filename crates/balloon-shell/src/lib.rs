@@ -70,6 +70,7 @@
 //! | `parallel` | on | runs the element loops on rayon from [`PARALLEL_THRESHOLD`] elements on (identical results) |
 
 pub mod analytic;
+mod bending;
 pub mod connected;
 mod error;
 mod material;

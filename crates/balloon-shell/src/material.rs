@@ -106,6 +106,13 @@ pub trait ShellMaterial: Clone + Send + Sync + std::fmt::Debug {
     /// The element kind's name in errors (`three-prism`, `hyper membrane`).
     fn element_name(&self) -> &'static str;
 
+    /// The plate modulus `Y / (1 - nu^2)` (Pa) of the material at small strain, for the bending
+    /// stiffness `D = Y h^3 / (12 (1 - nu^2))` of an optional wall bending term
+    /// ([`crate::ShellSystem::set_wall_bending`]): `4 mu (lambda + mu) / (lambda + 2 mu)` from the
+    /// material's own tangent at `F = I` for a 3D material, `4 mu0` for an incompressible
+    /// membrane (its limit `lambda -> infinity`).
+    fn plate_modulus(&self) -> f64;
+
     /// Whether the thickness is a function of the stretch (an incompressible membrane, `h = H /
     /// (l1 l2)`) rather than a state of its own that the shell-volume projection moves. When
     /// `true` the shell refreshes its thickness from
@@ -190,6 +197,10 @@ impl<M: Material> ShellMaterial for M {
     fn element_name(&self) -> &'static str {
         PRISM
     }
+
+    fn plate_modulus(&self) -> f64 {
+        solid_plate_modulus(self)
+    }
 }
 
 /// An incompressible membrane runs on [`HyperMembrane`] triangles: energy `A0 H W(C)` (M23),
@@ -269,6 +280,10 @@ impl<W: MembraneMaterial> ShellMaterial for Membrane<W> {
         MEMBRANE
     }
 
+    fn plate_modulus(&self) -> f64 {
+        4.0 * self.0.initial_shear_modulus()
+    }
+
     fn thickness_follows_stretch(&self) -> bool {
         true
     }
@@ -277,6 +292,16 @@ impl<W: MembraneMaterial> ShellMaterial for Membrane<W> {
     fn current_thickness(&self, element: &HyperMembrane, x: &[Vector3<f64>; 3], _h: f64) -> f64 {
         element.thickness(x)
     }
+}
+
+/// The plate modulus `Y / (1 - nu^2) = 4 mu (lambda + mu) / (lambda + 2 mu)` of an isotropic 3D
+/// material, read from its tangent at `F = I` (`dP = mu (dF + dF^T) + lambda tr(dF) I` there:
+/// `dP11/dF11 = lambda + 2 mu`, `dP22/dF11 = lambda`).
+fn solid_plate_modulus<M: Material>(material: &M) -> f64 {
+    let t = material.tangent(&nalgebra::Matrix3::identity());
+    let lambda = t[(4, 0)];
+    let mu = 0.5 * (t[(0, 0)] - lambda);
+    4.0 * mu * (lambda + mu) / (lambda + 2.0 * mu)
 }
 
 /// Element names in errors (as the elements name themselves).
@@ -481,6 +506,13 @@ impl ShellMaterial for ShellMaterialModel {
         match self {
             Self::Solid(_) => PRISM,
             Self::Membrane(_) => MEMBRANE,
+        }
+    }
+
+    fn plate_modulus(&self) -> f64 {
+        match self {
+            Self::Solid(m) => solid_plate_modulus(m),
+            Self::Membrane(m) => 4.0 * m.initial_shear_modulus(),
         }
     }
 

@@ -394,11 +394,12 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
         self.inner.stiffness_blocks()
     }
 
-    /// Nothing: the follower term is in the blocks.
+    /// The wall's bending Hessians, if any (the follower term is in the blocks).
     fn add_remaining_stiffness_triplets(
         &self,
-        _triplets: &mut Vec<(usize, usize, f64)>,
+        triplets: &mut Vec<(usize, usize, f64)>,
     ) -> Result<(), SystemError> {
+        self.inner.add_bending_triplets(triplets);
         Ok(())
     }
 

@@ -2,6 +2,7 @@
 //! three-prism of Wang et al. 2015, Eq. 8 and 11, or membrane triangles, `docs/membranes.md`
 //! M24-M25) plus the uniform gas (Eq. 15-17), seen by the implicit integrator.
 
+use crate::bending::WallBending;
 use crate::error::ShellSystemError;
 use crate::material::ShellMaterial;
 use balloon_element::ElementError;
@@ -118,6 +119,8 @@ pub struct ShellSystem<M: ShellMaterial, G: GasModel> {
     /// The last evaluation was [`ForceSystem::residual_forces`]: `elem_stiffness` is still that
     /// of an earlier point until [`ForceSystem::refresh_stiffness`] recomputes it at `x_lin`.
     stiffness_stale: bool,
+    /// The optional bending stiffness of the wall ([`ShellSystem::set_wall_bending`]).
+    bending: Option<WallBending>,
 }
 
 impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
@@ -199,6 +202,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             stiffness_stale: false,
             tangent: TangentKind::Exact,
             force_scale: 0.0,
+            bending: None,
         })
     }
 
@@ -265,6 +269,61 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
         )
     }
 
+    /// Gives the wall the bending stiffness of a plate of its material and thickness,
+    /// `D = factor Y h^3 / (12 (1 - nu^2))` per interior edge (a discrete-shell hinge, Grinspun
+    /// et al. 2003, Eq. 3, with the dihedral angles of `rest` as the rest angles; `h` the mean
+    /// current thickness of the edge's two triangles, `Y / (1 - nu^2)` the material's
+    /// [`ShellMaterial::plate_modulus`]); `factor = 0` removes it. The three-prism wall of
+    /// Wang et al. 2015 has none (each prism is extruded along its own triangle's normal), so
+    /// the default is 0.
+    ///
+    /// # Errors
+    /// [`ShellSystemError::InvalidParameter`] (`bending`) for a negative or non-finite factor,
+    /// [`ShellSystemError::LengthMismatch`] for a `rest` without three coordinates per vertex,
+    /// [`ShellSystemError::Element`] for a degenerate rest hinge.
+    pub fn set_wall_bending(&mut self, rest: &[f64], factor: f64) -> Result<(), ShellSystemError> {
+        if factor == 0.0 {
+            self.bending = None;
+            return Ok(());
+        }
+        let expected = self.incident_offsets.len().saturating_sub(1) * 3;
+        if rest.len() != expected {
+            return Err(ShellSystemError::LengthMismatch {
+                what: "rest",
+                len: rest.len(),
+                expected,
+            });
+        }
+        self.bending = Some(WallBending::new(
+            rest,
+            &self.triangles,
+            &self.material,
+            factor,
+        )?);
+        self.stiffness_stale = true;
+        Ok(())
+    }
+
+    /// The factor on the wall's plate bending modulus (0: no bending term; see
+    /// [`ShellSystem::set_wall_bending`]).
+    pub fn wall_bending(&self) -> f64 {
+        self.bending.as_ref().map_or(0.0, WallBending::factor)
+    }
+
+    /// The bending energy of the wall at `x` (J; 0 without the term).
+    pub fn bending_energy(&self, x: &[f64]) -> f64 {
+        self.bending
+            .as_ref()
+            .map_or(0.0, |b| b.energy(x, &self.thickness))
+    }
+
+    /// Appends the bending Hessians as triplets (nothing without the term).
+    pub(crate) fn add_bending_triplets(&self, triplets: &mut Vec<(usize, usize, f64)>) {
+        if let Some(b) = &self.bending {
+            b.add_triplets(triplets);
+        }
+    }
+
     /// The triangles, one per element.
     pub fn triangles(&self) -> &[[usize; 3]] {
         &self.triangles
@@ -326,6 +385,11 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
     /// membrane `sum_e A0_e H_e W(C_e)`, `docs/membranes.md` M23), the energy whose negative
     /// gradient are the elastic forces (Eq. 8).
     pub fn elastic_energy(&self, x: &[f64]) -> f64 {
+        self.element_energy(x) + self.bending_energy(x)
+    }
+
+    /// The elements' part of [`ShellSystem::elastic_energy`].
+    fn element_energy(&self, x: &[f64]) -> f64 {
         let energy = |((el, t), &h): ((&M::Element, &[usize; 3]), &f64)| {
             self.material.energy(el, &Self::corner_positions(x, t), h)
         };
@@ -469,6 +533,9 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             )
             .for_each(work);
         }
+        if let Some(b) = &mut self.bending {
+            b.evaluate(x, &self.thickness, true, false);
+        }
     }
 
     /// The element forces at `x` alone into the cache (the stiffness left stale for
@@ -489,7 +556,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             }
         };
         self.stiffness_stale = true;
-        if self.elements.len() >= PARALLEL_THRESHOLD {
+        let elements: f64 = if self.elements.len() >= PARALLEL_THRESHOLD {
             self.elements
                 .par_iter()
                 .zip(triangles.par_iter())
@@ -505,7 +572,12 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
                 .zip(self.elem_forces.iter_mut())
                 .map(work)
                 .sum()
-        }
+        };
+        let bending = match &mut self.bending {
+            Some(b) => b.evaluate(x, &self.thickness, false, energy),
+            None => 0.0,
+        };
+        elements + bending
     }
 
     /// The rest of a force evaluation once the element forces are cached: their check, the
@@ -530,9 +602,23 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             };
             return Err(SystemError::InvertedElement { element: e, source });
         }
+        if let Some(b) = &self.bending
+            && let Some(k) = b.non_finite()
+        {
+            return Err(SystemError::InvertedElement {
+                element: b.face(k),
+                source: ElementError::NonFinite {
+                    element: "hinge",
+                    quantity: "bending force",
+                },
+            });
+        }
         f.iter_mut().for_each(|v| *v = 0.0);
         let forces = &self.elem_forces;
         self.gather(f, |e, l| forces[e][l]);
+        if let Some(b) = &self.bending {
+            b.add_forces(f);
+        }
         let elastic = f.iter().map(|v| v * v).sum::<f64>().sqrt();
         self.gas
             .evaluate(time, x, &self.triangles, f)
@@ -567,6 +653,9 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             }
             -(SMatrixView::<f64, 9, 9>::from_slice(&ks[e]).fixed_view::<3, 9>(3 * l, 0) * dxe)
         });
+        if let Some(b) = &self.bending {
+            b.add_differential(dx, df);
+        }
     }
 }
 
@@ -680,6 +769,9 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
             // Column-major: entry (i, i) is at 10 i.
             Vector3::new(ks[e][30 * l], ks[e][30 * l + 10], ks[e][30 * l + 20])
         });
+        if let Some(b) = &self.bending {
+            b.add_diagonal(diagonal);
+        }
         Ok(())
     }
 
@@ -691,12 +783,14 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
         })
     }
 
-    /// The pressure follower term when enabled and not in the element blocks
-    /// (the `follower_blocks` switch); nothing otherwise.
+    /// The wall's bending Hessians ([`ShellSystem::set_wall_bending`]), and the pressure
+    /// follower term when enabled and not in the element blocks (the `follower_blocks`
+    /// switch).
     fn add_remaining_stiffness_triplets(
         &self,
         triplets: &mut Vec<(usize, usize, f64)>,
     ) -> Result<(), SystemError> {
+        self.add_bending_triplets(triplets);
         if self.follower_in_blocks() {
             return Ok(());
         }

@@ -9,6 +9,11 @@
 //! floppy`), with room for round-off differences of the parallel assembly between machines;
 //! the aim of issue 30 is at most 3 Newton iterations and 2 sub-steps per step. Lower the bounds
 //! with the solver.
+//!
+//! The same run with the wall's bending stiffness (`[shell] bending = 1`, the plate modulus of
+//! the wall; the paper's three-prism wall has none) has its own bounds, about 20 % above what it
+//! does today (29 Newton iterations and 5 sub-steps over the first 5 steps): the buckling that
+//! makes the paper's wall slow is resisted there, and a change that loses that shows here.
 
 use crate::report::Case;
 use crate::validate::meshes;
@@ -22,6 +27,10 @@ const STEPS: usize = 5;
 const MAX_NEWTON: usize = 370;
 /// Most sub-steps over the [`STEPS`] steps.
 const MAX_SUBSTEPS: usize = 40;
+/// Most Newton iterations over the [`STEPS`] steps with the wall's bending stiffness.
+const MAX_NEWTON_BENDING: usize = 36;
+/// Most sub-steps over the [`STEPS`] steps with the wall's bending stiffness.
+const MAX_SUBSTEPS_BENDING: usize = 6;
 
 /// The bunny's longest side in the shared file, m (so `scale` gives 0.1 m).
 fn scale_to(path: &std::path::Path, size: f64) -> anyhow::Result<f64> {
@@ -38,10 +47,11 @@ pub fn cases() -> Vec<Case> {
         return Vec::new();
     };
     let path = dir.join("bunny_closed_libigl.off");
-    let run = || -> anyhow::Result<(usize, usize, usize)> {
+    let run = |bending: f64| -> anyhow::Result<(usize, usize, usize)> {
         let mut scenario = ShellScenario::default();
         scenario.mesh.path = path.display().to_string();
         scenario.mesh.scale = scale_to(&path, 0.1)?;
+        scenario.shell.bending = bending;
         scenario.validate()?;
         let (mut sim, mut loads) = scenario.build(None)?;
         let (mut newton, mut substeps, mut factorizations) = (0, 0, 0);
@@ -54,38 +64,48 @@ pub fn cases() -> Vec<Case> {
         }
         Ok((newton, substeps, factorizations))
     };
-    match run() {
-        Ok((newton, substeps, factorizations)) => {
-            eprintln!(
-                "xtask validate: floppy bunny, {STEPS} steps: {newton} Newton iterations, \
-                 {substeps} sub-steps, {factorizations} factorisations"
-            );
-            vec![
-                Case::at_most(
+    let mut cases = Vec::new();
+    for (bending, wall, max_newton, max_substeps) in [
+        (0.0, "default pump", MAX_NEWTON, MAX_SUBSTEPS),
+        (
+            1.0,
+            "default pump, wall bending 1",
+            MAX_NEWTON_BENDING,
+            MAX_SUBSTEPS_BENDING,
+        ),
+    ] {
+        match run(bending) {
+            Ok((newton, substeps, factorizations)) => {
+                eprintln!(
+                    "xtask validate: floppy bunny, bending {bending}, {STEPS} steps: {newton} \
+                     Newton iterations, {substeps} sub-steps, {factorizations} factorisations"
+                );
+                cases.push(Case::at_most(
                     G,
                     format!(
-                        "bunny at 0.1 m, default pump, first {STEPS} steps: Newton iterations \
+                        "bunny at 0.1 m, {wall}, first {STEPS} steps: Newton iterations \
                          (aim: {})",
                         3 * STEPS
                     ),
                     newton as f64,
-                    MAX_NEWTON as f64,
-                ),
-                Case::at_most(
+                    max_newton as f64,
+                ));
+                cases.push(Case::at_most(
                     G,
                     format!(
-                        "bunny at 0.1 m, default pump, first {STEPS} steps: sub-steps (aim: {})",
+                        "bunny at 0.1 m, {wall}, first {STEPS} steps: sub-steps (aim: {})",
                         2 * STEPS
                     ),
                     substeps as f64,
-                    MAX_SUBSTEPS as f64,
-                ),
-            ]
+                    max_substeps as f64,
+                ));
+            }
+            Err(e) => cases.push(Case::error(
+                G,
+                format!("bunny at 0.1 m, {wall}: floppy start"),
+                format!("{e:#}"),
+            )),
         }
-        Err(e) => vec![Case::error(
-            G,
-            "bunny at 0.1 m: floppy start",
-            format!("{e:#}"),
-        )],
     }
+    cases
 }

@@ -434,3 +434,70 @@ fn a_newton_cap_too_low_for_the_tolerance_is_a_warning_in_the_summary() {
         assert_eq!(s["warnings"], serde_json::json!([]), "{args:?}: {s}");
     }
 }
+
+/// `--bending F` gives the wall the bending stiffness of a plate times `F`: the run records it
+/// (`[shell] bending`), `balloon run` of that record repeats the run byte for byte, and on a
+/// flattened sphere (whose inflation changes its curvature) the bending wall ends elsewhere
+/// than the paper's wall, which has none.
+#[test]
+fn the_wall_bending_flag_is_recorded_repeated_and_changes_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut mesh = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
+    for v in &mut mesh.vertices {
+        v.y *= 0.5;
+        v.z *= 0.3;
+    }
+    let path = dir.path().join("flat.obj");
+    balloon_mesh::io::write_obj(&path, &mesh).unwrap();
+    let run = |name: &str, bending: &str| {
+        let out_dir = dir.path().join(name);
+        let out = run_balloon(&[
+            "inflate",
+            path.to_str().unwrap(),
+            "--steps",
+            "3",
+            "--bending",
+            bending,
+            "--json",
+            "--out",
+            out_dir.to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        (last_json_line(&out), out_dir)
+    };
+    let (plain, plain_dir) = run("plain", "0");
+    let (bent, bent_dir) = run("bent", "1000");
+    assert_eq!(plain["scenario"]["shell"]["bending"], 0.0);
+    assert_eq!(bent["scenario"]["shell"]["bending"], 1000.0);
+    let a = super::obj_points(&plain_dir.join("final.obj"));
+    let b = super::obj_points(&bent_dir.join("final.obj"));
+    let gap = a
+        .iter()
+        .zip(&b)
+        .map(|(p, q)| (p - q).abs())
+        .fold(0.0, f64::max);
+    assert!(gap > 1e-6, "the bending wall moves differently: {gap:e} m");
+    let record = bent_dir.join("scenario.toml");
+    let text = std::fs::read_to_string(&record).unwrap();
+    assert!(text.contains("bending = 1000"), "{text}");
+    let again = dir.path().join("again");
+    let out = run_balloon(&[
+        "run",
+        record.to_str().unwrap(),
+        "--out",
+        again.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        std::fs::read(again.join("final.obj")).unwrap(),
+        std::fs::read(bent_dir.join("final.obj")).unwrap()
+    );
+}

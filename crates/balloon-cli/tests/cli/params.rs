@@ -31,6 +31,9 @@ const CASES: &[(&[&str], &str, &str)] = &[
     // inflate: the other numeric flags.
     (&["inflate", "--density", "1e308"], "--density", "1e308"),
     (&["inflate", "--thickness=-3e-4"], "--thickness", "-3e-4"),
+    (&["inflate", "--bending=-1"], "--bending", "-1"),
+    (&["inflate", "--bending", "nan"], "--bending", "nan"),
+    (&["inflate", "--bending", "1e7"], "--bending", "1e7"),
     (&["inflate", "--pressure", "1e308"], "--pressure", "1e308"),
     (
         &["inflate", "--mass-damping", "nan"],

@@ -168,6 +168,13 @@ pub static SHELL_KEYS: &[Key<ShellScenario>] = &{
             Real::new(Open(0.0), Closed(1e5)),
             shell.density
         ),
+        real!(
+            "shell",
+            "bending",
+            "bending",
+            Real::new(Closed(0.0), Closed(1e6)),
+            shell.bending
+        ),
         choice_opt!(
             "shell",
             "volume_projection",

@@ -54,6 +54,9 @@ pub struct Wall {
     /// The shell-volume projection [default: global; off for membranes].
     #[serde(with = "serde_text::option")]
     pub volume_projection: Option<ProjectionMode>,
+    /// Factor on the wall's plate bending modulus `Y h^3 / (12 (1 - nu^2))` (a discrete-shell
+    /// hinge per interior edge); 0 (the default): none, the paper's three-prism wall.
+    pub bending: f64,
 }
 
 impl Default for Wall {
@@ -66,6 +69,7 @@ impl Default for Wall {
             pin_stiffness: None,
             density: shell::DEFAULT_DENSITY,
             volume_projection: None,
+            bending: 0.0,
         }
     }
 }

@@ -183,6 +183,8 @@ pub struct ShellBalloon<M: ShellMaterial = MaterialModel, G: ShellGas = GasKind>
     dt: f64,
     validate_mesh: bool,
     max_step_halvings: usize,
+    /// Factor on the wall's plate bending modulus (0: none, the paper's wall).
+    wall_bending: f64,
 }
 
 /// How the shell builder makes its gas once the rest volume of the mesh is known: a built-in
@@ -358,6 +360,7 @@ impl ShellBalloon<MaterialModel> {
             dt: DEFAULT_DT,
             validate_mesh: true,
             max_step_halvings: DEFAULT_MAX_STEP_HALVINGS,
+            wall_bending: 0.0,
         }
     }
 }
@@ -384,6 +387,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             dt,
             validate_mesh,
             max_step_halvings,
+            wall_bending,
         } = self;
         let (material, gas) = f(material, gas);
         ShellBalloon {
@@ -402,6 +406,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             dt,
             validate_mesh,
             max_step_halvings,
+            wall_bending,
         }
     }
 
@@ -483,6 +488,15 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
     /// element blocks of the Newton matrix (`balloon_gas::add_volume_hessian_block`).
     pub fn with_follower_term(mut self, enabled: impl Into<Option<bool>>) -> Self {
         self.follower_term = enabled.into();
+        self
+    }
+    /// Gives the wall the bending stiffness of a plate of its material and thickness times
+    /// `factor` (`D = factor Y h^3 / (12 (1 - nu^2))` per interior edge, a discrete-shell
+    /// hinge; [`ShellSystem::set_wall_bending`]). Default 0: the three-prism wall of Wang et al.
+    /// 2015 has no bending stiffness. 1 is the bending stiffness of a real wall of the same
+    /// rubber.
+    pub fn with_wall_bending(mut self, factor: f64) -> Self {
+        self.wall_bending = factor;
         self
     }
     /// Replaces the integrator parameters as a whole (Newton iterations, linear solver, tangent,
@@ -636,6 +650,26 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
                 reason: e.to_string(),
             },
         })?;
+        if !(self.wall_bending.is_finite() && self.wall_bending >= 0.0) {
+            return Err(ShellError::InvalidParameter {
+                name: "wall_bending",
+                value: self.wall_bending.to_string(),
+                reason: "must be a finite factor >= 0 (0: no bending stiffness)".into(),
+            });
+        }
+        let mut system = system;
+        system
+            .set_wall_bending(&x, self.wall_bending)
+            .map_err(|e| match e {
+                ShellSystemError::Element { element, source } => {
+                    ShellError::Element { element, source }
+                }
+                e => ShellError::InvalidParameter {
+                    name: "wall_bending",
+                    value: self.wall_bending.to_string(),
+                    reason: e.to_string(),
+                },
+            })?;
         let integrator =
             BackwardEuler::new(self.integrator).map_err(ShellError::from_integrator_setup)?;
         ShellSimulation::new(

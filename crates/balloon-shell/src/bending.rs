@@ -1,0 +1,266 @@
+//! The optional bending stiffness of the wall: one discrete-shell hinge per interior edge
+//! (Grinspun et al. 2003, "Discrete Shells", Eq. 3; [`balloon_element::Hinge`]) with the
+//! bending modulus of a plate of the wall's material and thickness,
+//! `D = s Y h^3 / (12 (1 - nu^2))` (`s` the user's factor, `h` the mean current thickness of
+//! the hinge's two triangles, `Y / (1 - nu^2)` the material's [`ShellMaterial::plate_modulus`]).
+//!
+//! The three-prism element of Wang et al. 2015 (Eq. 1-4) extrudes each triangle along its own
+//! normal, so the wall it models has no bending stiffness: a real rubber wall of thickness `h`
+//! has `D` above. The term is off by default (the paper's model); `docs/elements.md` says what
+//! it changes.
+
+use crate::ShellMaterial;
+use crate::error::ShellSystemError;
+use balloon_element::Hinge;
+use balloon_mesh::parallel::prelude::*;
+use nalgebra::{SMatrix, SMatrixView, Vector3};
+use std::collections::HashMap;
+
+/// Below this many hinges the loops run serially.
+const PARALLEL_HINGES: usize = 4096;
+
+/// The hinges of a closed mesh, their caches and the modulus.
+#[derive(Clone, Debug)]
+pub(crate) struct WallBending {
+    /// The factor `s` on the plate's bending modulus (> 0).
+    factor: f64,
+    /// `Y / (1 - nu^2)`, Pa.
+    plate_modulus: f64,
+    hinges: Vec<Hinge>,
+    /// The corners `[x0, x1, x2, x3]` of each hinge (edge `x0 x1`, wings `x2`, `x3`).
+    corners: Vec<[usize; 4]>,
+    /// The two triangles of each hinge (their thickness sets its modulus).
+    faces: Vec<[usize; 2]>,
+    forces: Vec<[Vector3<f64>; 4]>,
+    /// 12x12 column-major hinge Hessians at the last linearisation.
+    stiffness: Vec<[f64; 144]>,
+}
+
+impl WallBending {
+    /// The hinges of `triangles` at the rest positions `rest` (flat, m): every edge shared by
+    /// two triangles that run along it in opposite directions. Edges of a non-manifold or open
+    /// mesh have no hinge.
+    ///
+    /// # Errors
+    /// [`ShellSystemError::InvalidParameter`] for a factor that is not finite and positive;
+    /// [`ShellSystemError::Element`] (naming a triangle of the hinge) for a degenerate rest
+    /// hinge.
+    pub(crate) fn new<M: ShellMaterial>(
+        rest: &[f64],
+        triangles: &[[usize; 3]],
+        material: &M,
+        factor: f64,
+    ) -> Result<Self, ShellSystemError> {
+        if !(factor.is_finite() && factor > 0.0) {
+            return Err(ShellSystemError::InvalidParameter {
+                name: "bending",
+                value: factor,
+                allowed: "a finite factor > 0 (0 switches the term off)",
+            });
+        }
+        let mut opposite: HashMap<(usize, usize), Option<(usize, usize)>> = HashMap::new();
+        for (f, t) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+                opposite
+                    .entry((a, b))
+                    .and_modify(|o| *o = None)
+                    .or_insert(Some((c, f)));
+            }
+        }
+        let mut keys: Vec<_> = opposite.keys().copied().filter(|(a, b)| a < b).collect();
+        keys.sort_unstable();
+        let point = |v: usize| Vector3::new(rest[3 * v], rest[3 * v + 1], rest[3 * v + 2]);
+        let mut hinges = Vec::with_capacity(keys.len());
+        let mut corners = Vec::with_capacity(keys.len());
+        let mut faces = Vec::with_capacity(keys.len());
+        for (a, b) in keys {
+            let (Some(Some((c, fa))), Some(Some((d, fb)))) =
+                (opposite.get(&(a, b)), opposite.get(&(b, a)))
+            else {
+                continue;
+            };
+            let h = [a, b, *c, *d];
+            let hinge =
+                Hinge::try_new(&h.map(point)).map_err(|source| ShellSystemError::Element {
+                    element: *fa,
+                    source,
+                })?;
+            hinges.push(hinge);
+            corners.push(h);
+            faces.push([*fa, *fb]);
+        }
+        let n = hinges.len();
+        Ok(Self {
+            factor,
+            plate_modulus: material.plate_modulus(),
+            hinges,
+            corners,
+            faces,
+            forces: vec![[Vector3::zeros(); 4]; n],
+            stiffness: vec![[0.0; 144]; n],
+        })
+    }
+
+    /// The factor `s` on the plate's bending modulus.
+    pub(crate) fn factor(&self) -> f64 {
+        self.factor
+    }
+
+    /// The number of hinges.
+    pub(crate) fn len(&self) -> usize {
+        self.hinges.len()
+    }
+
+    /// The bending modulus of hinge `k`, N m.
+    fn modulus(&self, k: usize, thickness: &[f64]) -> f64 {
+        plate_bending_modulus(self.factor, self.plate_modulus, self.faces[k], thickness)
+    }
+
+    fn corners_at(x: &[f64], c: &[usize; 4]) -> [Vector3<f64>; 4] {
+        c.map(|v| Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]))
+    }
+
+    /// The bending energy at `x`, J.
+    pub(crate) fn energy(&self, x: &[f64], thickness: &[f64]) -> f64 {
+        let one = |k: usize| {
+            self.hinges[k].energy(
+                &Self::corners_at(x, &self.corners[k]),
+                self.modulus(k, thickness),
+            )
+        };
+        if self.len() >= PARALLEL_HINGES {
+            (0..self.len()).into_par_iter().map(one).sum()
+        } else {
+            (0..self.len()).map(one).sum()
+        }
+    }
+
+    /// Fills the force cache at `x` and, with `stiffness`, the Hessian cache; with `energy`
+    /// returns the bending energy of the same pass (0 without).
+    pub(crate) fn evaluate(
+        &mut self,
+        x: &[f64],
+        thickness: &[f64],
+        stiffness: bool,
+        energy: bool,
+    ) -> f64 {
+        let (factor, plate, faces) = (self.factor, self.plate_modulus, &self.faces);
+        let hinges = &self.hinges;
+        let corners = &self.corners;
+        let work = |(k, (f, s)): (usize, (&mut [Vector3<f64>; 4], &mut [f64; 144]))| {
+            let xs = Self::corners_at(x, &corners[k]);
+            let modulus = plate_bending_modulus(factor, plate, faces[k], thickness);
+            if stiffness {
+                let (fk, kk) = hinges[k].forces_and_stiffness(&xs, modulus);
+                *f = fk;
+                s.copy_from_slice(kk.as_slice());
+                if energy {
+                    hinges[k].energy(&xs, modulus)
+                } else {
+                    0.0
+                }
+            } else if energy {
+                let (fk, e) = hinges[k].forces_and_energy(&xs, modulus);
+                *f = fk;
+                e
+            } else {
+                *f = hinges[k].forces(&xs, modulus);
+                0.0
+            }
+        };
+        if hinges.len() >= PARALLEL_HINGES {
+            self.forces
+                .par_iter_mut()
+                .zip(self.stiffness.par_iter_mut())
+                .enumerate()
+                .map(work)
+                .sum()
+        } else {
+            self.forces
+                .iter_mut()
+                .zip(self.stiffness.iter_mut())
+                .enumerate()
+                .map(work)
+                .sum()
+        }
+    }
+
+    /// The first hinge whose cached forces are not finite.
+    pub(crate) fn non_finite(&self) -> Option<usize> {
+        self.forces
+            .iter()
+            .position(|f| f.iter().any(|c| !c.iter().all(|v| v.is_finite())))
+    }
+
+    /// The first triangle of hinge `k`.
+    pub(crate) fn face(&self, k: usize) -> usize {
+        self.faces[k][0]
+    }
+
+    /// Adds the cached forces to `f`.
+    pub(crate) fn add_forces(&self, f: &mut [f64]) {
+        for (c, fk) in self.corners.iter().zip(&self.forces) {
+            for (v, fv) in c.iter().zip(fk) {
+                f[3 * v] += fv.x;
+                f[3 * v + 1] += fv.y;
+                f[3 * v + 2] += fv.z;
+            }
+        }
+    }
+
+    /// `df += -K_bending dx`.
+    pub(crate) fn add_differential(&self, dx: &[f64], df: &mut [f64]) {
+        for (c, k) in self.corners.iter().zip(&self.stiffness) {
+            let mut d = SMatrix::<f64, 12, 1>::zeros();
+            for (l, &v) in c.iter().enumerate() {
+                d.fixed_rows_mut::<3>(3 * l)
+                    .copy_from_slice(&dx[3 * v..3 * v + 3]);
+            }
+            let out = SMatrixView::<f64, 12, 12>::from_slice(k) * d;
+            for (l, &v) in c.iter().enumerate() {
+                for i in 0..3 {
+                    df[3 * v + i] -= out[3 * l + i];
+                }
+            }
+        }
+    }
+
+    /// Appends the Hessians as triplets.
+    pub(crate) fn add_triplets(&self, triplets: &mut Vec<(usize, usize, f64)>) {
+        triplets.reserve(144 * self.len());
+        for (c, k) in self.corners.iter().zip(&self.stiffness) {
+            let k = SMatrixView::<f64, 12, 12>::from_slice(k);
+            for a in 0..4 {
+                for b in 0..4 {
+                    for i in 0..3 {
+                        for j in 0..3 {
+                            triplets.push((3 * c[a] + i, 3 * c[b] + j, k[(3 * a + i, 3 * b + j)]));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Adds the Hessians' diagonals to `diagonal`.
+    pub(crate) fn add_diagonal(&self, diagonal: &mut [f64]) {
+        for (c, k) in self.corners.iter().zip(&self.stiffness) {
+            for (l, &v) in c.iter().enumerate() {
+                for i in 0..3 {
+                    diagonal[3 * v + i] += k[13 * (3 * l + i)];
+                }
+            }
+        }
+    }
+}
+
+/// `D = s Y h^3 / (12 (1 - nu^2))` (N m) of a hinge between the triangles `faces`, `h` their
+/// mean current thickness, `plate` = `Y / (1 - nu^2)`.
+fn plate_bending_modulus(factor: f64, plate: f64, faces: [usize; 2], thickness: &[f64]) -> f64 {
+    let h = 0.5 * (thickness[faces[0]] + thickness[faces[1]]);
+    factor * plate * h * h * h / 12.0
+}
+
+#[cfg(test)]
+mod tests;
