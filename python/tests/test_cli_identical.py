@@ -172,3 +172,15 @@ def test_connect_is_identical_to_the_cli_and_reaches_the_analytic_end_state(cli,
         volume = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0
         rest = s["balloon_states"][i]["rest_gas_volume"]
         assert abs((volume / rest) ** (1.0 / 3.0) / s["balloon_states"][i]["stretch"] - 1.0) < 1e-9
+
+
+def test_wall_bending_is_the_same_through_python_and_the_cli(cli, tmp_path):
+    # `bending` is the `[shell]` key of the wall's bending stiffness (`--bending`).
+    summary = run_cli(
+        cli, ["inflate", "builtin:sphere", "--steps", "3", "--bending", "50",
+              "--out", str(tmp_path / "cli")],
+    )
+    r = balloon.inflate("builtin:sphere", steps=3, bending=50.0, out=tmp_path / "py")
+    assert summary["scenario"]["shell"]["bending"] == 50.0
+    assert np.array_equal(read_obj_vertices(tmp_path / "cli" / "final.obj"), r["positions"])
+    assert without_timing(summary) == without_timing(r["summary"])
