@@ -60,28 +60,11 @@ impl BendingTerm {
     /// not shared by exactly two triangles, are left out).
     pub(crate) fn new(problem: &DesignProblem) -> Self {
         let x = problem.target();
-        let mut opposite = std::collections::HashMap::new();
-        for t in problem.triangles() {
-            for k in 0..3 {
-                let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
-                // A second triangle on the same directed edge: not a manifold hinge.
-                opposite
-                    .entry((a, b))
-                    .and_modify(|o: &mut Option<usize>| *o = None)
-                    .or_insert(Some(c));
-            }
-        }
         let mut hinges = Vec::new();
         let mut rest_angles = Vec::new();
         let mut raw = Vec::new();
-        let mut keys: Vec<_> = opposite.keys().copied().filter(|(a, b)| a < b).collect();
-        keys.sort_unstable();
-        for (a, b) in keys {
-            let (Some(Some(c)), Some(Some(d))) = (opposite.get(&(a, b)), opposite.get(&(b, a)))
-            else {
-                continue;
-            };
-            let h = [a, b, *c, *d];
+        for found in balloon_mesh::topology::hinges(problem.triangles()) {
+            let h = found.corners;
             let Some((theta, _)) = angle_and_gradient(x, &h) else {
                 continue;
             };

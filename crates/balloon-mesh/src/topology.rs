@@ -35,6 +35,52 @@ fn csr(n: usize, pairs: &mut [(usize, usize)]) -> (Vec<usize>, Vec<usize>) {
     (offsets, pairs.iter().map(|&(_, v)| v).collect())
 }
 
+/// A bending hinge of an oriented triangle mesh: an edge shared by exactly two triangles that
+/// run along it in opposite directions, `A = (x0, x1, x2)` and `B = (x1, x0, x3)` up to
+/// rotation of their corners.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EdgeHinge {
+    /// `[x0, x1, x2, x3]`: the edge `x0 x1` (`x0 < x1`) and the corners opposite it in `A`
+    /// and `B`.
+    pub corners: [usize; 4],
+    /// The triangles `A` and `B` (indices into the triangle list).
+    pub faces: [usize; 2],
+}
+
+/// The hinges of `triangles`, sorted by edge: every edge with exactly one triangle along each
+/// of its two directions. Edges of an open or non-manifold part (one triangle, or a second
+/// triangle along the same direction) have none. Used by the wall's bending term and the
+/// design's rest-mesh bending term (discrete-shell hinges, Grinspun et al. 2003).
+pub fn hinges(triangles: &[[usize; 3]]) -> Vec<EdgeHinge> {
+    let mut directed: Vec<((usize, usize), usize, usize)> = Vec::with_capacity(3 * triangles.len());
+    for (f, t) in triangles.iter().enumerate() {
+        for k in 0..3 {
+            directed.push(((t[k], t[(k + 1) % 3]), t[(k + 2) % 3], f));
+        }
+    }
+    directed.sort_unstable_by_key(|d| d.0);
+    // The one triangle along directed edge `key`, if exactly one runs along it.
+    let unique = |key: (usize, usize)| {
+        let i = directed.partition_point(|d| d.0 < key);
+        let j = directed.partition_point(|d| d.0 <= key);
+        (j == i + 1).then(|| (directed[i].1, directed[i].2))
+    };
+    let mut out = Vec::new();
+    for (i, d) in directed.iter().enumerate() {
+        let (a, b) = d.0;
+        if a >= b || (i > 0 && directed[i - 1].0 == d.0) {
+            continue;
+        }
+        if let (Some((c, fa)), Some((dd, fb))) = (unique((a, b)), unique((b, a))) {
+            out.push(EdgeHinge {
+                corners: [a, b, c, dd],
+                faces: [fa, fb],
+            });
+        }
+    }
+    out
+}
+
 impl Topology {
     /// Builds the adjacency of `mesh`.
     ///
@@ -337,6 +383,41 @@ mod tests {
         assert_eq!(t.vertex_neighbors(0).len(), 5);
         assert_eq!(t.vertex_neighbors(m.num_vertices() - 1).len(), 6);
         assert_eq!(t.vertex_triangles(0).len(), 5);
+    }
+
+    /// Every edge of a closed manifold mesh is one hinge whose corners are the edge and the
+    /// two opposite corners of its triangles (checked against each triangle's own corner
+    /// order); an open edge and an edge with a third triangle along it have none.
+    #[test]
+    fn hinges_are_the_edges_with_one_triangle_each_way() {
+        let m = icosphere(1.0, 2).unwrap();
+        let h = hinges(&m.triangles);
+        assert_eq!(h.len(), Topology::new(&m).num_edges());
+        assert!(h.windows(2).all(|w| w[0].corners[..2] < w[1].corners[..2]));
+        for e in &h {
+            let [a, b, c, d] = e.corners;
+            assert!(a < b);
+            let ta = m.triangles[e.faces[0]];
+            let tb = m.triangles[e.faces[1]];
+            let rotations = |t: [usize; 3]| [t, [t[1], t[2], t[0]], [t[2], t[0], t[1]]];
+            assert!(
+                rotations(ta).contains(&[a, b, c]),
+                "{ta:?} vs {:?}",
+                [a, b, c]
+            );
+            assert!(
+                rotations(tb).contains(&[b, a, d]),
+                "{tb:?} vs {:?}",
+                [b, a, d]
+            );
+        }
+        // Open: drop a triangle; its three edges lose their hinge.
+        let open = &m.triangles[1..];
+        assert_eq!(hinges(open).len(), h.len() - 3);
+        // Non-manifold: a second copy of triangle 0 runs along its edges in the same direction.
+        let mut doubled = m.triangles.clone();
+        doubled.push(m.triangles[0]);
+        assert_eq!(hinges(&doubled).len(), h.len() - 3);
     }
 
     #[test]

@@ -14,7 +14,6 @@ use crate::error::ShellSystemError;
 use balloon_element::Hinge;
 use balloon_mesh::parallel::prelude::*;
 use nalgebra::{SMatrix, SMatrixView, Vector3};
-use std::collections::HashMap;
 
 /// Below this many hinges the loops run serially.
 const PARALLEL_HINGES: usize = 4096;
@@ -58,37 +57,21 @@ impl WallBending {
                 allowed: "a finite factor > 0 (0 switches the term off)",
             });
         }
-        let mut opposite: HashMap<(usize, usize), Option<(usize, usize)>> = HashMap::new();
-        for (f, t) in triangles.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
-                opposite
-                    .entry((a, b))
-                    .and_modify(|o| *o = None)
-                    .or_insert(Some((c, f)));
-            }
-        }
-        let mut keys: Vec<_> = opposite.keys().copied().filter(|(a, b)| a < b).collect();
-        keys.sort_unstable();
         let point = |v: usize| Vector3::new(rest[3 * v], rest[3 * v + 1], rest[3 * v + 2]);
-        let mut hinges = Vec::with_capacity(keys.len());
-        let mut corners = Vec::with_capacity(keys.len());
-        let mut faces = Vec::with_capacity(keys.len());
-        for (a, b) in keys {
-            let (Some(Some((c, fa))), Some(Some((d, fb)))) =
-                (opposite.get(&(a, b)), opposite.get(&(b, a)))
-            else {
-                continue;
-            };
-            let h = [a, b, *c, *d];
-            let hinge =
-                Hinge::try_new(&h.map(point)).map_err(|source| ShellSystemError::Element {
-                    element: *fa,
+        let found = balloon_mesh::topology::hinges(triangles);
+        let mut hinges = Vec::with_capacity(found.len());
+        let mut corners = Vec::with_capacity(found.len());
+        let mut faces = Vec::with_capacity(found.len());
+        for h in found {
+            let hinge = Hinge::try_new(&h.corners.map(point)).map_err(|source| {
+                ShellSystemError::Element {
+                    element: h.faces[0],
                     source,
-                })?;
+                }
+            })?;
             hinges.push(hinge);
-            corners.push(h);
-            faces.push([*fa, *fb]);
+            corners.push(h.corners);
+            faces.push(h.faces);
         }
         let n = hinges.len();
         Ok(Self {
@@ -112,27 +95,33 @@ impl WallBending {
         self.hinges.len()
     }
 
-    /// The bending modulus of hinge `k`, N m.
-    fn modulus(&self, k: usize, thickness: &[f64]) -> f64 {
-        plate_bending_modulus(self.factor, self.plate_modulus, self.faces[k], thickness)
-    }
-
     fn corners_at(x: &[f64], c: &[usize; 4]) -> [Vector3<f64>; 4] {
         c.map(|v| Vector3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2]))
     }
 
     /// The bending energy at `x`, J.
     pub(crate) fn energy(&self, x: &[f64], thickness: &[f64]) -> f64 {
-        let one = |k: usize| {
-            self.hinges[k].energy(
-                &Self::corners_at(x, &self.corners[k]),
-                self.modulus(k, thickness),
+        let (factor, plate) = (self.factor, self.plate_modulus);
+        let one = |((hinge, c), faces): ((&Hinge, &[usize; 4]), &[usize; 2])| {
+            hinge.energy(
+                &Self::corners_at(x, c),
+                plate_bending_modulus(factor, plate, *faces, thickness),
             )
         };
         if self.len() >= PARALLEL_HINGES {
-            (0..self.len()).into_par_iter().map(one).sum()
+            self.hinges
+                .par_iter()
+                .zip(self.corners.par_iter())
+                .zip(self.faces.par_iter())
+                .map(one)
+                .sum()
         } else {
-            (0..self.len()).map(one).sum()
+            self.hinges
+                .iter()
+                .zip(&self.corners)
+                .zip(&self.faces)
+                .map(one)
+                .sum()
         }
     }
 
