@@ -13,7 +13,7 @@ use crate::ShellMaterial;
 use crate::error::ShellSystemError;
 use balloon_element::Hinge;
 use balloon_mesh::parallel::prelude::*;
-use nalgebra::{SMatrix, SMatrixView, Vector3};
+use nalgebra::{SMatrixView, Vector3};
 
 /// Below this many hinges the loops run serially.
 const PARALLEL_HINGES: usize = 4096;
@@ -30,6 +30,9 @@ pub(crate) struct WallBending {
     corners: Vec<[usize; 4]>,
     /// The two triangles of each hinge (their thickness sets its modulus).
     faces: Vec<[usize; 2]>,
+    /// Where the hinge's corners sit in its triangles: `[x0, x1, x2]` in `A` and `[x1, x0, x3]`
+    /// in `B` (corner indices 0-2), for folding the Hessian into the triangle blocks.
+    local: Vec<[[usize; 3]; 2]>,
     forces: Vec<[Vector3<f64>; 4]>,
     /// 12x12 column-major hinge Hessians at the last linearisation.
     stiffness: Vec<[f64; 144]>,
@@ -62,6 +65,8 @@ impl WallBending {
         let mut hinges = Vec::with_capacity(found.len());
         let mut corners = Vec::with_capacity(found.len());
         let mut faces = Vec::with_capacity(found.len());
+        let mut local = Vec::with_capacity(found.len());
+        let at = |t: &[usize; 3], v: usize| t.iter().position(|&u| u == v).unwrap_or(0);
         for h in found {
             let hinge = Hinge::try_new(&h.corners.map(point)).map_err(|source| {
                 ShellSystemError::Element {
@@ -72,6 +77,12 @@ impl WallBending {
             hinges.push(hinge);
             corners.push(h.corners);
             faces.push(h.faces);
+            let [a, b, c, d] = h.corners;
+            let (ta, tb) = (&triangles[h.faces[0]], &triangles[h.faces[1]]);
+            local.push([
+                [at(ta, a), at(ta, b), at(ta, c)],
+                [at(tb, b), at(tb, a), at(tb, d)],
+            ]);
         }
         let n = hinges.len();
         Ok(Self {
@@ -80,6 +91,7 @@ impl WallBending {
             hinges,
             corners,
             faces,
+            local,
             forces: vec![[Vector3::zeros(); 4]; n],
             stiffness: vec![[0.0; 144]; n],
         })
@@ -198,33 +210,29 @@ impl WallBending {
         }
     }
 
-    /// `df += -K_bending dx`.
-    pub(crate) fn add_differential(&self, dx: &[f64], df: &mut [f64]) {
-        for (c, k) in self.corners.iter().zip(&self.stiffness) {
-            let mut d = SMatrix::<f64, 12, 1>::zeros();
-            for (l, &v) in c.iter().enumerate() {
-                d.fixed_rows_mut::<3>(3 * l)
-                    .copy_from_slice(&dx[3 * v..3 * v + 3]);
-            }
-            let out = SMatrixView::<f64, 12, 12>::from_slice(k) * d;
-            for (l, &v) in c.iter().enumerate() {
-                for i in 0..3 {
-                    df[3 * v + i] -= out[3 * l + i];
-                }
-            }
-        }
-    }
-
-    /// Appends the Hessians as triplets.
-    pub(crate) fn add_triplets(&self, triplets: &mut Vec<(usize, usize, f64)>) {
-        triplets.reserve(144 * self.len());
-        for (c, k) in self.corners.iter().zip(&self.stiffness) {
+    /// Adds each hinge's Hessian to the 9x9 blocks of its two triangles (`blocks`, one per
+    /// triangle, column-major in the triangle's corner order): the couplings among `x0, x1, x2`
+    /// to triangle `A`, the remaining ones among `x0, x1, x3` to triangle `B`. What is left
+    /// is the coupling of the two opposite corners `x2` and `x3`, which no triangle holds:
+    /// [`WallBending::add_differential`] and [`WallBending::add_triplets`] add that part.
+    pub(crate) fn fold_into_blocks(&self, blocks: &mut [[f64; 81]]) {
+        for ((k, faces), local) in self.stiffness.iter().zip(&self.faces).zip(&self.local) {
             let k = SMatrixView::<f64, 12, 12>::from_slice(k);
-            for a in 0..4 {
-                for b in 0..4 {
-                    for i in 0..3 {
-                        for j in 0..3 {
-                            triplets.push((3 * c[a] + i, 3 * c[b] + j, k[(3 * a + i, 3 * b + j)]));
+            // Hinge corner -> (triangle, corner in it), per triangle.
+            let in_a = [local[0][0], local[0][1], local[0][2]];
+            let in_b = [local[1][1], local[1][0], usize::MAX, local[1][2]];
+            for q in 0..4 {
+                for p in 0..4 {
+                    let (block, r, c) = if p < 3 && q < 3 {
+                        (&mut blocks[faces[0]], in_a[p], in_a[q])
+                    } else if p != 2 && q != 2 {
+                        (&mut blocks[faces[1]], in_b[p], in_b[q])
+                    } else {
+                        continue; // x2-x3: not in a triangle
+                    };
+                    for j in 0..3 {
+                        for i in 0..3 {
+                            block[(3 * c + j) * 9 + 3 * r + i] += k[(3 * p + i, 3 * q + j)];
                         }
                     }
                 }
@@ -232,12 +240,36 @@ impl WallBending {
         }
     }
 
-    /// Adds the Hessians' diagonals to `diagonal`.
-    pub(crate) fn add_diagonal(&self, diagonal: &mut [f64]) {
+    /// `df += -K_23 dx`: the part of the hinges' Hessians that couples the two opposite
+    /// corners `x2` and `x3` (the rest is in the triangle blocks,
+    /// [`WallBending::fold_into_blocks`]).
+    pub(crate) fn add_differential(&self, dx: &[f64], df: &mut [f64]) {
         for (c, k) in self.corners.iter().zip(&self.stiffness) {
-            for (l, &v) in c.iter().enumerate() {
+            let k = SMatrixView::<f64, 12, 12>::from_slice(k);
+            for (p, q) in [(2, 3), (3, 2)] {
+                let (vp, vq) = (c[p], c[q]);
                 for i in 0..3 {
-                    diagonal[3 * v + i] += k[13 * (3 * l + i)];
+                    let mut acc = 0.0;
+                    for j in 0..3 {
+                        acc += k[(3 * p + i, 3 * q + j)] * dx[3 * vq + j];
+                    }
+                    df[3 * vp + i] -= acc;
+                }
+            }
+        }
+    }
+
+    /// Appends the `x2`-`x3` couplings of the hinges' Hessians as triplets (18 per hinge; the
+    /// rest is in the triangle blocks).
+    pub(crate) fn add_triplets(&self, triplets: &mut Vec<(usize, usize, f64)>) {
+        triplets.reserve(18 * self.len());
+        for (c, k) in self.corners.iter().zip(&self.stiffness) {
+            let k = SMatrixView::<f64, 12, 12>::from_slice(k);
+            for (p, q) in [(2, 3), (3, 2)] {
+                for i in 0..3 {
+                    for j in 0..3 {
+                        triplets.push((3 * c[p] + i, 3 * c[q] + j, k[(3 * p + i, 3 * q + j)]));
+                    }
                 }
             }
         }

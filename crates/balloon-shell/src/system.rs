@@ -317,7 +317,8 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             .map_or(0.0, |b| b.energy(x, &self.thickness))
     }
 
-    /// Appends the bending Hessians as triplets (nothing without the term).
+    /// Appends the part of the bending Hessians that the triangle blocks do not hold, the
+    /// coupling of each hinge's two opposite corners, as triplets (nothing without the term).
     pub(crate) fn add_bending_triplets(&self, triplets: &mut Vec<(usize, usize, f64)>) {
         if let Some(b) = &self.bending {
             b.add_triplets(triplets);
@@ -535,6 +536,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
         }
         if let Some(b) = &mut self.bending {
             b.evaluate(x, &self.thickness, true, false);
+            b.fold_into_blocks(&mut self.elem_stiffness);
         }
     }
 
@@ -769,9 +771,6 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
             // Column-major: entry (i, i) is at 10 i.
             Vector3::new(ks[e][30 * l], ks[e][30 * l + 10], ks[e][30 * l + 20])
         });
-        if let Some(b) = &self.bending {
-            b.add_diagonal(diagonal);
-        }
         Ok(())
     }
 
@@ -783,7 +782,8 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
         })
     }
 
-    /// The wall's bending Hessians ([`ShellSystem::set_wall_bending`]), and the pressure
+    /// The couplings of the wall's bending hinges that no triangle block holds (their two
+    /// opposite corners; [`ShellSystem::set_wall_bending`]), and the pressure
     /// follower term when enabled and not in the element blocks (the `follower_blocks`
     /// switch).
     fn add_remaining_stiffness_triplets(

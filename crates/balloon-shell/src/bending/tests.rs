@@ -115,7 +115,10 @@ fn the_differential_and_the_assembled_stiffness_are_the_derivative_of_the_forces
     let blocks = s.stiffness_blocks().unwrap();
     let mut remaining = Vec::new();
     s.add_remaining_stiffness_triplets(&mut remaining).unwrap();
-    assert!(!remaining.is_empty(), "the hinges are not in the blocks");
+    assert!(
+        !remaining.is_empty(),
+        "the couplings of the opposite corners are not in the blocks"
+    );
     let mut all = Vec::new();
     s.add_stiffness_triplets(&mut all).unwrap();
     let (mut a, mut b) = (SparseAssembler::new(), SparseAssembler::new());
