@@ -15,6 +15,17 @@ use balloon_element::Hinge;
 use balloon_mesh::parallel::prelude::*;
 use nalgebra::{SMatrixView, Vector3};
 
+/// What [`WallBending::evaluate`] computes besides the forces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Pass {
+    /// The forces and the Hessians (a linearisation).
+    Stiffness,
+    /// The forces alone (a line-search trial).
+    Forces,
+    /// The forces and the energy (a line-search trial that needs both).
+    ForcesAndEnergy,
+}
+
 /// Below this many hinges the loops run serially.
 const PARALLEL_HINGES: usize = 4096;
 
@@ -137,37 +148,32 @@ impl WallBending {
         }
     }
 
-    /// Fills the force cache at `x` and, with `stiffness`, the Hessian cache; with `energy`
-    /// returns the bending energy of the same pass (0 without).
-    pub(crate) fn evaluate(
-        &mut self,
-        x: &[f64],
-        thickness: &[f64],
-        stiffness: bool,
-        energy: bool,
-    ) -> f64 {
+    /// Fills the force cache at `x` and what `pass` asks for besides: the Hessian cache
+    /// ([`Pass::Stiffness`]) or the bending energy of the same pass, returned
+    /// ([`Pass::ForcesAndEnergy`]; 0 otherwise).
+    pub(crate) fn evaluate(&mut self, x: &[f64], thickness: &[f64], pass: Pass) -> f64 {
         let (factor, plate, faces) = (self.factor, self.plate_modulus, &self.faces);
         let hinges = &self.hinges;
         let corners = &self.corners;
         let work = |(k, (f, s)): (usize, (&mut [Vector3<f64>; 4], &mut [f64; 144]))| {
             let xs = Self::corners_at(x, &corners[k]);
             let modulus = plate_bending_modulus(factor, plate, faces[k], thickness);
-            if stiffness {
-                let (fk, kk) = hinges[k].forces_and_stiffness(&xs, modulus);
-                *f = fk;
-                s.copy_from_slice(kk.as_slice());
-                if energy {
-                    hinges[k].energy(&xs, modulus)
-                } else {
+            match pass {
+                Pass::Stiffness => {
+                    let (fk, kk) = hinges[k].forces_and_stiffness(&xs, modulus);
+                    *f = fk;
+                    s.copy_from_slice(kk.as_slice());
                     0.0
                 }
-            } else if energy {
-                let (fk, e) = hinges[k].forces_and_energy(&xs, modulus);
-                *f = fk;
-                e
-            } else {
-                *f = hinges[k].forces(&xs, modulus);
-                0.0
+                Pass::ForcesAndEnergy => {
+                    let (fk, e) = hinges[k].forces_and_energy(&xs, modulus);
+                    *f = fk;
+                    e
+                }
+                Pass::Forces => {
+                    *f = hinges[k].forces(&xs, modulus);
+                    0.0
+                }
             }
         };
         if hinges.len() >= PARALLEL_HINGES {

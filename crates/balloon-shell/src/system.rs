@@ -2,7 +2,7 @@
 //! three-prism of Wang et al. 2015, Eq. 8 and 11, or membrane triangles, `docs/membranes.md`
 //! M24-M25) plus the uniform gas (Eq. 15-17), seen by the implicit integrator.
 
-use crate::bending::WallBending;
+use crate::bending::{Pass, WallBending};
 use crate::error::ShellSystemError;
 use crate::material::ShellMaterial;
 use balloon_element::ElementError;
@@ -286,7 +286,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             self.bending = None;
             return Ok(());
         }
-        let expected = self.incident_offsets.len().saturating_sub(1) * 3;
+        let expected = self.masses.len();
         if rest.len() != expected {
             return Err(ShellSystemError::LengthMismatch {
                 what: "rest",
@@ -535,7 +535,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
             .for_each(work);
         }
         if let Some(b) = &mut self.bending {
-            b.evaluate(x, &self.thickness, true, false);
+            b.evaluate(x, &self.thickness, Pass::Stiffness);
             b.fold_into_blocks(&mut self.elem_stiffness);
         }
     }
@@ -576,7 +576,15 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
                 .sum()
         };
         let bending = match &mut self.bending {
-            Some(b) => b.evaluate(x, &self.thickness, false, energy),
+            Some(b) => b.evaluate(
+                x,
+                &self.thickness,
+                if energy {
+                    Pass::ForcesAndEnergy
+                } else {
+                    Pass::Forces
+                },
+            ),
             None => 0.0,
         };
         elements + bending
