@@ -256,6 +256,27 @@ pub trait ForceSystem {
         Err(SystemError::AssemblyUnsupported)
     }
 
+    /// Asks the system to give, from its next linearisation on, an assembled stiffness that
+    /// is a better preconditioner than its exact sparse `K` (`on`), together with the
+    /// correction to the exact one ([`ForceSystem::add_stiffness_correction`]), or its exact
+    /// sparse `K` (`!on`). Returns whether the split is in effect. The element blocks and the
+    /// remaining triplets then hold `K_sparse`, `K = K_sparse + E`; the force differential,
+    /// [`ForceSystem::add_stiffness_triplets`] and [`ForceSystem::add_stiffness_diagonal`]
+    /// stay exact. Called by the Newton solver before each linearisation, with `on` only for a
+    /// linear solver that applies the whole problem and factorises only the matrix
+    /// ([`balloon_linalg::LinearSolver::accepts_correction`]). Default: no split (`false`).
+    fn set_stiffness_split(&mut self, on: bool) -> bool {
+        let _ = on;
+        false
+    }
+
+    /// `out += scale E p`, the correction `E = K - K_sparse` of a split stiffness
+    /// ([`ForceSystem::set_stiffness_split`]) at the last linearisation. Default: nothing
+    /// (no split).
+    fn add_stiffness_correction(&self, scale: f64, p: &[f64], out: &mut [f64]) {
+        let _ = (scale, p, out);
+    }
+
     /// Adds the diagonal of the sparse part of `K` (everything but
     /// [`ForceSystem::low_rank_terms`]) at the last linearisation point to `diagonal` (length
     /// [`ForceSystem::num_dofs`]). Optional: when provided, the matrix-free CG uses it for a

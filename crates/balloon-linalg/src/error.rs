@@ -103,6 +103,15 @@ pub enum SolveError {
         /// Name of the solver.
         solver: &'static str,
     },
+    /// A direct solver was given a problem whose matrix is only part of its stiffness
+    /// ([`crate::LinearProblem::with_correction`]); it would solve the wrong system.
+    #[error(
+        "the `{solver}` solver solves with the matrix itself and cannot take a stiffness correction"
+    )]
+    CorrectionUnsupported {
+        /// Name of the solver.
+        solver: &'static str,
+    },
     /// No matrix has been assembled yet (e.g. asking for the Newton matrix of a run that uses
     /// the matrix-free solver, or before the first step).
     #[error("no assembled matrix is available (the matrix-free solver never assembles one)")]

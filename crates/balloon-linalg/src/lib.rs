@@ -90,10 +90,10 @@ pub use krylov::{CgWorkspace, cg};
 pub use low_rank::{LowRankTerm, add_low_rank_product, solve_with_low_rank};
 pub use precond::{IncompleteCholesky, jacobi};
 pub use solver::{
-    AssembledPcg, CgParams, CholeskyParams, CholeskySolver, FactorizedPcg, FactorizedPcgParams,
-    LinearProblem, LinearSolver, LinearSolverKind, LinearSolverParams, MatrixFreeCg,
-    PcgPreconditioner, ProblemForm, SINGLE_PRECISION_MIN_TOLERANCE, SolverSettings,
-    StiffnessOperator,
+    AssembledPcg, CgParams, CholeskyParams, CholeskySolver, Correction, FactorizedPcg,
+    FactorizedPcgParams, LinearProblem, LinearSolver, LinearSolverKind, LinearSolverParams,
+    MatrixFreeCg, PcgPreconditioner, ProblemForm, SINGLE_PRECISION_MIN_TOLERANCE, SolverSettings,
+    StiffnessCorrection, StiffnessOperator,
 };
 pub use sprs;
 pub use vector::dot;

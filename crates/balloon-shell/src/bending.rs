@@ -13,7 +13,7 @@ use crate::ShellMaterial;
 use crate::error::ShellSystemError;
 use balloon_element::Hinge;
 use balloon_mesh::parallel::prelude::*;
-use nalgebra::{SMatrixView, Vector3};
+use nalgebra::{Matrix3, SMatrixView, Vector3};
 
 /// What [`WallBending::evaluate`] computes besides the forces.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,12 +41,18 @@ pub(crate) struct WallBending {
     corners: Vec<[usize; 4]>,
     /// The two triangles of each hinge (their thickness sets its modulus).
     faces: Vec<[usize; 2]>,
+    /// `w / |E|^2 = 3 / (A_A + A_B)` of each rest hinge, 1/m^2.
+    inverse_area: Vec<f64>,
     /// Where the hinge's corners sit in its triangles: `[x0, x1, x2]` in `A` and `[x1, x0, x3]`
     /// in `B` (corner indices 0-2), for folding the Hessian into the triangle blocks.
     local: Vec<[[usize; 3]; 2]>,
     forces: Vec<[Vector3<f64>; 4]>,
     /// 12x12 column-major hinge Hessians at the last linearisation.
     stiffness: Vec<[f64; 144]>,
+    /// With a split stiffness ([`WallBending::compensate`]): per hinge the 3x3 blocks
+    /// `P2 = U S U^T` and `P3 = V S V^T` (column-major, one after the other) of the opposite
+    /// corners' coupling `C = K_23 = U S V^T`; empty without a split.
+    compensation: Vec<[f64; 18]>,
 }
 
 impl WallBending {
@@ -76,6 +82,7 @@ impl WallBending {
         let mut hinges = Vec::with_capacity(found.len());
         let mut corners = Vec::with_capacity(found.len());
         let mut faces = Vec::with_capacity(found.len());
+        let mut inverse_area = Vec::with_capacity(found.len());
         let mut local = Vec::with_capacity(found.len());
         let at = |t: &[usize; 3], v: usize| t.iter().position(|&u| u == v).unwrap_or(0);
         for h in found {
@@ -85,6 +92,8 @@ impl WallBending {
                     source,
                 }
             })?;
+            inverse_area
+                .push(hinge.weight() / (point(h.corners[1]) - point(h.corners[0])).norm_squared());
             hinges.push(hinge);
             corners.push(h.corners);
             faces.push(h.faces);
@@ -102,9 +111,11 @@ impl WallBending {
             hinges,
             corners,
             faces,
+            inverse_area,
             local,
             forces: vec![[Vector3::zeros(); 4]; n],
             stiffness: vec![[0.0; 144]; n],
+            compensation: Vec::new(),
         })
     }
 
@@ -116,6 +127,26 @@ impl WallBending {
     /// The number of hinges.
     pub(crate) fn len(&self) -> usize {
         self.hinges.len()
+    }
+
+    /// How stiff the hinges are against the stretching of the wall at the mesh's scale: the
+    /// mean over the hinges of `D w / (Y' h |E|^2) = s h^2 (w / |E|^2) / 12` (`Y'` the plate
+    /// modulus, `h` the hinge's thickness), about `(h / l)^2 / 3` for a mesh of edge length
+    /// `l`. Dimensionless; 0 without hinges.
+    pub(crate) fn stiffness_ratio(&self, thickness: &[f64]) -> f64 {
+        if self.hinges.is_empty() {
+            return 0.0;
+        }
+        let sum: f64 = self
+            .faces
+            .iter()
+            .zip(&self.inverse_area)
+            .map(|(f, inv)| {
+                let h = 0.5 * (thickness[f[0]] + thickness[f[1]]);
+                h * h * inv
+            })
+            .sum();
+        self.factor * sum / (12.0 * self.hinges.len() as f64)
     }
 
     fn corners_at(x: &[f64], c: &[usize; 4]) -> [Vector3<f64>; 4] {
@@ -279,6 +310,128 @@ impl WallBending {
                 }
             }
         }
+    }
+}
+
+impl WallBending {
+    /// The coupling `C = K_23` of hinge Hessian `k` (rows `x2`, columns `x3`).
+    fn coupling(k: &[f64; 144]) -> Matrix3<f64> {
+        let k = SMatrixView::<f64, 12, 12>::from_slice(k);
+        k.fixed_view::<3, 3>(6, 9).into_owned()
+    }
+
+    /// Computes, from the Hessians of the last linearisation, the diagonal blocks that replace
+    /// each hinge's opposite-corner coupling in a preconditioning matrix (a split stiffness,
+    /// `ShellSystem::set_stiffness_split`): with `C = K_23 = U S V^T`, the coupling
+    /// `[[0, C], [C^T, 0]]` of `x2` and `x3` is replaced by `[[U S U^T, 0], [0, V S V^T]]`.
+    /// The difference `sum_i s_i (u_i, -v_i)(u_i, -v_i)^T` is positive semidefinite, so the
+    /// preconditioning matrix bounds the exact one from above (it is positive definite
+    /// wherever the exact one is) and has the triangles' sparsity: no fill from the couplings.
+    /// The discrete-shell angle's gradient at `x2` depends on `x0, x1, x2` only and at `x3`
+    /// on `x0, x1, x3` only (Bridson et al. 2003), so `C = D w g_2 g_3^T` has rank one and the
+    /// blocks are `D w |g_2| |g_3|` times the projectors on `g_2` and `g_3`.
+    pub(crate) fn compensate(&mut self) {
+        let work = |(k, c): (&[f64; 144], &mut [f64; 18])| {
+            let (p2, p3) = compensation_blocks(&Self::coupling(k));
+            c[..9].copy_from_slice(p2.as_slice());
+            c[9..].copy_from_slice(p3.as_slice());
+        };
+        self.compensation.resize(self.hinges.len(), [0.0; 18]);
+        if self.len() >= PARALLEL_HINGES {
+            self.stiffness
+                .par_iter()
+                .zip(self.compensation.par_iter_mut())
+                .for_each(work);
+        } else {
+            self.stiffness
+                .iter()
+                .zip(self.compensation.iter_mut())
+                .for_each(work);
+        }
+    }
+
+    /// Drops the blocks of [`WallBending::compensate`] (the stiffness is not split).
+    pub(crate) fn uncompensate(&mut self) {
+        self.compensation.clear();
+    }
+
+    /// Whether [`WallBending::compensate`]'s blocks are in use.
+    pub(crate) fn compensated(&self) -> bool {
+        !self.compensation.is_empty()
+    }
+
+    /// Appends the diagonal blocks of [`WallBending::compensate`] at `x2` and `x3` as
+    /// triplets (18 per hinge), in place of the couplings of [`WallBending::add_triplets`].
+    pub(crate) fn add_compensation_triplets(&self, triplets: &mut Vec<(usize, usize, f64)>) {
+        triplets.reserve(18 * self.len());
+        for (c, comp) in self.corners.iter().zip(&self.compensation) {
+            for (corner, block) in [(c[2], &comp[..9]), (c[3], &comp[9..])] {
+                for j in 0..3 {
+                    for i in 0..3 {
+                        triplets.push((3 * corner + i, 3 * corner + j, block[3 * j + i]));
+                    }
+                }
+            }
+        }
+    }
+
+    /// `out += scale E p` with `E = [[-P2, C], [C^T, -P3]]` on `(x2, x3)` per hinge: the exact
+    /// stiffness minus the preconditioning matrix of [`WallBending::compensate`].
+    pub(crate) fn add_correction(&self, scale: f64, p: &[f64], out: &mut [f64]) {
+        let at = |v: usize| Vector3::new(p[3 * v], p[3 * v + 1], p[3 * v + 2]);
+        for ((c, k), comp) in self
+            .corners
+            .iter()
+            .zip(&self.stiffness)
+            .zip(&self.compensation)
+        {
+            let coupling = Self::coupling(k);
+            let p2 = Matrix3::from_column_slice(&comp[..9]);
+            let p3 = Matrix3::from_column_slice(&comp[9..]);
+            let (a, b) = (at(c[2]), at(c[3]));
+            let e2 = coupling * b - p2 * a;
+            let e3 = coupling.tr_mul(&a) - p3 * b;
+            for (v, e) in [(c[2], e2), (c[3], e3)] {
+                for i in 0..3 {
+                    out[3 * v + i] += scale * e[i];
+                }
+            }
+        }
+    }
+}
+
+/// The blocks `(U S U^T, V S V^T)` of a coupling `C = U S V^T` (`WallBending::compensate`).
+/// A hinge's coupling has rank one, `C = a b^T`, and then they are `|b| a a^T / |a|` and
+/// `|a| b b^T / |b|`, found from `C`'s largest column without a decomposition; a coupling
+/// that is not of rank one to round-off (it cannot be, but the bound must hold regardless)
+/// takes the singular value decomposition.
+fn compensation_blocks(c: &Matrix3<f64>) -> (Matrix3<f64>, Matrix3<f64>) {
+    let norm = c.norm();
+    if norm == 0.0 || !norm.is_finite() {
+        return (Matrix3::zeros(), Matrix3::zeros());
+    }
+    let j = (0..3)
+        .max_by(|&i, &k| {
+            c.column(i)
+                .norm_squared()
+                .total_cmp(&c.column(k).norm_squared())
+        })
+        .unwrap_or(0);
+    let a = c.column(j).normalize();
+    let b = c.tr_mul(&a);
+    if (c - a * b.transpose()).norm() <= 1e-12 * norm {
+        let s = b.norm();
+        let b = b / s;
+        return (a * a.transpose() * s, b * b.transpose() * s);
+    }
+    let svd = c.svd(true, true);
+    match (svd.u, svd.v_t) {
+        (Some(u), Some(v_t)) => {
+            let s = Matrix3::from_diagonal(&svd.singular_values);
+            (u * s * u.transpose(), v_t.transpose() * s * v_t)
+        }
+        // Not reached for finite input; the scalar bound `|C|_F I` holds as well.
+        _ => (Matrix3::identity() * norm, Matrix3::identity() * norm),
     }
 }
 

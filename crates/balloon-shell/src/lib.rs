@@ -83,7 +83,7 @@ pub use error::ShellSystemError;
 pub use material::{ShellElement, ShellMaterial, ShellMaterialModel};
 pub use membrane::{Membrane, membrane_sphere_stretch};
 pub use run::{RUNAWAY_VOLUME_FACTOR, ShellError, ShellSimulation, ShellStepStats};
-pub use system::{PARALLEL_THRESHOLD, ShellSystem};
+pub use system::{PARALLEL_THRESHOLD, SPLIT_STIFFNESS_RATIO, ShellSystem};
 
 #[cfg(test)]
 mod tests;

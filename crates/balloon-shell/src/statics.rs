@@ -385,7 +385,9 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
                 }
             }
         }
-        self.add_remaining_stiffness_triplets(triplets)
+        // The exact couplings, also with a split stiffness.
+        self.inner.add_bending_triplets(triplets);
+        Ok(())
     }
 
     /// The element blocks, with the follower term `-(p - p_ambient) d^2V/dx^2` added per
@@ -399,8 +401,17 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for StaticShell<'_, M, G> {
         &self,
         triplets: &mut Vec<(usize, usize, f64)>,
     ) -> Result<(), SystemError> {
-        self.inner.add_bending_triplets(triplets);
+        self.inner.add_bending_matrix_triplets(triplets);
         Ok(())
+    }
+
+    /// As the inner shell's (the wall's bending couplings).
+    fn set_stiffness_split(&mut self, on: bool) -> bool {
+        self.inner.split_bending_stiffness(on)
+    }
+
+    fn add_stiffness_correction(&self, scale: f64, p: &[f64], out: &mut [f64]) {
+        self.inner.add_bending_correction(scale, p, out);
     }
 
     fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {

@@ -55,6 +55,17 @@ impl FollowerGauge {
     }
 }
 
+/// The largest ratio of the wall's bending to its stretching stiffness at the mesh's scale
+/// (`s h^2 w / (12 |E|^2)` averaged over the hinges, about `(h / l)^2 / 3` for edges of length
+/// `l`) at which [`ShellSystem`] splits its stiffness for a factorising preconditioner
+/// (`ForceSystem::set_stiffness_split`). Measured with `balloon inflate MESH --steps 10
+/// --bending 1` (`docs/benchmarks.md`, "The wall's bending stiffness"): the split saved time
+/// at the ratios of the shared models at 1 m (3.4e-5 to 2.1e-4) and of the torus at 0.1 m
+/// (3.4e-3); it cost time at 4.2e-3 (the bunny at 0.1 m) and more at 1.5e-2 (spot at
+/// 0.1 m), where the hinges hold the wall and CG needs their couplings in the factor. The
+/// limit sits below the bunny's with a margin.
+pub const SPLIT_STIFFNESS_RATIO: f64 = 2e-3;
+
 /// Elastic shell + gas, with per-element force and stiffness caches filled at each linearisation.
 ///
 /// One element per triangle of a closed mesh (the kind is the material's,
@@ -325,6 +336,63 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
         }
     }
 
+    /// The pressure follower term's triplets when it is not in the element blocks.
+    fn add_follower_triplets(
+        &self,
+        triplets: &mut Vec<(usize, usize, f64)>,
+    ) -> Result<(), SystemError> {
+        if self.follower_in_blocks() {
+            return Ok(());
+        }
+        self.gas
+            .add_follower_triplets(&self.x_lin, &self.triangles, triplets)
+            .map_err(|e| SystemError::component("gas", e))
+    }
+
+    /// What the assembled matrix holds of the bending Hessians beyond the triangle blocks:
+    /// the opposite corners' couplings ([`ShellSystem::add_bending_triplets`]), or with a
+    /// split stiffness the diagonal blocks that replace them in the preconditioning matrix
+    /// (`ForceSystem::set_stiffness_split`).
+    pub(crate) fn add_bending_matrix_triplets(&self, triplets: &mut Vec<(usize, usize, f64)>) {
+        match &self.bending {
+            Some(b) if b.compensated() => b.add_compensation_triplets(triplets),
+            Some(b) => b.add_triplets(triplets),
+            None => {}
+        }
+    }
+
+    /// Splits the stiffness for a solver that factorises only a preconditioning matrix
+    /// (`on`), or not: with the wall's bending hinges, whose opposite-corner couplings add
+    /// fill to a Cholesky factor, the matrix then holds diagonal blocks that bound them
+    /// instead (the bending module's `compensate`) and the correction
+    /// ([`ShellSystem::add_bending_correction`]) makes up the difference. Only where the
+    /// hinges are soft against the wall's stretching at the mesh's scale
+    /// ([`SPLIT_STIFFNESS_RATIO`]). Returns whether the split is in effect (never without the
+    /// term).
+    pub(crate) fn split_bending_stiffness(&mut self, on: bool) -> bool {
+        let Some(b) = &mut self.bending else {
+            return false;
+        };
+        // Where the hinges are stiff against stretching (a thin mesh of a small model) they
+        // hold the wall, and the factor needs their couplings: split only below the limit.
+        let on = on && b.stiffness_ratio(&self.thickness) < SPLIT_STIFFNESS_RATIO;
+        if !on {
+            b.uncompensate();
+        } else if !b.compensated() && b.len() > 0 {
+            // The blocks of the current Hessians (recomputed with them from now on).
+            b.compensate();
+        }
+        b.compensated()
+    }
+
+    /// `out += scale E p`, the part of the bending Hessians that a split stiffness's matrix
+    /// does not hold ([`ShellSystem::split_bending_stiffness`]; nothing without a split).
+    pub(crate) fn add_bending_correction(&self, scale: f64, p: &[f64], out: &mut [f64]) {
+        if let Some(b) = self.bending.as_ref().filter(|b| b.compensated()) {
+            b.add_correction(scale, p, out);
+        }
+    }
+
     /// The triangles, one per element.
     pub fn triangles(&self) -> &[[usize; 3]] {
         &self.triangles
@@ -537,6 +605,9 @@ impl<M: ShellMaterial, G: GasModel> ShellSystem<M, G> {
         if let Some(b) = &mut self.bending {
             b.evaluate(x, &self.thickness, Pass::Stiffness);
             b.fold_into_blocks(&mut self.elem_stiffness);
+            if b.compensated() {
+                b.compensate();
+            }
         }
     }
 
@@ -770,7 +841,9 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
                 }
             }
         }
-        self.add_remaining_stiffness_triplets(triplets)
+        // The exact couplings, also with a split stiffness.
+        self.add_bending_triplets(triplets);
+        self.add_follower_triplets(triplets)
     }
 
     fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
@@ -798,13 +871,20 @@ impl<M: ShellMaterial, G: GasModel> ForceSystem for ShellSystem<M, G> {
         &self,
         triplets: &mut Vec<(usize, usize, f64)>,
     ) -> Result<(), SystemError> {
-        self.add_bending_triplets(triplets);
-        if self.follower_in_blocks() {
-            return Ok(());
-        }
-        self.gas
-            .add_follower_triplets(&self.x_lin, &self.triangles, triplets)
-            .map_err(|e| SystemError::component("gas", e))
+        self.add_bending_matrix_triplets(triplets);
+        self.add_follower_triplets(triplets)
+    }
+
+    /// With the wall's bending term, the matrix then holds diagonal blocks in place of each
+    /// hinge's opposite-corner coupling (no fill in a Cholesky factor from them), and
+    /// [`ForceSystem::add_stiffness_correction`] the difference (see
+    /// `docs/elements.md`, section 8).
+    fn set_stiffness_split(&mut self, on: bool) -> bool {
+        self.split_bending_stiffness(on)
+    }
+
+    fn add_stiffness_correction(&self, scale: f64, p: &[f64], out: &mut [f64]) {
+        self.add_bending_correction(scale, p, out);
     }
 
     /// Both kinds: [`TangentKind::Projected`] projects each element's Hessian onto the PSD cone

@@ -187,7 +187,9 @@ impl BackwardEuler {
     /// `A = m_coef M + k_coef K_sparse` (Eq. 23, with `m_coef = 1 + dt alpha` plus any
     /// regularisation shift, `k_coef = dt^2 + dt beta`), as a `sprs` matrix; the dense low-rank
     /// terms of `K` ([`ForceSystem::low_rank_terms`]) are not included. `None` when the last
-    /// solve was matrix-free (nothing was assembled) or before the first step.
+    /// solve was matrix-free (nothing was assembled), before the first step, or when the
+    /// system split its stiffness for the solver ([`ForceSystem::set_stiffness_split`]: the
+    /// matrix then only preconditions; a direct solver gets the whole matrix).
     pub fn newton_matrix(&self) -> Option<CsMat<f64>> {
         self.core.matrix.matrix()
     }

@@ -9,7 +9,7 @@ use std::time::Instant;
 use balloon_linalg::sprs::CsMat;
 use balloon_linalg::{
     LinearProblem, LinearSolver, Preconditioner, SolveError, SolveInfo, SparseAssembler,
-    StiffnessOperator,
+    StiffnessCorrection, StiffnessOperator,
 };
 
 use super::NewtonError;
@@ -34,6 +34,16 @@ impl<S: ForceSystem + ?Sized> StiffnessOperator for SystemStiffness<'_, S> {
     }
 }
 
+/// The correction of a split stiffness ([`ForceSystem::set_stiffness_split`]) as the linear
+/// problem's [`StiffnessCorrection`].
+struct SystemCorrection<'a, S: ?Sized>(&'a S);
+
+impl<S: ForceSystem + ?Sized> StiffnessCorrection for SystemCorrection<'_, S> {
+    fn add_scaled(&self, scale: f64, p: &[f64], out: &mut [f64]) {
+        self.0.add_stiffness_correction(scale, p, out);
+    }
+}
+
 /// The linear algebra of one Newton solver: the linear solver, the sparse pattern and matrix it
 /// assembles into, reused across iterations, steps and solves.
 #[derive(Debug)]
@@ -46,6 +56,10 @@ pub(crate) struct NewtonMatrix {
     triplets: Vec<(usize, usize, f64)>,
     /// The system gave its stiffness as element blocks.
     use_blocks: bool,
+    /// The system's stiffness is split at the last linearisation: the matrix holds a
+    /// preconditioner's `K_sparse`, the rest is the system's correction
+    /// ([`ForceSystem::set_stiffness_split`]).
+    split: bool,
     /// Whether the assembler holds the matrix of the last linear solve.
     pub(crate) assembled_last: bool,
     /// The low-rank terms that go with the assembled matrix (for its reuse).
@@ -64,6 +78,7 @@ impl NewtonMatrix {
             assembler: SparseAssembler::new(),
             triplets: Vec::new(),
             use_blocks: false,
+            split: false,
             assembled_last: false,
             kept_low_rank: Vec::new(),
             last_preconditioner: Preconditioner::Unreported,
@@ -87,6 +102,9 @@ impl NewtonMatrix {
         times: &mut PhaseTimes,
     ) -> Result<(), NewtonError> {
         let started = Instant::now();
+        self.split = system.set_stiffness_split(
+            self.solver.needs_assembled_matrix() && self.solver.accepts_correction(),
+        );
         let refreshed = system.refresh_stiffness();
         times.forces_ms += ms_since(started);
         refreshed.map_err(|source| NewtonError::System { iteration, source })?;
@@ -151,13 +169,17 @@ impl NewtonMatrix {
             } else {
                 system.low_rank_terms()
             };
-            let problem = LinearProblem::assembled(
+            let mut problem = LinearProblem::assembled(
                 self.assembler.matrix(),
                 self.assembler.pattern_version(),
                 m_coef,
                 k_coef,
                 low_rank,
             );
+            let correction = SystemCorrection(system);
+            if self.split {
+                problem = problem.with_correction(&correction);
+            }
             let solved = self.solver.solve(&problem, rhs, out);
             (solved, ms_since(started))
         } else {
@@ -182,9 +204,10 @@ impl NewtonMatrix {
     }
 
     /// The sparse part of the last assembled matrix as a `sprs` matrix, when the last solve
-    /// assembled one.
+    /// assembled one and it was the whole sparse part (not a split stiffness's
+    /// preconditioning matrix, [`ForceSystem::set_stiffness_split`]).
     pub(crate) fn matrix(&self) -> Option<CsMat<f64>> {
-        if self.assembled_last {
+        if self.assembled_last && !self.split {
             self.assembler.to_csmat().ok()
         } else {
             None

@@ -91,6 +91,9 @@ impl LinearSolver for CholeskySolver {
         let (a, version) = problem
             .matrix()
             .ok_or(SolveError::NeedsAssembledMatrix { solver: "cholesky" })?;
+        if problem.correction.is_some() {
+            return Err(SolveError::CorrectionUnsupported { solver: "cholesky" });
+        }
         problem.check_dimensions(b, x)?;
         let n = a.n;
         self.cholesky.set_parallel(self.params.parallel);

@@ -303,6 +303,11 @@ impl LinearSolver for FactorizedPcg {
         true
     }
 
+    /// CG applies the whole problem; the matrix only preconditions.
+    fn accepts_correction(&self) -> bool {
+        true
+    }
+
     fn factorizations(&self) -> u64 {
         self.factorizations
     }

@@ -93,6 +93,11 @@ impl LinearSolver for MatrixFreeCg {
         false
     }
 
+    /// CG applies the whole problem; an assembled matrix only gives the Jacobi diagonal.
+    fn accepts_correction(&self) -> bool {
+        true
+    }
+
     fn solve(
         &mut self,
         problem: &LinearProblem<'_>,

@@ -34,5 +34,7 @@ pub use factorized::{FactorizedPcg, FactorizedPcgParams, SINGLE_PRECISION_MIN_TO
 pub use matrix_free::MatrixFreeCg;
 pub use params::{CgParams, LinearSolverKind, LinearSolverParams, PcgPreconditioner};
 pub use pcg::AssembledPcg;
-pub use problem::{LinearProblem, LinearSolver, ProblemForm, StiffnessOperator};
+pub use problem::{
+    Correction, LinearProblem, LinearSolver, ProblemForm, StiffnessCorrection, StiffnessOperator,
+};
 pub use settings::SolverSettings;

@@ -50,6 +50,11 @@ impl LinearSolver for AssembledPcg {
         true
     }
 
+    /// CG applies the whole problem; the matrix only preconditions.
+    fn accepts_correction(&self) -> bool {
+        true
+    }
+
     fn solve(
         &mut self,
         problem: &LinearProblem<'_>,

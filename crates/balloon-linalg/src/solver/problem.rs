@@ -21,6 +21,17 @@ pub trait StiffnessOperator {
     }
 }
 
+/// A sparse correction `E` of an assembled stiffness: the problem's stiffness is
+/// `K = K_sparse + E`, where `K_sparse` is what the matrix holds. A system gives one when the
+/// matrix it assembles is a better *preconditioner* than its exact sparse stiffness (for
+/// example with couplings that add fill to a Cholesky factor replaced by diagonal terms that
+/// bound them): iterative solvers apply the whole `K`, and factorise only the matrix
+/// ([`LinearSolver::accepts_correction`]).
+pub trait StiffnessCorrection {
+    /// `out += scale E p`.
+    fn add_scaled(&self, scale: f64, p: &[f64], out: &mut [f64]);
+}
+
 /// How the matrix of a [`LinearProblem`] is given.
 #[derive(Clone, Copy)]
 pub enum ProblemForm<'a> {
@@ -78,6 +89,20 @@ pub struct LinearProblem<'a> {
     pub low_rank: &'a [LowRankTerm],
     /// How `M` and `K` are given.
     pub form: ProblemForm<'a>,
+    /// With the assembled form, a correction `E` of the matrix's stiffness:
+    /// `A = matrix + k_coef E` plus the low-rank terms ([`LinearProblem::with_correction`]).
+    /// `None` (the default) when the matrix holds the whole sparse part.
+    pub correction: Option<Correction<'a>>,
+}
+
+/// A [`StiffnessCorrection`] held by a [`LinearProblem`].
+#[derive(Clone, Copy)]
+pub struct Correction<'a>(pub &'a dyn StiffnessCorrection);
+
+impl std::fmt::Debug for Correction<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Correction")
+    }
 }
 
 impl<'a> LinearProblem<'a> {
@@ -95,6 +120,7 @@ impl<'a> LinearProblem<'a> {
             k_coef,
             low_rank,
             form: ProblemForm::MatrixFree { masses, stiffness },
+            correction: None,
         }
     }
 
@@ -115,7 +141,18 @@ impl<'a> LinearProblem<'a> {
                 matrix,
                 pattern_version,
             },
+            correction: None,
         }
+    }
+
+    /// The same problem with the stiffness `K = K_sparse + E`: `E` applied by `correction`
+    /// wherever the problem is applied ([`LinearProblem::apply`]), while the matrix (what a
+    /// factorising solver factorises) holds `K_sparse` only. Only solvers that
+    /// [accept a correction](LinearSolver::accepts_correction) may be given one; for the
+    /// matrix-free form the correction is ignored (its operator is the whole `K`).
+    pub fn with_correction(mut self, correction: &'a dyn StiffnessCorrection) -> Self {
+        self.correction = Some(Correction(correction));
+        self
     }
 
     /// Number of unknowns.
@@ -148,6 +185,9 @@ impl<'a> LinearProblem<'a> {
             }
             ProblemForm::Assembled { matrix, .. } => {
                 matrix.mul_into(p, out);
+                if let Some(Correction(c)) = self.correction {
+                    c.add_scaled(self.k_coef, p, out);
+                }
                 add_low_rank_product(self.low_rank, self.k_coef, p, out);
             }
         }
@@ -200,6 +240,14 @@ pub trait LinearSolver: std::fmt::Debug + Send {
         b: &[f64],
         x: &mut [f64],
     ) -> Result<SolveInfo, SolveError>;
+
+    /// Whether the solver solves a problem with a [`StiffnessCorrection`]
+    /// ([`LinearProblem::with_correction`]) correctly: iterative solvers that apply the
+    /// problem and use the matrix only to precondition do (they say so); a direct solver,
+    /// which solves with the matrix itself, does not (the default `false`).
+    fn accepts_correction(&self) -> bool {
+        false
+    }
 
     /// Numeric factorisations done since the solver was made (default 0: it never factorises).
     fn factorizations(&self) -> u64 {
