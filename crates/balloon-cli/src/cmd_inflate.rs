@@ -161,6 +161,14 @@ pub struct InflateArgs {
     /// off in the paper's mode (`--newton-tol 0`; the paper drops it).
     #[arg(long, num_args = 0..=1, require_equals = true, default_missing_value = "true")]
     pub follower_term: Option<bool>,
+    /// Solve each step with the wall thickness extrapolated to the end of the step and solved
+    /// again while the projection's thickness differs from it by more than 1e-3 (the
+    /// shell-volume projection after the solve thins the wall by what the step stretched it;
+    /// without this the solve lags one step behind, a first-order error in --dt):
+    /// `--thickness-prediction` or `=true` on, `=false` off. Default: off (the paper's
+    /// Algorithm 1).
+    #[arg(long, num_args = 0..=1, require_equals = true, default_missing_value = "true")]
+    pub thickness_prediction: Option<bool>,
     /// Shell-volume projection: `global` (Wang et al. 2015, Algorithm 2), `per-element` or `off`
     /// [default: global; off for membranes, whose thickness H / (l1 l2) keeps every element's
     /// volume exactly, so the projection has nothing to correct].
@@ -322,6 +330,7 @@ impl InflateArgs {
                 inexact_forcing: self.inexact_forcing,
                 cg_max_iters: self.cg_max_iters,
                 follower_term: self.follower_term,
+                thickness_prediction: self.thickness_prediction,
                 stability: self.stability,
             },
             anchors: self.setup.pin.clone(),

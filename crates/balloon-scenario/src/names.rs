@@ -133,6 +133,7 @@ pub const PARAMETERS: &[(&str, &str)] = &[
     ("tangent", "tangent"),
     ("thickness", "thickness"),
     ("thickness_file", "thickness-file"),
+    ("thickness_prediction", "thickness-prediction"),
     ("thickness_rule", "thickness-rule"),
     ("tolerance", "tolerance"),
     ("transform", "transform"),

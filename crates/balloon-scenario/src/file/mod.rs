@@ -14,7 +14,8 @@
 //! assert!(e.to_string().ends_with("s.toml:3: `run.dtt`: unknown key (the keys of [run] are \
 //!     dt, steps, static, stability, until_converged, speed_tol, volume_tol, mass_damping, \
 //!     stiffness_damping, newton_iters, newton_tol, linear_solver, tangent, \
-//!     pcg_preconditioner, cg_tol, inexact_forcing, cg_max_iters, follower_term)"));
+//!     pcg_preconditioner, cg_tol, inexact_forcing, cg_max_iters, follower_term, \
+//!     thickness_prediction)"));
 //! std::fs::write(&path, "[mesh]\npath = \"builtin:icosphere\"\n[run]\nsteps = 5\n").unwrap();
 //! let file = balloon_scenario::file::read(&path, &[]).unwrap();
 //! let text = balloon_scenario::file::record(&file.scenario, &file.literals);

@@ -146,6 +146,7 @@ impl ShellScenario {
             .with_gas_law(laws)
             .with_follower_term(self.run.follower_term)
             .with_wall_bending(self.shell.bending)
+            .with_thickness_prediction(self.run.thickness_prediction)
             .with_integrator(self.integrator_params())
             .with_projection(self.projection(membrane))
             .with_dt(self.run.dt)

@@ -341,6 +341,24 @@ pub static SHELL_KEYS: &[Key<ShellScenario>] = &{
             get: |s| s.run.follower_term.map_or(Recorded::Unset, Recorded::Bool),
             copy: |d, s| d.run.follower_term = s.run.follower_term,
         },
+        Key {
+            table: "run",
+            key: "thickness_prediction",
+            name: "thickness_prediction",
+            kind: Kind::Switch,
+            recorded: true,
+            set: |s, v| {
+                s.run.thickness_prediction = Some(v.boolean()?);
+                Ok(())
+            },
+            check: no_check,
+            get: |s| {
+                s.run
+                    .thickness_prediction
+                    .map_or(Recorded::Unset, Recorded::Bool)
+            },
+            copy: |d, s| d.run.thickness_prediction = s.run.thickness_prediction,
+        },
         out,
         overwrite,
         json,

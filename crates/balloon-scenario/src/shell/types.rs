@@ -155,6 +155,9 @@ pub struct ShellRun {
     /// The pressure tangent's follower term (`None`: on with the residual test, off in the
     /// paper's mode).
     pub follower_term: Option<bool>,
+    /// Solve each step with the wall thickness extrapolated to its end and coupled to the
+    /// projection (`None`: off, the paper's Algorithm 1).
+    pub thickness_prediction: Option<bool>,
     /// `static`: report the smallest eigenvalue of each equilibrium's stiffness (whether it is
     /// stable under the load as held; a sign change along a `volume_ratios` continuation marks a
     /// limit point or a bifurcation).
@@ -182,6 +185,7 @@ impl Default for ShellRun {
             inexact_forcing: integrator.inexact_forcing,
             cg_max_iters: integrator.linear.max_iterations,
             follower_term: None,
+            thickness_prediction: None,
             stability: false,
         }
     }

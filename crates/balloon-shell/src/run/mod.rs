@@ -67,6 +67,14 @@ use nalgebra::{Point3, Vector3};
 
 use crate::{ShellMaterial, ShellSystem};
 
+/// The thickness before the last accepted (sub-)step and its size.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct History {
+    pub(crate) thickness: Vec<f64>,
+    /// `None` until a step was taken (and after anything that moved the state from outside).
+    pub(crate) dt: Option<f64>,
+}
+
 /// A running shell balloon simulation (module docs).
 #[derive(Debug)]
 pub struct ShellSimulation<M: ShellMaterial = MaterialModel, G: GasModel = Gas> {
@@ -78,6 +86,18 @@ pub struct ShellSimulation<M: ShellMaterial = MaterialModel, G: GasModel = Gas> 
     pub(crate) x: Vec<f64>,
     pub(crate) v: Vec<f64>,
     pub(crate) x_prev: Vec<f64>,
+    /// Whether the solve uses the thickness extrapolated to the end of the step
+    /// ([`ShellSimulation::set_thickness_prediction`]; `None`: off).
+    pub(crate) thickness_prediction: Option<bool>,
+    /// The thickness before the last accepted (sub-)step and its size (the thickness
+    /// prediction's history).
+    pub(crate) history: History,
+    /// The velocities at the start of the (sub-)step (scratch: a step solved again starts
+    /// from them).
+    pub(crate) v_start: Vec<f64>,
+    /// The thickness at `t_n` and the one the solve uses (scratch).
+    pub(crate) h_n: Vec<f64>,
+    pub(crate) h_used: Vec<f64>,
     pub(crate) vertex_inv_mass: Vec<f64>,
     pub(crate) element_inv_mass: Vec<f64>,
     pub(crate) rest_shell_volume: f64,
@@ -169,6 +189,11 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         Ok(Self {
             v: vec![0.0; x.len()],
             x_prev: x.clone(),
+            thickness_prediction: None,
+            history: History::default(),
+            v_start: vec![0.0; x.len()],
+            h_n: system.thickness.clone(),
+            h_used: system.thickness.clone(),
             rest_positions: x.clone(),
             x,
             system,

@@ -9,23 +9,150 @@ use balloon_integrate::decorators::{Anchored, Pinned};
 use balloon_integrate::implicit::StepInfo;
 
 use super::{RUNAWAY_VOLUME_FACTOR, ShellError, ShellSimulation};
+
+/// The largest relative difference, at any element, between the thickness a solve used and
+/// the one the projection after it gives, below which a step's solve and projection agree
+/// ([`ShellSimulation::step_inner`]).
+pub(crate) const THICKNESS_COUPLING_TOLERANCE: f64 = 1e-3;
+
+/// The most solves of one (sub-)step with the thickness coupled to the projection (the first
+/// and the corrections; [`ShellSimulation::step_inner`]).
+pub(crate) const MAX_THICKNESS_PASSES: usize = 3;
 use crate::ShellMaterial;
 
 impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// One sub-step of `dt` from `time` (of step `step`, for the errors), from `x_prev`: the
     /// implicit solve, the thickness refresh and the projection, the velocities, the state
-    /// check (which sets `gas_volume`). Returns the solve's information and the projection's
-    /// iterations; on error the caller restores the state.
+    /// check (which sets `gas_volume`). Returns the solve's information (the Newton iterations
+    /// of every pass summed) and the projection's iterations; on error the caller restores
+    /// the state.
+    ///
+    /// The thickness the solve uses: the projection after it thins the wall by what the step
+    /// stretched it (Eq. 24-28), so a solve with the thickness of `t_n` (Wang et al. 2015,
+    /// Algorithm 1) lags one step behind, a splitting error of first order in `dt`. With
+    /// [`ShellSimulation::set_thickness_prediction`] the solve uses the thickness extrapolated
+    /// to `t_{n+1}` (after a step of the same size; the thickness of `t_n` otherwise), and
+    /// when the projection's thickness differs from the one the solve used by more than
+    /// [`THICKNESS_COUPLING_TOLERANCE`] (relative, at any element) the step is solved again
+    /// with the projection's thickness, at most [`MAX_THICKNESS_PASSES`] times in all: the
+    /// solve and the projection then agree on the thickness at the end of the step. A
+    /// correction that fails, or that disagrees more than the pass before it (the thinning
+    /// feeds the stretch faster than the step resolves), keeps the pass before it. Each
+    /// projection starts from the thickness of `t_n`, as in the paper.
     pub(crate) fn step_inner(
         &mut self,
         step: usize,
         time: f64,
         dt: f64,
     ) -> Result<(StepInfo, usize), ShellError> {
+        // `x_prev` holds `x_n`.
+        let same_size = self.history.dt.is_some_and(|h| (h - dt).abs() <= 1e-9 * dt);
+        self.v_start.copy_from_slice(&self.v);
+        self.h_n.clone_from(&self.system.thickness);
+        // A membrane's thickness follows its own stretch (nothing to couple).
+        let coupled = self.projection.is_some()
+            && self.thickness_prediction()
+            && !self.system.material().thickness_follows_stretch();
+        self.h_used.clone_from(&self.h_n);
+        if coupled && same_size && self.history.thickness.len() == self.h_n.len() {
+            for ((h, &now), &before) in self
+                .h_used
+                .iter_mut()
+                .zip(&self.h_n)
+                .zip(&self.history.thickness)
+            {
+                *h = (2.0 * now - before).clamp(0.5 * now, 2.0 * now);
+            }
+        }
+        let mut total: Option<StepInfo> = None;
+        let mut proj_iters = 0;
+        // The last pass's end state (positions, projected thickness) and its disagreement.
+        let mut kept: Option<(Vec<f64>, Vec<f64>, f64)> = None;
+        for pass in 0..MAX_THICKNESS_PASSES {
+            if pass > 0 {
+                self.x.copy_from_slice(&self.x_prev);
+                self.v.copy_from_slice(&self.v_start);
+            }
+            if coupled {
+                self.system.thickness.clone_from(&self.h_used);
+            }
+            let solved = self.solve(step, time, dt);
+            if coupled {
+                self.system.thickness.clone_from(&self.h_n);
+            }
+            let projected = match solved {
+                Ok(info) => self.project(step).map(|iters| (info, iters)),
+                Err(e) => Err(e),
+            };
+            let (mut info, iters) = match (projected, &kept) {
+                (Ok(done), _) => done,
+                // A correction that fails keeps the pass before it (the step is not lost).
+                (Err(_), Some((x, h, _))) => {
+                    self.x.clone_from(x);
+                    self.system.thickness.clone_from(h);
+                    break;
+                }
+                (Err(e), None) => return Err(e),
+            };
+            proj_iters += iters;
+            if let Some(before) = &total {
+                info.newton_iterations += before.newton_iterations;
+                info.line_search_cuts += before.line_search_cuts;
+                info.regularized_solves += before.regularized_solves;
+                info.factorizations += before.factorizations;
+                let mut linear = before.linear_iterations.clone();
+                linear.append(&mut info.linear_iterations);
+                info.linear_iterations = linear;
+            }
+            total = Some(info);
+            if !coupled {
+                break;
+            }
+            let off = self
+                .system
+                .thickness
+                .iter()
+                .zip(&self.h_used)
+                .map(|(h, u)| (h - u).abs() / h)
+                .fold(0.0, f64::max);
+            if let Some((x, h, before)) = &kept
+                && (off.is_nan() || off >= *before)
+            {
+                // The corrections do not converge here (the thinning feeds the stretch faster
+                // than the step resolves): keep the pass before.
+                self.x.clone_from(x);
+                self.system.thickness.clone_from(h);
+                break;
+            }
+            if off.is_nan()
+                || off <= THICKNESS_COUPLING_TOLERANCE
+                || pass + 1 == MAX_THICKNESS_PASSES
+            {
+                break;
+            }
+            kept = Some((self.x.clone(), self.system.thickness.clone(), off));
+            self.h_used.clone_from(&self.system.thickness);
+            self.system.thickness.clone_from(&self.h_n);
+        }
+        let info = total.expect("at least one pass");
+        // Algorithm 1, lines 11-12.
+        for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x_prev) {
+            *v = (x - x0) / dt;
+        }
+        self.gas_volume = self.check_state(step, time)?;
+        // The accepted step's start becomes the history (`h_{n-1}`).
+        self.history.thickness.clone_from(&self.h_n);
+        self.history.dt = Some(dt);
+        Ok((info, proj_iters))
+    }
+
+    /// The implicit solve of one (sub-)step of `dt` from `self.x`, `self.v` at `time`, on the
+    /// shell wrapped by the anchor and pin decorators (errors name step `step`).
+    fn solve(&mut self, step: usize, time: f64, dt: f64) -> Result<StepInfo, ShellError> {
         let gravity = self.integrator.params().gravity;
         let integrator = &mut self.integrator;
         let (x, v) = (&mut self.x, &mut self.v);
-        let info = if self.pins.active() {
+        if self.pins.active() {
             let pins = &mut self.pins;
             pins.prepare(v, &self.external_forces, gravity);
             let external = (!pins.external.is_empty()).then_some(&pins.external[..]);
@@ -50,37 +177,36 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 integrator.step(&mut system, time, dt, x, v, external)
             }
         }
-        .map_err(|source| ShellError::Integrate { step, time, source })?;
+        .map_err(|source| ShellError::Integrate { step, time, source })
+    }
+
+    /// The thickness refresh and the shell-volume projection (Eq. 24-28, Algorithm 2) after a
+    /// solve; returns the projection's iterations.
+    fn project(&mut self, step: usize) -> Result<usize, ShellError> {
         // A membrane's thickness is `H / (l1 l2)` of the new positions (a no-op for the
         // three-prism, whose thickness only the projection moves).
         self.system.refresh_thickness(&self.x);
-        let mut proj_iters = 0;
-        if let Some(proj) = &mut self.projection {
-            let (triangles, thickness) = self.system.triangles_and_thickness_mut();
-            let input = ShellProjectionInput {
-                triangles,
-                vertex_inverse_mass: if self.pins.active() {
-                    &self.pins.vertex_inverse_mass
-                } else {
-                    &self.vertex_inv_mass
-                },
-                element_inverse_mass: &self.element_inv_mass,
-                rest_shell_volume: self.rest_shell_volume,
-                rest_element_volumes: &self.rest_element_volumes,
-            };
-            let started = std::time::Instant::now();
-            let projected = proj.project(&input, &mut self.x, thickness);
-            self.projection_ms += started.elapsed().as_secs_f64() * 1e3;
-            let pi = projected.map_err(|source| ShellError::Projection { step, source })?;
-            proj_iters = pi.iterations;
-            self.system.refresh_thickness(&self.x);
-        }
-        // Algorithm 1, lines 11-12.
-        for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x_prev) {
-            *v = (x - x0) / dt;
-        }
-        self.gas_volume = self.check_state(step, time)?;
-        Ok((info, proj_iters))
+        let Some(proj) = &mut self.projection else {
+            return Ok(0);
+        };
+        let (triangles, thickness) = self.system.triangles_and_thickness_mut();
+        let input = ShellProjectionInput {
+            triangles,
+            vertex_inverse_mass: if self.pins.active() {
+                &self.pins.vertex_inverse_mass
+            } else {
+                &self.vertex_inv_mass
+            },
+            element_inverse_mass: &self.element_inv_mass,
+            rest_shell_volume: self.rest_shell_volume,
+            rest_element_volumes: &self.rest_element_volumes,
+        };
+        let started = std::time::Instant::now();
+        let projected = proj.project(&input, &mut self.x, thickness);
+        self.projection_ms += started.elapsed().as_secs_f64() * 1e3;
+        let pi = projected.map_err(|source| ShellError::Projection { step, source })?;
+        self.system.refresh_thickness(&self.x);
+        Ok(pi.iterations)
     }
 
     /// Checks the state after a (sub-)step and returns the enclosed gas volume.

@@ -21,9 +21,10 @@ pub(crate) struct ShellSubsteps<'a, M: ShellMaterial, G: GasModel> {
 }
 
 impl<M: ShellMaterial, G: GasModel> Substepper for ShellSubsteps<'_, M, G> {
-    /// Positions, velocities, thickness and the enclosed gas volume (so a rolled-back step
-    /// reports the volume of the state it is back at, not the failed attempt's).
-    type State = (Vec<f64>, Vec<f64>, Vec<f64>, f64);
+    /// Positions, velocities, thickness, the enclosed gas volume (so a rolled-back step
+    /// reports the volume of the state it is back at, not the failed attempt's) and the
+    /// second-order integrator's history.
+    type State = (Vec<f64>, Vec<f64>, Vec<f64>, f64, super::History);
     type Info = (StepInfo, usize);
     type Error = ShellError;
 
@@ -33,12 +34,14 @@ impl<M: ShellMaterial, G: GasModel> Substepper for ShellSubsteps<'_, M, G> {
             self.sim.v.clone(),
             self.sim.system.thickness.clone(),
             self.sim.gas_volume,
+            self.sim.history.clone(),
         )
     }
 
-    fn restore(&mut self, (x, v, thickness, gas_volume): Self::State) {
+    fn restore(&mut self, (x, v, thickness, gas_volume, history): Self::State) {
         (self.sim.x, self.sim.v, self.sim.system.thickness) = (x, v, thickness);
         self.sim.gas_volume = gas_volume;
+        self.sim.history = history;
     }
 
     fn substep(&mut self, time: f64, dt: f64) -> Result<Self::Info, ShellError> {

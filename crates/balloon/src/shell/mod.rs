@@ -185,6 +185,8 @@ pub struct ShellBalloon<M: ShellMaterial = MaterialModel, G: ShellGas = GasKind>
     max_step_halvings: usize,
     /// Factor on the wall's plate bending modulus (0: none, the paper's wall).
     wall_bending: f64,
+    /// `None`: off ([`ShellBalloon::with_thickness_prediction`]).
+    thickness_prediction: Option<bool>,
 }
 
 /// How the shell builder makes its gas once the rest volume of the mesh is known: a built-in
@@ -361,6 +363,7 @@ impl ShellBalloon<MaterialModel> {
             validate_mesh: true,
             max_step_halvings: DEFAULT_MAX_STEP_HALVINGS,
             wall_bending: 0.0,
+            thickness_prediction: None,
         }
     }
 }
@@ -388,6 +391,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             validate_mesh,
             max_step_halvings,
             wall_bending,
+            thickness_prediction,
         } = self;
         let (material, gas) = f(material, gas);
         ShellBalloon {
@@ -407,6 +411,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             validate_mesh,
             max_step_halvings,
             wall_bending,
+            thickness_prediction,
         }
     }
 
@@ -497,6 +502,14 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
     /// rubber.
     pub fn with_wall_bending(mut self, factor: f64) -> Self {
         self.wall_bending = factor;
+        self
+    }
+
+    /// Solves each step with the wall thickness extrapolated to its end and coupled to the
+    /// projection (`Some(true)`) or with the thickness at its start (`Some(false)` or `None`,
+    /// the default: the paper's Algorithm 1); [`ShellSimulation::set_thickness_prediction`].
+    pub fn with_thickness_prediction(mut self, enabled: impl Into<Option<bool>>) -> Self {
+        self.thickness_prediction = enabled.into();
         self
     }
     /// Replaces the integrator parameters as a whole (Newton iterations, linear solver, tangent,
@@ -672,7 +685,7 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             })?;
         let integrator =
             BackwardEuler::new(self.integrator).map_err(ShellError::from_integrator_setup)?;
-        ShellSimulation::new(
+        let mut sim = ShellSimulation::new(
             system,
             x,
             self.density,
@@ -680,6 +693,8 @@ impl<M: ShellMaterial, G: ShellGas> ShellBalloon<M, G> {
             self.projector,
             self.dt,
             self.max_step_halvings,
-        )
+        )?;
+        sim.set_thickness_prediction(self.thickness_prediction);
+        Ok(sim)
     }
 }

@@ -13,6 +13,7 @@ use crate::shell::analytic::sphere_stretch;
 mod builder_examples;
 mod live_controls;
 mod pins;
+mod time_accuracy;
 
 /// Projected Newton (per-element PSD stiffness) converges to the same equilibrium as the
 /// exact tangent: the analytic StVK sphere stretch within 0.5 % on the 2562-vertex icosphere
