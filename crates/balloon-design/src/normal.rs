@@ -276,12 +276,24 @@ impl NormalPattern {
 mod tests {
     use super::*;
 
-    /// The fixed-pattern `J^T J` and `J^T r` against dense products on a small closed mesh.
+    /// The fixed-pattern `J^T J` and `J^T r` against dense products on a small closed mesh,
+    /// with and without the bending hinges' blocks (which couple each hinge's opposite
+    /// corners, outside the one-ring).
     #[test]
     fn normal_equations_match_dense_products() {
         let mesh = balloon_mesh::generate::icosphere(1.0, 1).unwrap();
+        let hinges: Vec<[usize; 4]> = balloon_mesh::topology::hinges(&mesh.triangles)
+            .iter()
+            .map(|h| h.corners)
+            .collect();
+        assert!(!hinges.is_empty());
+        check_normal_equations(&mesh, &[]);
+        check_normal_equations(&mesh, &hinges);
+    }
+
+    fn check_normal_equations(mesh: &balloon_mesh::TriMesh, hinges: &[[usize; 4]]) {
         let nv = mesh.num_vertices();
-        let mut pattern = NormalPattern::new(nv, &mesh.triangles, &[]);
+        let mut pattern = NormalPattern::new(nv, &mesh.triangles, hinges);
         let n = 3 * nv;
         let mut dense = nalgebra::DMatrix::<f64>::zeros(n, n);
         let mut j = vec![Matrix3::zeros(); pattern.j_blocks()];
@@ -294,6 +306,25 @@ mod tests {
                 }
             }
         }
+        for (k, h) in hinges.iter().enumerate() {
+            let jac = SMatrix::<f64, 12, 12>::from_fn(|r, c| ((k * 144 + r * 12 + c) as f64).cos());
+            pattern.add_hinge(k, &jac, &mut j);
+            for r in 0..12 {
+                for c in 0..12 {
+                    dense[(3 * h[r / 3] + r % 3, 3 * h[c / 3] + c % 3)] += jac[(r, c)];
+                }
+            }
+        }
+        let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.3).sin()).collect();
+        let mut jx = vec![0.0; n];
+        pattern.apply(&j, &x, &mut jx);
+        let want = &dense * nalgebra::DVector::from_column_slice(&x);
+        assert!(
+            (nalgebra::DVector::from_column_slice(&jx) - want)
+                .abs()
+                .max()
+                < 1e-9
+        );
         let r: Vec<f64> = (0..n).map(|i| (i as f64).cos()).collect();
         let mut a = Vec::new();
         let mut g = vec![0.0; n];
