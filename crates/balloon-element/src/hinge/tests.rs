@@ -639,16 +639,14 @@ fn hinge_rest_jacobian_ignores_rigid_motions_and_scaling() {
     let scale = max_abs(j.iter().copied());
     let centre = rest.iter().sum::<Vector3<f64>>() / 4.0;
     let axis = rvec(&mut rng).normalize();
-    let motions: [Box<dyn Fn(&Vector3<f64>) -> Vector3<f64>>; 3] = [
-        Box::new(|_| Vector3::new(1.0, -2.0, 0.5)),
-        Box::new(|p| axis.cross(&(p - centre))),
-        Box::new(|p| p - centre),
+    let translation = Vector3::new(1.0, -2.0, 0.5);
+    let motions: [[Vector3<f64>; 4]; 3] = [
+        rest.map(|_| translation),
+        rest.map(|p| axis.cross(&(p - centre))),
+        rest.map(|p| p - centre),
     ];
     for (m, motion) in motions.iter().enumerate() {
-        let v = SMatrix::<f64, 12, 1>::from_iterator(rest.iter().flat_map(|p| {
-            let d = motion(p);
-            [d.x, d.y, d.z]
-        }));
+        let v = SMatrix::<f64, 12, 1>::from_iterator(motion.iter().flat_map(|d| [d.x, d.y, d.z]));
         let jv = j * v;
         assert!(
             jv.amax() <= 1e-10 * scale * v.amax(),
