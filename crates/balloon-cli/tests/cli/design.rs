@@ -531,6 +531,18 @@ fn design_scenario_errors_name_file_line_and_key() {
             "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nconditioning = 1\n",
             "d.toml:4: `design.conditioning`: expected true or false, found an integer",
         ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nbending = -1\n",
+            "d.toml:4: `design.bending`: invalid value '-1': in [0, 1e6]",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nbending = nan\n",
+            "d.toml:4: `design.bending`: invalid value 'nan': in [0, 1e6]",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nbending = \"stiff\"\n",
+            "d.toml:4: `design.bending`: expected a number",
+        ),
     ];
     for (text, expected) in cases {
         std::fs::write(&file, text).unwrap();
