@@ -101,7 +101,9 @@ fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyR
 /// (1 to 20), `newton_polish` and `warm_start` (bools; `warm_start` also for the thickness
 /// fit), `bending_weight`,
 /// `inverse_bending_weight` (the rest-mesh bending term of D17, in [0, 1e6], 0 = off) and
-/// `inverse_bending_stages` (1 to 20), `fit_thickness` (bool: after the rest shape, fit the
+/// `inverse_bending_stages` (1 to 20), `bending` (the wall's bending stiffness as a factor on a
+/// plate's, in [0, 1e6], 0 = none, as `balloon.inflate`'s; docs/design.md D20),
+/// `fit_thickness` (bool: after the rest shape, fit the
 /// wall's thickness per face with that rest shape fixed, docs/design.md D18), `thickness_min`
 /// and `thickness_max` (its bounds, m) and `thickness_iterations` (1 to 100000),
 /// `conditioning` (bool: after the check, the smallest singular values of the inverse's

@@ -279,3 +279,22 @@ def test_the_rest_shape_conditioning_is_returned_when_asked():
     assert plain["summary"]["conditioning"] is None and plain["conditioning_modes"] is None
     with pytest.raises(balloon.InvalidOption, match="conditioning"):
         balloon.design(vertices, faces, conditioning=1.5, **options)
+
+
+def test_the_bending_wall_reaches_the_design():
+    # bending=F designs with the wall's bending stiffness (docs/design.md D20), recorded in the
+    # summary's params: a bent rest shape kept for the icosphere has another equilibrium
+    # residual with it than without; a bad factor names the option.
+    vertices, faces = icosphere(0.1, 1)
+    rest = 0.9 * vertices
+    rest[0] *= 0.97
+    options = dict(pressure=2000.0, thickness=H, material="membrane-neo-hookean", mu=MU, rest=rest)
+    bent = balloon.design(vertices, faces, bending=1.0, **options)
+    plain = balloon.design(vertices, faces, **options)
+    assert bent["summary"]["params"]["wall_bending"] == 1.0
+    assert plain["summary"]["params"]["wall_bending"] == 0.0
+    residual = [r["summary"]["inverse"]["relative_residual"] for r in (bent, plain)]
+    assert residual[0] != residual[1], residual
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(balloon.InvalidOption, match="bending"):
+            balloon.design(vertices, faces, bending=bad, **options)

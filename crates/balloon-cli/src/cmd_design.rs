@@ -92,6 +92,13 @@ pub struct DesignArgs {
     /// Stages of the inverse solve with the bending term, 1 to 20.
     #[arg(long, default_value = "3", value_parser = option_parser("inverse_bending_stages"))]
     pub inverse_bending_stages: OptionValue,
+    /// Bending stiffness of the wall, as a factor on that of a plate of its material and
+    /// thickness, `Y h^3 / (12 (1 - nu^2))`, in [0, 1e6], as `balloon inflate --bending`: the
+    /// design's equations, its check and the shape optimisation use that wall. 0 (the
+    /// default): none, the wall of Wang et al. 2015 (docs/design.md D20).
+    #[arg(long, default_value = "0", allow_hyphen_values = true,
+          value_parser = option_parser("bending"))]
+    pub bending: OptionValue,
     /// Hand the optimised rest shape to the inverse's Newton solve at the full pressure and keep
     /// its answer when it converges closer to the target.
     #[arg(long)]
@@ -204,6 +211,7 @@ fn params(args: &DesignArgs) -> DesignParams {
         ("bending_weight", &args.bending_weight),
         ("inverse_bending_weight", &args.inverse_bending_weight),
         ("inverse_bending_stages", &args.inverse_bending_stages),
+        ("bending", &args.bending),
     ] {
         // Checked by the flag's value parser with the same function.
         let _ = set_design_option(&mut p, key, value);
@@ -412,7 +420,13 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
         println!("{}", conditioning_line(c));
     }
     if let Some(command) = &run.summary.check_command {
-        println!("repeat the check: {command}");
+        // The check's wall bends as the design's did.
+        let bending = job.params.wall_bending;
+        if bending > 0.0 && !command.contains("--bending") {
+            println!("repeat the check: {command} --bending {bending}");
+        } else {
+            println!("repeat the check: {command}");
+        }
     }
     if let Some(signal) = run.interrupted {
         return Err(balloon_run::interrupt::Interrupted {

@@ -16,7 +16,6 @@ use serde::{Deserialize, Serialize};
 
 use crate::DesignError;
 use crate::gauss_newton::dot;
-use crate::normal::NormalPattern;
 use crate::objective::ShapeObjective;
 use crate::problem::{DesignProblem, point};
 
@@ -228,7 +227,7 @@ pub fn rest_conditioning(
     problem.check_length("rest", rest)?;
     let started = std::time::Instant::now();
     let n = rest.len();
-    let mut pattern = NormalPattern::new(n / 3, problem.triangles());
+    let mut pattern = problem.pattern();
     let mut j = vec![Matrix3::zeros(); pattern.j_blocks()];
     let mut r = vec![0.0; n];
     problem.evaluate_blocks(rest, 1.0, &pattern, &mut r, &mut j)?;

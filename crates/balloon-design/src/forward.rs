@@ -104,7 +104,8 @@ pub fn rigidly_aligned(shape: &[f64], reference: &[f64]) -> Vec<f64> {
 
 /// The shell of the rest shape `rest` under the problem's load (follower term on): a constant
 /// gauge pressure (ambient 0), or the problem's amount of isothermal ideal gas against its
-/// ambient pressure: the forward problem of the design.
+/// ambient pressure, with the problem's wall bending stiffness
+/// ([`DesignProblem::with_wall_bending`]): the forward problem of the design.
 pub(crate) fn shell_from_rest(
     problem: &DesignProblem,
     rest: &[f64],
@@ -129,7 +130,7 @@ pub(crate) fn shell_from_rest(
         .with_ambient_pressure(ambient)
         .map_err(|e| forward(&e))?
         .with_follower_term(true);
-    ShellSystem::from_rest_shape(
+    let mut shell = ShellSystem::from_rest_shape(
         rest,
         problem.triangles().to_vec(),
         problem.thickness().to_vec(),
@@ -137,7 +138,15 @@ pub(crate) fn shell_from_rest(
         problem.material().clone(),
         gas,
     )
-    .map_err(|e| forward(&e))
+    .map_err(|e| forward(&e))?;
+    // The same bending wall as the design's equations (the shell's thickness stays at its
+    // rest value in these static solves, as the design's `h = H`).
+    if problem.wall_bending() > 0.0 {
+        shell
+            .set_wall_bending(rest, problem.wall_bending())
+            .map_err(|e| forward(&e))?;
+    }
+    Ok(shell)
 }
 
 /// The result of [`forward_check`].
@@ -165,8 +174,9 @@ pub struct ForwardCheck {
 ///
 /// The wall keeps its rest thickness (no shell-volume projection), as in the design's
 /// equations: the same static problem as `balloon inflate REST --static --gas constant
-/// --pressure P --volume-projection off` with the design's wall, not as the default `inflate
-/// --static`, whose projection thins a three-prism wall (`docs/design.md`).
+/// --pressure P --volume-projection off` with the design's wall (and `--bending s` with the
+/// wall's bending stiffness), not as the default `inflate --static`, whose projection thins a
+/// three-prism wall (`docs/design.md`).
 ///
 /// # Errors
 /// [`DesignError::Forward`] when the shell cannot be built from `rest` or the solver fails

@@ -212,7 +212,7 @@ pub fn design_rest_shape(
     problem.check_length("start", start)?;
     let started = std::time::Instant::now();
     let scale = norm(problem.pressure_forces());
-    let pattern = NormalPattern::new(problem.num_dofs() / 3, problem.triangles());
+    let pattern = problem.pattern();
     let mut solver = Solver {
         problem,
         params: *params,

@@ -98,6 +98,30 @@ pub struct DesignParams {
     /// How well the target determines the rest shape, after the check (off by default;
     /// [`rest_conditioning`]).
     pub conditioning: ConditioningParams,
+    /// The factor on the wall's plate bending modulus (`balloon inflate --bending`), `>= 0`:
+    /// when positive, [`design`] and [`design_for_rest`] solve, check and report the problem
+    /// with that bending wall ([`DesignProblem::with_wall_bending`], replacing the problem's
+    /// own factor); 0 (the default) leaves the problem as given.
+    pub wall_bending: f64,
+}
+
+impl DesignParams {
+    /// `problem` with the wall of [`DesignParams::wall_bending`] (borrowed when it is 0).
+    ///
+    /// # Errors
+    /// [`DesignError::InvalidParameter`] naming `bending` for a negative or non-finite factor.
+    fn wall<'a>(
+        &self,
+        problem: &'a DesignProblem,
+    ) -> Result<std::borrow::Cow<'a, DesignProblem>, DesignError> {
+        if self.wall_bending == 0.0 {
+            Ok(std::borrow::Cow::Borrowed(problem))
+        } else {
+            Ok(std::borrow::Cow::Owned(
+                problem.clone().with_wall_bending(self.wall_bending)?,
+            ))
+        }
+    }
 }
 
 /// Progress of a [`design`]: the inverse solve's or the shape optimisation's.
@@ -147,20 +171,23 @@ fn stage_weight(w0: f64, k: usize) -> f64 {
 /// (how well the target determines it). `progress` is called after every accepted
 /// step of either; returning `false` stops the design and keeps the best rest shape so far
 /// (which is then checked; the shape optimisation does not start after a stopped inverse
-/// solve).
+/// solve). With [`DesignParams::wall_bending`] positive, all of it runs on the problem with
+/// that bending wall.
 ///
 /// [`InverseInfo::converged`] stays that of the inverse solve: the shape optimisation
 /// reduces the distance but does not make an inexact design exact; the check's distance says
 /// how close it is.
 ///
 /// # Errors
-/// Those of [`design_rest_shape`], [`optimise_rest_shape`] and [`forward_check`].
+/// Those of [`design_rest_shape`], [`optimise_rest_shape`] and [`forward_check`], and
+/// [`DesignError::InvalidParameter`] naming `bending` for a bad [`DesignParams::wall_bending`].
 pub fn design(
     problem: &DesignProblem,
     params: &DesignParams,
     mut progress: impl FnMut(&DesignProgress) -> bool,
 ) -> Result<Design, DesignError> {
     params.conditioning.validate()?;
+    let problem = &*params.wall(problem)?;
     let mut rest = problem.target().to_vec();
     let mut stopped = false;
     let mut inverse = design_rest_shape(problem, &params.inverse, &mut rest, |p| {
@@ -203,6 +230,7 @@ pub fn design_for_rest(
 ) -> Result<Design, DesignError> {
     params.inverse.validate()?;
     params.conditioning.validate()?;
+    let problem = &*params.wall(problem)?;
     let started = std::time::Instant::now();
     let residual = relative_residual(problem, &rest)?;
     let inverse = InverseInfo {

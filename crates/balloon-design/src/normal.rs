@@ -1,6 +1,7 @@
 //! The Gauss-Newton normal equations `J^T J + D` of the inverse solve on a pattern fixed by the
-//! mesh's connectivity: `J = dr/dX` in 3x3 vertex blocks (the one-ring), `J^T J` in vertex
-//! blocks (the two-ring) and its scalar CSR form for the sparse Cholesky, all laid out once so
+//! mesh's connectivity: `J = dr/dX` in 3x3 vertex blocks (the one-ring, and with the wall's
+//! bending hinges the two corners opposite each hinge's edge, which no triangle couples),
+//! `J^T J` in vertex blocks (the two-ring) and its scalar CSR form for the sparse Cholesky, all laid out once so
 //! that every iteration only rewrites values and the factorisation's symbolic analysis is
 //! reused (`docs/design.md`, Speed).
 
@@ -17,6 +18,8 @@ pub(crate) struct NormalPattern {
     j_col: Vec<usize>,
     /// Per triangle, the slot in `J` of its corner pair `(a, b)` at `3 a + b`.
     element_slots: Vec<[usize; 9]>,
+    /// Per bending hinge, the slot in `J` of its corner pair `(a, b)` at `4 a + b`.
+    hinge_slots: Vec<[usize; 16]>,
     /// Block-row pointers of `J^T J`.
     a_ptr: Vec<usize>,
     /// Column block of each block of `J^T J`.
@@ -36,13 +39,20 @@ fn find(cols: &[usize], c: usize) -> usize {
 }
 
 impl NormalPattern {
-    /// The layout for `nv` vertices and the triangles `triangles`.
-    pub(crate) fn new(nv: usize, triangles: &[[usize; 3]]) -> Self {
-        // One-rings (with the vertex itself), sorted.
+    /// The layout for `nv` vertices and the triangles `triangles`, with the bending hinges of
+    /// corners `hinges` (`[x0, x1, x2, x3]`, edge `x0 x1`; none without the wall's bending
+    /// stiffness): each couples its opposite corners `x2` and `x3`, which the one-ring does not.
+    pub(crate) fn new(nv: usize, triangles: &[[usize; 3]], hinges: &[[usize; 4]]) -> Self {
+        // One-rings (with the vertex itself) and the hinges' opposite corners, sorted.
         let mut ring: Vec<Vec<usize>> = (0..nv).map(|v| vec![v]).collect();
         for t in triangles {
             for &a in t {
                 ring[a].extend_from_slice(t);
+            }
+        }
+        for c in hinges {
+            for &a in c {
+                ring[a].extend_from_slice(c);
             }
         }
         for r in &mut ring {
@@ -62,6 +72,15 @@ impl NormalPattern {
             .map(|t| {
                 std::array::from_fn(|ab| {
                     let (a, b) = (t[ab / 3], t[ab % 3]);
+                    j_ptr[a] + find(j_row(a), b)
+                })
+            })
+            .collect();
+        let hinge_slots = hinges
+            .iter()
+            .map(|c| {
+                std::array::from_fn(|ab| {
+                    let (a, b) = (c[ab / 4], c[ab % 4]);
                     j_ptr[a] + find(j_row(a), b)
                 })
             })
@@ -117,6 +136,7 @@ impl NormalPattern {
             j_ptr,
             j_col,
             element_slots,
+            hinge_slots,
             a_ptr,
             a_col,
             a_diag,
@@ -155,6 +175,15 @@ impl NormalPattern {
     pub(crate) fn add_element(&self, e: usize, jac: &SMatrix<f64, 9, 9>, j: &mut [Matrix3<f64>]) {
         for (ab, &slot) in self.element_slots[e].iter().enumerate() {
             let (a, b) = (ab / 3, ab % 3);
+            j[slot] += jac.fixed_view::<3, 3>(3 * a, 3 * b);
+        }
+    }
+
+    /// Adds the rest Jacobian `jac` of bending hinge `k` (rows and columns `3 a + k` over its
+    /// corners `[x0, x1, x2, x3]`) into the blocks `j` of `J`.
+    pub(crate) fn add_hinge(&self, k: usize, jac: &SMatrix<f64, 12, 12>, j: &mut [Matrix3<f64>]) {
+        for (ab, &slot) in self.hinge_slots[k].iter().enumerate() {
+            let (a, b) = (ab / 4, ab % 4);
             j[slot] += jac.fixed_view::<3, 3>(3 * a, 3 * b);
         }
     }
@@ -247,12 +276,24 @@ impl NormalPattern {
 mod tests {
     use super::*;
 
-    /// The fixed-pattern `J^T J` and `J^T r` against dense products on a small closed mesh.
+    /// The fixed-pattern `J^T J` and `J^T r` against dense products on a small closed mesh,
+    /// with and without the bending hinges' blocks (which couple each hinge's opposite
+    /// corners, outside the one-ring).
     #[test]
     fn normal_equations_match_dense_products() {
         let mesh = balloon_mesh::generate::icosphere(1.0, 1).unwrap();
+        let hinges: Vec<[usize; 4]> = balloon_mesh::topology::hinges(&mesh.triangles)
+            .iter()
+            .map(|h| h.corners)
+            .collect();
+        assert!(!hinges.is_empty());
+        check_normal_equations(&mesh, &[]);
+        check_normal_equations(&mesh, &hinges);
+    }
+
+    fn check_normal_equations(mesh: &balloon_mesh::TriMesh, hinges: &[[usize; 4]]) {
         let nv = mesh.num_vertices();
-        let mut pattern = NormalPattern::new(nv, &mesh.triangles);
+        let mut pattern = NormalPattern::new(nv, &mesh.triangles, hinges);
         let n = 3 * nv;
         let mut dense = nalgebra::DMatrix::<f64>::zeros(n, n);
         let mut j = vec![Matrix3::zeros(); pattern.j_blocks()];
@@ -265,6 +306,25 @@ mod tests {
                 }
             }
         }
+        for (k, h) in hinges.iter().enumerate() {
+            let jac = SMatrix::<f64, 12, 12>::from_fn(|r, c| ((k * 144 + r * 12 + c) as f64).cos());
+            pattern.add_hinge(k, &jac, &mut j);
+            for r in 0..12 {
+                for c in 0..12 {
+                    dense[(3 * h[r / 3] + r % 3, 3 * h[c / 3] + c % 3)] += jac[(r, c)];
+                }
+            }
+        }
+        let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.3).sin()).collect();
+        let mut jx = vec![0.0; n];
+        pattern.apply(&j, &x, &mut jx);
+        let want = &dense * nalgebra::DVector::from_column_slice(&x);
+        assert!(
+            (nalgebra::DVector::from_column_slice(&jx) - want)
+                .abs()
+                .max()
+                < 1e-9
+        );
         let r: Vec<f64> = (0..n).map(|i| (i as f64).cos()).collect();
         let mut a = Vec::new();
         let mut g = vec![0.0; n];

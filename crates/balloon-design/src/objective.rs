@@ -110,7 +110,7 @@ impl<'a> ShapeObjective<'a> {
         let solver = StaticSolver::new(params).map_err(|e| DesignError::Forward(e.to_string()))?;
         Ok(Self {
             problem: Cow::Borrowed(problem),
-            pattern: NormalPattern::new(problem.num_dofs() / 3, problem.triangles()),
+            pattern: problem.pattern(),
             weights: vertex_weights(problem),
             solver,
             equilibrium: None,
@@ -172,7 +172,8 @@ impl<'a> ShapeObjective<'a> {
     /// forces of both elements are linear in their rest thickness at fixed rest and deformed
     /// positions (`E = A0 H W(F)` with `F` independent of `H` when the prism's current
     /// thickness is `H`), so `df_e/dH_e = f_e / H_e`; the pressure forces do not depend on
-    /// `H`.
+    /// `H`. A bending hinge of the wall ([`DesignProblem::with_wall_bending`]) has
+    /// `D ~ h^3` with `h` the mean of its two faces' `H`, so `df/dH = 3 f / (2 h)` for each.
     ///
     /// # Errors
     /// [`DesignError::Linear`] when there is no such evaluation, and the element errors of a
@@ -192,6 +193,21 @@ impl<'a> ShapeObjective<'a> {
                 .map(|(&v, fa)| fa.dot(&point(&linear.lambda, v)))
                 .sum();
             *ge = sum / problem.thickness()[e];
+        }
+        // The wall's bending hinges: `D = s Y h^3 / (12 (1 - nu^2))` with `h = (H_A + H_B) / 2`,
+        // so `df/dH_A = df/dH_B = 3 f / (2 h)`.
+        for (k, c) in problem.hinge_corners().iter().enumerate() {
+            let (f, _) = problem.hinge_at(k, x, rest)?;
+            let faces = problem.hinge_faces(k);
+            let h = 0.5 * (problem.thickness()[faces[0]] + problem.thickness()[faces[1]]);
+            let sum: f64 = c
+                .iter()
+                .zip(&f)
+                .map(|(&v, fa)| fa.dot(&point(&linear.lambda, v)))
+                .sum();
+            for face in faces {
+                g[face] += 1.5 * sum / h;
+            }
         }
         Ok(g)
     }

@@ -245,7 +245,7 @@ mod tests {
         let problem =
             DesignProblem::try_new(&target, vec![1e-3; target.num_triangles()], rubber, 3e3)
                 .unwrap();
-        let pattern = NormalPattern::new(problem.num_dofs() / 3, problem.triangles());
+        let pattern = problem.pattern();
         let rest: Vec<f64> = problem.target().iter().map(|x| 0.9 * x).collect();
         let n = rest.len();
         let mut r = vec![0.0; n];

@@ -63,45 +63,71 @@ fn thickness_gradient_matches_central_differences() {
         let problem =
             DesignProblem::try_new(&target, vec![H; target.num_triangles()], material, 3.0e3)
                 .unwrap();
-        let x_rest = rest.positions_flat();
-        let mut objective = ShapeObjective::new(&problem, &StaticParams::default(), 1e-12).unwrap();
-        let e = objective
-            .evaluate(&x_rest, true)
-            .unwrap()
-            .expect("an equilibrium");
-        assert!(
-            e.distance.max > 1e-4,
-            "the uniform wall does not hold the target"
-        );
-        let g = objective.thickness_gradient(&x_rest).unwrap();
-        let x0 = objective.equilibrium().unwrap().to_vec();
-        for seed in 0..3u64 {
-            let v: Vec<f64> = (0..g.len())
-                .map(|i| (((i as u64 * 7919 + seed * 104_729) % 1000) as f64 / 500.0) - 1.0)
-                .collect();
-            let eps = 1e-8;
-            let mut at = |s: f64| {
-                let h: Vec<f64> = v.iter().map(|vi| H + s * vi).collect();
-                objective.set_thickness(&h).unwrap();
-                objective.set_equilibrium(Some(x0.clone()));
-                objective
-                    .evaluate(&x_rest, false)
-                    .unwrap()
-                    .unwrap()
-                    .objective
-            };
-            let fd = (at(eps) - at(-eps)) / (2.0 * eps);
-            let adjoint: f64 = g.iter().zip(&v).map(|(a, b)| a * b).sum();
-            let rel = (fd - adjoint).abs() / adjoint.abs();
-            eprintln!(
-                "direction {seed}: adjoint {adjoint:e}, central difference {fd:e}, rel {rel:e}"
-            );
-            assert!(
-                rel < 1e-5,
-                "adjoint {adjoint:e} vs central difference {fd:e}"
-            );
-        }
+        check_thickness_gradient(&problem, &rest.positions_flat());
     }
+}
+
+/// [`thickness_gradient_matches_central_differences`] with the wall's bending stiffness
+/// (`D ~ h^3` of the mean thickness of each hinge's two faces: `df/dH = 3 f / (2 h)` each),
+/// the neo-Hookean prism, with a factor that changes the gradient by more than 10 %
+/// (asserted).
+#[test]
+fn thickness_gradient_with_the_bending_wall_matches_central_differences() {
+    let rest = ellipsoid(1);
+    let material = prism();
+    let target = target(&rest, &material);
+    let plain =
+        DesignProblem::try_new(&target, vec![H; target.num_triangles()], material, 3.0e3).unwrap();
+    let bent = plain.clone().with_wall_bending(300.0).unwrap();
+    let x_rest = rest.positions_flat();
+    let g_bent = check_thickness_gradient(&bent, &x_rest);
+    let g_plain = check_thickness_gradient(&plain, &x_rest);
+    let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+    let diff: Vec<f64> = g_bent.iter().zip(&g_plain).map(|(a, b)| a - b).collect();
+    let change = norm(&diff) / norm(&g_plain);
+    eprintln!("the bending wall changes the thickness gradient by {change:.3} of it");
+    assert!(change > 0.1, "{change:e}");
+}
+
+/// Checks `dD/dH` of `problem` at the rest shape `x_rest` and the uniform wall against
+/// central differences along three random thickness directions; returns it.
+fn check_thickness_gradient(problem: &DesignProblem, x_rest: &[f64]) -> Vec<f64> {
+    let mut objective = ShapeObjective::new(problem, &StaticParams::default(), 1e-12).unwrap();
+    let e = objective
+        .evaluate(x_rest, true)
+        .unwrap()
+        .expect("an equilibrium");
+    assert!(
+        e.distance.max > 1e-4,
+        "the uniform wall does not hold the target"
+    );
+    let g = objective.thickness_gradient(x_rest).unwrap();
+    let x0 = objective.equilibrium().unwrap().to_vec();
+    for seed in 0..3u64 {
+        let v: Vec<f64> = (0..g.len())
+            .map(|i| (((i as u64 * 7919 + seed * 104_729) % 1000) as f64 / 500.0) - 1.0)
+            .collect();
+        let eps = 1e-8;
+        let mut at = |s: f64| {
+            let h: Vec<f64> = v.iter().map(|vi| H + s * vi).collect();
+            objective.set_thickness(&h).unwrap();
+            objective.set_equilibrium(Some(x0.clone()));
+            objective
+                .evaluate(x_rest, false)
+                .unwrap()
+                .unwrap()
+                .objective
+        };
+        let fd = (at(eps) - at(-eps)) / (2.0 * eps);
+        let adjoint: f64 = g.iter().zip(&v).map(|(a, b)| a * b).sum();
+        let rel = (fd - adjoint).abs() / adjoint.abs();
+        eprintln!("direction {seed}: adjoint {adjoint:e}, central difference {fd:e}, rel {rel:e}");
+        assert!(
+            rel < 1e-5,
+            "adjoint {adjoint:e} vs central difference {fd:e}"
+        );
+    }
+    g
 }
 
 /// Round trip: the ellipsoid inflated with the graded wall is the target; from a uniform 1 mm

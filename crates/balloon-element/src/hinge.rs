@@ -221,6 +221,90 @@ impl Hinge {
     }
 }
 
+impl Hinge {
+    /// The gradient `[g0, g1, g2, g3]` (1/m) of the dihedral angle [`Hinge::angle`] at
+    /// `x = [x0, x1, x2, x3]` (m), Bridson, Marino and Fedkiw 2003 (the form in the [`Hinge`]
+    /// documentation); the same vectors the forces are made of. Non-finite for a current
+    /// triangle of zero area.
+    pub fn angle_gradient(x: &[Vector3<f64>; 4]) -> [Vector3<f64>; 4] {
+        let xs = x.map(|p| [p.x, p.y, p.z]);
+        angle_gradient(&xs).map(|g| Vector3::new(g[0], g[1], g[2]))
+    }
+
+    /// The gradient `dw/dX` of the weight `w = 3 |E|^2 / (A_A + A_B)` with respect to the rest
+    /// positions `rest = [X0, X1, X2, X3]` (1/m):
+    /// `dw = 3 d|E|^2 / (A_A + A_B) - w (dA_A + dA_B) / (A_A + A_B)`, with
+    /// `d|E|^2/dX1 = -d|E|^2/dX0 = 2 E` and the area gradients
+    /// `dA/dP_i = 1/2 n x (P_(i+2) - P_(i+1))` of a triangle `(P0, P1, P2)` with unit normal `n`
+    /// (cyclic indices). For a rest hinge that [`Hinge::try_new`] accepts; not checked here.
+    pub fn weight_gradient(rest: &[Vector3<f64>; 4]) -> [Vector3<f64>; 4] {
+        let [x0, x1, x2, x3] = rest;
+        let e = x1 - x0;
+        let na = e.cross(&(x2 - x0));
+        let nb = (x0 - x1).cross(&(x3 - x1));
+        let (la, lb) = (na.norm(), nb.norm());
+        let (ua, ub) = (na / la, nb / lb);
+        let sum = 0.5 * (la + lb);
+        let w = 3.0 * e.norm_squared() / sum;
+        // Triangle A = (X0, X1, X2), triangle B = (X1, X0, X3).
+        let da = [
+            0.5 * ua.cross(&(x2 - x1)),
+            0.5 * ua.cross(&(x0 - x2)),
+            0.5 * ua.cross(&(x1 - x0)),
+        ];
+        let db = [
+            0.5 * ub.cross(&(x3 - x0)),
+            0.5 * ub.cross(&(x1 - x3)),
+            0.5 * ub.cross(&(x0 - x1)),
+        ];
+        // Area gradient per hinge corner: A holds X0, X1, X2; B holds X1 (its 0), X0 (its 1),
+        // X3 (its 2).
+        let darea = [da[0] + db[1], da[1] + db[0], da[2], db[2]];
+        let de2 = [-2.0 * e, 2.0 * e, Vector3::zeros(), Vector3::zeros()];
+        std::array::from_fn(|i| (3.0 * de2[i] - w * darea[i]) / sum)
+    }
+
+    /// Forces (N, bit for bit those of [`Hinge::forces`]) and their exact Jacobian with respect
+    /// to the rest positions `rest` (N/m, 12x12, vertex-major; rows the forces on
+    /// `[x0, x1, x2, x3]`, columns `[X0, X1, X2, X3]`), for a hinge built from `rest`
+    /// (`Hinge::try_new(rest)`), at the current positions `x` with modulus `modulus` = `D`:
+    ///
+    /// `df/dX = -D g(x) (delta dw/dX - w dtheta_bar/dX)^T`,
+    ///
+    /// `g(x)` the angle gradient at `x` ([`Hinge::angle_gradient`]), `dw/dX`
+    /// [`Hinge::weight_gradient`] and `dtheta_bar/dX` the angle gradient at the rest hinge (the
+    /// forces `-D w delta g(x)` depend on the rest shape only through `w` and `theta_bar`;
+    /// the wrapping of `delta` does not change `d delta / d theta_bar = -1`). The inverse
+    /// problem (the rest shape whose equilibrium is a given shape) needs it. Rank one, and
+    /// zero under rigid motions and uniform scalings of `rest` (`w` and `theta_bar` do not
+    /// change).
+    pub fn forces_and_rest_jacobian(
+        &self,
+        rest: &[Vector3<f64>; 4],
+        x: &[Vector3<f64>; 4],
+        modulus: f64,
+    ) -> ([Vector3<f64>; 4], SMatrix<f64, 12, 12>) {
+        let f = self.forces(x, modulus);
+        let g = Self::angle_gradient(x);
+        let gbar = Self::angle_gradient(rest);
+        let dw = Self::weight_gradient(rest);
+        let d = self.delta(Self::angle(x));
+        let c: [Vector3<f64>; 4] = std::array::from_fn(|b| d * dw[b] - self.weight * gbar[b]);
+        let mut j = SMatrix::<f64, 12, 12>::zeros();
+        for b in 0..4 {
+            for l in 0..3 {
+                let s = -modulus * c[b][l];
+                for a in 0..4 {
+                    for k in 0..3 {
+                        j[(3 * a + k, 3 * b + l)] = s * g[a][k];
+                    }
+                }
+            }
+        }
+        (f, j)
+    }
+}
+
 /// Area of the rest triangle with edges `e1`, `e2` from its first vertex, with the degeneracy
 /// test of `crate::triangle` (`|e1 x e2| <= 1e-12 (|e1|^2 + |e2|^2)`).
 fn rest_area(e1: &Vector3<f64>, e2: &Vector3<f64>) -> Result<f64, ElementError> {

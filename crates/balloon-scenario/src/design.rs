@@ -9,7 +9,8 @@
 //! keys of `[shell]` (`material`, `young`, `poisson`, `mu`, ...), the solve's options
 //! ([`DESIGN_OPTIONS`]: `tolerance`, `tangential_weight`, `fallback`, `fallback_iterations`,
 //! `method`, `shape_weight`, `shape_stages`, `newton_polish`, `warm_start`, `bending_weight`,
-//! `inverse_bending_weight`, `inverse_bending_stages`, and the wall-thickness fit's
+//! `inverse_bending_weight`, `inverse_bending_stages`, the wall's bending stiffness `bending`
+//! (as `[shell] bending`), and the wall-thickness fit's
 //! `fit_thickness`, `thickness_min`, `thickness_max`, `thickness_iterations`; and
 //! `conditioning`, `conditioning_modes`, `conditioning_iterations`), `rest` (a rest
 //! shape to keep instead of designing one, relative to the file) and `out` (a folder
@@ -95,6 +96,7 @@ pub const DESIGN_KEYS: &[&str] = &[
     "bending_weight",
     "inverse_bending_weight",
     "inverse_bending_stages",
+    "bending",
     "fit_thickness",
     "thickness_min",
     "thickness_max",
@@ -156,6 +158,12 @@ pub const DESIGN_OPTIONS: &[(&str, &str)] = &[
     (
         "inverse_bending_stages",
         "stages of the inverse solve with the bending term (`inverse.bending_stages`)",
+    ),
+    (
+        "bending",
+        "the wall's bending stiffness as a factor on a plate's of its material and thickness, \
+         as `[shell] bending` and `balloon inflate --bending` (`wall_bending`; 0: none, the \
+         wall of Wang et al. 2015; docs/design.md D20)",
     ),
     (
         "warm_start",
@@ -305,6 +313,9 @@ pub fn set_design_option(
         }
         "inverse_bending_stages" => {
             params.inverse.bending_stages = whole(1.0, 20.0, "a whole number from 1 to 20")?;
+        }
+        "bending" => {
+            params.wall_bending = real(0.0, 1e6, true, "in [0, 1e6]")?;
         }
         "warm_start" => {
             params.fallback.warm_start = flag()?;

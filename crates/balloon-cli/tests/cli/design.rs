@@ -149,6 +149,10 @@ fn design_errors_name_the_flag() {
             "a whole number from 1 to 100000",
         ),
         ("--conditioning-modes", "65", "a whole number from 1 to 64"),
+        ("--bending", "-1", "in [0, 1e6]"),
+        ("--bending", "nan", "in [0, 1e6]"),
+        ("--bending", "inf", "in [0, 1e6]"),
+        ("--bending", "2e6", "in [0, 1e6]"),
         (
             "--conditioning-iterations",
             "0",
@@ -527,6 +531,18 @@ fn design_scenario_errors_name_file_line_and_key() {
             "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nconditioning = 1\n",
             "d.toml:4: `design.conditioning`: expected true or false, found an integer",
         ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nbending = -1\n",
+            "d.toml:4: `design.bending`: invalid value '-1': in [0, 1e6]",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nbending = nan\n",
+            "d.toml:4: `design.bending`: invalid value 'nan': in [0, 1e6]",
+        ),
+        (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nbending = \"stiff\"\n",
+            "d.toml:4: `design.bending`: expected a number",
+        ),
     ];
     for (text, expected) in cases {
         std::fs::write(&file, text).unwrap();
@@ -829,4 +845,96 @@ fn the_rest_shape_conditioning_is_reported_when_asked() {
     // The scenario key does the same (the same numbers: the computation is deterministic).
     let from_file = keep_the_icosphere_from_a_scenario(dir.path(), "conditioning = true\n");
     assert_eq!(from_file["conditioning"]["smallest"], c["smallest"]);
+}
+
+/// `--bending F` (and the `[design]` key `bending`) designs with the wall's bending stiffness:
+/// on the icosphere that a prism wall with `--bending 1` inflates to at 2 kPa, the flag and the
+/// key record `wall_bending` and give the same rest shape; the printed check command carries
+/// `--bending 1` and inflates the written rest shape to the check's volume; the design without
+/// the flag is another rest shape.
+#[test]
+fn the_bending_wall_reaches_the_design_from_flag_and_scenario() {
+    let dir = tempfile::tempdir().unwrap();
+    let made = dir.path().join("made");
+    let mut args = vec![
+        "inflate",
+        "builtin:icosphere",
+        "--static",
+        "--gas",
+        "constant",
+        "--pressure",
+        "2000",
+        "--volume-projection",
+        "off",
+        "--bending",
+        "1",
+        "--out",
+        made.to_str().unwrap(),
+    ];
+    args.extend(PRISM_WALL);
+    let o = run_balloon(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let target = made.join("final.obj");
+    let design = |out: &std::path::Path, extra: &[&str]| {
+        let mut args = vec![
+            "design",
+            target.to_str().unwrap(),
+            "--pressure",
+            "2000",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(PRISM_WALL);
+        args.extend(extra);
+        let o = run_balloon(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        o
+    };
+    let read = |out: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+    };
+    let by_flag = dir.path().join("flag");
+    let o = design(&by_flag, &["--bending", "1"]);
+    let summary = read(&by_flag);
+    assert_eq!(summary["params"]["wall_bending"], 1.0, "{summary}");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let command = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("repeat the check: "))
+        .expect("a check command");
+    assert!(command.ends_with("--bending 1"), "{command}");
+    let words: Vec<&str> = command.split_whitespace().collect();
+    let mut args = words[1..].to_vec();
+    args.push("--json");
+    let o = run_balloon(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let repeated = crate::last_json_line(&o)["final_gas_volume"]
+        .as_f64()
+        .unwrap();
+    let checked = summary["check"]["volume"].as_f64().unwrap();
+    assert!(
+        ((repeated - checked) / checked).abs() < 1e-6,
+        "design check {checked:e} m^3, `{command}` {repeated:e} m^3"
+    );
+
+    let file = dir.path().join("d.toml");
+    std::fs::write(
+        &file,
+        "[design]\ntarget = \"made/final.obj\"\npressure = 2000\nbending = 1\n\
+         material = \"neo-hookean\"\nyoung = 1e6\npoisson = 0.45\nthickness = 1e-3\n\
+         out = \"scenario\"\n",
+    )
+    .unwrap();
+    let o = run_balloon(&["run", file.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let by_scenario = dir.path().join("scenario");
+    assert_eq!(read(&by_scenario)["params"], summary["params"]);
+    let rest = std::fs::read(by_flag.join("rest.obj")).unwrap();
+    assert_eq!(std::fs::read(by_scenario.join("rest.obj")).unwrap(), rest);
+
+    let plain = dir.path().join("plain");
+    design(&plain, &[]);
+    assert_eq!(read(&plain)["params"]["wall_bending"], 0.0);
+    assert_ne!(std::fs::read(plain.join("rest.obj")).unwrap(), rest);
 }

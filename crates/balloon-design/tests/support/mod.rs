@@ -23,6 +23,18 @@ pub fn inflate_with_thickness(
     p: f64,
     thickness: Vec<f64>,
 ) -> Vec<f64> {
+    inflate_with_wall(rest, material, p, thickness, 0.0)
+}
+
+/// [`inflate_with_thickness`] with the wall's bending stiffness, `bending` times the plate's
+/// (`ShellSystem::set_wall_bending`; 0: none).
+pub fn inflate_with_wall(
+    rest: &TriMesh,
+    material: &ShellMaterialModel,
+    p: f64,
+    thickness: Vec<f64>,
+    bending: f64,
+) -> Vec<f64> {
     let gas = PressureLoad::new(ConstantPressure::try_new(p).unwrap())
         .with_ambient_pressure(0.0)
         .unwrap()
@@ -37,6 +49,7 @@ pub fn inflate_with_thickness(
         gas,
     )
     .unwrap();
+    shell.set_wall_bending(&x, bending).unwrap();
     let mut statics = StaticShell::new(&mut shell, GasTerm::Own, true);
     let params = StaticParams {
         tolerance: 1e-11,

@@ -563,3 +563,95 @@ fn hinge_degenerate_rest_is_an_error_naming_hinge() {
             .all(|f| f.iter().all(|v| v.is_finite()))
     );
 }
+
+/// The rest Jacobian of the forces against central differences of the forces of hinges rebuilt
+/// from perturbed rest positions (the weight and the rest angle both move), near and far from
+/// rest; both parts of `delta dw/dX - w dtheta_bar/dX` matter (each alone fails the check).
+#[test]
+fn hinge_rest_jacobian_matches_central_differences() {
+    const TOL: f64 = 1e-6;
+    let h = 1e-6 * SCALE;
+    let (mut weight_part, mut angle_part) = (0.0f64, 0.0f64);
+    for (seed, dfold) in [0.05, 0.5, -0.8, 1.5, -2.0].into_iter().enumerate() {
+        let mut rng = Rng::new(90 + seed as u64);
+        let (rest, hinge, x) = rest_and_current(&mut rng, dfold, 0.03);
+        let (f, j) = hinge.forces_and_rest_jacobian(&rest, &x, MODULUS);
+        assert_eq!(f, hinge.forces(&x, MODULUS));
+        let r0 = flat(&rest);
+        let mut j_fd = SMatrix::<f64, 12, 12>::zeros();
+        let mut w_fd = [0.0; 12];
+        for c in 0..12 {
+            let mut rp = r0.clone();
+            rp[c] += h;
+            let mut rm = r0.clone();
+            rm[c] -= h;
+            let (hp, hm) = (
+                Hinge::try_new(&arr(&rp)).unwrap(),
+                Hinge::try_new(&arr(&rm)).unwrap(),
+            );
+            let fp = flat(&hp.forces(&x, MODULUS));
+            let fm = flat(&hm.forces(&x, MODULUS));
+            for r in 0..12 {
+                j_fd[(r, c)] = (fp[r] - fm[r]) / (2.0 * h);
+            }
+            w_fd[c] = (hp.weight() - hm.weight()) / (2.0 * h);
+        }
+        let scale = max_abs(j.iter().copied());
+        assert!(scale > 0.0);
+        let err = max_abs((j - j_fd).iter().copied()) / scale;
+        assert!(err <= TOL, "dfold {dfold}: rest Jacobian error {err:.3e}");
+        let dw = flat(&Hinge::weight_gradient(&rest));
+        let dw_scale = max_abs(dw.iter().copied());
+        let dw_err = max_abs(dw.iter().zip(&w_fd).map(|(a, b)| a - b)) / dw_scale;
+        assert!(
+            dw_err <= TOL,
+            "dfold {dfold}: weight gradient error {dw_err:.3e}"
+        );
+        // How far each part alone is from the differences (relative to the Jacobian).
+        let g = flat(&Hinge::angle_gradient(&x));
+        let gbar = flat(&Hinge::angle_gradient(&rest));
+        let delta = Hinge::angle(&x) - hinge.rest_angle();
+        let without = |keep_weight: bool| {
+            let j_part = SMatrix::<f64, 12, 12>::from_fn(|r, c| {
+                let term = if keep_weight {
+                    delta * dw[c]
+                } else {
+                    -hinge.weight() * gbar[c]
+                };
+                -MODULUS * g[r] * term
+            });
+            max_abs((j_part - j_fd).iter().copied()) / scale
+        };
+        weight_part = weight_part.max(without(false));
+        angle_part = angle_part.max(without(true));
+    }
+    assert!(weight_part > 1e3 * TOL, "{weight_part:e}");
+    assert!(angle_part > 1e3 * TOL, "{angle_part:e}");
+}
+
+/// The rest Jacobian maps rigid motions and uniform scalings of the rest hinge to zero (its
+/// weight and rest angle do not change under them).
+#[test]
+fn hinge_rest_jacobian_ignores_rigid_motions_and_scaling() {
+    let mut rng = Rng::new(5);
+    let (rest, hinge, x) = rest_and_current(&mut rng, 0.7, 0.03);
+    let (_, j) = hinge.forces_and_rest_jacobian(&rest, &x, MODULUS);
+    let scale = max_abs(j.iter().copied());
+    let centre = rest.iter().sum::<Vector3<f64>>() / 4.0;
+    let axis = rvec(&mut rng).normalize();
+    let translation = Vector3::new(1.0, -2.0, 0.5);
+    let motions: [[Vector3<f64>; 4]; 3] = [
+        rest.map(|_| translation),
+        rest.map(|p| axis.cross(&(p - centre))),
+        rest.map(|p| p - centre),
+    ];
+    for (m, motion) in motions.iter().enumerate() {
+        let v = SMatrix::<f64, 12, 1>::from_iterator(motion.iter().flat_map(|d| [d.x, d.y, d.z]));
+        let jv = j * v;
+        assert!(
+            jv.amax() <= 1e-10 * scale * v.amax(),
+            "motion {m}: {:e}",
+            jv.amax()
+        );
+    }
+}
