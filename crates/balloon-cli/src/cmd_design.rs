@@ -420,13 +420,7 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
         println!("{}", conditioning_line(c));
     }
     if let Some(command) = &run.summary.check_command {
-        // The check's wall bends as the design's did.
-        let bending = job.params.wall_bending;
-        if bending > 0.0 && !command.contains("--bending") {
-            println!("repeat the check: {command} --bending {bending}");
-        } else {
-            println!("repeat the check: {command}");
-        }
+        println!("repeat the check: {command}");
     }
     if let Some(signal) = run.interrupted {
         return Err(balloon_run::interrupt::Interrupted {

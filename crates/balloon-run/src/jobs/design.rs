@@ -379,7 +379,12 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
             } else {
                 "rest.obj"
             };
-            check_command(&out.join(rest), load, job.thickness, &job.material)
+            let command = check_command(&out.join(rest), load, job.thickness, &job.material);
+            // The check's wall bends as the design's did.
+            match job.params.wall_bending {
+                b if b > 0.0 => format!("{command} --bending {b}"),
+                _ => command,
+            }
         }),
         picture,
     };
