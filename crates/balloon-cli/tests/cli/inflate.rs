@@ -435,6 +435,19 @@ fn a_newton_cap_too_low_for_the_tolerance_is_a_warning_in_the_summary() {
     }
 }
 
+/// A 162-vertex sphere of `radius` (m) flattened to 1 : 0.5 : 0.3, written to `dir/flat.obj`
+/// (a shell that bends as it inflates).
+fn flattened_sphere(dir: &std::path::Path, radius: f64) -> std::path::PathBuf {
+    let mut mesh = balloon_mesh::generate::icosphere(radius, 2).unwrap();
+    for v in &mut mesh.vertices {
+        v.y *= 0.5;
+        v.z *= 0.3;
+    }
+    let path = dir.join("flat.obj");
+    balloon_mesh::io::write_obj(&path, &mesh).unwrap();
+    path
+}
+
 /// `--bending F` gives the wall the bending stiffness of a plate times `F`: the run records it
 /// (`[shell] bending`), `balloon run` of that record repeats the run byte for byte, and on a
 /// flattened sphere (whose inflation changes its curvature) the bending wall ends elsewhere
@@ -442,13 +455,7 @@ fn a_newton_cap_too_low_for_the_tolerance_is_a_warning_in_the_summary() {
 #[test]
 fn the_wall_bending_flag_is_recorded_repeated_and_changes_the_run() {
     let dir = tempfile::tempdir().unwrap();
-    let mut mesh = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
-    for v in &mut mesh.vertices {
-        v.y *= 0.5;
-        v.z *= 0.3;
-    }
-    let path = dir.path().join("flat.obj");
-    balloon_mesh::io::write_obj(&path, &mesh).unwrap();
+    let path = flattened_sphere(dir.path(), 0.1);
     let run = |name: &str, bending: &str| {
         let out_dir = dir.path().join(name);
         let out = run_balloon(&[
@@ -509,13 +516,7 @@ fn the_wall_bending_flag_is_recorded_repeated_and_changes_the_run() {
 #[test]
 fn a_split_bending_stiffness_reaches_the_states_of_the_direct_solver() {
     let dir = tempfile::tempdir().unwrap();
-    let mut mesh = balloon_mesh::generate::icosphere(1.0, 2).unwrap();
-    for v in &mut mesh.vertices {
-        v.y *= 0.5;
-        v.z *= 0.3;
-    }
-    let path = dir.path().join("flat.obj");
-    balloon_mesh::io::write_obj(&path, &mesh).unwrap();
+    let path = flattened_sphere(dir.path(), 1.0);
     let run = |name: &str, solver: &str| {
         let out_dir = dir.path().join(name);
         let out = run_balloon(&[
