@@ -220,6 +220,15 @@ impl<S: ForceSystem> ForceSystem for Anchored<'_, S> {
         Ok(())
     }
 
+    /// As the inner system's (the springs are exact in the matrix either way).
+    fn set_stiffness_split(&mut self, on: bool) -> bool {
+        self.inner.set_stiffness_split(on)
+    }
+
+    fn add_stiffness_correction(&self, scale: f64, p: &[f64], out: &mut [f64]) {
+        self.inner.add_stiffness_correction(scale, p, out);
+    }
+
     fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
         self.inner.add_stiffness_diagonal(diagonal)?;
         for s in self.springs {

@@ -323,6 +323,14 @@ impl<S: ForceSystem> ForceSystem for Pinned<'_, S> {
         Ok(())
     }
 
+    /// Never split: the inner system's correction would also need the pins' masking. The
+    /// inner system is asked for its exact stiffness (it may have been split for a solve
+    /// without pins).
+    fn set_stiffness_split(&mut self, _on: bool) -> bool {
+        self.inner.set_stiffness_split(false);
+        false
+    }
+
     fn add_stiffness_diagonal(&self, diagonal: &mut [f64]) -> Result<(), SystemError> {
         let mut own = vec![0.0; diagonal.len()];
         self.inner.add_stiffness_diagonal(&mut own)?;

@@ -334,3 +334,41 @@ fn the_compensation_blocks_bound_any_coupling() {
         }
     }
 }
+
+/// Pinned vertices never split the stiffness (the correction would need the pins' masking),
+/// and they unsplit a shell that an earlier solve without pins split; anchor springs keep the
+/// split and its correction.
+#[test]
+fn pins_unsplit_the_stiffness_and_anchors_keep_it() {
+    use balloon_integrate::decorators::{Anchored, Anchors, Pinned, Pins};
+    let (rest, sys) = shell(1.0);
+    let x = bent_state(&rest, 13);
+    let n = x.len();
+    let mut s = sys.clone();
+    let mut f = vec![0.0; n];
+    s.forces(0.0, &x, &mut f).unwrap();
+    assert!(s.set_stiffness_split(true));
+    let p = Rng::new(5).vector(n);
+    let mut direct = vec![0.0; n];
+    s.add_stiffness_correction(1.0, &p, &mut direct);
+    assert!(direct.iter().any(|v| *v != 0.0));
+    {
+        let anchors = Anchors::default();
+        let mut anchored = Anchored::new(&mut s, &anchors).unwrap();
+        assert!(anchored.set_stiffness_split(true));
+        let mut through = vec![0.0; n];
+        anchored.add_stiffness_correction(1.0, &p, &mut through);
+        assert_eq!(direct, through);
+    }
+    let mut pins = Pins::new(n / 3, vec![0]).unwrap();
+    {
+        let mut pinned = Pinned::new(&mut s, &mut pins).unwrap();
+        assert!(!pinned.set_stiffness_split(true));
+    }
+    let mut remaining = Vec::new();
+    s.add_remaining_stiffness_triplets(&mut remaining).unwrap();
+    assert!(
+        remaining.iter().any(|&(r, c, _)| r / 3 != c / 3),
+        "the inner shell is back to its exact couplings"
+    );
+}
