@@ -66,7 +66,7 @@ enum Task {
         #[arg(long)]
         no_write: bool,
         /// Run one group only (shell, membrane, connected, tube, volumetric, drop-sphere, two-layer,
-        /// floppy, thin-parts, meshes); leaves docs/ unchanged, draws the group's figures into
+        /// floppy, thin-parts, design, meshes); leaves docs/ unchanged, draws the group's figures into
         /// target/validate-figures/.
         #[arg(long)]
         only: Option<String>,

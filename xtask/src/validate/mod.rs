@@ -3,6 +3,7 @@
 //! when a case fails.
 
 mod connected;
+mod design;
 mod drop_sphere;
 mod floppy;
 mod membrane;
@@ -29,7 +30,7 @@ pub struct Options {
     /// Write docs/validation.md and docs/figures.
     pub write: bool,
     /// Run only this group ("shell", "membrane", "connected", "tube", "volumetric",
-    /// "drop-sphere", "two-layer", "floppy", "thin-parts", "meshes"); nothing is written.
+    /// "drop-sphere", "two-layer", "floppy", "thin-parts", "design", "meshes"); nothing is written.
     pub only: Option<String>,
 }
 
@@ -154,6 +155,9 @@ pub fn run(opts: &Options) -> Result<()> {
     if want("thin-parts") && !opts.quick {
         cases.extend(thin_parts::cases());
     }
+    if want("design") {
+        cases.extend(design::cases(&sources, !opts.quick));
+    }
     let steps = if opts.quick { 10 } else { 40 };
     if opts.quick {
         sources.retain(|s| !matches!(s, meshes::Source::File(_)));
@@ -268,6 +272,13 @@ fn render_markdown(
          sharp edges and on flattened ellipsoids with 8 mm and 6 mm thin fins converges, within a \
          bound on its Newton iterations, to a stable equilibrium (smallest eigenvalue of \
          `K y = lambda M y` positive; docs/benchmarks.md, \"The static solve on thin parts\").\n",
+    );
+    s.push_str(
+        "* **design**: round trips of the inverse design (docs/design.md, D20): each model at \
+         0.1 m is inflated statically (neo-Hookean prism wall, 1 mm, 2 kPa, bending twice the \
+         plate modulus), designed back from the inflated shape alone, and the designed rest \
+         shape must be the known one within 1e-3 of the diagonal, its forward check on the \
+         target within 1e-4 (the built-in Teddy; with the full run also the shared meshes).\n",
     );
     s.push_str(
         "* **meshes**: every mesh is loaded, validated (closed, oriented 2-manifold), scaled to \
