@@ -4,6 +4,7 @@
 //! the exact sensitivity `dx/dX` (L-BFGS where a Gauss-Newton step fails, or throughout on
 //! request) (`docs/design.md`, D11-D15).
 
+use balloon_integrate::newton::cancel_requested;
 use balloon_integrate::statics::StaticParams;
 use serde::{Deserialize, Serialize};
 
@@ -215,7 +216,8 @@ pub enum FallbackStop {
     /// No step decreased the objective (neither the Gauss-Newton trials nor the L-BFGS line
     /// search, or every trial's forward solve failed): the best rest shape so far is kept.
     LineSearch,
-    /// The progress callback asked to stop (Ctrl-C).
+    /// The progress callback asked to stop (Ctrl-C), or a forward solve stopped because the
+    /// process asked its solves to stop (`balloon_integrate::newton::cancel_requested`).
     Interrupted,
     /// The forward static solve from the start rest shape found no equilibrium: nothing to
     /// optimise (the start is kept).
@@ -318,6 +320,9 @@ pub fn optimise_rest_shape(
         polished: false,
     };
     let Some(first) = objective.evaluate(rest, true)? else {
+        if cancel_requested() {
+            info.stopped = FallbackStop::Interrupted;
+        }
         info.forward_solves = objective.forward_solves();
         info.seconds = started.elapsed().as_secs_f64();
         return Ok(info);
@@ -444,7 +449,14 @@ pub fn optimise_rest_shape(
                 accepted = step.lbfgs(&mut objective, &mut memory, &mut trial)?;
             }
             let Some((e, phi_t, g_t)) = accepted else {
-                info.stopped = FallbackStop::LineSearch;
+                // A stop asked for (Ctrl-C) fails every forward solve of the trials: that is
+                // an interruption, not a failed search.
+                if cancel_requested() {
+                    info.stopped = FallbackStop::Interrupted;
+                    done = true;
+                } else {
+                    info.stopped = FallbackStop::LineSearch;
+                }
                 break;
             };
             let s: Vec<f64> = trial.iter().zip(rest.iter()).map(|(a, b)| a - b).collect();

@@ -79,6 +79,7 @@ pub use objective::{Evaluation, ShapeObjective};
 pub use problem::{DesignProblem, GasAmount, enclosed_volume, volume_gradient};
 pub use thickness_fit::{ThicknessFit, ThicknessFitInfo, ThicknessFitParams, fit_thickness};
 
+use balloon_integrate::newton::{cancel_requested, without_cancel};
 use balloon_integrate::statics::StaticParams;
 use serde::{Deserialize, Serialize};
 
@@ -171,7 +172,11 @@ fn stage_weight(w0: f64, k: usize) -> f64 {
 /// (how well the target determines it). `progress` is called after every accepted
 /// step of either; returning `false` stops the design and keeps the best rest shape so far
 /// (which is then checked; the shape optimisation does not start after a stopped inverse
-/// solve). With [`DesignParams::wall_bending`] positive, all of it runs on the problem with
+/// solve). A stop asked of all the process's solves
+/// ([`balloon_integrate::newton::cancel_requested`], which the `balloon` command's Ctrl-C
+/// sets) stops it the same way, and the check of the rest shape kept then runs with that
+/// request suspended ([`balloon_integrate::newton::without_cancel`]), so that it is a real
+/// forward solve and not one stopped at its first iteration. With [`DesignParams::wall_bending`] positive, all of it runs on the problem with
 /// that bending wall.
 ///
 /// [`InverseInfo::converged`] stays that of the inverse solve: the shape optimisation
@@ -195,6 +200,8 @@ pub fn design(
         stopped |= !go;
         go
     })?;
+    // A stop asked of the process's solves (Ctrl-C) stops the design as the callback does.
+    stopped |= cancel_requested();
     let run = match params.fallback.mode {
         FallbackMode::Off => false,
         FallbackMode::Unconverged => !inverse.converged,
@@ -207,6 +214,7 @@ pub fn design(
                 stopped |= !go;
                 go
             })?;
+        stopped |= info.stopped == FallbackStop::Interrupted;
         inverse.fallback = Some(info);
     }
     wall_and_check(problem, rest, inverse, params, !stopped, progress)
@@ -268,13 +276,16 @@ fn wall_and_check(
     } else {
         None
     };
-    let check = match &fitted {
-        None => forward_check(problem, &rest, &params.forward)?,
-        Some(fit) => forward_check(
-            &problem.with_thickness(fit.thickness.clone())?,
-            &rest,
-            &params.forward,
-        )?,
+    let check_problem = match &fitted {
+        None => std::borrow::Cow::Borrowed(problem),
+        Some(fit) => std::borrow::Cow::Owned(problem.with_thickness(fit.thickness.clone())?),
+    };
+    // The check runs also after a stop was asked for: the best design so far is checked (a
+    // second Ctrl-C ends the `balloon` process at once).
+    let check = if !fit || cancel_requested() {
+        without_cancel(|| forward_check(&check_problem, &rest, &params.forward))?
+    } else {
+        forward_check(&check_problem, &rest, &params.forward)?
     };
     let conditioning = if params.conditioning.enabled {
         let problem = match &fitted {

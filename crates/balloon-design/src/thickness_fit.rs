@@ -6,6 +6,7 @@
 
 use std::collections::VecDeque;
 
+use balloon_integrate::newton::cancel_requested;
 use balloon_integrate::statics::StaticParams;
 use serde::{Deserialize, Serialize};
 
@@ -240,6 +241,9 @@ pub fn fit_thickness(
         ThicknessFit { thickness, info }
     };
     let Some(first) = objective.evaluate(rest, true)? else {
+        if cancel_requested() {
+            info.stopped = FallbackStop::Interrupted;
+        }
         let solves = objective.forward_solves();
         return Ok(finish(info, problem.thickness().to_vec(), solves));
     };
@@ -304,7 +308,12 @@ pub fn fit_thickness(
         let Some((e, h)) = accepted else {
             objective.set_thickness(&thickness)?;
             objective.set_equilibrium(kept);
-            info.stopped = FallbackStop::LineSearch;
+            // Every trial's forward solve fails once a stop was asked for (Ctrl-C).
+            info.stopped = if cancel_requested() {
+                FallbackStop::Interrupted
+            } else {
+                FallbackStop::LineSearch
+            };
             break;
         };
         let g_t = chain(objective.thickness_gradient(rest)?, &trial);

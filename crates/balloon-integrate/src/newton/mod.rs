@@ -24,7 +24,7 @@ mod linear;
 mod objective;
 pub mod regularization;
 
-pub use cancel::{cancel_requested, set_cancel_check};
+pub use cancel::{cancel_requested, set_cancel_check, without_cancel};
 pub use convergence::{MAX_NEWTON_ITERATIONS, NEWTON_STALL_WINDOW, Residual};
 pub(crate) use error::check_parameter;
 pub use error::{NewtonError, Stall};
