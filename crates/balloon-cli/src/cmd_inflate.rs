@@ -162,7 +162,8 @@ pub struct InflateArgs {
     #[arg(long, num_args = 0..=1, require_equals = true, default_missing_value = "true")]
     pub follower_term: Option<bool>,
     /// Solve each step with the wall thickness extrapolated to the end of the step and solved
-    /// again while the projection's thickness differs from it by more than 1e-3 (the
+    /// again (secant steps, at most 8 solves) while the projection's thickness differs from
+    /// it by more than 1e-3 or a hundredth of the step's change of the thickness (the
     /// shell-volume projection after the solve thins the wall by what the step stretched it;
     /// without this the solve lags one step behind, a first-order error in --dt):
     /// `--thickness-prediction` or `=true` on, `=false` off. Default: off (the paper's

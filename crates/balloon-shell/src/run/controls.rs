@@ -72,18 +72,20 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
 
     /// Whether each solve uses the thickness extrapolated linearly to the end of its step
     /// (`Some(true)`) or the thickness at its start (`Some(false)`, Wang et al. 2015,
-    /// Algorithm 1, and `None`, the default). Not the default yet: quasi-static runs with
-    /// very large steps (1 s) then do not settle to 1e-9 in volume, and a pressurised shell
-    /// overshoots and rings where the lagged thickness damped it (`docs/benchmarks.md`). The shell-volume projection after the solve thins the wall by what the
+    /// Algorithm 1, and `None`, the default). Not the default yet: it changes every default
+    /// result by the splitting error, costs up to twice the Newton iterations of a pumped run,
+    /// and a pressurised shell overshoots and rings where the lagged thickness damped it
+    /// (`docs/benchmarks.md`). The shell-volume projection after the solve thins the wall by what the
     /// step stretched it (Eq. 24-28), so a solve with the thickness at its start sees a wall
     /// one step thicker than at its end: a splitting error of first order in `dt`, which
     /// raises the pressure of a slowly pumped balloon at 10 ms steps by several per cent
     /// against 2 ms steps (`docs/benchmarks.md`). With the prediction the solve uses
     /// `h_{n+1} ~ 2 h_n - h_{n-1}` (clamped to `[h_n / 2, 2 h_n]`; after a step of the same
     /// size, `h_n` otherwise), and where the projection's thickness then differs from it by
-    /// more than 1e-3 (relative, at any element) the step is solved again with the
-    /// projection's thickness, up to three solves in all: the solve and the projection agree on
-    /// the thickness at the end of the step. The projection itself starts from the thickness
+    /// more than 1e-3, or than a hundredth of the step's own change of the thickness
+    /// (relative, at any element), the step is solved again, first with the projection's
+    /// thickness, then with secant steps on the fixed point, up to eight solves in all: the
+    /// solve and the projection agree on the thickness at the end of the step. The projection itself starts from the thickness
     /// of `t_n` either way. Membranes (whose thickness follows their stretch) and runs
     /// without a projection are not affected.
     pub fn set_thickness_prediction(&mut self, on: impl Into<Option<bool>>) {

@@ -12,12 +12,21 @@ use super::{RUNAWAY_VOLUME_FACTOR, ShellError, ShellSimulation};
 
 /// The largest relative difference, at any element, between the thickness a solve used and
 /// the one the projection after it gives, below which a step's solve and projection agree
-/// ([`ShellSimulation::step_inner`]).
+/// ([`ShellSimulation::step_inner`]); the tighter [`THICKNESS_COUPLING_RELATIVE`] applies
+/// where the step changes the thickness little.
 pub(crate) const THICKNESS_COUPLING_TOLERANCE: f64 = 1e-3;
+
+/// The disagreement a step's solve and projection may keep, relative to the largest change
+/// of the thickness over the step ([`ShellSimulation::step_inner`]): near rest, where a step
+/// changes the thickness by little, a fixed tolerance would leave a disagreement as large as
+/// the change itself, which the next step's extrapolation then amplifies into a slowly
+/// decaying ringing.
+pub(crate) const THICKNESS_COUPLING_RELATIVE: f64 = 1e-2;
 
 /// The most solves of one (sub-)step with the thickness coupled to the projection (the first
 /// and the corrections; [`ShellSimulation::step_inner`]).
-pub(crate) const MAX_THICKNESS_PASSES: usize = 3;
+pub(crate) const MAX_THICKNESS_PASSES: usize = 8;
+
 use crate::ShellMaterial;
 
 impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
@@ -33,11 +42,15 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// [`ShellSimulation::set_thickness_prediction`] the solve uses the thickness extrapolated
     /// to `t_{n+1}` (after a step of the same size; the thickness of `t_n` otherwise), and
     /// when the projection's thickness differs from the one the solve used by more than
-    /// [`THICKNESS_COUPLING_TOLERANCE`] (relative, at any element) the step is solved again
-    /// with the projection's thickness, at most [`MAX_THICKNESS_PASSES`] times in all: the
-    /// solve and the projection then agree on the thickness at the end of the step. A
-    /// correction that fails, or that disagrees more than the pass before it (the thinning
-    /// feeds the stretch faster than the step resolves), keeps the pass before it. Each
+    /// [`THICKNESS_COUPLING_TOLERANCE`] or [`THICKNESS_COUPLING_RELATIVE`] times the step's
+    /// own change of the thickness (relative, at any element) the step is solved again, at
+    /// most [`MAX_THICKNESS_PASSES`] times in all: the solve and the projection then agree on
+    /// the thickness at the end of the step. The first correction solves with the
+    /// projection's thickness; later ones with a secant step on the fixed point `h = P(S(h))`
+    /// (solve `S`, projection `P`; Anderson mixing of depth one), which converges where the
+    /// plain iteration crawls (a wall whose thinning nearly balances its stretch, as near a
+    /// rubber balloon's pressure maximum). A correction that fails, or that disagrees more
+    /// than the pass before it, keeps the pass before it. Each
     /// projection starts from the thickness of `t_n`, as in the paper.
     pub(crate) fn step_inner(
         &mut self,
@@ -68,6 +81,8 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         let mut proj_iters = 0;
         // The last pass's end state (positions, projected thickness) and its disagreement.
         let mut kept: Option<(Vec<f64>, Vec<f64>, f64)> = None;
+        // The last correction's thickness used and projected, for the secant step.
+        let mut secant: Option<(Vec<f64>, Vec<f64>)> = None;
         for pass in 0..MAX_THICKNESS_PASSES {
             if pass > 0 {
                 self.x.copy_from_slice(&self.x_prev);
@@ -124,14 +139,30 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 self.system.thickness.clone_from(h);
                 break;
             }
+            let change = self
+                .system
+                .thickness
+                .iter()
+                .zip(&self.h_n)
+                .map(|(h, before)| (h - before).abs() / h)
+                .fold(0.0, f64::max);
             if off.is_nan()
-                || off <= THICKNESS_COUPLING_TOLERANCE
+                || off <= THICKNESS_COUPLING_TOLERANCE.min(THICKNESS_COUPLING_RELATIVE * change)
                 || pass + 1 == MAX_THICKNESS_PASSES
             {
                 break;
             }
             kept = Some((self.x.clone(), self.system.thickness.clone(), off));
-            self.h_used.clone_from(&self.system.thickness);
+            let next = secant_thickness(
+                &self.h_used,
+                &self.system.thickness,
+                secant.as_ref(),
+                &self.h_n,
+            );
+            secant = Some((
+                std::mem::replace(&mut self.h_used, next),
+                self.system.thickness.clone(),
+            ));
             self.system.thickness.clone_from(&self.h_n);
         }
         let info = total.expect("at least one pass");
@@ -261,4 +292,39 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         }
         Ok(vol)
     }
+}
+
+/// The thickness the next correction of a step solves with, from the thickness `used` by the
+/// last solve and the one `projected` after it (the fixed point `h = P(S(h))`): `projected`
+/// itself after the first pass, then a secant step through the pass before, `(u0, p0)`,
+/// `projected - gamma (projected - p0)` with `gamma` minimising `|r1 - gamma (r1 - r0)|`
+/// over the residuals `r = P(S(u)) - u` (Anderson mixing of depth one), clamped to half and
+/// twice the step's start thickness `start` as the extrapolation is.
+fn secant_thickness(
+    used: &[f64],
+    projected: &[f64],
+    before: Option<&(Vec<f64>, Vec<f64>)>,
+    start: &[f64],
+) -> Vec<f64> {
+    let Some((u0, p0)) = before else {
+        return projected.to_vec();
+    };
+    let (mut rd, mut dd) = (0.0, 0.0);
+    for i in 0..used.len() {
+        let r1 = projected[i] - used[i];
+        let d = r1 - (p0[i] - u0[i]);
+        rd += r1 * d;
+        dd += d * d;
+    }
+    let gamma = if dd > 0.0 && (rd / dd).is_finite() {
+        rd / dd
+    } else {
+        0.0
+    };
+    projected
+        .iter()
+        .zip(p0)
+        .zip(start)
+        .map(|((p1, p0), h)| (p1 - gamma * (p1 - p0)).clamp(0.5 * h, 2.0 * h))
+        .collect()
 }
