@@ -123,13 +123,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
             if !coupled {
                 break;
             }
-            let off = self
-                .system
-                .thickness
-                .iter()
-                .zip(&self.h_used)
-                .map(|(h, u)| (h - u).abs() / h)
-                .fold(0.0, f64::max);
+            let off = largest_relative_difference(&self.system.thickness, &self.h_used);
             if let Some((x, h, before)) = &kept
                 && (off.is_nan() || off >= *before)
             {
@@ -139,13 +133,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
                 self.system.thickness.clone_from(h);
                 break;
             }
-            let change = self
-                .system
-                .thickness
-                .iter()
-                .zip(&self.h_n)
-                .map(|(h, before)| (h - before).abs() / h)
-                .fold(0.0, f64::max);
+            let change = largest_relative_difference(&self.system.thickness, &self.h_n);
             if off.is_nan()
                 || off <= THICKNESS_COUPLING_TOLERANCE.min(THICKNESS_COUPLING_RELATIVE * change)
                 || pass + 1 == MAX_THICKNESS_PASSES
@@ -292,6 +280,14 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         }
         Ok(vol)
     }
+}
+
+/// The largest `|h - u| / h` over the elements (NaN where a thickness is NaN).
+fn largest_relative_difference(h: &[f64], u: &[f64]) -> f64 {
+    h.iter()
+        .zip(u)
+        .map(|(h, u)| (h - u).abs() / h)
+        .fold(0.0, f64::max)
 }
 
 /// The thickness the next correction of a step solves with, from the thickness `used` by the
