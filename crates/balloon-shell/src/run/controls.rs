@@ -73,7 +73,7 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// Whether each solve uses the thickness extrapolated linearly to the end of its step
     /// (`Some(true)`) or the thickness at its start (`Some(false)`, Wang et al. 2015,
     /// Algorithm 1, and `None`, the default). Not the default yet: it changes every default
-    /// result by the splitting error, costs 1.5 to 2.8 times the Newton iterations of a
+    /// result by the splitting error, costs 1.5 to 3 times the Newton iterations of a
     /// pumped run (3.3 times on a pressurised Teddy), and a pressurised shell overshoots
     /// slightly where the lagged thickness creeps (`docs/benchmarks.md`). The shell-volume projection after the solve thins
     /// the wall by what the step stretched it (Eq. 24-28), so a solve with the thickness at its start sees a wall
