@@ -174,10 +174,10 @@ fn stage_weight(w0: f64, k: usize) -> f64 {
 /// (which is then checked; the shape optimisation does not start after a stopped inverse
 /// solve). A stop asked of all the process's solves
 /// ([`balloon_integrate::newton::cancel_requested`], which the `balloon` command's Ctrl-C
-/// sets) stops it the same way, and the check of the rest shape kept then runs with that
-/// request suspended ([`balloon_integrate::newton::without_cancel`]), so that it is a real
-/// forward solve and not one stopped at its first iteration. With [`DesignParams::wall_bending`] positive, all of it runs on the problem with
-/// that bending wall.
+/// sets) stops it the same way. The check always runs with that request suspended
+/// ([`balloon_integrate::newton::without_cancel`]), so that it is a real forward solve and
+/// not one stopped at its first iteration. With [`DesignParams::wall_bending`] positive, all
+/// of it runs on the problem with that bending wall.
 ///
 /// [`InverseInfo::converged`] stays that of the inverse solve: the shape optimisation
 /// reduces the distance but does not make an inexact design exact; the check's distance says
@@ -280,13 +280,9 @@ fn wall_and_check(
         None => std::borrow::Cow::Borrowed(problem),
         Some(fit) => std::borrow::Cow::Owned(problem.with_thickness(fit.thickness.clone())?),
     };
-    // The check runs also after a stop was asked for: the best design so far is checked (a
-    // second Ctrl-C ends the `balloon` process at once).
-    let check = if !fit || cancel_requested() {
-        without_cancel(|| forward_check(&check_problem, &rest, &params.forward))?
-    } else {
-        forward_check(&check_problem, &rest, &params.forward)?
-    };
+    // The check runs to its end also after a stop was asked for: the best design so far is
+    // checked (a second Ctrl-C ends the `balloon` process at once).
+    let check = without_cancel(|| forward_check(&check_problem, &rest, &params.forward))?;
     let conditioning = if params.conditioning.enabled {
         let problem = match &fitted {
             None => std::borrow::Cow::Borrowed(problem),

@@ -75,9 +75,9 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
     /// Algorithm 1, and `None`, the default). Not the default yet: it changes every default
     /// result by the splitting error, costs 1.5 to 3 times the Newton iterations of a
     /// pumped run (3.3 times on a pressurised Teddy), and a pressurised shell overshoots
-    /// slightly where the lagged thickness creeps (`docs/benchmarks.md`). The shell-volume projection after the solve thins
-    /// the wall by what the step stretched it (Eq. 24-28), so a solve with the thickness at its start sees a wall
-    /// one step thicker than at its end: a splitting error of first order in `dt`, which
+    /// slightly where the lagged thickness creeps (`docs/benchmarks.md`). The shell-volume
+    /// projection after the solve thins the wall by what the step stretched it (Eq. 24-28),
+    /// so a solve with the thickness at its start sees a wall one step thicker than at its end: a splitting error of first order in `dt`, which
     /// raises the pressure of a slowly pumped balloon at 10 ms steps by several per cent
     /// against 2 ms steps (`docs/benchmarks.md`). With the prediction the solve uses
     /// `h_{n+1} ~ 2 h_n - h_{n-1}` (clamped to `[h_n / 2, 2 h_n]`; after a step of the same
