@@ -190,7 +190,12 @@ pub fn forward_check(
     let forward = |e: &dyn std::fmt::Display| DesignError::Forward(e.to_string());
     let mut shell = shell_from_rest(problem, rest)?;
     let mut x = rest.to_vec();
-    let mut solver = StaticSolver::new(*params).map_err(|e| forward(&e))?;
+    // A free body: its rigid motions are kept out of the Newton directions.
+    let mut solver = StaticSolver::new(StaticParams {
+        remove_rigid_motions: true,
+        ..*params
+    })
+    .map_err(|e| forward(&e))?;
     let (converged, relative_residual, iterations) = {
         let mut statics = StaticShell::new(&mut shell, GasTerm::Own, true);
         match solver.solve_with_continuation(&mut statics, 0.0, &mut x, None) {

@@ -105,6 +105,8 @@ impl<'a> ShapeObjective<'a> {
     ) -> Result<Self, DesignError> {
         let params = StaticParams {
             tolerance,
+            // A free body: its rigid motions are kept out of the Newton directions.
+            remove_rigid_motions: true,
             ..*forward
         };
         let solver = StaticSolver::new(params).map_err(|e| DesignError::Forward(e.to_string()))?;

@@ -51,13 +51,24 @@ pub const PARALLEL_FACTORIZATION_ROWS: usize = 20_000;
 #[derive(Default)]
 pub struct SparseCholesky {
     symbolic: Option<(u64, SymbolicCholesky<usize>)>,
+    /// The factor in double precision: computed by a double-precision factorisation, or the
+    /// single-precision factor widened (made at the first double-precision solve after a
+    /// single-precision factorisation; stale otherwise, see `values_current`).
     values: Vec<f64>,
-    /// A single-precision copy of `values` for [`SparseCholesky::set_single_precision_solves`]
-    /// (made at the first such solve after a factorisation; empty otherwise).
+    /// Whether `values` holds the current factor.
+    values_current: bool,
+    /// The factor in single precision: computed by a single-precision factorisation, or a
+    /// copy of `values` for [`SparseCholesky::set_single_precision_solves`] (made at the first
+    /// such solve after a double-precision factorisation; empty otherwise).
     values_f32: Vec<f32>,
+    /// The matrix rounded to single precision for a single-precision factorisation.
+    matrix_f32: Vec<f32>,
     /// The right-hand sides of a single-precision solve.
     rhs_f32: Vec<f32>,
     single_precision_solves: bool,
+    single_precision_factorization: bool,
+    /// Whether the current factor was computed in single precision.
+    factored_in_single: bool,
     workspace: Option<MemBuffer>,
     factorized: bool,
     n: usize,
@@ -141,6 +152,32 @@ impl SparseCholesky {
         let (Some((_, symbolic)), Some(work)) = (&self.symbolic, &mut self.workspace) else {
             return Err(SolveError::NotFactorized);
         };
+        if self.single_precision_factorization {
+            self.matrix_f32.clear();
+            self.matrix_f32.extend(a.values.iter().map(|&v| v as f32));
+            self.values_f32.clear();
+            self.values_f32.resize(symbolic.len_val(), 0.0);
+            let mat = SparseColMatRef::new(sym, &self.matrix_f32[..]);
+            let single = symbolic.factorize_numeric_llt::<f32>(
+                &mut self.values_f32,
+                mat,
+                Side::Lower,
+                LltRegularization::default(),
+                par,
+                MemStack::new(work),
+                Default::default(),
+            );
+            if single.is_ok() {
+                self.factorized = true;
+                self.factored_in_single = true;
+                self.values_current = false;
+                self.n = a.n;
+                return Ok(());
+            }
+            // A non-positive pivot in single precision may be the rounding of a positive
+            // definite but ill-conditioned matrix: only the double-precision factorisation
+            // below decides that the matrix is not positive definite.
+        }
         let mat = SparseColMatRef::new(sym, &a.values);
         symbolic
             .factorize_numeric_llt(
@@ -162,6 +199,8 @@ impl SparseCholesky {
                 },
             )?;
         self.factorized = true;
+        self.factored_in_single = false;
+        self.values_current = true;
         self.values_f32.clear();
         self.n = a.n;
         Ok(())
@@ -197,10 +236,32 @@ impl SparseCholesky {
         self.single_precision_solves = single;
     }
 
+    /// Computes the factor in single precision (`true`) or in double precision (`false`, the
+    /// default) from the next [`SparseCholesky::factorize`] on. The numeric factorisation,
+    /// bound by memory traffic and by its dense kernels' width, takes about two thirds of the
+    /// time (a third less on the peer sphere's static matrix, n = 30726); the factor is that of
+    /// the matrix rounded to about 7 digits, good for a preconditioner, not for a direct solve.
+    /// Solves use it in single precision with [`SparseCholesky::set_single_precision_solves`],
+    /// else widened to double precision (the exact solve of the rounded factor, a fixed linear
+    /// operator for CG's tight solves). When the single-precision factorisation meets a
+    /// non-positive pivot (an indefinite matrix, or the rounding of an ill-conditioned one) the
+    /// matrix is factorised again in double precision, which alone reports
+    /// [`SolveError::NotPositiveDefinite`].
+    pub fn set_single_precision_factorization(&mut self, single: bool) {
+        self.single_precision_factorization = single;
+    }
+
+    /// Whether the current factor was computed in single precision
+    /// ([`SparseCholesky::set_single_precision_factorization`]; `false` before the first
+    /// factorisation).
+    pub fn factored_in_single_precision(&self) -> bool {
+        self.factorized && self.factored_in_single
+    }
+
     /// Stored entries of the factor `L` (its fill, from the symbolic analysis; 0 before the
     /// first factorisation).
     pub fn factor_entries(&self) -> usize {
-        self.values.len()
+        self.symbolic.as_ref().map_or(0, |(_, s)| s.len_val())
     }
 
     /// Whether the last [`SparseCholesky::factorize`] succeeded (a factor is available).
@@ -275,7 +336,7 @@ impl SparseCholesky {
         }
         let columns = rhs.len() / n;
         if self.single_precision_solves {
-            if self.values_f32.len() != self.values.len() {
+            if !self.factored_in_single && self.values_f32.len() != self.values.len() {
                 self.values_f32.clear();
                 self.values_f32
                     .extend(self.values.iter().map(|&v| v as f32));
@@ -293,6 +354,13 @@ impl SparseCholesky {
                 *out = f64::from(v);
             }
             return Ok(());
+        }
+        if !self.values_current {
+            // The single-precision factor, widened: solved in double precision.
+            self.values.clear();
+            self.values
+                .extend(self.values_f32.iter().map(|&v| f64::from(v)));
+            self.values_current = true;
         }
         let m = faer::MatMut::from_column_major_slice_mut(rhs, n, columns);
         LltRef::new(symbolic, &self.values).solve_in_place_with_conj(

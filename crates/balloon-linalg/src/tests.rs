@@ -272,6 +272,8 @@ fn factorized_pcg_preconditions_the_low_rank_term_and_amortises_refreshes() {
             relative_tolerance: 1e-9,
         },
         refactor_cost: 6,
+        // The exact factor: a fresh one with the rank-1 update is the matrix itself.
+        single_precision_factorization: false,
         ..FactorizedPcgParams::default()
     });
     let mut iterations = Vec::new();
@@ -921,6 +923,122 @@ fn sparse_cholesky_single_precision_solves_follow_the_factor() {
                 .zip(&double)
                 .all(|(p, q)| p.to_bits() == q.to_bits()),
             "round {round}"
+        );
+    }
+}
+
+/// A single-precision factorisation: its solves (in single precision, and widened to double)
+/// are within single-precision round-off of the exact answer but not equal to the
+/// double-precision factor's; the widened factor follows a refactorisation with new values.
+#[test]
+fn sparse_cholesky_single_precision_factorization_solves_within_round_off() {
+    let n = 50;
+    let t = spd_triplets(n, 41);
+    let b = Rng::new(9).vector(n);
+    let mut asm = SparseAssembler::new();
+    let mut double = SparseCholesky::new();
+    let mut single = SparseCholesky::new();
+    single.set_single_precision_factorization(true);
+    for (round, diagonal) in [1.0, 7.0].into_iter().enumerate() {
+        asm.assemble(&vec![diagonal; n], 1.0, &t, 1.0).unwrap();
+        double
+            .factorize(asm.matrix(), asm.pattern_version())
+            .unwrap();
+        single
+            .factorize(asm.matrix(), asm.pattern_version())
+            .unwrap();
+        assert!(!double.factored_in_single_precision());
+        assert!(single.factored_in_single_precision(), "round {round}");
+        let reference = (dense(n, &t) + DMatrix::identity(n, n) * diagonal)
+            .lu()
+            .solve(&DVector::from_column_slice(&b))
+            .unwrap();
+        let scale = reference.amax();
+        let mut exact = b.clone();
+        double.solve_in_place(&mut exact).unwrap();
+        for solves_in_single in [false, true] {
+            single.set_single_precision_solves(solves_in_single);
+            let mut x = b.clone();
+            single.solve_in_place(&mut x).unwrap();
+            let gap = (0..n).fold(0.0f64, |m, i| m.max((x[i] - reference[i]).abs()));
+            let from_double = (0..n).fold(0.0f64, |m, i| m.max((x[i] - exact[i]).abs()));
+            assert!(gap <= 1e-5 * scale, "round {round}: {gap:e}");
+            assert!(
+                from_double > 1e-12 * scale,
+                "round {round}: not the single-precision factor"
+            );
+        }
+        single.set_single_precision_solves(false);
+    }
+}
+
+/// A positive definite matrix whose rounding to single precision is singular (a non-positive
+/// pivot in single precision) is factorised in double precision instead, and solved exactly;
+/// an indefinite matrix is still reported as not positive definite.
+#[test]
+fn single_precision_factorization_falls_back_to_double_and_still_reports_indefinite() {
+    // [[1, c], [c, 1]] with 1 - c = 1e-9: positive definite (eigenvalues 1e-9 and 2 - 1e-9),
+    // but c rounds to 1 in single precision.
+    let c = 1.0 - 1e-9;
+    let t = vec![(0, 1, c), (1, 0, c)];
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&[1.0, 1.0], 1.0, &t, 1.0).unwrap();
+    let mut chol = SparseCholesky::new();
+    chol.set_single_precision_factorization(true);
+    chol.factorize(asm.matrix(), asm.pattern_version()).unwrap();
+    assert!(!chol.factored_in_single_precision());
+    // A x = (1 + c, 1 + c) has the solution (1, 1).
+    let mut x = vec![1.0 + c, 1.0 + c];
+    chol.solve_in_place(&mut x).unwrap();
+    assert!(
+        (x[0] - 1.0).abs() < 1e-6 && (x[1] - 1.0).abs() < 1e-6,
+        "{x:?}"
+    );
+    // [[1, 2], [2, 1]] is indefinite.
+    let t = vec![(0, 1, 2.0), (1, 0, 2.0)];
+    asm.assemble(&[1.0, 1.0], 1.0, &t, 1.0).unwrap();
+    assert!(matches!(
+        chol.factorize(asm.matrix(), asm.pattern_version()),
+        Err(SolveError::NotPositiveDefinite { .. })
+    ));
+    assert!(!chol.is_factorized());
+}
+
+/// The kept-factor solver with its factor computed in single precision (the default) meets
+/// loose and tight tolerances against a dense solve, and its answers differ from those with a
+/// double-precision factor (the option is in effect).
+#[test]
+fn factorized_pcg_with_a_single_precision_factor_meets_its_tolerance() {
+    let n = 60;
+    let t = spd_triplets(n, 43);
+    let masses = vec![1.0; n];
+    let b = Rng::new(11).vector(n);
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&masses, 1.0, &t, 1.0).unwrap();
+    let problem = LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 1.0, &[]);
+    let a = dense(n, &t) + DMatrix::identity(n, n);
+    let bv = DVector::from_column_slice(&b);
+    let solve = |single_factor: bool, tolerance: f64| {
+        let mut solver = FactorizedPcg::new(FactorizedPcgParams {
+            cg: CgParams {
+                max_iterations: 50,
+                relative_tolerance: tolerance,
+            },
+            single_precision_factorization: single_factor,
+            ..FactorizedPcgParams::default()
+        });
+        let mut x = vec![0.0; n];
+        let info = solver.solve(&problem, &b, &mut x).unwrap();
+        assert!(info.converged, "{info:?}");
+        let residual = (&bv - &a * DVector::from_column_slice(&x)).norm() / bv.norm();
+        assert!(residual <= tolerance, "{residual:e} > {tolerance:e}");
+        x
+    };
+    assert!(FactorizedPcgParams::default().single_precision_factorization);
+    for tolerance in [1e-3, 1e-10] {
+        assert!(
+            solve(true, tolerance) != solve(false, tolerance),
+            "tolerance {tolerance:e}: the factor was not computed in single precision"
         );
     }
 }

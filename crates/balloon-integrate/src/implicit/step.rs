@@ -359,6 +359,7 @@ impl BackwardEuler {
             stall_test: !paper_mode && !p.accept_unconverged,
             fixed_steps: paper_mode,
             accept_unconverged: p.accept_unconverged,
+            remove_rigid_motions: false,
         };
         let mut record = NewtonRecord::default();
         let outcome = self.core.minimize(

@@ -23,6 +23,7 @@ pub mod line_search;
 mod linear;
 mod objective;
 pub mod regularization;
+pub(crate) mod rigid;
 
 pub use cancel::{cancel_requested, set_cancel_check, without_cancel};
 pub use convergence::{MAX_NEWTON_ITERATIONS, NEWTON_STALL_WINDOW, Residual};
@@ -61,6 +62,10 @@ pub(crate) struct Settings {
     /// Stop at the last accepted iterate, without an error, when the line search finds no
     /// acceptable step and the regularisation would fail the solve.
     pub(crate) accept_unconverged: bool,
+    /// Remove the rigid motions (about the current `u` read as points) from every direction,
+    /// `M`-orthogonally: a free body in a static solve, whose residual has no component along
+    /// them, so the slope `r . du` and the line search are unchanged.
+    pub(crate) remove_rigid_motions: bool,
 }
 
 /// What one Newton solve did, iteration by iteration.
@@ -235,6 +240,10 @@ impl NewtonCore {
                 self.direction(system, m_coef, k_coef, k, regularization, record)?
             };
             last_solve_reused = chord;
+            if settings.remove_rigid_motions && n.is_multiple_of(3) {
+                let basis = rigid::rigid_basis(system.masses(), u);
+                rigid::m_orthogonalize(system.masses(), &basis, &mut self.direction);
+            }
             record.linear_iterations.push(lin.iterations);
             record.linear_residuals.push(lin.relative_residual);
             if settings.fixed_steps {

@@ -26,7 +26,9 @@
 //! non-positive pivot or the direction is not a descent direction, and never falls below
 //! [`StaticParams::min_shift`]` mu_ref`. Near the solution the shift is tiny and Newton
 //! converges quadratically on the exact Hessian; the rigid motions stay undetermined only up to
-//! what the shift leaves of round-off (the residual has no component along them).
+//! what the shift leaves of round-off (the residual has no component along them), or of the
+//! preconditioner's rounding: a free body's solve removes them from every direction
+//! ([`StaticParams::remove_rigid_motions`]; the shell sets it when nothing is pinned).
 //!
 //! # Reused factorisations
 //!

@@ -297,6 +297,7 @@ impl StaticSolver {
             stall_test: false,
             fixed_steps: false,
             accept_unconverged: false,
+            remove_rigid_motions: p.remove_rigid_motions,
         };
         self.last_stalled = false;
         // Newton in windows of `stall_window` iterations (the same iterates as one call: the

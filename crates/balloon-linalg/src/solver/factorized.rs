@@ -57,6 +57,14 @@ pub struct FactorizedPcgParams {
     /// well as the exact one. Tighter solves use the factor itself.
     #[serde(default = "default_true")]
     pub single_precision_solves: bool,
+    /// Compute the factor itself in single precision (default `true`;
+    /// [`SparseCholesky::set_single_precision_factorization`]): it only preconditions CG,
+    /// which applies the double-precision matrix, so a solve still meets its tolerance. A
+    /// solve asked for less than [`SINGLE_PRECISION_MIN_TOLERANCE`] applies the rounded factor
+    /// in double-precision arithmetic. A non-positive pivot in single precision is checked by
+    /// a double-precision factorisation before the matrix is called indefinite.
+    #[serde(default = "default_true")]
+    pub single_precision_factorization: bool,
 }
 
 fn default_true() -> bool {
@@ -82,6 +90,7 @@ impl Default for FactorizedPcgParams {
             refactor_cost: 0,
             lag_low_rank: true,
             single_precision_solves: true,
+            single_precision_factorization: true,
         }
     }
 }
@@ -336,6 +345,8 @@ impl LinearSolver for FactorizedPcg {
             self.params.single_precision_solves
                 && self.params.cg.relative_tolerance >= SINGLE_PRECISION_MIN_TOLERANCE,
         );
+        self.cholesky
+            .set_single_precision_factorization(self.params.single_precision_factorization);
         let mut fresh = false;
         if self.fresh_solves_left > 0
             || !self.cholesky.is_factorized()

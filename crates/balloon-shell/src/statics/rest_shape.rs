@@ -136,12 +136,18 @@ impl<M: ShellMaterial, G: GasModel> ShellSimulation<M, G> {
         } else {
             (!self.external_forces.is_empty()).then(|| self.external_forces.clone())
         };
-        let mut solver =
-            StaticSolver::new(options.solver).map_err(|source| ShellError::Static {
-                outer: 0,
-                newton_iterations: 0,
-                source: Box::new(source),
-            })?;
+        // A free body (nothing pinned, no external force): its rigid motions are removed from
+        // the Newton directions (`StaticParams::remove_rigid_motions`).
+        let free = !pinned && external.is_none();
+        let mut solver = StaticSolver::new(StaticParams {
+            remove_rigid_motions: options.solver.remove_rigid_motions || free,
+            ..options.solver
+        })
+        .map_err(|source| ShellError::Static {
+            outer: 0,
+            newton_iterations: 0,
+            source: Box::new(source),
+        })?;
         // Each outer solve starts from the last one's equilibrium and shift.
         solver.set_warm_start(true);
         let mut x = self.x.clone();
