@@ -35,6 +35,28 @@ fn max_par() -> Par {
     }
 }
 
+/// The numeric `L L^T` factorisation of `a` (lower triangle) into `values`, in the precision
+/// `T`, on the symbolic analysis `symbolic`.
+fn numeric_llt<T: faer::traits::ComplexField>(
+    symbolic: &SymbolicCholesky<usize>,
+    values: &mut [T],
+    a: SparseColMatRef<'_, usize, T>,
+    par: Par,
+    work: &mut MemBuffer,
+) -> Result<(), LltError> {
+    symbolic
+        .factorize_numeric_llt(
+            values,
+            a,
+            Side::Lower,
+            LltRegularization::default(),
+            par,
+            MemStack::new(work),
+            Default::default(),
+        )
+        .map(|_| ())
+}
+
 /// Right-hand sides [`SparseCholesky::solve_columns_in_place`] solves in one pass over the
 /// factor (more are taken in groups of this many).
 pub const SOLVE_BATCH_COLUMNS: usize = 4;
@@ -158,16 +180,7 @@ impl SparseCholesky {
             self.values_f32.clear();
             self.values_f32.resize(symbolic.len_val(), 0.0);
             let mat = SparseColMatRef::new(sym, &self.matrix_f32[..]);
-            let single = symbolic.factorize_numeric_llt::<f32>(
-                &mut self.values_f32,
-                mat,
-                Side::Lower,
-                LltRegularization::default(),
-                par,
-                MemStack::new(work),
-                Default::default(),
-            );
-            if single.is_ok() {
+            if numeric_llt(symbolic, &mut self.values_f32, mat, par, work).is_ok() {
                 self.factorized = true;
                 self.factored_in_single = true;
                 self.values_current = false;
@@ -179,25 +192,15 @@ impl SparseCholesky {
             // below decides that the matrix is not positive definite.
         }
         let mat = SparseColMatRef::new(sym, &a.values);
-        symbolic
-            .factorize_numeric_llt(
-                &mut self.values,
-                mat,
-                Side::Lower,
-                LltRegularization::default(),
-                par,
-                MemStack::new(work),
-                Default::default(),
-            )
-            .map_err(
-                |LltError::NonPositivePivot { index }| SolveError::NotPositiveDefinite {
-                    method: "sparse Cholesky",
-                    n: a.n,
-                    nnz: a.nnz(),
-                    pivot: Some(index),
-                    shift: 0.0,
-                },
-            )?;
+        numeric_llt(symbolic, &mut self.values, mat, par, work).map_err(
+            |LltError::NonPositivePivot { index }| SolveError::NotPositiveDefinite {
+                method: "sparse Cholesky",
+                n: a.n,
+                nnz: a.nnz(),
+                pivot: Some(index),
+                shift: 0.0,
+            },
+        )?;
         self.factorized = true;
         self.factored_in_single = false;
         self.values_current = true;
