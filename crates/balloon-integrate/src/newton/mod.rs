@@ -125,6 +125,8 @@ pub(crate) struct NewtonCore {
     direction: Vec<f64>,
     /// The unknowns of a line-search trial.
     trial: Vec<f64>,
+    /// The rigid motions removed from a free body's directions (`Settings::remove_rigid_motions`).
+    rigid: Vec<Vec<f64>>,
 }
 
 impl NewtonCore {
@@ -136,6 +138,7 @@ impl NewtonCore {
             times: PhaseTimes::default(),
             direction: Vec::new(),
             trial: Vec::new(),
+            rigid: Vec::new(),
         }
     }
 
@@ -241,8 +244,8 @@ impl NewtonCore {
             };
             last_solve_reused = chord;
             if settings.remove_rigid_motions && n.is_multiple_of(3) {
-                let basis = rigid::rigid_basis(system.masses(), u);
-                rigid::m_orthogonalize(system.masses(), &basis, &mut self.direction);
+                rigid::rigid_basis_into(system.masses(), u, &mut self.rigid);
+                rigid::m_orthogonalize(system.masses(), &self.rigid, &mut self.direction);
             }
             record.linear_iterations.push(lin.iterations);
             record.linear_residuals.push(lin.relative_residual);

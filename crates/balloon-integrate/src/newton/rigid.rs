@@ -20,6 +20,14 @@ pub(crate) fn m_orthogonalize(m: &[f64], basis: &[Vec<f64>], v: &mut [f64]) {
 /// The six rigid motions of the points `x` (translations, rotations about the mass centre),
 /// `M`-orthonormalised; fewer when the points do not span them (a segment has five).
 pub(crate) fn rigid_basis(m: &[f64], x: &[f64]) -> Vec<Vec<f64>> {
+    let mut basis = Vec::new();
+    rigid_basis_into(m, x, &mut basis);
+    basis
+}
+
+/// [`rigid_basis`] into `basis`, reusing its vectors (once per Newton iteration of a free
+/// body's static solve).
+pub(crate) fn rigid_basis_into(m: &[f64], x: &[f64], basis: &mut Vec<Vec<f64>>) {
     let n = x.len();
     let mut c = [0.0; 3];
     let mut total = 0.0;
@@ -32,9 +40,11 @@ pub(crate) fn rigid_basis(m: &[f64], x: &[f64]) -> Vec<Vec<f64>> {
     if total > 0.0 {
         c.iter_mut().for_each(|c| *c /= total);
     }
-    let mut basis: Vec<Vec<f64>> = Vec::with_capacity(6);
+    let mut spare = std::mem::take(basis);
     for d in 0..6 {
-        let mut v = vec![0.0; n];
+        let mut v = spare.pop().unwrap_or_default();
+        v.clear();
+        v.resize(n, 0.0);
         for (i, p) in x.chunks_exact(3).enumerate() {
             let r = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
             if d < 3 {
@@ -53,12 +63,13 @@ pub(crate) fn rigid_basis(m: &[f64], x: &[f64]) -> Vec<Vec<f64>> {
             }
         }
         let before = m_dot(m, &v, &v).sqrt();
-        m_orthogonalize(m, &basis, &mut v);
+        m_orthogonalize(m, basis, &mut v);
         let norm = m_dot(m, &v, &v).sqrt();
         if before > 0.0 && norm > 1e-8 * before {
             v.iter_mut().for_each(|v| *v /= norm);
             basis.push(v);
+        } else {
+            spare.push(v);
         }
     }
-    basis
 }
