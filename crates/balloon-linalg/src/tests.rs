@@ -1004,6 +1004,32 @@ fn single_precision_factorization_falls_back_to_double_and_still_reports_indefin
     assert!(!chol.is_factorized());
 }
 
+/// Solves `problem` from zero with a kept-factor solver of `params` (CG to `tolerance`, at most
+/// 50 iterations), checks that it converged and that its residual against the dense matrix
+/// `a` is within the tolerance, and returns the solution.
+fn factorized_pcg_against_dense(
+    problem: &LinearProblem<'_>,
+    a: &DMatrix<f64>,
+    b: &[f64],
+    params: FactorizedPcgParams,
+    tolerance: f64,
+) -> Vec<f64> {
+    let mut solver = FactorizedPcg::new(FactorizedPcgParams {
+        cg: CgParams {
+            max_iterations: 50,
+            relative_tolerance: tolerance,
+        },
+        ..params
+    });
+    let mut x = vec![0.0; b.len()];
+    let info = solver.solve(problem, b, &mut x).unwrap();
+    assert!(info.converged, "{info:?}");
+    let bv = DVector::from_column_slice(b);
+    let residual = (&bv - a * DVector::from_column_slice(&x)).norm() / bv.norm();
+    assert!(residual <= tolerance, "{residual:e} > {tolerance:e}");
+    x
+}
+
 /// The kept-factor solver with its factor computed in single precision (the default) meets
 /// loose and tight tolerances against a dense solve, and its answers differ from those with a
 /// double-precision factor (the option is in effect).
@@ -1017,22 +1043,12 @@ fn factorized_pcg_with_a_single_precision_factor_meets_its_tolerance() {
     asm.assemble(&masses, 1.0, &t, 1.0).unwrap();
     let problem = LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 1.0, &[]);
     let a = dense(n, &t) + DMatrix::identity(n, n);
-    let bv = DVector::from_column_slice(&b);
     let solve = |single_factor: bool, tolerance: f64| {
-        let mut solver = FactorizedPcg::new(FactorizedPcgParams {
-            cg: CgParams {
-                max_iterations: 50,
-                relative_tolerance: tolerance,
-            },
+        let params = FactorizedPcgParams {
             single_precision_factorization: single_factor,
             ..FactorizedPcgParams::default()
-        });
-        let mut x = vec![0.0; n];
-        let info = solver.solve(&problem, &b, &mut x).unwrap();
-        assert!(info.converged, "{info:?}");
-        let residual = (&bv - &a * DVector::from_column_slice(&x)).norm() / bv.norm();
-        assert!(residual <= tolerance, "{residual:e} > {tolerance:e}");
-        x
+        };
+        factorized_pcg_against_dense(&problem, &a, &b, params, tolerance)
     };
     assert!(FactorizedPcgParams::default().single_precision_factorization);
     for tolerance in [1e-3, 1e-10] {
@@ -1063,22 +1079,12 @@ fn factorized_pcg_uses_the_single_precision_factor_for_loose_solves_only() {
         LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 1.0, &low_rank);
     let u = DVector::from_column_slice(&low_rank[0].vector);
     let a = dense(n, &t) + DMatrix::identity(n, n) + &u * u.transpose() * 20.0;
-    let bv = DVector::from_column_slice(&b);
     let solve = |single: bool, tolerance: f64| {
-        let mut solver = FactorizedPcg::new(FactorizedPcgParams {
-            cg: CgParams {
-                max_iterations: 50,
-                relative_tolerance: tolerance,
-            },
+        let params = FactorizedPcgParams {
             single_precision_solves: single,
             ..FactorizedPcgParams::default()
-        });
-        let mut x = vec![0.0; n];
-        let info = solver.solve(&problem, &b, &mut x).unwrap();
-        assert!(info.converged, "{info:?}");
-        let residual = (&bv - &a * DVector::from_column_slice(&x)).norm() / bv.norm();
-        assert!(residual <= tolerance, "{residual:e} > {tolerance:e}");
-        x
+        };
+        factorized_pcg_against_dense(&problem, &a, &b, params, tolerance)
     };
     let loose = 10.0 * SINGLE_PRECISION_MIN_TOLERANCE;
     let (single, double) = (solve(true, loose), solve(false, loose));
