@@ -87,6 +87,18 @@ impl ForceSystem for SpringBalloon {
             .map_err(|e| SystemError::component("gas", e))?;
         Ok(())
     }
+    fn potential_energy(&mut self, time: f64, x: &[f64]) -> Result<Option<f64>, SystemError> {
+        let springs: f64 = self
+            .edges
+            .iter()
+            .map(|&(i, j, l0)| 0.5 * self.stiffness * ((v3(x, i) - v3(x, j)).norm() - l0).powi(2))
+            .sum();
+        let gas = self
+            .gas
+            .potential_at(time, x, &self.tris)
+            .map_err(|e| SystemError::component("gas", e))?;
+        Ok(gas.map(|g| g + springs))
+    }
     fn add_force_differential(&self, dx: &[f64], df: &mut [f64]) {
         for &(i, j, l0) in &self.edges {
             let d = self.block(i, j, l0) * (v3(dx, i) - v3(dx, j));
@@ -188,4 +200,68 @@ fn follower_term_restores_quadratic_newton_convergence() {
         assert!(rw[3] <= 100.0 * rw[2] * rw[2], "{rw:?}");
         assert!(rw[3] < 0.1 * ro[3], "{rw:?} vs {ro:?}");
     }
+}
+
+/// A kept-factor solver that records what the Newton core tells it about shift retries.
+#[derive(Debug)]
+struct RecordingSolver {
+    inner: balloon_integrate::linear::FactorizedPcg,
+    retries: std::sync::Arc<std::sync::Mutex<Vec<bool>>>,
+}
+
+impl balloon_integrate::linear::LinearSolver for RecordingSolver {
+    fn name(&self) -> &str {
+        "recording"
+    }
+    fn needs_assembled_matrix(&self) -> bool {
+        true
+    }
+    fn set_shift_retries(&mut self, retries: bool) {
+        self.retries.lock().unwrap().push(retries);
+        self.inner.set_shift_retries(retries);
+    }
+    fn solve(
+        &mut self,
+        problem: &balloon_integrate::linear::LinearProblem<'_>,
+        b: &[f64],
+        x: &mut [f64],
+    ) -> Result<balloon_integrate::linear::SolveInfo, balloon_integrate::linear::SolveError> {
+        self.inner.solve(problem, b, x)
+    }
+}
+
+/// The Newton core lets the linear solver call a matrix indefinite from a cheaper test
+/// (`LinearSolver::set_shift_retries`) in a time step, whose mass term and shift ladder make a
+/// wrong verdict cost only a larger shift, and never in a static solve, whose conditioning is
+/// the Levenberg-Marquardt shift alone.
+#[test]
+fn only_time_steps_let_the_linear_solver_give_a_cheap_indefinite_verdict() {
+    use balloon_integrate::statics::{StaticParams, StaticSolver};
+    let recorded = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let solver = || {
+        Box::new(RecordingSolver {
+            inner: balloon_integrate::linear::FactorizedPcg::default(),
+            retries: std::sync::Arc::clone(&recorded),
+        })
+    };
+    let (mut sys, mut x) = SpringBalloon::new(1, false, 1.0);
+    let mut v = vec![0.0; x.len()];
+    let mut be = BackwardEuler::new(BackwardEulerParams::default())
+        .expect("valid parameters")
+        .with_linear_solver(solver());
+    be.step(&mut sys, 0.0, 2e-3, &mut x, &mut v, None)
+        .expect("step");
+    let dynamic = std::mem::take(&mut *recorded.lock().unwrap());
+    assert!(
+        !dynamic.is_empty() && dynamic.iter().all(|&r| r),
+        "{dynamic:?}"
+    );
+    let mut statics = StaticSolver::new(StaticParams::default())
+        .expect("valid parameters")
+        .with_linear_solver(solver());
+    statics
+        .solve(&mut sys, 0.0, &mut x, None)
+        .expect("static solve");
+    let fixed = recorded.lock().unwrap().clone();
+    assert!(!fixed.is_empty() && fixed.iter().all(|&r| !r), "{fixed:?}");
 }

@@ -89,6 +89,8 @@ pub struct SparseCholesky {
     rhs_f32: Vec<f32>,
     single_precision_solves: bool,
     single_precision_factorization: bool,
+    /// A non-positive pivot in single precision is final (no double-precision check).
+    single_precision_verdict: bool,
     /// Whether the current factor was computed in single precision.
     factored_in_single: bool,
     workspace: Option<MemBuffer>,
@@ -180,16 +182,28 @@ impl SparseCholesky {
             self.values_f32.clear();
             self.values_f32.resize(symbolic.len_val(), 0.0);
             let mat = SparseColMatRef::new(sym, &self.matrix_f32[..]);
-            if numeric_llt(symbolic, &mut self.values_f32, mat, par, work).is_ok() {
-                self.factorized = true;
-                self.factored_in_single = true;
-                self.values_current = false;
-                self.n = a.n;
-                return Ok(());
+            match numeric_llt(symbolic, &mut self.values_f32, mat, par, work) {
+                Ok(()) => {
+                    self.factorized = true;
+                    self.factored_in_single = true;
+                    self.values_current = false;
+                    self.n = a.n;
+                    return Ok(());
+                }
+                Err(LltError::NonPositivePivot { index }) if self.single_precision_verdict => {
+                    return Err(SolveError::NotPositiveDefinite {
+                        method: "sparse Cholesky (single precision)",
+                        n: a.n,
+                        nnz: a.nnz(),
+                        pivot: Some(index),
+                        shift: 0.0,
+                    });
+                }
+                // A non-positive pivot in single precision may be the rounding of a positive
+                // definite but ill-conditioned matrix: only the double-precision
+                // factorisation below decides that the matrix is not positive definite.
+                Err(_) => {}
             }
-            // A non-positive pivot in single precision may be the rounding of a positive
-            // definite but ill-conditioned matrix: only the double-precision factorisation
-            // below decides that the matrix is not positive definite.
         }
         let mat = SparseColMatRef::new(sym, &a.values);
         numeric_llt(symbolic, &mut self.values, mat, par, work).map_err(
@@ -252,6 +266,17 @@ impl SparseCholesky {
     /// [`SolveError::NotPositiveDefinite`].
     pub fn set_single_precision_factorization(&mut self, single: bool) {
         self.single_precision_factorization = single;
+    }
+
+    /// Makes a non-positive pivot of the single-precision factorisation
+    /// ([`SparseCholesky::set_single_precision_factorization`]) final (`true`): the matrix is
+    /// reported not positive definite without the double-precision factorisation that would
+    /// otherwise check it (default `false`). For a caller that answers such a verdict with a
+    /// larger diagonal shift (a Newton shift ladder): a positive definite matrix whose rounding
+    /// to 7 digits is not costs it a larger shift, never a wrong answer, and an indefinite one
+    /// costs one failed factorisation instead of two.
+    pub fn set_single_precision_verdict(&mut self, final_verdict: bool) {
+        self.single_precision_verdict = final_verdict;
     }
 
     /// Whether the current factor was computed in single precision

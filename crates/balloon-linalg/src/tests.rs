@@ -1004,6 +1004,43 @@ fn single_precision_factorization_falls_back_to_double_and_still_reports_indefin
     assert!(!chol.is_factorized());
 }
 
+/// A kept-factor solver whose caller retries with a larger shift
+/// (`LinearSolver::set_shift_retries`) calls a matrix indefinite from its single-precision
+/// factorisation alone; without retries (or with `single_precision_verdict` off) the double-
+/// precision check still solves the positive definite matrix whose rounding is singular.
+#[test]
+fn factorized_pcg_gives_the_single_precision_verdict_only_to_a_shift_ladder() {
+    // [[1, c], [c, 1]] with 1 - c = 1e-9: positive definite, but singular in single precision.
+    let c = 1.0 - 1e-9;
+    let t = vec![(0, 1, c), (1, 0, c)];
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&[1.0, 1.0], 1.0, &t, 1.0).unwrap();
+    let problem = LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 1.0, &[]);
+    let b = [1.0 + c, 1.0 + c];
+    let solve = |retries: bool, verdict: bool| {
+        let mut solver = FactorizedPcg::new(FactorizedPcgParams {
+            single_precision_verdict: verdict,
+            ..FactorizedPcgParams::default()
+        });
+        solver.set_shift_retries(retries);
+        let mut x = vec![0.0; 2];
+        solver.solve(&problem, &b, &mut x).map(|_| x)
+    };
+    match solve(true, true) {
+        Err(SolveError::NotPositiveDefinite { method, .. }) => {
+            assert_eq!(method, "sparse Cholesky (single precision)");
+        }
+        other => panic!("expected the single-precision verdict, got {other:?}"),
+    }
+    for (retries, verdict) in [(false, true), (true, false)] {
+        let x = solve(retries, verdict).unwrap();
+        assert!(
+            (x[0] - 1.0).abs() < 1e-5 && (x[1] - 1.0).abs() < 1e-5,
+            "retries {retries}, verdict {verdict}: {x:?}"
+        );
+    }
+}
+
 /// Solves `problem` from zero with a kept-factor solver of `params` (CG to `tolerance`, at most
 /// 50 iterations), checks that it converged and that its residual against the dense matrix
 /// `a` is within the tolerance, and returns the solution.

@@ -409,6 +409,9 @@ impl NewtonCore {
         record: &mut NewtonRecord,
     ) -> Result<SolveInfo, NewtonError> {
         self.matrix.linearize(system, k, &mut self.times)?;
+        self.matrix
+            .solver
+            .set_shift_retries(regularization.retries_with_mass(m_coef));
         let mut shift = regularization.first_shift(k, m_coef);
         let mut retries = 0;
         loop {

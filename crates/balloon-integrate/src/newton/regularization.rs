@@ -74,6 +74,17 @@ pub(crate) enum NoStep {
 }
 
 impl Regularization {
+    /// Whether a solve reported indefinite is retried with a larger mass shift on a matrix
+    /// with a mass term of its own (`m_coef > 0`, a time step): the backward-Euler ladder.
+    /// The linear solver may then call a matrix indefinite from a cheaper test
+    /// (`LinearSolver::set_shift_retries`). Static solves (`m_coef = 0`) keep the exact
+    /// verdict: their Levenberg-Marquardt shift is all that conditions the matrix, and a
+    /// positive definite matrix called indefinite would shift them off Newton's quadratic
+    /// convergence.
+    pub(crate) fn retries_with_mass(&self, m_coef: f64) -> bool {
+        matches!(self, Self::RetryShift { enabled: true, .. }) && m_coef > 0.0
+    }
+
     /// The shift (added to `m_coef`) of the first solve of Newton iteration `k`.
     pub(crate) fn first_shift(&self, k: usize, m_coef: f64) -> f64 {
         match *self {

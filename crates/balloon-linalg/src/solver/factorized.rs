@@ -65,6 +65,12 @@ pub struct FactorizedPcgParams {
     /// a double-precision factorisation before the matrix is called indefinite.
     #[serde(default = "default_true")]
     pub single_precision_factorization: bool,
+    /// When the caller retries with a larger shift ([`LinearSolver::set_shift_retries`]),
+    /// call the matrix indefinite as soon as its single-precision factorisation meets a
+    /// non-positive pivot, without the double-precision check (default `true`;
+    /// [`SparseCholesky::set_single_precision_verdict`]).
+    #[serde(default = "default_true")]
+    pub single_precision_verdict: bool,
 }
 
 fn default_true() -> bool {
@@ -91,6 +97,7 @@ impl Default for FactorizedPcgParams {
             lag_low_rank: true,
             single_precision_solves: true,
             single_precision_factorization: true,
+            single_precision_verdict: true,
         }
     }
 }
@@ -160,6 +167,9 @@ pub struct FactorizedPcg {
     /// CG iterations beyond `fresh_iterations` summed over the solves with a kept factor since
     /// the last factorisation ([`FactorizedPcgParams::refactor_cost`]).
     excess_iterations: usize,
+    /// The caller retries a matrix called indefinite with a larger shift
+    /// ([`LinearSolver::set_shift_retries`]).
+    shift_retries: bool,
 }
 
 impl FactorizedPcg {
@@ -326,6 +336,10 @@ impl LinearSolver for FactorizedPcg {
     }
 
     /// The next solve refactorises first (then the kept factor is used again as usual).
+    fn set_shift_retries(&mut self, retries: bool) {
+        self.shift_retries = retries;
+    }
+
     fn invalidate_factorization(&mut self) {
         self.fresh_solves_left = self.fresh_solves_left.max(1);
     }
@@ -347,6 +361,9 @@ impl LinearSolver for FactorizedPcg {
         );
         self.cholesky
             .set_single_precision_factorization(self.params.single_precision_factorization);
+        self.cholesky.set_single_precision_verdict(
+            self.shift_retries && self.params.single_precision_verdict,
+        );
         let mut fresh = false;
         if self.fresh_solves_left > 0
             || !self.cholesky.is_factorized()

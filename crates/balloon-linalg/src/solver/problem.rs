@@ -272,4 +272,10 @@ pub trait LinearSolver: std::fmt::Debug + Send {
     /// the Newton step it serves). Iterative solvers take it; the default does nothing (a
     /// direct solver solves to round-off).
     fn set_relative_tolerance(&mut self, _tolerance: f64) {}
+
+    /// Tells the solver whether its caller answers a [`SolveError::NotPositiveDefinite`] with
+    /// a larger diagonal shift and a new solve (a Newton core's shift ladder, `true`), so that
+    /// the solver may give that verdict from a cheaper, less precise test: a wrong verdict then
+    /// costs a larger shift, not a wrong answer. Default: ignored (every verdict is exact).
+    fn set_shift_retries(&mut self, _retries: bool) {}
 }
