@@ -7,7 +7,7 @@ use faer::linalg::solvers::LltError;
 use faer::sparse::FaerError;
 use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::{
-    LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+    LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering, factorize_symbolic_cholesky,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Par, Side};
@@ -72,9 +72,13 @@ pub const PARALLEL_FACTORIZATION_ROWS: usize = 20_000;
 /// reads and writes that took a sixth of the factorisation phase on the bunny's matrices): the
 /// values of `B` are gathered from `A`'s in one pass through `source`, and the right-hand sides
 /// of the solves are permuted on their way in and out. The factor is the same as faer's own
-/// permuted factorisation.
+/// permuted factorisation, bit for bit. Used for supernodal factorisations only (see
+/// `active`).
 #[derive(Default)]
 struct Permuted {
+    /// Whether the factorisation uses `B` (a supernodal factorisation); otherwise faer
+    /// permutes `A` itself.
+    active: bool,
     /// `fwd[i]`: the row of `A` that is row `i` of `B`.
     fwd: Vec<usize>,
     /// `B`'s lower triangle by columns (sorted rows) ...
@@ -140,7 +144,17 @@ impl Permuted {
             for &(i, k) in &column {
                 if i >= j {
                     lower_idx.push(i);
-                    source.push(k);
+                    // The value faer's own permutation took: the entry of `A`'s lower triangle
+                    // (row >= column), so that a matrix assembled a rounding error away from
+                    // symmetric is factorised as before, bit for bit.
+                    let r = a.col_idx[k];
+                    let mirror = if r >= old {
+                        None
+                    } else {
+                        let row = &a.col_idx[a.row_ptr[r]..a.row_ptr[r + 1]];
+                        row.binary_search(&old).ok().map(|q| a.row_ptr[r] + q)
+                    };
+                    source.push(mirror.unwrap_or(k));
                 }
                 if i <= j {
                     upper_idx.push(i);
@@ -156,7 +170,9 @@ impl Permuted {
 
 /// Sparse `L L^T` factorisation (faer, supernodal or simplicial as faer's symbolic analysis
 /// chooses, AMD ordering) whose symbolic analysis, factor storage and workspace are cached and
-/// rebuilt only when the pattern version changes. Runs sequentially (`Par::Seq`) unless
+/// rebuilt only when the pattern version changes. The matrix is gathered into the AMD order in
+/// one pass per factorisation through a map made with the analysis, and the right-hand sides
+/// are permuted in and out of it. Runs sequentially (`Par::Seq`) unless
 /// [`SparseCholesky::set_parallel`] asks for the rayon pool: the matrices
 /// of one balloon are small enough that thread start-up costs more than it saves on 2 cores.
 #[derive(Default)]
@@ -259,6 +275,26 @@ impl SparseCholesky {
             // Only the numeric factorisation reads the lower triangle from here on.
             self.permuted.upper_ptr = Vec::new();
             self.permuted.upper_idx = Vec::new();
+            // faer's simplicial factorisation sums in an order that follows the order of the
+            // entries it is given, so it would round differently on the gathered matrix than
+            // on its own permuted copy: small matrices (simplicial) keep faer's permutation.
+            let s = if matches!(s.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
+                self.permuted.active = true;
+                s
+            } else {
+                self.permuted = Permuted::default();
+                factorize_symbolic_cholesky(
+                    sym,
+                    Side::Lower,
+                    SymmetricOrdering::Amd,
+                    Default::default(),
+                )
+                .map_err(|e| SolveError::FactorResources {
+                    what: "symbolic analysis",
+                    n: a.n,
+                    reason: faer_reason(e),
+                })?
+            };
             let req = s
                 .factorize_numeric_llt_scratch::<f64>(max_par(), Default::default())
                 .or(s.solve_in_place_scratch::<f64>(SOLVE_BATCH_COLUMNS, max_par()))
@@ -280,20 +316,28 @@ impl SparseCholesky {
             return Err(SolveError::NotFactorized);
         };
         let permuted = &mut self.permuted;
-        let lower = SymbolicSparseColMatRef::new_checked(
-            a.n,
-            a.n,
-            &permuted.lower_ptr,
-            None,
-            &permuted.lower_idx,
-        );
+        let pattern = if permuted.active {
+            SymbolicSparseColMatRef::new_checked(
+                a.n,
+                a.n,
+                &permuted.lower_ptr,
+                None,
+                &permuted.lower_idx,
+            )
+        } else {
+            sym
+        };
         if self.single_precision_factorization {
             self.matrix_f32.clear();
-            self.matrix_f32
-                .extend(permuted.source.iter().map(|&k| a.values[k] as f32));
+            if permuted.active {
+                self.matrix_f32
+                    .extend(permuted.source.iter().map(|&k| a.values[k] as f32));
+            } else {
+                self.matrix_f32.extend(a.values.iter().map(|&v| v as f32));
+            }
             self.values_f32.clear();
             self.values_f32.resize(symbolic.len_val(), 0.0);
-            let mat = SparseColMatRef::new(lower, &self.matrix_f32[..]);
+            let mat = SparseColMatRef::new(pattern, &self.matrix_f32[..]);
             match numeric_llt(symbolic, &mut self.values_f32, mat, par, work) {
                 Ok(()) => {
                     self.factorized = true;
@@ -317,11 +361,16 @@ impl SparseCholesky {
                 Err(_) => {}
             }
         }
-        permuted.values.clear();
-        permuted
-            .values
-            .extend(permuted.source.iter().map(|&k| a.values[k]));
-        let mat = SparseColMatRef::new(lower, &permuted.values[..]);
+        let values = if permuted.active {
+            permuted.values.clear();
+            permuted
+                .values
+                .extend(permuted.source.iter().map(|&k| a.values[k]));
+            &permuted.values[..]
+        } else {
+            &a.values[..]
+        };
+        let mat = SparseColMatRef::new(pattern, values);
         numeric_llt(symbolic, &mut self.values, mat, par, work).map_err(
             |LltError::NonPositivePivot { index }| SolveError::NotPositiveDefinite {
                 method: "sparse Cholesky",
@@ -393,6 +442,13 @@ impl SparseCholesky {
     /// costs one failed factorisation instead of two.
     pub fn set_single_precision_verdict(&mut self, final_verdict: bool) {
         self.single_precision_verdict = final_verdict;
+    }
+
+    /// Whether the factorisation gathers the matrix into the factor's order itself (supernodal
+    /// factorisations) rather than letting faer permute it.
+    #[cfg(test)]
+    pub(crate) fn gathers_in_factor_order(&self) -> bool {
+        self.permuted.active
     }
 
     /// Whether the current factor was computed in single precision
@@ -487,9 +543,13 @@ impl SparseCholesky {
             }
             let fwd = &self.permuted.fwd;
             self.rhs_f32.clear();
-            for column in rhs.chunks_exact(n) {
-                self.rhs_f32
-                    .extend(fwd.iter().map(|&old| column[old] as f32));
+            if self.permuted.active {
+                for column in rhs.chunks_exact(n) {
+                    self.rhs_f32
+                        .extend(fwd.iter().map(|&old| column[old] as f32));
+                }
+            } else {
+                self.rhs_f32.extend(rhs.iter().map(|&v| v as f32));
             }
             let m = faer::MatMut::from_column_major_slice_mut(&mut self.rhs_f32[..], n, columns);
             LltRef::new(symbolic, &self.values_f32).solve_in_place_with_conj(
@@ -498,9 +558,15 @@ impl SparseCholesky {
                 Par::Seq,
                 MemStack::new(work),
             );
-            for (column, solved) in rhs.chunks_exact_mut(n).zip(self.rhs_f32.chunks_exact(n)) {
-                for (&old, &v) in fwd.iter().zip(solved) {
-                    column[old] = f64::from(v);
+            if self.permuted.active {
+                for (column, solved) in rhs.chunks_exact_mut(n).zip(self.rhs_f32.chunks_exact(n)) {
+                    for (&old, &v) in fwd.iter().zip(solved) {
+                        column[old] = f64::from(v);
+                    }
+                }
+            } else {
+                for (out, &v) in rhs.iter_mut().zip(&self.rhs_f32) {
+                    *out = f64::from(v);
                 }
             }
             return Ok(());
@@ -511,6 +577,16 @@ impl SparseCholesky {
             self.values
                 .extend(self.values_f32.iter().map(|&v| f64::from(v)));
             self.values_current = true;
+        }
+        if !self.permuted.active {
+            let m = faer::MatMut::from_column_major_slice_mut(rhs, n, columns);
+            LltRef::new(symbolic, &self.values).solve_in_place_with_conj(
+                faer::Conj::No,
+                m,
+                Par::Seq,
+                MemStack::new(work),
+            );
+            return Ok(());
         }
         let (fwd, scratch) = (&self.permuted.fwd, &mut self.permuted.rhs);
         scratch.clear();
