@@ -972,17 +972,22 @@ fn sparse_cholesky_single_precision_factorization_solves_within_round_off() {
     }
 }
 
+/// `[[1, c], [c, 1]]` with `1 - c = 1e-9`, assembled, and `c`: positive definite (eigenvalues
+/// 1e-9 and 2 - 1e-9), but `c` rounds to 1 in single precision, where it is singular.
+fn singular_in_single_precision() -> (SparseAssembler, f64) {
+    let c = 1.0 - 1e-9;
+    let t = vec![(0, 1, c), (1, 0, c)];
+    let mut asm = SparseAssembler::new();
+    asm.assemble(&[1.0, 1.0], 1.0, &t, 1.0).unwrap();
+    (asm, c)
+}
+
 /// A positive definite matrix whose rounding to single precision is singular (a non-positive
 /// pivot in single precision) is factorised in double precision instead, and solved exactly;
 /// an indefinite matrix is still reported as not positive definite.
 #[test]
 fn single_precision_factorization_falls_back_to_double_and_still_reports_indefinite() {
-    // [[1, c], [c, 1]] with 1 - c = 1e-9: positive definite (eigenvalues 1e-9 and 2 - 1e-9),
-    // but c rounds to 1 in single precision.
-    let c = 1.0 - 1e-9;
-    let t = vec![(0, 1, c), (1, 0, c)];
-    let mut asm = SparseAssembler::new();
-    asm.assemble(&[1.0, 1.0], 1.0, &t, 1.0).unwrap();
+    let (mut asm, c) = singular_in_single_precision();
     let mut chol = SparseCholesky::new();
     chol.set_single_precision_factorization(true);
     chol.factorize(asm.matrix(), asm.pattern_version()).unwrap();
@@ -1010,11 +1015,7 @@ fn single_precision_factorization_falls_back_to_double_and_still_reports_indefin
 /// precision check still solves the positive definite matrix whose rounding is singular.
 #[test]
 fn factorized_pcg_gives_the_single_precision_verdict_only_to_a_shift_ladder() {
-    // [[1, c], [c, 1]] with 1 - c = 1e-9: positive definite, but singular in single precision.
-    let c = 1.0 - 1e-9;
-    let t = vec![(0, 1, c), (1, 0, c)];
-    let mut asm = SparseAssembler::new();
-    asm.assemble(&[1.0, 1.0], 1.0, &t, 1.0).unwrap();
+    let (asm, c) = singular_in_single_precision();
     let problem = LinearProblem::assembled(asm.matrix(), asm.pattern_version(), 1.0, 1.0, &[]);
     let b = [1.0 + c, 1.0 + c];
     let solve = |retries: bool, verdict: bool| {
@@ -1279,10 +1280,9 @@ fn sparse_cholesky_factorises_in_the_fill_reducing_order_and_solves_in_the_given
 /// permuted factorisation of the same matrix, in double and in single precision.
 #[test]
 fn sparse_cholesky_gathered_in_factor_order_solves_bit_for_bit_as_faer() {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::linalg::cholesky::llt::factor::LltRegularization;
+    use faer::dyn_stack::MemBuffer;
+    use faer::sparse::SymbolicSparseColMatRef;
     use faer::sparse::linalg::cholesky::{SymmetricOrdering, factorize_symbolic_cholesky};
-    use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
     let side = 40;
     let node = |i: usize, j: usize| i * side + j;
     let mut t = Vec::new();
@@ -1336,47 +1336,13 @@ fn sparse_cholesky_gathered_in_factor_order_solves_bit_for_bit_as_faer() {
         let mut work = MemBuffer::new(req);
         let expected: Vec<f64> = if single {
             let values: Vec<f32> = a.values.iter().map(|&v| v as f32).collect();
-            let mut l = vec![0f32; s.len_val()];
-            let llt = s
-                .factorize_numeric_llt(
-                    &mut l,
-                    SparseColMatRef::new(sym, &values[..]),
-                    faer::Side::Lower,
-                    LltRegularization::default(),
-                    faer::Par::Seq,
-                    MemStack::new(&mut work),
-                    Default::default(),
-                )
-                .unwrap();
-            let mut y: Vec<f32> = b.iter().map(|&v| v as f32).collect();
-            llt.solve_in_place_with_conj(
-                faer::Conj::No,
-                faer::MatMut::from_column_major_slice_mut(&mut y[..], n, 1),
-                faer::Par::Seq,
-                MemStack::new(&mut work),
-            );
-            y.iter().map(|&v| f64::from(v)).collect()
+            let y = b.iter().map(|&v| v as f32).collect();
+            faer_factor_and_solve(&s, sym, &values, y, &mut work)
+                .iter()
+                .map(|&v| f64::from(v))
+                .collect()
         } else {
-            let mut l = vec![0f64; s.len_val()];
-            let llt = s
-                .factorize_numeric_llt(
-                    &mut l,
-                    SparseColMatRef::new(sym, &a.values[..]),
-                    faer::Side::Lower,
-                    LltRegularization::default(),
-                    faer::Par::Seq,
-                    MemStack::new(&mut work),
-                    Default::default(),
-                )
-                .unwrap();
-            let mut y = b.clone();
-            llt.solve_in_place_with_conj(
-                faer::Conj::No,
-                faer::MatMut::from_column_major_slice_mut(&mut y[..], n, 1),
-                faer::Par::Seq,
-                MemStack::new(&mut work),
-            );
-            y
+            faer_factor_and_solve(&s, sym, &a.values, b.clone(), &mut work)
         };
         assert!(
             x.iter()
@@ -1385,4 +1351,36 @@ fn sparse_cholesky_gathered_in_factor_order_solves_bit_for_bit_as_faer() {
             "single {single}: not bit for bit"
         );
     }
+}
+
+/// faer's own factorisation of `values` on the pattern `sym` with the symbolic analysis `s`
+/// (which permutes the matrix itself), and its solve of `y`.
+fn faer_factor_and_solve<T: faer::traits::ComplexField + Copy>(
+    s: &faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
+    sym: faer::sparse::SymbolicSparseColMatRef<'_, usize>,
+    values: &[T],
+    mut y: Vec<T>,
+    work: &mut faer::dyn_stack::MemBuffer,
+) -> Vec<T> {
+    use faer::dyn_stack::MemStack;
+    let n = y.len();
+    let mut l = vec![values[0]; s.len_val()];
+    let llt = s
+        .factorize_numeric_llt(
+            &mut l,
+            faer::sparse::SparseColMatRef::new(sym, values),
+            faer::Side::Lower,
+            faer::linalg::cholesky::llt::factor::LltRegularization::default(),
+            faer::Par::Seq,
+            MemStack::new(work),
+            Default::default(),
+        )
+        .unwrap();
+    llt.solve_in_place_with_conj(
+        faer::Conj::No,
+        faer::MatMut::from_column_major_slice_mut(&mut y[..], n, 1),
+        faer::Par::Seq,
+        MemStack::new(work),
+    );
+    y
 }
