@@ -86,9 +86,6 @@ struct Permuted {
     lower_idx: Vec<usize>,
     /// ... and the index in `A`'s CSR values of each of its entries.
     source: Vec<usize>,
-    /// `B`'s upper triangle by columns, for the symbolic analysis (emptied after it).
-    upper_ptr: Vec<usize>,
-    upper_idx: Vec<usize>,
     /// `B`'s lower-triangle values of the last double-precision factorisation.
     values: Vec<f64>,
     /// Permuted right-hand sides of double-precision solves.
@@ -97,12 +94,13 @@ struct Permuted {
 
 impl Permuted {
     /// The AMD permutation of `a`'s pattern `sym` (the CSR of a symmetric matrix read as CSC)
-    /// and the patterns of `B = P A P^T`.
+    /// and the lower triangle of `B = P A P^T`; returns `B`'s upper triangle by columns
+    /// (`(column pointers, rows)`), which only the symbolic analysis reads.
     fn analyse(
         &mut self,
         a: &CsrMatrix,
         sym: SymbolicSparseColMatRef<'_, usize>,
-    ) -> Result<(), SolveError> {
+    ) -> Result<(Vec<usize>, Vec<usize>), SolveError> {
         let n = a.n;
         let resources = |reason| SolveError::FactorResources {
             what: "fill-reducing ordering",
@@ -123,16 +121,10 @@ impl Permuted {
         .map_err(|e| resources(faer_reason(e)))?;
         let (lower_ptr, lower_idx, source) =
             (&mut self.lower_ptr, &mut self.lower_idx, &mut self.source);
-        let (upper_ptr, upper_idx) = (&mut self.upper_ptr, &mut self.upper_idx);
-        for v in [
-            &mut *lower_ptr,
-            &mut *lower_idx,
-            &mut *source,
-            &mut *upper_ptr,
-            &mut *upper_idx,
-        ] {
+        for v in [&mut *lower_ptr, &mut *lower_idx, &mut *source] {
             v.clear();
         }
+        let (mut upper_ptr, mut upper_idx) = (Vec::with_capacity(n + 1), Vec::new());
         lower_ptr.push(0);
         upper_ptr.push(0);
         let mut column: Vec<(usize, usize)> = Vec::new();
@@ -164,7 +156,7 @@ impl Permuted {
             upper_ptr.push(upper_idx.len());
         }
         self.fwd = fwd;
-        Ok(())
+        Ok((upper_ptr, upper_idx))
     }
 }
 
@@ -253,14 +245,9 @@ impl SparseCholesky {
         let sym = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.row_ptr, None, &a.col_idx);
         if !self.has_symbolic_for(pattern_version) {
             self.symbolic = None;
-            self.permuted.analyse(a, sym)?;
-            let upper = SymbolicSparseColMatRef::new_checked(
-                a.n,
-                a.n,
-                &self.permuted.upper_ptr,
-                None,
-                &self.permuted.upper_idx,
-            );
+            let (upper_ptr, upper_idx) = self.permuted.analyse(a, sym)?;
+            let upper =
+                SymbolicSparseColMatRef::new_checked(a.n, a.n, &upper_ptr, None, &upper_idx);
             let s = factorize_symbolic_cholesky(
                 upper,
                 Side::Upper,
@@ -272,9 +259,6 @@ impl SparseCholesky {
                 n: a.n,
                 reason: faer_reason(e),
             })?;
-            // Only the numeric factorisation reads the lower triangle from here on.
-            self.permuted.upper_ptr = Vec::new();
-            self.permuted.upper_idx = Vec::new();
             // faer's simplicial factorisation sums in an order that follows the order of the
             // entries it is given, so it would round differently on the gathered matrix than
             // on its own permuted copy: small matrices (simplicial) keep faer's permutation.
