@@ -82,7 +82,7 @@ mod system;
 pub use error::ShellSystemError;
 pub use material::{ShellElement, ShellMaterial, ShellMaterialModel};
 pub use membrane::{Membrane, membrane_sphere_stretch};
-pub use run::{RUNAWAY_VOLUME_FACTOR, ShellError, ShellSimulation, ShellStepStats};
+pub use run::{RUNAWAY_VOLUME_FACTOR, ShellError, ShellSimulation, ShellSnapshot, ShellStepStats};
 pub use system::{PARALLEL_THRESHOLD, SPLIT_STIFFNESS_RATIO, ShellSystem};
 
 #[cfg(test)]

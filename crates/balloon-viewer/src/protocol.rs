@@ -391,6 +391,12 @@ pub fn error_message(message: &str) -> String {
     serde_json::json!({"type": "error", "message": message}).to_string()
 }
 
+/// A notice for the page (`{"type": "notice", "message": ...}`): something the server did on
+/// its own that the user should know of (a drag undone), not an error.
+pub fn notice_message(message: &str) -> String {
+    serde_json::json!({"type": "notice", "message": message}).to_string()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,7 +2,9 @@
 //! latest frame, hello and state for the connection threads.
 
 use crate::ViewerError;
-use crate::protocol::{ClientMessage, error_message, validate_control, validate_vertex};
+use crate::protocol::{
+    ClientMessage, error_message, notice_message, validate_control, validate_vertex,
+};
 use crate::systems::{DragRequest, Sphere, ViewSystem, first_non_finite};
 use serde_json::{Map, Value, json};
 use std::collections::BTreeMap;
@@ -116,6 +118,8 @@ pub struct Runner {
     paused: bool,
     paused_by_error: bool,
     last_error: Option<String>,
+    /// The last notice of the system ([`ViewSystem::take_notice`]), until the next rebuild.
+    last_notice: Option<String>,
     /// The colour field of connections that chose none (the system's first).
     scalar: &'static str,
     drag: Option<DragRequest>,
@@ -167,6 +171,7 @@ impl Runner {
             paused: false,
             paused_by_error: false,
             last_error: None,
+            last_notice: None,
             scalar,
             drag: None,
             frame_number: 0,
@@ -329,6 +334,7 @@ impl Runner {
             "scalar": self.scalar,
             "drag": drag,
             "last_error": self.last_error,
+            "last_notice": self.last_notice,
             "stats": good.stats,
             "sphere": good.sphere,
         });
@@ -374,6 +380,7 @@ impl Runner {
         // The old simulation's frame may not match the new one's vertices.
         self.last_finite = None;
         self.last_error = None;
+        self.last_notice = None;
         if self.paused_by_error {
             self.paused = false;
             self.paused_by_error = false;
@@ -517,7 +524,16 @@ impl Runner {
                     match result {
                         // A blow-up is caught at the step that made it, before any frame.
                         Ok(()) => match self.system.simulation().first_non_finite() {
-                            None => self.dirty = true,
+                            None => {
+                                self.dirty = true;
+                                if let Some(notice) = self.system.take_notice() {
+                                    // The system undid the drag: a new one begins with the
+                                    // page's next drag message.
+                                    self.drag = None;
+                                    self.broadcast(notice_message(&notice));
+                                    self.last_notice = Some(notice);
+                                }
+                            }
                             Some(vertex) => {
                                 let step = self.system.steps();
                                 self.fail(&ViewerError::NonFinite { step, vertex });
@@ -568,6 +584,8 @@ mod tests {
         drag: Option<DragRequest>,
         /// From this step on the positions are NaN (a blow-up that does not fail the step).
         nan_from: Option<usize>,
+        /// After this step the toy undoes its drag and says so once (`take_notice`).
+        notice_at: Option<usize>,
     }
 
     impl Toy {
@@ -580,6 +598,7 @@ mod tests {
                 rebuilds: 0,
                 drag: None,
                 nan_from: None,
+                notice_at: None,
             }
         }
     }
@@ -635,6 +654,10 @@ mod tests {
         fn apply_drag(&mut self, drag: Option<&DragRequest>) -> Result<(), ViewerError> {
             self.drag = drag.copied();
             Ok(())
+        }
+        fn take_notice(&mut self) -> Option<String> {
+            (self.notice_at == Some(self.steps) && self.drag.is_some())
+                .then(|| format!("toy undid the drag at step {}", self.steps))
         }
     }
 
@@ -808,6 +831,44 @@ mod tests {
         assert!(frame > 1);
         tx.send(Command::Shutdown).unwrap();
         thread.join().unwrap();
+    }
+
+    /// A step after which the system undid the drag (`take_notice`): the runner drops its
+    /// drag, keeps stepping, broadcasts the notice and shows it in the state.
+    #[test]
+    fn a_notice_drops_the_drag_and_reaches_the_page() {
+        let shared = Arc::new(Shared::default());
+        let mut toy = Toy::new(None);
+        toy.notice_at = Some(4);
+        let mut r = Runner::new(Box::new(toy), shared.clone());
+        r.handle(ClientMessage::Drag {
+            vertex: 1,
+            target: [0.0; 3],
+            mode: DragMode::Grab,
+        })
+        .unwrap();
+        let (tx, rx) = std::sync::mpsc::channel();
+        let thread = std::thread::spawn(move || r.run(rx));
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while shared.lock().state["step"].as_u64() < Some(8) {
+            assert!(Instant::now() < deadline, "timed out waiting for step 8");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        tx.send(Command::Shutdown).unwrap();
+        thread.join().unwrap();
+        let p = shared.lock();
+        assert_eq!(p.state["paused"], false);
+        assert!(p.state["last_error"].is_null());
+        assert!(p.state["drag"].is_null(), "{}", p.state["drag"]);
+        assert_eq!(p.state["last_notice"], "toy undid the drag at step 4");
+        let notices: Vec<Value> = p
+            .broadcasts
+            .iter()
+            .map(|(_, b)| serde_json::from_str::<Value>(b).unwrap())
+            .filter(|b| b["type"] == "notice")
+            .collect();
+        assert_eq!(notices.len(), 1, "{notices:?}");
+        assert_eq!(notices[0]["message"], "toy undid the drag at step 4");
     }
 
     #[test]

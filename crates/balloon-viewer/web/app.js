@@ -184,6 +184,7 @@ function handle(msg) {
     case 'hello': return onHello(msg);
     case 'frame': return onFrame(msg);
     case 'error': return showError(msg.message);
+    case 'notice': return showNotice(msg.message);
     default: console.warn('balloon view: ignoring a message of unknown type', msg.type);
   }
 }
@@ -345,6 +346,19 @@ function showError(message) {
   syncControlValues(); // a rejected control keeps the server's value: show that one again
 }
 $('error').addEventListener('click', hideError);
+
+// A notice: something the server did on its own (a drag that crushed the wall, undone). The
+// server has dropped the drag, so the page ends its own; the next press starts a new one.
+let noticeTimer = null;
+function showNotice(message) {
+  const el = $('notice');
+  el.textContent = message;
+  el.hidden = false;
+  endDrag(false);
+  clearTimeout(noticeTimer);
+  noticeTimer = setTimeout(() => { el.hidden = true; }, 15000);
+}
+$('notice').addEventListener('click', () => { clearTimeout(noticeTimer); $('notice').hidden = true; });
 
 // ---------------------------------------------------------------------------------------------
 // Controls generated from hello's list: numbers (slider + box), choices (select), booleans.

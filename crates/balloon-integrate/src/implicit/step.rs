@@ -148,6 +148,17 @@ impl BackwardEuler {
         Ok(())
     }
 
+    /// Forgets what the last step leaves for the next: the offer to reuse its Newton matrix
+    /// in the next step's first iteration and the mass shift it needed. For a state set from
+    /// outside (a simulation restored to an earlier state), where neither belongs to the
+    /// state the next step starts from. The parameters and the linear solver are kept.
+    pub fn forget_last_step(&mut self) {
+        self.reuse = TangentReuse::default();
+        if let Regularization::RetryShift { last, .. } = &mut self.regularization {
+            *last = 0.0;
+        }
+    }
+
     /// Wall-clock time per phase (forces, energies, assembly, factorisations, solves) summed
     /// over every step this integrator took, including steps that failed: the difference of
     /// two readings is the time of what happened in between (a step retried at half the size

@@ -10,8 +10,9 @@
 //!
 //! One concern per file: `mod.rs` the state, its constructor and accessors; `step.rs` the step;
 //! `substeps.rs` the sub-step driver; `substep.rs` one sub-step and the state check; `controls.rs`
-//! and `gas.rs` the live controls; `pins.rs` the hard pins; `stats.rs` the statistics; `error.rs`
-//! the error. The static rest shape is [`crate::statics`].
+//! and `gas.rs` the live controls; `pins.rs` the hard pins; `snapshot.rs` a saved state to go
+//! back to; `stats.rs` the statistics; `error.rs` the error. The static rest shape is
+//! [`crate::statics`].
 //!
 //! ```
 //! use balloon_gas::{IdealGas, PressureLoad};
@@ -44,6 +45,7 @@ mod controls;
 mod error;
 mod gas;
 mod pins;
+mod snapshot;
 mod stats;
 mod step;
 mod substep;
@@ -52,6 +54,7 @@ mod substeps;
 mod tests;
 
 pub use error::{RUNAWAY_VOLUME_FACTOR, ShellError, check_dt};
+pub use snapshot::ShellSnapshot;
 pub use stats::ShellStepStats;
 
 use balloon_constraint::projector::ShellProjector;

@@ -4,7 +4,7 @@
 //! page's controls edit the scenario's own keys, so that the scenario saved from the page
 //! ([`ScenarioView::scenario_text`]) is what is running.
 
-use super::shell::{SHELL_DRAG_RADIUS, SHELL_DRAG_STIFFNESS, ShellDrag};
+use super::shell::{DragUndo, SHELL_DRAG_RADIUS, SHELL_DRAG_STIFFNESS, ShellDrag};
 use super::view::*;
 use crate::ViewerError;
 use crate::protocol::{ControlSpec, ControlValue, DragMode};
@@ -54,6 +54,11 @@ pub struct ScenarioView {
     live_newton: bool,
     /// The page's drag as last set on a two-layer body.
     page_two_layer_drag: Option<DragRequest>,
+    /// A shell's state from before the page's last drag began, while a failed step may still
+    /// be the drag's doing.
+    undo: Option<DragUndo>,
+    /// What the last step undid, for the page (taken by `take_notice`).
+    notice: Option<String>,
 }
 
 /// The page's drag of a scenario run.
@@ -176,6 +181,8 @@ impl ScenarioView {
             dragged: false,
             live_newton: false,
             page_two_layer_drag: None,
+            undo: None,
+            notice: None,
         })
     }
 
@@ -454,6 +461,8 @@ impl ViewSystem for ScenarioView {
         self.dragged = false;
         self.live_newton = false;
         self.page_two_layer_drag = None;
+        self.undo = None;
+        self.notice = None;
         Ok(())
     }
 
@@ -493,8 +502,28 @@ impl ViewSystem for ScenarioView {
             }
         };
         loads.map_err(|e| scenario_error(&e))?;
+        // The state saved before a drag of a shell (its loads set, the page's drag not yet).
+        let dragging = self.drag.is_some();
+        if let Running::Shell(sim, _) = &self.running {
+            DragUndo::keep(&mut self.undo, sim, dragging);
+        }
         self.apply_page_drag()?;
-        self.simulation_mut().step()
+        match self.simulation_mut().step() {
+            Ok(()) => Ok(()),
+            Err(e) => {
+                let Running::Shell(sim, _) = &mut self.running else {
+                    return Err(e);
+                };
+                self.notice = Some(DragUndo::undo(&mut self.undo, sim, e)?);
+                self.drag = None;
+                self.dragged = false;
+                Ok(())
+            }
+        }
+    }
+
+    fn take_notice(&mut self) -> Option<String> {
+        self.notice.take()
     }
 
     fn stats(&self) -> Map<String, Value> {

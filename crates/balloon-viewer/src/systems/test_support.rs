@@ -79,16 +79,28 @@ impl DragSequence {
     }
 
     /// Plays the sequence on `view`: the error of the first step that fails, named by its
-    /// phase.
+    /// phase. A drag the view undid ([`ViewSystem::take_notice`]) ends there, as the runner
+    /// drops it; the notices are printed.
     pub(super) fn run(&self, view: &mut dyn ViewSystem) -> Result<(), String> {
         // What the page has drawn: the positions after every step.
         let mut drawn: Vec<Vec<f64>> = Vec::new();
+        // Whether the view undid the drag in progress.
+        let undone = std::cell::Cell::new(false);
         let mut step = |view: &mut dyn ViewSystem, phase: &str, k: usize| {
             view.step().map_err(|e| format!("{phase} step {k}: {e}"))?;
+            if let Some(notice) = view.take_notice() {
+                eprintln!("{phase} step {k}: {notice}");
+                undone.set(true);
+            }
             drawn.push(view.positions());
             Ok::<_, String>(drawn[drawn.len() - 1 - self.stale.min(drawn.len() - 1)].clone())
         };
         let drag = |view: &mut dyn ViewSystem, request: Option<DragRequest>| {
+            if request.is_none() {
+                // The sequence's release: its next drag is a new one.
+                undone.set(false);
+            }
+            let request = request.filter(|_| !undone.get());
             view.apply_drag(request.as_ref())
                 .map_err(|e| format!("drag {request:?}: {e}"))
         };
@@ -138,7 +150,8 @@ impl DragSequence {
 }
 
 /// Plays `TRIALS` (default 10) random drag sequences ([`DragSequence::random`], seeded by
-/// `SEED`, default 1) on fresh views from `view`, printing each sequence, its outcome and the
+/// `SEED`, default 1; with `HOLD=N` the grab and the pinch are held up to `N` steps) on fresh
+/// views from `view`, printing each sequence, its outcome and the
 /// count of failures. A measurement, not a check: the ignored tests that call it say where
 /// its figures are used.
 pub(super) fn random_drag_sequences<V: ViewSystem>(mut view: impl FnMut() -> V) {
@@ -149,6 +162,9 @@ pub(super) fn random_drag_sequences<V: ViewSystem>(mut view: impl FnMut() -> V) 
             .unwrap_or(default)
     };
     let (trials, seed) = (var("TRIALS", 10), var("SEED", 1));
+    let hold = std::env::var("HOLD")
+        .ok()
+        .and_then(|s| s.parse::<usize>().ok());
     // A linear congruential generator (Knuth's MMIX constants), uniform in [0, 1).
     let mut state = seed
         .wrapping_mul(6364136223846793005)
@@ -162,7 +178,13 @@ pub(super) fn random_drag_sequences<V: ViewSystem>(mut view: impl FnMut() -> V) 
     let mut failed = 0;
     for trial in 0..trials {
         let mut v = view();
-        let sequence = DragSequence::random(v.positions().len() / 3, &mut uniform);
+        let mut sequence = DragSequence::random(v.positions().len() / 3, &mut uniform);
+        if let Some(most) = hold {
+            // Holds as long as a slow page makes them (the e2e test's pinch lasted tens of
+            // steps on a fast server).
+            sequence.hold = 3 + (uniform() * most as f64) as usize;
+            sequence.pinch_hold = 1 + (uniform() * most as f64) as usize;
+        }
         let outcome = sequence.run(&mut v);
         failed += usize::from(outcome.is_err());
         eprintln!("trial {trial}: {sequence:?}: {outcome:?}");

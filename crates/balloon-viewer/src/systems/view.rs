@@ -117,6 +117,12 @@ pub trait ViewSystem: Send {
     fn note(&self) -> Option<String> {
         None
     }
+    /// What the last step undid, once (a drag that crushed the wall, undone): a sentence the
+    /// page shows for a while; `None` otherwise. The runner drops the page's drag when there
+    /// is one.
+    fn take_notice(&mut self) -> Option<String> {
+        None
+    }
     /// The rigid sphere of the scene (a volumetric scenario's `drop-sphere`), drawn with the
     /// body; `None` when there is none.
     fn sphere(&self) -> Option<Sphere> {

@@ -124,8 +124,8 @@ pub use balloon_integrate::decorators::AnchorSpring;
 pub use balloon_integrate::substep::{EASY_NEWTON_ITERATIONS, MAX_EASY_BEFORE_GROWTH};
 pub use balloon_shell::{
     Membrane, RUNAWAY_VOLUME_FACTOR, ShellElement, ShellError, ShellMaterial, ShellMaterialModel,
-    ShellSimulation, ShellStepStats, ShellSystem, analytic, connected, membrane_sphere_stretch,
-    statics,
+    ShellSimulation, ShellSnapshot, ShellStepStats, ShellSystem, analytic, connected,
+    membrane_sphere_stretch, statics,
 };
 
 use balloon_constraint::projector::ShellProjector;
