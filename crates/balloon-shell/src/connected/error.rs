@@ -36,6 +36,14 @@ pub enum ConnectedError {
         /// How many balloons there are.
         count: usize,
     },
+    /// A snapshot of another number of balloons ([`super::ConnectedBalloons::restore`]).
+    #[error("connected balloons: a snapshot of {snapshot} balloons does not fit these {count}")]
+    SnapshotMismatch {
+        /// Balloons in the snapshot.
+        snapshot: usize,
+        /// Balloons here.
+        count: usize,
+    },
     /// A tube is invalid.
     #[error("tube {tube}: {reason}")]
     InvalidTube {

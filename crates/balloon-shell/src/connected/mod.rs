@@ -61,7 +61,7 @@ use serde::{Deserialize, Serialize};
 
 use flow::{equalise_instant_groups, find, finite_flow};
 
-use crate::{ShellMaterial, ShellSimulation, ShellStepStats};
+use crate::{ShellMaterial, ShellSimulation, ShellSnapshot, ShellStepStats};
 
 /// How freely gas flows through a [`Tube`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -81,6 +81,25 @@ pub struct Tube {
     pub b: usize,
     /// How freely gas flows.
     pub conductance: Conductance,
+}
+
+/// The state of [`ConnectedBalloons`] at one moment: each balloon's [`ShellSnapshot`] (its
+/// gas amount included) and the step count.
+#[derive(Clone, Debug)]
+pub struct ConnectedSnapshot {
+    balloons: Vec<ShellSnapshot<Gas>>,
+    step: usize,
+}
+
+impl ConnectedSnapshot {
+    /// Steps taken up to the saved state.
+    pub fn steps_taken(&self) -> usize {
+        self.step
+    }
+    /// Simulation time of the saved state, s.
+    pub fn time(&self) -> f64 {
+        self.balloons.first().map_or(0.0, ShellSnapshot::time)
+    }
 }
 
 /// What one step of [`ConnectedBalloons`] did.
@@ -329,6 +348,47 @@ impl<M: ShellMaterial> ConnectedBalloons<M> {
     /// Simulation time, s.
     pub fn time(&self) -> f64 {
         self.balloons[0].time()
+    }
+
+    /// The current state of every balloon and the step count ([`ConnectedSnapshot`]), to put
+    /// back later with [`ConnectedBalloons::restore`].
+    pub fn snapshot(&self) -> ConnectedSnapshot {
+        ConnectedSnapshot {
+            balloons: self
+                .balloons
+                .iter()
+                .map(ShellSimulation::snapshot)
+                .collect(),
+            step: self.step,
+        }
+    }
+
+    /// Puts back the state of `snapshot` (taken from these balloons): every balloon's
+    /// ([`ShellSimulation::restore`]) and the step count.
+    ///
+    /// # Errors
+    /// [`ConnectedError::SnapshotMismatch`] when the snapshot has another number of
+    /// balloons, a balloon's [`ConnectedError::Shell`] when its snapshot does not fit it
+    /// (taken from other balloons); nothing changes then.
+    pub fn restore(&mut self, snapshot: &ConnectedSnapshot) -> Result<(), ConnectedError> {
+        if snapshot.balloons.len() != self.balloons.len() {
+            return Err(ConnectedError::SnapshotMismatch {
+                snapshot: snapshot.balloons.len(),
+                count: self.balloons.len(),
+            });
+        }
+        // Every balloon's snapshot is checked before any is put back.
+        for (i, (b, s)) in self.balloons.iter().zip(&snapshot.balloons).enumerate() {
+            b.check_snapshot(s)
+                .map_err(|source| ConnectedError::Shell { balloon: i, source })?;
+        }
+        for (i, (b, s)) in self.balloons.iter_mut().zip(&snapshot.balloons).enumerate() {
+            b.restore(s)
+                .map_err(|source| ConnectedError::Shell { balloon: i, source })?;
+        }
+        self.step = snapshot.step;
+        self.merged.refresh(&self.balloons);
+        Ok(())
     }
 
     /// The time step all balloons share, s.

@@ -67,16 +67,11 @@ impl<M: ShellMaterial, G: GasModel + Clone> ShellSimulation<M, G> {
         }
     }
 
-    /// Puts back the state of `snapshot` (taken from this simulation): the run goes on from
-    /// there as it did when the snapshot was taken, up to what the linear solver keeps from
-    /// the steps in between (a kept factor preconditions the next solves; direct solves
-    /// repeat bit for bit). The integrator forgets what its last step left for the next
-    /// ([`balloon_integrate::implicit::BackwardEuler::forget_last_step`]).
+    /// Whether `snapshot` fits this simulation (its vertex and element counts).
     ///
     /// # Errors
-    /// [`ShellError::InvalidParameter`] (`snapshot`) when the snapshot has another number of
-    /// vertices or elements than this simulation; nothing changes then.
-    pub fn restore(&mut self, snapshot: &ShellSnapshot<G>) -> Result<(), ShellError> {
+    /// [`ShellError::InvalidParameter`] (`snapshot`) when it does not.
+    pub fn check_snapshot(&self, snapshot: &ShellSnapshot<G>) -> Result<(), ShellError> {
         let elements = self.system.thickness.len();
         if snapshot.x.len() != self.x.len() || snapshot.thickness.len() != elements {
             return Err(ShellError::InvalidParameter {
@@ -93,6 +88,20 @@ impl<M: ShellMaterial, G: GasModel + Clone> ShellSimulation<M, G> {
                 ),
             });
         }
+        Ok(())
+    }
+
+    /// Puts back the state of `snapshot` (taken from this simulation): the run goes on from
+    /// there as it did when the snapshot was taken, up to what the linear solver keeps from
+    /// the steps in between (a kept factor preconditions the next solves; direct solves
+    /// repeat bit for bit). The integrator forgets what its last step left for the next
+    /// ([`balloon_integrate::implicit::BackwardEuler::forget_last_step`]).
+    ///
+    /// # Errors
+    /// [`ShellError::InvalidParameter`] (`snapshot`) when the snapshot has another number of
+    /// vertices or elements than this simulation; nothing changes then.
+    pub fn restore(&mut self, snapshot: &ShellSnapshot<G>) -> Result<(), ShellError> {
+        self.check_snapshot(snapshot)?;
         self.x.clone_from(&snapshot.x);
         self.v.clone_from(&snapshot.v);
         self.x_prev.clone_from(&snapshot.x_prev);

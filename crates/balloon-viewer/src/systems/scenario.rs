@@ -4,7 +4,7 @@
 //! page's controls edit the scenario's own keys, so that the scenario saved from the page
 //! ([`ScenarioView::scenario_text`]) is what is running.
 
-use super::shell::{DragUndo, SHELL_DRAG_RADIUS, SHELL_DRAG_STIFFNESS, ShellDrag};
+use super::shell::{DragUndo, SHELL_DRAG_RADIUS, SHELL_DRAG_STIFFNESS, ShellDrag, Undoable};
 use super::view::*;
 use crate::ViewerError;
 use crate::protocol::{ControlSpec, ControlValue, DragMode};
@@ -54,11 +54,21 @@ pub struct ScenarioView {
     live_newton: bool,
     /// The page's drag as last set on a two-layer body.
     page_two_layer_drag: Option<DragRequest>,
-    /// A shell's state from before the page's last drag began, while a failed step may still
-    /// be the drag's doing.
+    /// The state of a shell or of connected balloons from before the page's last drag began,
+    /// while a failed step may still be the drag's doing.
     undo: Option<DragUndo>,
     /// What the last step undid, for the page (taken by `take_notice`).
     notice: Option<String>,
+}
+
+/// The simulation a failed step under a drag goes back from (`DragUndo`): a shell or
+/// connected balloons.
+fn undoable(running: &mut Running) -> Option<&mut dyn Undoable> {
+    match running {
+        Running::Shell(sim, _) => Some(sim.as_mut()),
+        Running::Connect(sim) => Some(sim.as_mut()),
+        Running::Volumetric(..) | Running::TwoLayer(..) => None,
+    }
 }
 
 /// The page's drag of a scenario run.
@@ -502,19 +512,21 @@ impl ViewSystem for ScenarioView {
             }
         };
         loads.map_err(|e| scenario_error(&e))?;
-        // The state saved before a drag of a shell (its loads set, the page's drag not yet).
+        // The state saved before a drag of a shell or of connected balloons (their loads
+        // set, the page's drag not yet).
         let dragging = self.drag.is_some();
-        if let Running::Shell(sim, _) = &self.running {
+        if let Some(sim) = undoable(&mut self.running) {
             DragUndo::keep(&mut self.undo, sim, dragging);
         }
         self.apply_page_drag()?;
         match self.simulation_mut().step() {
             Ok(()) => Ok(()),
             Err(e) => {
-                let Running::Shell(sim, _) = &mut self.running else {
+                let mut undo = self.undo.take();
+                let Some(sim) = undoable(&mut self.running) else {
                     return Err(e);
                 };
-                self.notice = Some(DragUndo::undo(&mut self.undo, sim, e)?);
+                self.notice = Some(DragUndo::undo(&mut undo, sim, e)?);
                 self.drag = None;
                 self.dragged = false;
                 Ok(())

@@ -16,6 +16,7 @@ use balloon::material::membrane::{
 };
 use balloon::material::{Lame, MaterialKind, MaterialModel, MembraneModel};
 use balloon::mesh::TriMesh;
+use balloon::shell::connected::{ConnectedBalloons, ConnectedSnapshot};
 use balloon::shell::{
     AnchorSpring, ShellBalloon, ShellMaterial, ShellMaterialModel, ShellSimulation, ShellSnapshot,
 };
@@ -239,28 +240,78 @@ impl ShellDrag {
 /// (negative thickness in the volume projection).
 pub(super) const UNDO_WINDOW: usize = 100;
 
-/// The state of a dragged shell from before the page's drag began. A grab or a pinch can
-/// crush the wall (a pinch pulls a patch of the wall to 30 % of its size; an StVK wall pressed
-/// that far turns inside out), and a step that fails during the drag or in the
-/// [`UNDO_WINDOW`] steps after its release puts this state back instead of stopping the run:
-/// the drag is undone (with the drags since, when one began before the window ended) and the
-/// page is told so ([`ViewSystem::take_notice`]). Used once: a second failure stops the run as
-/// any failure does.
+/// The state of a dragged shell (or connected balloons) from before the page's drag began.
+/// A grab or a pinch can crush the wall (a pinch pulls a patch of the wall to 30 % of its
+/// size; an StVK wall pressed that far turns inside out), and a step that fails during the
+/// drag or in the [`UNDO_WINDOW`] steps after its release puts this state back instead of
+/// stopping the run: the drag is undone (with the drags since, when one began before the
+/// window ended) and the page is told so ([`ViewSystem::take_notice`]). Used once: a second
+/// failure stops the run as any failure does.
 pub(super) struct DragUndo {
-    snapshot: ShellSnapshot<Gas>,
+    saved: Saved,
     /// Steps since the drag was released (`None` while it lasts).
     released: Option<usize>,
+}
+
+/// A saved state of a shell or of connected balloons.
+pub(super) enum Saved {
+    Shell(Box<ShellSnapshot<Gas>>),
+    Connect(ConnectedSnapshot),
+}
+
+impl Saved {
+    /// The step count and time (s) of the saved state.
+    fn at(&self) -> (usize, f64) {
+        match self {
+            Saved::Shell(s) => (s.steps_taken(), s.time()),
+            Saved::Connect(s) => (s.steps_taken(), s.time()),
+        }
+    }
+}
+
+/// A simulation that [`DragUndo`] saves and puts back.
+pub(super) trait Undoable {
+    /// The current state.
+    fn save(&self) -> Saved;
+    /// Puts back `saved` (taken from this simulation).
+    fn put_back(&mut self, saved: &Saved) -> Result<(), ViewerError>;
+}
+
+impl Undoable for ShellSimulation<ShellMaterialModel> {
+    fn save(&self) -> Saved {
+        Saved::Shell(Box::new(self.snapshot()))
+    }
+    fn put_back(&mut self, saved: &Saved) -> Result<(), ViewerError> {
+        match saved {
+            Saved::Shell(s) => Ok(self.restore(s)?),
+            Saved::Connect(_) => Err(ViewerError::Scenario(
+                "a saved state of connected balloons does not fit a shell".into(),
+            )),
+        }
+    }
+}
+
+impl Undoable for ConnectedBalloons<ShellMaterialModel> {
+    fn save(&self) -> Saved {
+        Saved::Connect(self.snapshot())
+    }
+    fn put_back(&mut self, saved: &Saved) -> Result<(), ViewerError> {
+        match saved {
+            Saved::Connect(s) => self
+                .restore(s)
+                .map_err(|e| ViewerError::Scenario(e.to_string())),
+            Saved::Shell(_) => Err(ViewerError::Scenario(
+                "a saved state of a shell does not fit connected balloons".into(),
+            )),
+        }
+    }
 }
 
 impl DragUndo {
     /// Before a step of `sim` (`dragging`: a drag acts in it): a drag that begins saves the
     /// state, unless the state from before an earlier drag is still kept; the saved state is
     /// dropped [`UNDO_WINDOW`] steps after the last release.
-    pub(super) fn keep(
-        undo: &mut Option<Self>,
-        sim: &ShellSimulation<ShellMaterialModel>,
-        dragging: bool,
-    ) {
+    pub(super) fn keep(undo: &mut Option<Self>, sim: &dyn Undoable, dragging: bool) {
         match undo {
             // A drag that goes on, or one that begins while the state from before an earlier
             // one is still kept: the earlier state stays (a grab's damage can show in the
@@ -277,7 +328,7 @@ impl DragUndo {
             }
             None if dragging => {
                 *undo = Some(DragUndo {
-                    snapshot: sim.snapshot(),
+                    saved: sim.save(),
                     released: None,
                 });
             }
@@ -289,18 +340,17 @@ impl DragUndo {
     /// the notice for the page (the caller drops the drag); otherwise `error`.
     pub(super) fn undo(
         undo: &mut Option<Self>,
-        sim: &mut ShellSimulation<ShellMaterialModel>,
+        sim: &mut dyn Undoable,
         error: ViewerError,
     ) -> Result<String, ViewerError> {
         let Some(undo) = undo.take() else {
             return Err(error);
         };
-        sim.restore(&undo.snapshot)?;
+        sim.put_back(&undo.saved)?;
+        let (step, time) = undo.saved.at();
         Ok(format!(
-            "the drag was undone: {error}; the run is back at step {} (t = {:.3} s), from \
-             before the drag began",
-            undo.snapshot.steps_taken(),
-            undo.snapshot.time()
+            "the drag was undone: {error}; the run is back at step {step} (t = {time:.3} s), \
+             from before the drag began"
         ))
     }
 }

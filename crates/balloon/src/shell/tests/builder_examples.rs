@@ -72,4 +72,51 @@ fn connected_balloons_keep_their_total_amount() {
     let total = pair.total_amount();
     pair.step().unwrap();
     assert!((pair.total_amount() / total - 1.0).abs() < 1e-12);
+
+    // A snapshot put back repeats the run from there: the same positions, gas amounts and
+    // step count at once, and three steps later the positions of the first continuation (to
+    // what the kept factor of the linear solver changes: the Newton tolerance).
+    let saved = pair.snapshot();
+    let run = |pair: &mut ConnectedBalloons<_>| {
+        for _ in 0..3 {
+            pair.step().unwrap();
+        }
+        (
+            pair.merged_positions().to_vec(),
+            pair.amounts(),
+            pair.steps(),
+        )
+    };
+    let at_save = (pair.merged_positions().to_vec(), pair.amounts());
+    let first = run(&mut pair);
+    pair.restore(&saved).unwrap();
+    assert_eq!((pair.merged_positions().to_vec(), pair.amounts()), at_save);
+    assert_eq!((saved.steps_taken(), pair.steps()), (1, 1));
+    let again = run(&mut pair);
+    assert_eq!(first.2, again.2);
+    let moved = first
+        .0
+        .iter()
+        .zip(&at_save.0)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let differ = first
+        .0
+        .iter()
+        .zip(&again.0)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(moved > 1e-6, "the balloons did not move ({moved} m)");
+    assert!(
+        differ < 1e-4 * moved,
+        "{differ} m apart after {moved} m of motion"
+    );
+    for (a, b) in first.1.iter().zip(&again.1) {
+        assert!((a / b - 1.0).abs() < 1e-9, "gas amounts {a} and {b}");
+    }
+    // Another number of balloons is refused, and nothing changes.
+    let mut single = ConnectedBalloons::new(vec![balloon(500.0)], vec![]).unwrap();
+    let e = single.restore(&saved).unwrap_err().to_string();
+    assert!(e.contains("snapshot of 2 balloons"), "{e}");
+    assert_eq!(single.steps(), 0);
 }
