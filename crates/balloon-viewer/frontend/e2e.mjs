@@ -286,6 +286,8 @@ async function testSystem(browser, system) {
     //     undoes the drag instead of stopping (docs/viewer.md, "Drags that crush the wall"),
     //     the page shows the notice and ends its drag, and the run goes on.
     if (name === 'static-sphere' && modes.includes('pinch') && !mock) {
+      // A drag undone earlier (the pinch of 3b) left its notice: wait for a new one.
+      const earlier = (await state(url)).last_notice;
       await page.selectOption('#drag-mode', 'pinch');
       const at = await pointOverBody(page, box);
       await page.mouse.down();
@@ -293,7 +295,7 @@ async function testSystem(browser, system) {
       const undone = await until('a held pinch to be undone (/api/state last_notice)', async () => {
         const s = await state(url);
         check(!s.last_error, `the simulation failed during a held pinch: ${s.last_error}`);
-        return s.last_notice && s.drag === null && s;
+        return s.last_notice && s.last_notice !== earlier && s.drag === null && s;
       }, FRAME_WAIT, 200);
       await page.mouse.up();
       await page.selectOption('#drag-mode', 'grab');

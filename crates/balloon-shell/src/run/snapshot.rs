@@ -92,9 +92,10 @@ impl<M: ShellMaterial, G: GasModel + Clone> ShellSimulation<M, G> {
     }
 
     /// Puts back the state of `snapshot` (taken from this simulation): the run goes on from
-    /// there as it did when the snapshot was taken, up to what the linear solver keeps from
-    /// the steps in between (a kept factor preconditions the next solves; direct solves
-    /// repeat bit for bit). The integrator forgets what its last step left for the next
+    /// there as it did when the snapshot was taken. With the matrix-free solver, which keeps
+    /// nothing between steps, it repeats bit for bit (tested); a solver that keeps a factor
+    /// or the last matrix starts from what the steps in between left, so the run repeats to
+    /// the Newton tolerance. The integrator forgets what its last step left for the next
     /// ([`balloon_integrate::implicit::BackwardEuler::forget_last_step`]).
     ///
     /// # Errors

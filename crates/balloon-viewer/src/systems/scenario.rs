@@ -522,11 +522,10 @@ impl ViewSystem for ScenarioView {
         match self.simulation_mut().step() {
             Ok(()) => Ok(()),
             Err(e) => {
-                let mut undo = self.undo.take();
                 let Some(sim) = undoable(&mut self.running) else {
                     return Err(e);
                 };
-                self.notice = Some(DragUndo::undo(&mut undo, sim, e)?);
+                self.notice = Some(DragUndo::undo(&mut self.undo, sim, e)?);
                 self.drag = None;
                 self.dragged = false;
                 Ok(())
