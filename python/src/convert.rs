@@ -111,9 +111,30 @@ pub(crate) fn job_result<'py, S: Simulation>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     match &finished.summary {
-        Some(s) => d.set_item("summary", json_to_py(py, s)?)?,
+        Some(s) => {
+            warn_summary(py, s)?;
+            d.set_item("summary", json_to_py(py, s)?)?
+        }
         None => d.set_item("summary", py.None())?,
     }
     d.set_item("positions", points_array(py, positions)?)?;
     Ok(d)
+}
+
+/// Issues each of the summary's `warnings` (what the CLI prints as `warning: ...` after a
+/// run) as a Python `RuntimeWarning`, so that a script sees them without reading the summary;
+/// they stay in `summary["warnings"]`. With warnings turned into errors
+/// (`-W error`) the first one is raised.
+fn warn_summary(py: Python<'_>, summary: &serde_json::Value) -> PyResult<()> {
+    let Some(warnings) = summary.get("warnings").and_then(|w| w.as_array()) else {
+        return Ok(());
+    };
+    let category = py.get_type::<pyo3::exceptions::PyRuntimeWarning>();
+    for w in warnings.iter().filter_map(|w| w.as_str()) {
+        // A message with an interior NUL (none is written so) is cut there.
+        let text = w.split('\0').next().unwrap_or_default();
+        let message = std::ffi::CString::new(text).unwrap_or_default();
+        PyErr::warn(py, &category, &message, 1)?;
+    }
+    Ok(())
 }

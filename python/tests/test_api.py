@@ -2,6 +2,7 @@
 
 import json
 import subprocess
+import warnings
 
 import numpy as np
 import pytest
@@ -22,6 +23,20 @@ def test_inflate_returns_summary_positions_and_thickness():
     assert r["thickness"].shape == (m,) and r["triangles"].shape == (m, 3)
     # The shell grew under the pressure.
     assert s["final_gas_volume"] > s["initial_gas_volume"]
+
+
+def test_summary_warnings_are_python_warnings():
+    # The default pump on the built-in teddy: a floppy wall (15 Newton iterations per step),
+    # which the summary names and Python issues as a RuntimeWarning.
+    with pytest.warns(RuntimeWarning, match="Newton iterations on average") as caught:
+        r = balloon.inflate("builtin:teddy", steps=2)
+    issued = [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
+    assert issued == r["summary"]["warnings"] and len(issued) == 1
+    # A run whose summary has no warnings issues none.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        s = balloon.inflate(SPHERE, steps=1, gas="constant", pressure=900.0)["summary"]
+    assert s["warnings"] == []
 
 
 def test_defaults_are_the_cli_defaults(cli):

@@ -435,6 +435,80 @@ fn a_newton_cap_too_low_for_the_tolerance_is_a_warning_in_the_summary() {
     }
 }
 
+/// The warnings of a `balloon inflate` run with `args` (its JSON summary), and its Newton
+/// iterations per step.
+fn inflate_warnings(args: &[&str]) -> (Vec<String>, f64) {
+    let mut all = vec!["inflate"];
+    all.extend_from_slice(args);
+    all.push("--json");
+    let out = run_balloon(&all);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s = last_json_line(&out);
+    let per_step = s["newton_iterations_total"].as_f64().unwrap() / s["steps"].as_f64().unwrap();
+    let warnings = s["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap().to_string())
+        .collect();
+    (warnings, per_step)
+}
+
+#[test]
+fn a_floppy_wall_is_a_warning_that_says_whether_bending_would_hold_it() {
+    // The default pump on the built-in teddy (0.3 m, 4.5 mm edges): the paper's wall is
+    // floppy, and a plate bending stiffness holds mesh-scale wrinkles within a 10 ms step
+    // (`D dt^2 / (rho h l^4)` about 2.4), so the warning suggests `bending`.
+    let (warnings, per_step) = inflate_warnings(&["builtin:teddy", "--steps", "3"]);
+    assert!(per_step > 10.0, "{per_step}");
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    let w = &warnings[0];
+    assert!(
+        w.contains("Newton iterations on average") && w.contains("`bending` = 1"),
+        "{w}"
+    );
+    // With the bending term the same steps are whole and cheap: no warning.
+    let (warnings, per_step) =
+        inflate_warnings(&["builtin:teddy", "--steps", "3", "--bending", "1"]);
+    assert!(
+        per_step <= 10.0 && warnings.is_empty(),
+        "{per_step}: {warnings:?}"
+    );
+    // The paper's pressurised gas stretches the wall from the start: no warning.
+    let (warnings, per_step) = inflate_warnings(&[
+        "builtin:teddy",
+        "--steps",
+        "3",
+        "--gas",
+        "ideal",
+        "--ambient",
+        "0",
+    ]);
+    assert!(
+        per_step <= 10.0 && warnings.is_empty(),
+        "{per_step}: {warnings:?}"
+    );
+    // At 1 m (30 mm edges, ratio about 1e-3) bending would not hold the wrinkles within a
+    // step, and the warning does not suggest it.
+    let Some(dir) = crate::shared_meshes_dir() else {
+        return;
+    };
+    let bunny = dir.join("bunny_closed_libigl.off").display().to_string();
+    let (warnings, per_step) =
+        inflate_warnings(&[&bunny, "--scale", "6.418666509195382", "--steps", "2"]);
+    assert!(per_step > 10.0, "{per_step}");
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    let w = &warnings[0];
+    assert!(
+        w.contains("does not hold them within a step") && !w.contains("`bending` = 1"),
+        "{w}"
+    );
+}
+
 /// A 162-vertex sphere of `radius` (m) flattened to 1 : 0.5 : 0.3, written to `dir/flat.obj`
 /// (a shell that bends as it inflates).
 fn flattened_sphere(dir: &std::path::Path, radius: f64) -> std::path::PathBuf {

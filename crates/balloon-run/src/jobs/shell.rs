@@ -153,9 +153,17 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
     }
 
     fn progress(&self, stats: &SimulationStats<ShellStepStats>) -> Option<String> {
+        let d = &stats.detail;
         Some(format!(
-            "V = {:.4e} m^3, p = {:.0} Pa",
-            stats.detail.gas_volume, stats.detail.gauge_pressure
+            "V = {:.4e} m^3, p = {:.0} Pa, Newton {}{}",
+            d.gas_volume,
+            d.gauge_pressure,
+            d.newton_iterations,
+            if d.substeps > 1 {
+                format!(" in {} sub-steps", d.substeps)
+            } else {
+                String::new()
+            }
         ))
     }
 
@@ -187,7 +195,18 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
             final_thickness_min: th.iter().copied().fold(f64::INFINITY, f64::min),
             final_thickness_max: th.iter().copied().fold(0.0, f64::max),
             error: run.failure.as_ref().map(|e| e.to_string()),
+            // A cap too low splits steps and inflates the iterations by itself: the floppy
+            // wall is named only when the cap is not the cause.
             warnings: newton_cap_warning(&self.args.run, &self.summary, run.steps)
+                .or_else(|| {
+                    floppy_wall_warning(
+                        &self.args.run,
+                        &self.summary,
+                        run.steps,
+                        sim.gauge_pressure(),
+                        &FloppyWall::of(sim, self.args.shell.density),
+                    )
+                })
                 .into_iter()
                 .collect(),
             ..self.summary
@@ -358,6 +377,126 @@ pub fn run(
             sim,
         },
         Vec::new(),
+    ))
+}
+
+/// Newton iterations per step, on average, above which a step run warns that its wall was
+/// floppy ([`floppy_wall_warning`]). Steps under a load that stretches the wall take 1 to 3
+/// (the paper's Teddy with its pressurised gas: 1.1); the default pump on the shared models
+/// takes 13 to 30 at 1 m and 80 to 215 at 0.1 m while their gauge pressure is a few pascals.
+const FLOPPY_NEWTON_PER_STEP: f64 = 10.0;
+
+/// What [`floppy_wall_warning`] needs of the wall: its bending term, its plate bending modulus
+/// at its mean thickness (the thickness at the end of the run; a floppy wall has hardly
+/// thinned), its mass per area and the rest mesh's mean edge length.
+#[derive(Clone, Copy, Debug)]
+struct FloppyWall {
+    /// The factor on the plate bending modulus (0: the paper's wall).
+    bending: f64,
+    /// `D = Y h^3 / (12 (1 - nu^2))` at the mean thickness, N m.
+    plate_bending_modulus: f64,
+    /// `rho h`, kg/m^2.
+    mass_per_area: f64,
+    /// Mean edge length of the rest mesh, m.
+    edge_length: f64,
+}
+
+impl FloppyWall {
+    fn of<M: ShellMaterial>(sim: &ShellSimulation<M>, density: f64) -> Self {
+        let th = sim.thickness();
+        let h = th.iter().sum::<f64>() / th.len().max(1) as f64;
+        let x = sim.rest_positions();
+        let (mut sum, mut count) = (0.0, 0usize);
+        for t in sim.triangles() {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                let d: f64 = (0..3).map(|c| (x[3 * a + c] - x[3 * b + c]).powi(2)).sum();
+                sum += d.sqrt();
+                count += 1;
+            }
+        }
+        Self {
+            bending: sim.system().wall_bending(),
+            plate_bending_modulus: sim.system().material().plate_modulus() * h.powi(3) / 12.0,
+            mass_per_area: density * h,
+            edge_length: sum / count.max(1) as f64,
+        }
+    }
+
+    /// `D dt^2 / (rho h l^4)`: the plate bending stiffness of the wall at the mesh scale `l`
+    /// against the wall's inertia over one step. Above 1 a bending term holds wrinkles of the
+    /// mesh scale within a step: measured on the shared meshes (0.3 mm StVK wall, 10 ms), 12
+    /// to 610 at 0.1 m, where `bending = 1` took the steps whole in 3 to 5 Newton iterations,
+    /// and 1.2e-3 to 6e-2 at 1 m, where it changed the iterations by 0.7 to 0.9 times.
+    fn bending_over_inertia(&self, dt: f64) -> f64 {
+        self.plate_bending_modulus * dt * dt / (self.mass_per_area * self.edge_length.powi(4))
+    }
+}
+
+/// The summary's warning when a step run with the residual test took more than
+/// [`FLOPPY_NEWTON_PER_STEP`] Newton iterations per step on average: the wall was floppy (a
+/// load of a few pascals, far below what stretches it), wrinkled at the mesh scale, and Newton
+/// converged only on short sub-steps. Says why and what would change it: a bending term where
+/// it holds mesh-scale wrinkles within a step ([`FloppyWall::bending_over_inertia`] above 1),
+/// otherwise that the cost lasts until the gas stretches the wall.
+fn floppy_wall_warning(
+    run: &ShellRun,
+    summary: &InflateSummary,
+    steps: usize,
+    gauge_pressure: f64,
+    wall: &FloppyWall,
+) -> Option<String> {
+    if run.newton_tol <= 0.0 || steps == 0 || run.static_solve {
+        return None;
+    }
+    let per_step = summary.newton_iterations_total as f64 / steps as f64;
+    if per_step <= FLOPPY_NEWTON_PER_STEP {
+        return None;
+    }
+    let ratio = wall.bending_over_inertia(run.dt);
+    let cause = if wall.bending > 0.0 {
+        "the wall buckles"
+    } else {
+        "the wall of Wang et al. 2015 has no bending stiffness and wrinkles at the mesh scale"
+    };
+    let remedy = if ratio >= 1.0 && wall.bending == 0.0 {
+        format!(
+            "a rubber plate's bending stiffness (`bending` = 1, `--bending 1`; another model: \
+             the inflated shapes differ) holds such wrinkles within a step at this size (`D dt^2 \
+             / (rho h l^4)` = {ratio:.2e} at the mean edge length l = {:.2e} m; the shared \
+             models at 0.1 m, 12 to 610, then take whole 10 ms steps in 3 to 5 Newton \
+             iterations)",
+            wall.edge_length
+        )
+    } else if ratio >= 1.0 {
+        format!(
+            "the bending term holds wrinkles of the mesh scale within a step here (`D dt^2 / \
+             (rho h l^4)` = {ratio:.2e} at the mean edge length l = {:.2e} m), so the shape \
+             itself snaps: the cost lasts until the gas pressure stretches the wall",
+            wall.edge_length
+        )
+    } else {
+        format!(
+            "at this size a bending stiffness does not hold them within a step (`D dt^2 / \
+             (rho h l^4)` = {ratio:.2e} at the mean edge length l = {:.2e} m, below 1): the cost \
+             lasts until the gas pressure stretches the wall",
+            wall.edge_length
+        )
+    };
+    let split = if summary.split_steps > 0 {
+        format!(
+            "; {} of {steps} were split into sub-steps (the smallest {:.3e} s)",
+            summary.split_steps, summary.min_dt_used
+        )
+    } else {
+        String::new()
+    };
+    Some(format!(
+        "the steps took {per_step:.1} Newton iterations on average{split}, ending at a gauge \
+         pressure of {gauge_pressure:.1} Pa: under a load far below what stretches it, {cause}, \
+         and Newton follows that motion in many short iterations (docs/benchmarks.md, \
+         \"Indefinite Newton matrices and the sub-step size\"). A looser `newton_tol` saves few \
+         of them (1e-2 saved a quarter on the shared bunny at 0.1 m); {remedy}"
     ))
 }
 
