@@ -119,6 +119,14 @@ pub trait RunHooks<S: Simulation> {
         None
     }
 
+    /// A warning worth giving while the run goes on, after `step` of the `planned` steps
+    /// (e.g. that its first steps were slow, and why), so that the user can stop a long run
+    /// early instead of reading it in the summary at the end. Printed at once (human output
+    /// only); the hook gives each warning once.
+    fn early_warning(&mut self, _sim: &S, _step: usize, _planned: usize) -> Option<String> {
+        None
+    }
+
     /// Extra files once the run ended (after the pictures' `last` frame is made, before the
     /// summary), e.g. a named final frame.
     fn finish_extras(&mut self, _out: &mut OutputDir, _last: &Frame) -> Result<()> {
@@ -236,6 +244,12 @@ where
             }
         }
         let stop = hooks.after_step(sim, &stats, out.as_mut(), regular)?;
+        if !plan.json
+            && !plan.quiet
+            && let Some(w) = hooks.early_warning(sim, step, plan.steps)
+        {
+            pb.suspend(|| eprintln!("warning: {w}"));
+        }
         pb.inc(1);
         if let Some(m) = hooks.progress(&stats) {
             pb.set_message(m);

@@ -495,21 +495,51 @@ fn a_floppy_wall_is_a_warning_that_says_whether_bending_would_hold_it() {
         "{per_step}: {warnings:?}"
     );
     // At 1 m (30 mm edges, ratio about 1e-3) bending would not hold the wrinkles within a
-    // step, and the warning does not suggest it.
+    // step, and the warning does not suggest it. A run of 10 steps or more says so after its
+    // fifth step already (on stderr, with the human output), and again in its summary.
     let Some(dir) = crate::shared_meshes_dir() else {
         return;
     };
     let bunny = dir.join("bunny_closed_libigl.off").display().to_string();
-    let (warnings, per_step) =
-        inflate_warnings(&[&bunny, "--scale", "6.418666509195382", "--steps", "2"]);
-    assert!(per_step > 10.0, "{per_step}");
-    assert_eq!(warnings.len(), 1, "{warnings:?}");
-    let w = &warnings[0];
+    let tmp = tempfile::tempdir().unwrap();
+    let out_dir = tmp.path().join("bunny");
+    let out = run_balloon(&[
+        "inflate",
+        &bunny,
+        "--scale",
+        "6.418666509195382",
+        "--steps",
+        "10",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let early = stderr
+        .lines()
+        .find(|l| l.starts_with("warning: the first 5 of 10 steps took"))
+        .unwrap_or_else(|| panic!("no early warning: {stderr}"));
     assert!(
-        w.contains("does not hold them within a step")
+        early.contains("does not hold them within a step") && early.contains("Ctrl-C"),
+        "{early}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    let per_step = summary["newton_iterations_total"].as_f64().unwrap() / 10.0;
+    assert!(per_step > 10.0, "{per_step}");
+    let warnings = summary["warnings"].as_array().unwrap();
+    assert_eq!(warnings.len(), 1, "{summary}");
+    let w = warnings[0].as_str().unwrap();
+    assert!(
+        w.starts_with("the steps took")
+            && w.contains("does not hold them within a step")
             && !w.contains("holds such wrinkles within a step"),
         "{w}"
     );
+    // The human output repeats the summary's warning after the run, on stdout.
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains(&format!("warning: {w}")), "{stdout}");
 }
 
 /// A 162-vertex sphere of `radius` (m) flattened to 1 : 0.5 : 0.3, written to `dir/flat.obj`

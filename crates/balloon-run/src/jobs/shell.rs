@@ -152,6 +152,31 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
         Ok(s.converged)
     }
 
+    fn early_warning(
+        &mut self,
+        sim: &ShellSimulation<M>,
+        step: usize,
+        planned: usize,
+    ) -> Option<String> {
+        if step != EARLY_WARNING_STEP || planned < 2 * EARLY_WARNING_STEP {
+            return None;
+        }
+        let default_cap = ShellRun::default().newton_iters;
+        if self.args.run.newton_iters < default_cap {
+            // A low cap splits steps by itself (the summary's cap warning names it).
+            return None;
+        }
+        let lead = format!("the first {step} of {planned} steps");
+        floppy_wall_warning(
+            &self.args.run,
+            &self.summary,
+            (&lead, step),
+            sim.gauge_pressure(),
+            &FloppyWall::of(sim, self.args.shell.density),
+        )
+        .map(|w| format!("{w}. Ctrl-C stops the run between steps and keeps what it wrote"))
+    }
+
     fn progress(&self, stats: &SimulationStats<ShellStepStats>) -> Option<String> {
         let d = &stats.detail;
         Some(format!(
@@ -202,7 +227,7 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
                     floppy_wall_warning(
                         &self.args.run,
                         &self.summary,
-                        run.steps,
+                        ("the steps", run.steps),
                         sim.gauge_pressure(),
                         &FloppyWall::of(sim, self.args.shell.density),
                     )
@@ -380,6 +405,10 @@ pub fn run(
     ))
 }
 
+/// The step after which a step run of at least twice as many steps warns of a floppy wall at
+/// once ([`RunHooks::early_warning`]), not only in its summary.
+const EARLY_WARNING_STEP: usize = 5;
+
 /// Newton iterations per step, on average, above which a step run warns that its wall was
 /// floppy ([`floppy_wall_warning`]). Steps under a load that stretches the wall take 1 to 3
 /// (the paper's Teddy with its pressurised gas: 1.1); the default pump on the shared models
@@ -440,11 +469,12 @@ impl FloppyWall {
 /// load of a few pascals, far below what stretches it), wrinkled at the mesh scale, and Newton
 /// converged only on short sub-steps. Says why and what would change it: a bending term where
 /// it holds mesh-scale wrinkles within a step ([`FloppyWall::bending_over_inertia`] above 1),
-/// otherwise that the cost lasts until the gas stretches the wall.
+/// otherwise that the cost lasts until the gas stretches the wall. `lead` names the steps
+/// counted (`"the steps"`, or the first few while the run goes on) and `steps` their number.
 fn floppy_wall_warning(
     run: &ShellRun,
     summary: &InflateSummary,
-    steps: usize,
+    (lead, steps): (&str, usize),
     gauge_pressure: f64,
     wall: &FloppyWall,
 ) -> Option<String> {
@@ -496,7 +526,7 @@ fn floppy_wall_warning(
         String::new()
     };
     Some(format!(
-        "the steps took {per_step:.1} Newton iterations on average{split}, ending at a gauge \
+        "{lead} took {per_step:.1} Newton iterations on average{split}, the last at a gauge \
          pressure of {gauge_pressure:.1} Pa: under a load far below what stretches it, {cause}, \
          and Newton follows that motion in many short iterations (docs/benchmarks.md, \
          \"Indefinite Newton matrices and the sub-step size\"). A looser `newton_tol` saves few \
