@@ -465,9 +465,10 @@ impl FloppyWall {
 }
 
 /// The summary's warning when a step run with the residual test took more than
-/// [`FLOPPY_NEWTON_PER_STEP`] Newton iterations per step on average: the wall was floppy (a
-/// load of a few pascals, far below what stretches it), wrinkled at the mesh scale, and Newton
-/// converged only on short sub-steps. Says why and what would change it: a bending term where
+/// [`FLOPPY_NEWTON_PER_STEP`] Newton iterations per step on average: the mark of a floppy wall
+/// (a load of a few pascals, far below what stretches it) that wrinkles at the mesh scale,
+/// where Newton follows the motion in many short iterations. The run's last state need not be
+/// floppy any more: a long run's average is set by its floppy phase. Says why and what would change it: a bending term where
 /// it holds mesh-scale wrinkles within a step ([`FloppyWall::bending_over_inertia`] above 1),
 /// otherwise that the cost lasts until the gas stretches the wall. `lead` names the steps
 /// counted (`"the steps"`, or the first few while the run goes on) and `steps` their number.
@@ -527,10 +528,11 @@ fn floppy_wall_warning(
     };
     Some(format!(
         "{lead} took {per_step:.1} Newton iterations on average{split}, the last at a gauge \
-         pressure of {gauge_pressure:.1} Pa: under a load far below what stretches it, {cause}, \
-         and Newton follows that motion in many short iterations (docs/benchmarks.md, \
-         \"Indefinite Newton matrices and the sub-step size\"). A looser `newton_tol` saves few \
-         of them (1e-2 saved a quarter on the shared bunny at 0.1 m); {remedy}"
+         pressure of {gauge_pressure:.1} Pa. So many are the mark of a slack wall, under a load \
+         far below what stretches it: {cause}, and Newton follows that motion in many short \
+         iterations (docs/benchmarks.md, \"Where the floppy phase's iterations go\"). A looser \
+         `newton_tol` saves few of them (1e-2 saved a quarter on the shared bunny at 0.1 m); \
+         {remedy}"
     ))
 }
 
