@@ -25,13 +25,19 @@ def test_inflate_returns_summary_positions_and_thickness():
     assert s["final_gas_volume"] > s["initial_gas_volume"]
 
 
-def test_summary_warnings_are_python_warnings():
+def test_summary_warnings_are_python_warnings(tmp_path):
     # The default pump on the built-in teddy: a floppy wall (15 Newton iterations per step),
     # which the summary names and Python issues as a RuntimeWarning.
     with pytest.warns(RuntimeWarning, match="Newton iterations on average") as caught:
         r = balloon.inflate("builtin:teddy", steps=2)
     issued = [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
     assert issued == r["summary"]["warnings"] and len(issued) == 1
+    # Warnings as errors raise it after the run, whose output folder is then written.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(RuntimeWarning, match="Newton iterations on average"):
+            balloon.inflate("builtin:teddy", steps=2, out=str(tmp_path / "teddy"))
+    assert (tmp_path / "teddy" / "summary.json").is_file()
     # A run whose summary has no warnings issues none.
     with warnings.catch_warnings():
         warnings.simplefilter("error")

@@ -161,9 +161,9 @@ impl<M: ShellMaterial> RunHooks<ShellSimulation<M>> for InflateHooks<'_> {
         if step != EARLY_WARNING_STEP || planned < 2 * EARLY_WARNING_STEP {
             return None;
         }
-        let default_cap = ShellRun::default().newton_iters;
-        if self.args.run.newton_iters < default_cap {
-            // A low cap splits steps by itself (the summary's cap warning names it).
+        if newton_cap_warning(&self.args.run, &self.summary, step).is_some() {
+            // A low cap splits steps by itself: as in the summary, the cap is named instead
+            // (at the end of the run).
             return None;
         }
         let lead = format!("the first {step} of {planned} steps");
@@ -412,7 +412,7 @@ const EARLY_WARNING_STEP: usize = 5;
 /// Newton iterations per step, on average, above which a step run warns that its wall was
 /// floppy ([`floppy_wall_warning`]). Steps under a load that stretches the wall take 1 to 3
 /// (the paper's Teddy with its pressurised gas: 1.1); the default pump on the shared models
-/// takes 13 to 30 at 1 m and 80 to 215 at 0.1 m while their gauge pressure is a few pascals.
+/// takes 13 to 32 at 1 m and 80 to 215 at 0.1 m while their gauge pressure is a few pascals.
 const FLOPPY_NEWTON_PER_STEP: f64 = 10.0;
 
 /// What [`floppy_wall_warning`] needs of the wall: its bending term, its plate bending modulus
