@@ -540,6 +540,43 @@ fn a_floppy_wall_is_a_warning_that_says_whether_bending_would_hold_it() {
     // The human output repeats the summary's warning after the run, on stdout.
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains(&format!("warning: {w}")), "{stdout}");
+    // The warning's time for the wall's elastic wave to cross an element, against the
+    // bunny's own: its mean edge length at 1 m from its file, and the default wall (1 MPa,
+    // Poisson's ratio 0.45, 950 kg/m^3) with the plane-stress modulus Y / (1 - nu^2).
+    let crossing = number_after(w, "`l / sqrt(E / rho)` = ");
+    let mesh = balloon_mesh::io::read_mesh(std::path::Path::new(&bunny)).unwrap();
+    let (mut sum, mut edges) = (0.0, 0.0);
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            sum += (mesh.vertices[t[k]] - mesh.vertices[t[(k + 1) % 3]]).norm();
+            edges += 1.0;
+        }
+    }
+    let l = 6.418666509195382 * sum / edges;
+    let expected = l * (950.0 * (1.0 - 0.45f64 * 0.45) / 1e6).sqrt();
+    assert!(
+        (crossing / expected - 1.0).abs() < 1e-2,
+        "{crossing} against {expected}: {w}"
+    );
+    // What it says a floppy step takes holds for this run's steps.
+    let fewest = number_after(w, "with the membrane modulus E: ");
+    let most = number_after(w, &format!("with the membrane modulus E: {fewest} to "));
+    assert!(
+        fewest <= per_step && per_step <= most,
+        "{per_step} Newton iterations per step, outside {fewest} to {most}: {w}"
+    );
+}
+
+/// The number that follows `prefix` in `text` (up to the next space or `)`).
+fn number_after(text: &str, prefix: &str) -> f64 {
+    let rest = &text[text
+        .find(prefix)
+        .unwrap_or_else(|| panic!("no {prefix:?} in {text}"))
+        + prefix.len()..];
+    let end = rest.find([' ', ')']).unwrap_or(rest.len());
+    rest[..end]
+        .parse()
+        .unwrap_or_else(|e| panic!("{:?} after {prefix:?}: {e}", &rest[..end]))
 }
 
 /// A 162-vertex sphere of `radius` (m) flattened to 1 : 0.5 : 0.3, written to `dir/flat.obj`

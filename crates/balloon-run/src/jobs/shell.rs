@@ -415,17 +415,27 @@ const EARLY_WARNING_STEP: usize = 5;
 /// takes 13 to 32 at 1 m and 80 to 215 at 0.1 m while their gauge pressure is a few pascals.
 const FLOPPY_NEWTON_PER_STEP: f64 = 10.0;
 
-/// What [`floppy_wall_warning`] needs of the wall: its bending term, its plate bending modulus
-/// at its mean thickness (the thickness at the end of the run; a floppy wall has hardly
-/// thinned), its mass per area and the rest mesh's mean edge length.
+/// Newton iterations per [`FloppyWall::wave_crossing_time`] of simulated time while the wall is
+/// floppy, fewest and most: over the first 10 default steps of the shared meshes and the
+/// built-in teddy at 0.1 m and 1 m (the teddy at 0.1 m 0.18, the bunny at 1 m 1.12), and of
+/// the bunny at 0.1 m with its rubber 10 and 100 times softer or denser (up to 1.31)
+/// (docs/benchmarks.md, "The floppy phase follows the wall's elastic wave").
+const FLOPPY_ITERATIONS_PER_CROSSING: (f64, f64) = (0.18, 1.3);
+
+/// What [`floppy_wall_warning`] needs of the wall: its bending term, its membrane modulus, its
+/// density and mean thickness (the thickness at the end of the run; a floppy wall has hardly
+/// thinned) and the rest mesh's mean edge length.
 #[derive(Clone, Copy, Debug)]
 struct FloppyWall {
     /// The factor on the plate bending modulus (0: the paper's wall).
     bending: f64,
-    /// `D = Y h^3 / (12 (1 - nu^2))` at the mean thickness, N m.
-    plate_bending_modulus: f64,
-    /// `rho h`, kg/m^2.
-    mass_per_area: f64,
+    /// The in-plane (plane-stress) modulus `Y / (1 - nu^2)`, or `4 mu` of an incompressible
+    /// membrane, Pa ([`ShellMaterial::plate_modulus`]).
+    membrane_modulus: f64,
+    /// Density, kg/m^3.
+    density: f64,
+    /// Mean thickness, m.
+    thickness: f64,
     /// Mean edge length of the rest mesh, m.
     edge_length: f64,
 }
@@ -433,7 +443,6 @@ struct FloppyWall {
 impl FloppyWall {
     fn of<M: ShellMaterial>(sim: &ShellSimulation<M>, density: f64) -> Self {
         let th = sim.thickness();
-        let h = th.iter().sum::<f64>() / th.len().max(1) as f64;
         let x = sim.rest_positions();
         let (mut sum, mut count) = (0.0, 0usize);
         for t in sim.triangles() {
@@ -446,28 +455,39 @@ impl FloppyWall {
         }
         Self {
             bending: sim.system().wall_bending(),
-            plate_bending_modulus: sim.system().material().plate_modulus() * h.powi(3) / 12.0,
-            mass_per_area: density * h,
+            membrane_modulus: sim.system().material().plate_modulus(),
+            density,
+            thickness: th.iter().sum::<f64>() / th.len().max(1) as f64,
             edge_length: sum / count.max(1) as f64,
         }
     }
 
-    /// `D dt^2 / (rho h l^4)`: the plate bending stiffness of the wall at the mesh scale `l`
-    /// against the wall's inertia over one step. Above 1 a bending term holds wrinkles of the
-    /// mesh scale within a step. Measured on the shared meshes (0.3 mm StVK wall, 10 ms, the
-    /// default pump, 10 steps): 12 to 610 at 0.1 m, where `bending = 1` took the steps whole
-    /// in 3 to 5 Newton iterations; spot at 0.3 m, 3.9: 4.7 instead of 39 per step, none
-    /// split; the bunny at 0.3 m, 0.15: 13.5 instead of 39, half the steps still split; 1.2e-3
-    /// to 6e-2 at 1 m, where it changed the iterations by 0.7 to 0.9 times.
+    /// `D dt^2 / (rho h l^4)`: the plate bending stiffness `D = E h^3 / 12` of the wall at the
+    /// mesh scale `l` against the wall's inertia over one step. Above 1 a bending term holds
+    /// wrinkles of the mesh scale within a step. Measured on the shared meshes (0.3 mm StVK
+    /// wall, 10 ms, the default pump, 10 steps): 12 to 610 at 0.1 m, where `bending = 1` took
+    /// the steps whole in 3 to 5 Newton iterations; spot at 0.3 m, 3.9: 4.7 instead of 39 per
+    /// step, none split; the bunny at 0.3 m, 0.15: 13.5 instead of 39, half the steps still
+    /// split; 1.2e-3 to 6e-2 at 1 m, where it changed the iterations by 0.7 to 0.9 times.
     fn bending_over_inertia(&self, dt: f64) -> f64 {
-        self.plate_bending_modulus * dt * dt / (self.mass_per_area * self.edge_length.powi(4))
+        let h = self.thickness;
+        self.membrane_modulus * h * h * dt * dt / (12.0 * self.density * self.edge_length.powi(4))
+    }
+
+    /// The time the wall's in-plane elastic wave takes to cross an element, `l / c` with `c =
+    /// sqrt(E / rho)` (`E` the membrane modulus). While the wall is floppy, Newton takes about
+    /// one iteration per such time of simulated time, whatever `dt`
+    /// ([`FLOPPY_ITERATIONS_PER_CROSSING`]).
+    fn wave_crossing_time(&self) -> f64 {
+        self.edge_length * (self.density / self.membrane_modulus).sqrt()
     }
 }
 
 /// The summary's warning when a step run with the residual test took more than
 /// [`FLOPPY_NEWTON_PER_STEP`] Newton iterations per step on average: the mark of a floppy wall
 /// (a load of a few pascals, far below what stretches it) that wrinkles at the mesh scale,
-/// where Newton follows the motion in many short iterations. The run's last state need not be
+/// where Newton follows the motion in short iterations, about one per
+/// [`FloppyWall::wave_crossing_time`] of simulated time whatever the step. The run's last state need not be
 /// floppy any more: a long run's average is set by its floppy phase. Says why and what would change it: a bending term where
 /// it holds mesh-scale wrinkles within a step ([`FloppyWall::bending_over_inertia`] above 1),
 /// otherwise that the cost lasts until the gas stretches the wall. `lead` names the steps
@@ -526,13 +546,22 @@ fn floppy_wall_warning(
     } else {
         String::new()
     };
+    let crossing = wall.wave_crossing_time();
+    let (fewest, most) = FLOPPY_ITERATIONS_PER_CROSSING;
     Some(format!(
         "{lead} took {per_step:.1} Newton iterations on average{split}, the last at a gauge \
          pressure of {gauge_pressure:.1} Pa. So many are the mark of a slack wall, under a load \
-         far below what stretches it: {cause}, and Newton follows that motion in many short \
-         iterations (docs/benchmarks.md, \"Where the floppy phase's iterations go\"). A looser \
-         `newton_tol` saves few of them (1e-2 saved a quarter on the shared bunny at 0.1 m); \
-         {remedy}"
+         far below what stretches it: {cause}, and Newton follows that motion in short \
+         iterations, about one per time the wall's elastic wave takes to cross an element \
+         (`l / sqrt(E / rho)` = {crossing:.2e} s here, with the membrane modulus E: {:.0} to \
+         {:.0} iterations per step of {:e} s while the wall is floppy, at the {fewest} to \
+         {most} per crossing measured on the shared models and the teddy). A smaller `dt` \
+         does not save them: the iterations follow the simulated time (docs/benchmarks.md, \
+         \"The floppy phase follows the wall's elastic wave\"). Nor does a looser `newton_tol` \
+         (1e-2 saved a quarter on the shared bunny at 0.1 m); {remedy}",
+        fewest * run.dt / crossing,
+        most * run.dt / crossing,
+        run.dt,
     ))
 }
 
