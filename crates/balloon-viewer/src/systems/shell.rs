@@ -349,9 +349,12 @@ impl DragUndo {
         };
         sim.put_back(&undo.saved)?;
         let (step, time) = undo.saved.at();
+        // The error's own advice (a smaller `dt`, ...) is written for a run that failed by
+        // itself; here the drag broke the wall, and the notice says so.
         Ok(format!(
             "the drag was undone: {error}; the run is back at step {step} (t = {time:.3} s), \
-             from before the drag began"
+             from before the drag began. The drag caused the failure, not the settings the \
+             message names: a shorter or gentler drag keeps the wall whole"
         ))
     }
 }
