@@ -487,11 +487,12 @@ impl FloppyWall {
 /// [`FLOPPY_NEWTON_PER_STEP`] Newton iterations per step on average: the mark of a floppy wall
 /// (a load of a few pascals, far below what stretches it) that wrinkles at the mesh scale,
 /// where Newton follows the motion in short iterations, about one per
-/// [`FloppyWall::wave_crossing_time`] of simulated time whatever the step. The run's last state need not be
-/// floppy any more: a long run's average is set by its floppy phase. Says why and what would change it: a bending term where
-/// it holds mesh-scale wrinkles within a step ([`FloppyWall::bending_over_inertia`] above 1),
-/// otherwise that the cost lasts until the gas stretches the wall. `lead` names the steps
-/// counted (`"the steps"`, or the first few while the run goes on) and `steps` their number.
+/// [`FloppyWall::wave_crossing_time`] of simulated time whatever the step. The run's last
+/// state need not be floppy any more: a long run's average is set by its floppy phase. Says
+/// why and what would change it: a bending term where it holds mesh-scale wrinkles within a
+/// step ([`FloppyWall::bending_over_inertia`] above 1), otherwise that the cost lasts until
+/// the gas stretches the wall. `lead` names the steps counted (`"the steps"`, or the first
+/// few while the run goes on) and `steps` their number.
 fn floppy_wall_warning(
     run: &ShellRun,
     summary: &InflateSummary,
@@ -555,8 +556,8 @@ fn floppy_wall_warning(
          iterations, about one per time the wall's elastic wave takes to cross an element \
          (`l / sqrt(E / rho)` = {crossing:.2e} s here, with the membrane modulus E: {:.0} to \
          {:.0} iterations per step of {:e} s while the wall is floppy, at the {fewest} to \
-         {most} per crossing measured on the shared models and the teddy). A smaller `dt` \
-         does not save them: the iterations follow the simulated time (docs/benchmarks.md, \
+         {most} per crossing measured on the shared models and the built-in teddy). A smaller \
+         `dt` does not save them: the iterations follow the simulated time (docs/benchmarks.md, \
          \"The floppy phase follows the wall's elastic wave\"). Nor does a looser `newton_tol` \
          (1e-2 saved a quarter on the shared bunny at 0.1 m); {remedy}",
         fewest * run.dt / crossing,
