@@ -441,9 +441,10 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
     }
     if !result.inverse.converged {
         bail!(
-            "no rest shape holds the target at {} (reached {:.3} of it, relative \
-             residual {:.3e}); the best design so far is written: its forward equilibrium lies \
-             within {:.3e} m of the target ({:.3e} of the diagonal, RMS {:.3e} m)",
+            "no rest shape holds the target exactly at {} (the inverse reached {:.3} of it, \
+             relative residual {:.3e}); the best design so far is written{}: its forward \
+             equilibrium lies within {:.3e} m of the target ({:.3e} of the diagonal, RMS \
+             {:.3e} m)",
             match job.gas_amount {
                 None => format!("`pressure` = {} Pa", run.summary.pressure),
                 Some(a) => format!(
@@ -453,6 +454,11 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
             },
             result.inverse.load_reached,
             result.inverse.relative_residual,
+            if result.inverse.fallback.is_some() {
+                ", the shape optimisation's"
+            } else {
+                ""
+            },
             dist.max,
             dist.max_relative,
             dist.rms
