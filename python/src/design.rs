@@ -96,7 +96,10 @@ fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyR
 /// `tangential_weight` (in [0, 1e6]), `fallback` ("unconverged" (default), "always" or "off":
 /// the shape optimisation that minimises the distance of the forward equilibrium to the target
 /// where the inverse has no exact answer; its record is `summary["inverse"]["fallback"]`),
-/// `fallback_iterations` (1 to 100000), `method` ("gauss-newton" (default) or "lbfgs"),
+/// `fallback_iterations` (1 to 100000), `accept_distance` (in [0, 1]: a design whose inverse
+/// has no exact answer still answers the target, `summary["accepted"]`, when its forward check
+/// lies within this fraction of the target's diagonal; 0 = only an exact design), `method`
+/// ("gauss-newton" (default) or "lbfgs"),
 /// `shape_weight` (the rest-mesh shape term's weight, in [0, 1e6], 0 = off), `shape_stages`
 /// (1 to 20), `newton_polish` and `warm_start` (bools; `warm_start` also for the thickness
 /// fit), `bending_weight`,
@@ -119,7 +122,8 @@ fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyR
 /// conditioning report's singular vectors, unit norm each, in the order of
 /// `summary["conditioning"]["smallest"]`; None without `conditioning`), "summary": dict (summary.json's keys; the fit's record is
 /// `summary["thickness_fit"]`)}. A design that does not reach the pressure or the tolerance is
-/// returned with `summary["converged"]` False (check it): the best rest shape found. Errors:
+/// returned with `summary["converged"]` False (check it, or `summary["accepted"]` with
+/// `accept_distance`): the best rest shape found. Errors:
 /// `InvalidOption` naming the parameter, `MeshError` for the arrays or a target that cannot be
 /// designed for, `SolverError` for a solve that failed. The GIL is released while it runs.
 #[pyfunction]

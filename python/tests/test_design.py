@@ -127,6 +127,15 @@ def test_flat_faced_target_gets_the_shape_optimisation():
     plain = balloon.design(vertices, faces, fallback="off", **options)["summary"]
     assert not plain["converged"]
     assert plain["inverse"]["fallback"] is None
+    assert not plain["accepted"]
+    # A distance the user accepts: the same design answers the target within it.
+    near = plain["check"]["distance"]["max_relative"]
+    accepted = balloon.design(
+        vertices, faces, fallback="off", accept_distance=2 * near, **options
+    )["summary"]
+    assert accepted["accepted"] and not accepted["converged"], accepted
+    with pytest.raises(balloon.InvalidOption, match="accept_distance"):
+        balloon.design(vertices, faces, accept_distance=-1.0, **options)
     r = balloon.design(vertices, faces, fallback_iterations=20, **options)
     s = r["summary"]
     assert not s["converged"]

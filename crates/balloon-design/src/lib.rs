@@ -104,9 +104,30 @@ pub struct DesignParams {
     /// with that bending wall ([`DesignProblem::with_wall_bending`], replacing the problem's
     /// own factor); 0 (the default) leaves the problem as given.
     pub wall_bending: f64,
+    /// A design whose inverse solve has no exact answer still answers its target when its
+    /// forward check converged within this distance of the target, as a fraction of the
+    /// target's bounding-box diagonal ([`Design::accepted`]); 0 (the default): only an exact
+    /// design does. In `[0, 1]`.
+    pub accept_distance: f64,
 }
 
 impl DesignParams {
+    /// [`DesignParams::accept_distance`] in `[0, 1]`.
+    ///
+    /// # Errors
+    /// [`DesignError::InvalidParameter`] naming `accept_distance` otherwise (or not a number).
+    fn validate_accept_distance(&self) -> Result<(), DesignError> {
+        if (0.0..=1.0).contains(&self.accept_distance) {
+            Ok(())
+        } else {
+            Err(DesignError::InvalidParameter {
+                name: "accept_distance",
+                value: self.accept_distance,
+                allowed: "a fraction of the target's bounding-box diagonal in [0, 1]",
+            })
+        }
+    }
+
     /// `problem` with the wall of [`DesignParams::wall_bending`] (borrowed when it is 0).
     ///
     /// # Errors
@@ -155,6 +176,19 @@ pub struct Design {
     pub conditioning: Option<RestConditioning>,
 }
 
+impl Design {
+    /// Whether the design answers its target: the inverse solve converged (an exact design),
+    /// or its forward check converged and lies within `accept_distance` of the target, as a
+    /// fraction of the target's bounding-box diagonal (at most; 0 accepts only an exact design,
+    /// [`DesignParams::accept_distance`]).
+    pub fn accepted(&self, accept_distance: f64) -> bool {
+        self.inverse.converged
+            || (accept_distance > 0.0
+                && self.check.converged
+                && self.check.distance.max_relative <= accept_distance)
+    }
+}
+
 /// The weight of a regulariser in its stage `k` (from 0): `w0 0.1^k`, the decreasing stages of
 /// the shape and bending terms (`docs/design.md` D16, D17).
 fn stage_weight(w0: f64, k: usize) -> f64 {
@@ -192,6 +226,7 @@ pub fn design(
     mut progress: impl FnMut(&DesignProgress) -> bool,
 ) -> Result<Design, DesignError> {
     params.conditioning.validate()?;
+    params.validate_accept_distance()?;
     let problem = &*params.wall(problem)?;
     let mut rest = problem.target().to_vec();
     let mut stopped = false;
@@ -238,6 +273,7 @@ pub fn design_for_rest(
 ) -> Result<Design, DesignError> {
     params.inverse.validate()?;
     params.conditioning.validate()?;
+    params.validate_accept_distance()?;
     let problem = &*params.wall(problem)?;
     let started = std::time::Instant::now();
     let residual = relative_residual(problem, &rest)?;

@@ -8,7 +8,7 @@
 //! gas `nRT` in J, with its `ambient` pressure in Pa), `thickness`, `scale`, the material
 //! keys of `[shell]` (`material`, `young`, `poisson`, `mu`, ...), the solve's options
 //! ([`DESIGN_OPTIONS`]: `tolerance`, `tangential_weight`, `fallback`, `fallback_iterations`,
-//! `method`, `shape_weight`, `shape_stages`, `newton_polish`, `warm_start`, `bending_weight`,
+//! `accept_distance`, `method`, `shape_weight`, `shape_stages`, `newton_polish`, `warm_start`, `bending_weight`,
 //! `inverse_bending_weight`, `inverse_bending_stages`, the wall's bending stiffness `bending`
 //! (as `[shell] bending`), and the wall-thickness fit's
 //! `fit_thickness`, `thickness_min`, `thickness_max`, `thickness_iterations`; and
@@ -88,6 +88,7 @@ pub const DESIGN_KEYS: &[&str] = &[
     "tangential_weight",
     "fallback",
     "fallback_iterations",
+    "accept_distance",
     "method",
     "shape_weight",
     "shape_stages",
@@ -127,6 +128,12 @@ pub const DESIGN_OPTIONS: &[(&str, &str)] = &[
     (
         "fallback_iterations",
         "steps allowed to the shape optimisation (`fallback.max_iterations`)",
+    ),
+    (
+        "accept_distance",
+        "a design whose inverse has no exact answer still answers its target when its forward \
+         check lies within this fraction of the target's bounding-box diagonal \
+         (`accept_distance`; 0: only an exact design; docs/design.md)",
     ),
     (
         "method",
@@ -290,6 +297,9 @@ pub fn set_design_option(
         }
         "fallback_iterations" => {
             params.fallback.max_iterations = whole(1.0, 1e5, "a whole number from 1 to 100000")?;
+        }
+        "accept_distance" => {
+            params.accept_distance = real(0.0, 1.0, true, "in [0, 1]")?;
         }
         "method" => {
             params.fallback.method = match text()?.trim().to_ascii_lowercase().as_str() {

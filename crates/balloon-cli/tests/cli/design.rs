@@ -496,6 +496,10 @@ fn design_scenario_errors_name_file_line_and_key() {
             "d.toml:4: `design.fallback_iterations`: invalid value",
         ),
         (
+            "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\naccept_distance = 2\n",
+            "d.toml:4: `design.accept_distance`: invalid value '2': in [0, 1]",
+        ),
+        (
             "[design]\ntarget = \"builtin:icosphere\"\npressure = 100\nmethod = \"newton\"\n",
             "d.toml:4: `design.method`: invalid value 'newton': \"gauss-newton\" or \"lbfgs\"",
         ),
@@ -612,6 +616,63 @@ fn design_of_a_flat_faced_box_runs_the_shape_optimisation() {
     assert!(
         (check - rms(&f["end"])).abs() <= 1e-6 * check,
         "{check} vs {f}"
+    );
+}
+
+/// `--accept-distance` accepts a design whose inverse has no exact answer when its forward
+/// check lies within that fraction of the diagonal: the flat-faced box's design ends without
+/// the error and says so, `summary.json` has `accepted` (and still `converged = false`); a
+/// distance below the check's keeps the error, which names it.
+#[test]
+fn a_design_within_the_accepted_distance_ends_without_the_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let read = |out: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+    };
+    let near = dir.path().join("near");
+    let o = design_box(
+        dir.path(),
+        &near,
+        &["--fallback-iterations", "2", "--accept-distance", "0.5"],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(stdout.contains("design accepted: "), "{stdout}");
+    let s = read(&near);
+    let reached = s["check"]["distance"]["max_relative"].as_f64().unwrap();
+    assert!(reached > 1e-9 && reached <= 0.5, "{s}");
+    assert_eq!(
+        (&s["converged"], &s["accepted"]),
+        (&serde_json::json!(false), &serde_json::json!(true)),
+        "{s}"
+    );
+    assert_eq!(s["params"]["accept_distance"], 0.5, "{s}");
+    // A distance below the one reached: the error, naming the distance asked for.
+    let far = dir.path().join("far");
+    let o = design_box(
+        dir.path(),
+        &far,
+        &["--fallback-iterations", "2", "--accept-distance", "1e-9"],
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("outside `accept_distance` = 1e-9"),
+        "{stderr}"
+    );
+    assert_eq!(read(&far)["accepted"], false);
+    // Without it, the error says what would accept a near design.
+    let plain = dir.path().join("plain");
+    let o = design_box(dir.path(), &plain, &["--fallback-iterations", "2"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("`accept_distance` accepts a design"),
+        "{stderr}"
     );
 }
 

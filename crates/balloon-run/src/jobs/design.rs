@@ -93,6 +93,9 @@ pub struct DesignSummary {
     pub thickness: f64,
     /// Whether the inverse solve reached the full pressure and the tolerance.
     pub converged: bool,
+    /// Whether the design answers its target: `converged`, or the forward check within
+    /// `params.accept_distance` of the target's diagonal (`balloon_design::Design::accepted`).
+    pub accepted: bool,
     /// Whether Ctrl-C stopped the design.
     pub interrupted: bool,
     /// The parameters the design ran with (`balloon_design::DesignParams`).
@@ -330,6 +333,7 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         ambient: job.gas_amount.map(|_| job.ambient),
         thickness: job.thickness,
         converged: result.inverse.converged,
+        accepted: result.accepted(job.params.accept_distance),
         interrupted: interrupted.is_some(),
         params: job.params,
         inverse: result.inverse.clone(),
