@@ -8,9 +8,9 @@
 //! gas `nRT` in J, with its `ambient` pressure in Pa), `thickness`, `scale`, the material
 //! keys of `[shell]` (`material`, `young`, `poisson`, `mu`, ...), the solve's options
 //! ([`DESIGN_OPTIONS`]: `tolerance`, `tangential_weight`, `fallback`, `fallback_iterations`,
-//! `accept_distance`, `method`, `shape_weight`, `shape_stages`, `newton_polish`, `warm_start`, `bending_weight`,
-//! `inverse_bending_weight`, `inverse_bending_stages`, the wall's bending stiffness `bending`
-//! (as `[shell] bending`), and the wall-thickness fit's
+//! `accept_distance`, `method`, `shape_weight`, `shape_stages`, `newton_polish`, `warm_start`,
+//! `bending_weight`, `inverse_bending_weight`, `inverse_bending_stages`, the wall's bending
+//! stiffness `bending` (as `[shell] bending`), and the wall-thickness fit's
 //! `fit_thickness`, `thickness_min`, `thickness_max`, `thickness_iterations`; and
 //! `conditioning`, `conditioning_modes`, `conditioning_iterations`), `rest` (a rest
 //! shape to keep instead of designing one, relative to the file) and `out` (a folder
