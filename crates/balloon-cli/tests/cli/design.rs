@@ -676,6 +676,47 @@ fn a_design_within_the_accepted_distance_ends_without_the_error() {
     );
 }
 
+/// When the shape optimisation begins, the human progress says once why, what it costs and
+/// what else to ask for (`accept_distance`, and `bending` for a wall without it), before its
+/// first step.
+#[test]
+fn the_shape_optimisation_says_why_it_runs_when_it_begins() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("box");
+    let o = run_balloon(&[
+        "design",
+        "builtin:box",
+        "--pressure",
+        "2000",
+        "--thickness",
+        "1e-3",
+        "--material",
+        "membrane-neo-hookean",
+        "--mu",
+        "4e5",
+        "--fallback-iterations",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{stderr}");
+    let notice = "design: the inverse found no exact design; the shape optimisation now";
+    assert_eq!(stderr.matches(notice).count(), 1, "{stderr}");
+    let at = stderr.find(notice).unwrap();
+    let step = stderr
+        .find("design: shape optimisation step 1")
+        .unwrap_or_else(|| panic!("{stderr}"));
+    assert!(at < step, "{stderr}");
+    let line = stderr[at..].lines().next().unwrap();
+    assert!(
+        line.contains("steps: at most 1,")
+            && line.contains("`accept_distance`")
+            && line.contains("`bending` = 1"),
+        "{line}"
+    );
+}
+
 /// The shape optimisation's options reach the library from the flags and from a scenario's
 /// `[design]` table alike: the run's record shows the outer loop and the stages they asked for
 /// (L-BFGS takes no Gauss-Newton step; the shape term's stages are counted by the optimisation

@@ -252,6 +252,36 @@ pub fn check_command(rest: &Path, load: CheckLoad, thickness: f64, spec: &Materi
 /// one is given.
 ///
 /// # Errors
+/// The line printed once when the shape optimisation begins: the inverse found no exact design,
+/// what the optimisation costs, and what else the user may ask for.
+fn optimisation_notice(params: &DesignParams) -> String {
+    let wall = if params.wall_bending == 0.0 {
+        " For a wall without bending stiffness (`bending` = 0, the default) a drawn target \
+         often has none (docs/design.md, \"What it can and cannot reach\"). `bending` = 1 or \
+         more designs for a wall with a rubber plate's bending stiffness instead (another \
+         model), whose inverse closes round trips that the wall without it does not \
+         (docs/design.md D21)."
+    } else {
+        ""
+    };
+    if params.fallback.mode == balloon_design::FallbackMode::Always {
+        return format!(
+            "design: the shape optimisation now minimises the distance of the forward \
+             equilibrium to the target (`fallback` = always), one forward static solve or more \
+             per step (steps: at most {}, `fallback_iterations`). Ctrl-C keeps the best design \
+             so far.",
+            params.fallback.max_iterations
+        );
+    }
+    format!(
+        "design: the inverse found no exact design; the shape optimisation now minimises the \
+         distance of the forward equilibrium to the target, one forward static solve or more \
+         per step (steps: at most {}, `fallback_iterations`). Ctrl-C keeps the best design so \
+         far. `accept_distance` accepts a design within a given fraction of the diagonal.{wall}",
+        params.fallback.max_iterations
+    )
+}
+
 /// A target that is not closed and oriented, invalid material keys, a parameter out of range
 /// (named in backticks), a design or check that fails outright, an output that cannot be
 /// written. A design that stops unconverged is not an error here: `design.inverse.converged`
@@ -278,6 +308,7 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
     };
     let pressure = problem.pressure();
     let quiet = job.quiet;
+    let mut optimising = false;
     let show = |p: &DesignProgress| {
         if !quiet {
             match p {
@@ -285,10 +316,15 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
                     "design: pressure factor {:.3} reached, stage to {:.3}: relative residual {:.3e}, iteration {}",
                     p.reached, p.load, p.relative_residual, p.iterations
                 ),
-                DesignProgress::Fallback(p) => eprintln!(
-                    "design: shape optimisation step {}, distance max {:.4e} m, RMS {:.4e} m",
-                    p.iteration, p.max_distance, p.rms_distance
-                ),
+                DesignProgress::Fallback(p) => {
+                    if !std::mem::replace(&mut optimising, true) {
+                        eprintln!("{}", optimisation_notice(&job.params));
+                    }
+                    eprintln!(
+                        "design: shape optimisation step {}, distance max {:.4e} m, RMS {:.4e} m",
+                        p.iteration, p.max_distance, p.rms_distance
+                    );
+                }
                 DesignProgress::Thickness(p) => eprintln!(
                     "design: thickness fit step {}, distance max {:.4e} m, RMS {:.4e} m",
                     p.iteration, p.max_distance, p.rms_distance
