@@ -447,17 +447,19 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
     }
     if !result.inverse.converged && run.summary.accepted {
         println!(
-            "design accepted: no rest shape holds the target exactly (the inverse reached {:.3} \
+            "design accepted: no rest shape holds the target exactly (the inverse reached {} \
              of the load), and the design's forward equilibrium lies within {:.3e} of the \
              diagonal, inside `accept_distance` = {:e}",
-            result.inverse.load_reached, dist.max_relative, job.params.accept_distance
+            load_fraction(result.inverse.load_reached),
+            dist.max_relative,
+            job.params.accept_distance
         );
         return Ok(());
     }
     if !result.inverse.converged {
         bail!(
-            "no rest shape holds the target exactly at {} (the inverse reached {:.3} of it, \
-             relative residual {:.3e}); the best design so far is written{}: its forward \
+            "no rest shape holds the target exactly at {} (the inverse reached {} of it, \
+             relative residual {:.3e}{}); the best design so far is written{}: its forward \
              equilibrium lies within {:.3e} m of the target ({:.3e} of the diagonal, RMS \
              {:.3e} m){}",
             match job.gas_amount {
@@ -467,8 +469,14 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
                     run.summary.pressure
                 ),
             },
-            result.inverse.load_reached,
+            load_fraction(result.inverse.load_reached),
             result.inverse.relative_residual,
+            if result.inverse.full_attempt_kept {
+                " at the full pressure, where its last attempt ended nearer equilibrium than the \
+                 last converged stage"
+            } else {
+                ""
+            },
             if result.inverse.fallback.is_some() {
                 ", the shape optimisation's"
             } else {
@@ -489,4 +497,27 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The load factor the inverse reached, with the digits that keep a factor short of 1 from
+/// reading as 1 (0.999756, not 1.000).
+fn load_fraction(reached: f64) -> String {
+    if reached < 1.0 && format!("{reached:.3}") == "1.000" {
+        format!("{reached:.6}")
+    } else {
+        format!("{reached:.3}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::load_fraction;
+
+    #[test]
+    fn a_load_factor_short_of_one_does_not_read_as_one() {
+        assert_eq!(load_fraction(0.999755859375), "0.999756");
+        assert_eq!(load_fraction(0.984375), "0.984");
+        assert_eq!(load_fraction(1.0), "1.000");
+        assert_eq!(load_fraction(0.0), "0.000");
+    }
 }

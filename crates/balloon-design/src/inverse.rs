@@ -145,6 +145,16 @@ pub struct InverseInfo {
     pub stages: usize,
     /// Halvings of the pressure increment.
     pub halvings: usize,
+    /// Whether the continuation ended before its halvings ran out because halving the
+    /// increment did not make a failed stage easier: three failed stages in a row from the same
+    /// rest shape each left at least half the share of its residual that the one before left
+    /// (`docs/design.md`, "The solve and the regulariser").
+    #[serde(default)]
+    pub no_easier: bool,
+    /// Whether the rest shape kept is a failed stage at the full pressure, not the last
+    /// converged stage: it ended with a smaller residual at the full pressure.
+    #[serde(default)]
+    pub full_attempt_kept: bool,
     /// Wall-clock seconds.
     pub seconds: f64,
     /// The shape optimisation that followed (`None` when it did not run): its distances
@@ -195,9 +205,12 @@ struct Solver<'a> {
 ///
 /// The pressure is applied in full first and, when a stage does not converge, in increments
 /// halved as needed (a continuation from the zero-pressure answer `X = x*`). Each stage runs
-/// Levenberg-Marquardt on `|r(X)|^2 / 2` with the exact Jacobian (`docs/design.md`). On
-/// return `start` holds the last converged stage's rest shape; `progress` is called after every
-/// accepted iteration and stops the solve when it returns `false` (the best shape so far is kept).
+/// Levenberg-Marquardt on `|r(X)|^2 / 2` with the exact Jacobian (`docs/design.md`). The
+/// continuation ends early when halving does not make a failed stage easier
+/// ([`InverseInfo::no_easier`]). On return `start` holds the last converged stage's rest
+/// shape, or the end of a failed stage at the full pressure when that one is nearer its
+/// equilibrium ([`InverseInfo::full_attempt_kept`]); `progress` is called after every accepted
+/// iteration and stops the solve when it returns `false` (the best shape so far is kept).
 ///
 /// # Errors
 /// An invalid parameter, a linear solve that fails outright. Non-convergence is not an error:
@@ -235,6 +248,8 @@ pub fn design_rest_shape(
         damped_steps: 0,
         stages: 0,
         halvings: 0,
+        no_easier: false,
+        full_attempt_kept: false,
         seconds: 0.0,
         fallback: None,
     };
@@ -263,7 +278,7 @@ pub fn design_rest_shape(
             )? {
                 Stage::Converged(_) => start.copy_from_slice(&trial),
                 Stage::Stopped => stopped = true,
-                Stage::Failed => break,
+                Stage::Failed { .. } => break,
             }
         }
         solver.bending = None;
@@ -277,7 +292,7 @@ pub fn design_rest_shape(
                     info.stages += 1;
                     info.relative_residual = res;
                 }
-                Stage::Stopped | Stage::Failed => {}
+                Stage::Stopped | Stage::Failed { .. } => {}
             }
             if info.relative_residual > params.tolerance {
                 info.relative_residual = match problem.residual(start, 1.0) {
@@ -321,9 +336,24 @@ const NEWTON_MAX_WAIT: usize = 16;
 
 enum Stage {
     Converged(f64),
-    Failed,
+    /// Not converged within the stage's iterations.
+    Failed {
+        /// The residual at the end over the one at the start of the stage (`None` when the
+        /// stage could not be evaluated).
+        share: Option<f64>,
+        /// The relative residual at the end (infinite when the stage could not be evaluated).
+        residual: f64,
+    },
     Stopped,
 }
+
+/// Failed stages in a row, each from the same converged rest shape with half the increment of
+/// the one before, after which the continuation ends when none of them made the stage easier.
+const HOPELESS_FAILURES: usize = 3;
+
+/// A halved stage is "no easier" when the share of its residual left at its end is at least
+/// this fraction of the share the stage before it left.
+const NO_EASIER: f64 = 0.5;
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|a| a * a).sum::<f64>().sqrt()
@@ -382,6 +412,11 @@ impl Solver<'_> {
         let mut step = 1.0f64;
         // Every halving of this continuation counts against `max_halvings`.
         let mut halvings = 0;
+        // The failed stages in a row from `load` that halving did not make easier, and the
+        // share of its residual the last one left.
+        let mut no_easier = 0;
+        let mut last_share: Option<f64> = None;
+        let mut best_full: Option<(Vec<f64>, f64)> = None;
         while load < 1.0 && !*stopped {
             let next = (load + step).min(1.0);
             let tol = if next >= 1.0 {
@@ -398,13 +433,36 @@ impl Solver<'_> {
                     info.stages += 1;
                     info.load_reached = load;
                     info.relative_residual = res;
-                    // Grow the increment again after an easy stage.
-                    step = (step * 2.0).min(1.0);
+                    // Grow the increment again after an easy stage, no further than the full
+                    // pressure (a larger one would be tried again unchanged after a halving).
+                    step = (step * 2.0).min(1.0 - load);
+                    no_easier = 0;
+                    last_share = None;
                 }
                 Stage::Stopped => {
                     *stopped = true;
                 }
-                Stage::Failed => {
+                Stage::Failed { share, residual } => {
+                    // The full pressure's best attempt so far, kept when it ends closer to
+                    // equilibrium than any before it.
+                    if next >= 1.0 && best_full.as_ref().is_none_or(|(_, b)| residual < *b) {
+                        best_full = Some((std::mem::take(&mut trial), residual));
+                    }
+                    // A smaller increment makes a stage that fails by its nonlinearity more
+                    // nearly linear, so it leaves a smaller share of its residual. Where each
+                    // halving leaves about the same share, the residual is proportional to
+                    // the load: no fraction of the pressure is held (a flat face, a
+                    // crease), and further halvings only spend iterations.
+                    no_easier = match (share, last_share) {
+                        (Some(q), Some(q_before)) if q >= NO_EASIER * q_before => no_easier + 1,
+                        (Some(_), _) => 1,
+                        (None, _) => 0,
+                    };
+                    last_share = share;
+                    if no_easier >= HOPELESS_FAILURES {
+                        info.no_easier = true;
+                        break;
+                    }
                     if halvings >= params.max_halvings {
                         break;
                     }
@@ -412,6 +470,21 @@ impl Solver<'_> {
                     info.halvings += 1;
                     step *= 0.5;
                 }
+            }
+        }
+        if load < 1.0
+            && let Some((x, residual)) = best_full
+        {
+            // A failed stage at the full pressure can still end nearer its equilibrium than
+            // the last converged stage's rest shape is (a creep to a residual of 5e-8 against
+            // a tolerance of 1e-9); the design keeps the nearer one.
+            let kept = match self.problem.residual(start, 1.0) {
+                Ok(r) => norm(&r) / self.scale,
+                Err(_) => f64::INFINITY,
+            };
+            if residual < kept {
+                start.copy_from_slice(&x);
+                info.full_attempt_kept = true;
             }
         }
         Ok(load)
@@ -533,8 +606,12 @@ impl Solver<'_> {
             .evaluate_blocks(x, load, &self.pattern, &mut r, &mut j)
             .is_err()
         {
-            return Ok(Stage::Failed);
+            return Ok(Stage::Failed {
+                share: None,
+                residual: f64::INFINITY,
+            });
         }
+        let first = norm(&r);
         // The trial point's residual and Jacobian, kept when the step is accepted.
         let mut r_trial = r.clone();
         let mut j_trial = j.clone();
@@ -667,7 +744,10 @@ impl Solver<'_> {
             }
             info.iterations += 1;
             if !accepted {
-                return Ok(Stage::Failed);
+                return Ok(Stage::Failed {
+                    share: Some(norm(&r) / first),
+                    residual: norm(&r) / self.scale,
+                });
             }
             if self.bending.is_some() {
                 // The regularised problem has no zero residual: a stage ends where a step no
@@ -686,7 +766,10 @@ impl Solver<'_> {
         Ok(if res <= tol {
             Stage::Converged(res)
         } else {
-            Stage::Failed
+            Stage::Failed {
+                share: Some(norm(&r) / first),
+                residual: res,
+            }
         })
     }
 }

@@ -285,6 +285,8 @@ pub fn design_for_rest(
         damped_steps: 0,
         stages: 0,
         halvings: 0,
+        no_easier: false,
+        full_attempt_kept: false,
         seconds: started.elapsed().as_secs_f64(),
         fallback: None,
     };

@@ -240,6 +240,72 @@ fn beyond_the_pressure_maximum_there_is_no_design() {
     assert!(reports.iter().all(|p| p.reached < p.load), "{reports:?}");
     assert!(reports.windows(2).all(|w| w[0].reached <= w[1].reached));
     assert_eq!(reports.last().unwrap().reached, info.load_reached);
+    // The design keeps the rest shape nearest equilibrium at the full pressure: the last
+    // converged stage's, or the end of a failed stage at the full pressure when that is nearer.
+    let nearest_at_full = reports
+        .iter()
+        .filter(|p| p.load == 1.0)
+        .map(|p| p.relative_residual)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        info.relative_residual <= nearest_at_full * (1.0 + 1e-9),
+        "kept {} against {nearest_at_full} reached at the full pressure",
+        info.relative_residual
+    );
+}
+
+#[test]
+fn a_flat_faced_target_ends_the_continuation_when_halving_does_not_help() {
+    // A flat face carries no pressure in a wall without bending stiffness, at any fraction of
+    // the pressure: the residual a stage leaves is proportional to its load, so each halving
+    // of the increment leaves the same share of it. The continuation ends after three such
+    // failed stages instead of spending its twelve halvings, and keeps the target (the
+    // zero-pressure answer) as the best design.
+    let target =
+        balloon_mesh::generate::box_mesh(nalgebra::Vector3::new(0.1, 0.08, 0.06), 2).unwrap();
+    let problem =
+        DesignProblem::try_new(&target, vec![1e-3; target.num_triangles()], membrane(), 2e3)
+            .unwrap();
+    let mut rest = problem.target().to_vec();
+    let params = InverseParams::default();
+    let mut loads = Vec::new();
+    let info = design_rest_shape(&problem, &params, &mut rest, |p| {
+        loads.push(p.load);
+        true
+    })
+    .unwrap();
+    assert!(!info.converged);
+    assert!(info.no_easier, "{info:?}");
+    assert_eq!(info.halvings, 2, "{info:?}");
+    assert_eq!(info.load_reached, 0.0);
+    assert!(info.iterations <= 3 * params.max_iterations, "{info:?}");
+    assert_eq!(loads.first(), Some(&1.0));
+    assert_eq!(loads.last(), Some(&0.25));
+    assert_eq!(rest, problem.target().to_vec());
+    // Where halving makes a stage easier the continuation goes on: a sphere below its
+    // pressure maximum, with two iterations per stage, fails the full pressure and converges
+    // in smaller stages. The increment grown after a converged stage stops at the full
+    // pressure: grown past it, the stage to 1 is tried twice unchanged, which reads as a
+    // halving that did not help, and this continuation used to end at 0.75.
+    let sphere = balloon_mesh::generate::icosphere(0.1, 2).unwrap();
+    let lambda_max = 7f64.powf(1.0 / 6.0);
+    let p_max = thin_sphere_pressure(0.1 / lambda_max, lambda_max);
+    let problem = DesignProblem::try_new(
+        &sphere,
+        vec![H; sphere.num_triangles()],
+        membrane(),
+        0.95 * p_max,
+    )
+    .unwrap();
+    let params = InverseParams {
+        max_iterations: 2,
+        ..InverseParams::default()
+    };
+    let mut rest = problem.target().to_vec();
+    let info = design_rest_shape(&problem, &params, &mut rest, |_| true).unwrap();
+    assert!(info.converged, "{info:?}");
+    assert!(!info.no_easier, "{info:?}");
+    assert!(info.halvings >= 2, "{info:?}");
 }
 
 #[test]

@@ -247,11 +247,6 @@ pub fn check_command(rest: &Path, load: CheckLoad, thickness: f64, spec: &Materi
     words.join(" ")
 }
 
-/// Runs a design: checks the target, resolves the material, designs (progress on stderr unless
-/// `quiet`; Ctrl-C keeps the best design so far), checks it, and writes the output folder when
-/// one is given.
-///
-/// # Errors
 /// The line printed once when the shape optimisation begins: the inverse found no exact design,
 /// what the optimisation costs, and what else the user may ask for.
 fn optimisation_notice(params: &DesignParams) -> String {
@@ -282,6 +277,33 @@ fn optimisation_notice(params: &DesignParams) -> String {
     )
 }
 
+/// The line printed once when the inverse first halves its pressure increment: the stage to
+/// `load` did not converge, what the continuation does next and what a stage costs at the pace
+/// so far (`seconds` per iteration).
+fn halving_notice(params: &DesignParams, load: f64, seconds: f64) -> String {
+    let inverse = &params.inverse;
+    let next = match params.fallback.mode {
+        balloon_design::FallbackMode::Off => "the design ends there (`fallback` = off)",
+        _ => "the shape optimisation starts from the inverse's best design",
+    };
+    format!(
+        "design: the stage to pressure factor {load:.3} did not converge in {} iterations; the \
+         inverse now tries half the increment (a continuation, at most {} halvings of up to {} \
+         iterations each, about {:.0} s each at this pace). It ends sooner when three failed \
+         stages in a row show that halving does not make them easier, the sign that no fraction \
+         of the pressure is held exactly; then {next}. Ctrl-C keeps the best design so far.",
+        inverse.max_iterations,
+        inverse.max_halvings,
+        inverse.max_iterations,
+        seconds * inverse.max_iterations as f64,
+    )
+}
+
+/// Runs a design: checks the target, resolves the material, designs (progress on stderr unless
+/// `quiet`; Ctrl-C keeps the best design so far), checks it, and writes the output folder when
+/// one is given.
+///
+/// # Errors
 /// A target that is not closed and oriented, invalid material keys, a parameter out of range
 /// (named in backticks), a design or check that fails outright, an output that cannot be
 /// written. A design that stops unconverged is not an error here: `design.inverse.converged`
@@ -309,13 +331,25 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
     let pressure = problem.pressure();
     let quiet = job.quiet;
     let mut optimising = false;
+    // The last inverse stage reported (load reached, load asked) and whether a halving was told.
+    let mut last_stage = (0.0, 0.0);
+    let mut halved = false;
+    let started = std::time::Instant::now();
     let show = |p: &DesignProgress| {
         if !quiet {
             match p {
-                DesignProgress::Inverse(p) => eprintln!(
-                    "design: pressure factor {:.3} reached, stage to {:.3}: relative residual {:.3e}, iteration {}",
-                    p.reached, p.load, p.relative_residual, p.iterations
-                ),
+                DesignProgress::Inverse(p) => {
+                    let (reached, load) = std::mem::replace(&mut last_stage, (p.reached, p.load));
+                    if !halved && p.reached == reached && p.load < load {
+                        halved = true;
+                        let pace = started.elapsed().as_secs_f64() / p.iterations.max(1) as f64;
+                        eprintln!("{}", halving_notice(&job.params, load, pace));
+                    }
+                    eprintln!(
+                        "design: pressure factor {:.3} reached, stage to {:.3}: relative residual {:.3e}, iteration {}",
+                        p.reached, p.load, p.relative_residual, p.iterations
+                    );
+                }
                 DesignProgress::Fallback(p) => {
                     if !std::mem::replace(&mut optimising, true) {
                         eprintln!("{}", optimisation_notice(&job.params));
