@@ -259,8 +259,9 @@ fn a_flat_faced_target_ends_the_continuation_when_halving_does_not_help() {
     // A flat face carries no pressure in a wall without bending stiffness, at any fraction of
     // the pressure: the residual a stage leaves is proportional to its load, so each halving
     // of the increment leaves the same share of it. The continuation ends after three such
-    // failed stages instead of spending its twelve halvings, and keeps the target (the
-    // zero-pressure answer) as the best design.
+    // failed stages instead of spending its twelve halvings. It keeps the end of its stage to
+    // the full pressure, which is nearer equilibrium there than the target (the zero-pressure
+    // answer, whose relative residual at the full pressure is 1).
     let target =
         balloon_mesh::generate::box_mesh(nalgebra::Vector3::new(0.1, 0.08, 0.06), 2).unwrap();
     let problem =
@@ -281,7 +282,9 @@ fn a_flat_faced_target_ends_the_continuation_when_halving_does_not_help() {
     assert!(info.iterations <= 3 * params.max_iterations, "{info:?}");
     assert_eq!(loads.first(), Some(&1.0));
     assert_eq!(loads.last(), Some(&0.25));
-    assert_eq!(rest, problem.target().to_vec());
+    assert!(info.full_attempt_kept, "{info:?}");
+    assert!(info.relative_residual < 0.7, "{info:?}");
+    assert_ne!(rest, problem.target().to_vec());
     // Where halving makes a stage easier the continuation goes on: a sphere below its
     // pressure maximum, with two iterations per stage, fails the full pressure and converges
     // in smaller stages. The increment grown after a converged stage stops at the full
