@@ -472,7 +472,7 @@ pub fn report(job: &DesignJob, run: &DesignRun) -> Result<()> {
             load_fraction(result.inverse.load_reached),
             result.inverse.relative_residual,
             if result.inverse.full_attempt_kept {
-                " at the full pressure, where its last attempt ended nearer equilibrium than the \
+                " at the full pressure, where its best attempt ended nearer equilibrium than the \
                  last converged stage"
             } else {
                 ""
