@@ -113,7 +113,8 @@ fn set_option(params: &mut DesignParams, key: &str, v: &Bound<'_, PyAny>) -> PyR
 /// Jacobian at the rest shape, `summary["conditioning"]`, docs/design.md D19) with
 /// `conditioning_modes` (1 to 64) and `conditioning_iterations` (1 to 1000); and `out` (a
 /// folder for rest.obj, inflated.obj, distance.csv and summary.json, and rest.ply with a fitted
-/// thickness; the parameters used are `summary["params"]`), `rest` ((n, 3) float64: a rest
+/// thickness; the parameters used are `summary["params"]`; a folder holding the files of an
+/// earlier design is refused unless `overwrite` = True), `rest` ((n, 3) float64: a rest
 /// shape to keep instead of designing one, with the target's faces; it is checked, and its
 /// wall fitted with `fit_thickness`). Returns {"rest": (n, 3) float64,
 /// "inflated": (n, 3) float64 (the check's equilibrium, rigidly aligned onto the target),
@@ -146,6 +147,7 @@ pub(crate) fn design<'py>(
     }
     let mut params = DesignParams::default();
     let mut out = None;
+    let mut overwrite = false;
     let (mut gas_amount, mut ambient) = (None, None);
     let mut rest = None;
     if let Some(options) = options {
@@ -184,6 +186,12 @@ pub(crate) fn design<'py>(
                     ));
                 }
                 "out" => {}
+                "overwrite" => {
+                    if !v.is_instance_of::<PyBool>() {
+                        return Err(InvalidOption::new_err("`overwrite` must be True or False"));
+                    }
+                    overwrite = v.extract::<bool>()?;
+                }
                 "rest" if !v.is_none() => {
                     let pair = PyTuple::new(py, [&v, faces])?;
                     let (_, Some(mesh)) = mesh_spec(pair.as_any())?.split() else {
@@ -200,7 +208,7 @@ pub(crate) fn design<'py>(
                         .filter(|n| *n != "pressure")
                         .collect();
                     known.extend(DESIGN_OPTIONS.iter().map(|(name, _)| *name));
-                    known.extend(["gas_amount", "ambient", "rest", "out"]);
+                    known.extend(["gas_amount", "ambient", "rest", "out", "overwrite"]);
                     return Err(InvalidOption::new_err(format!(
                         "unknown option `{k}` (the options of design are {})",
                         known.join(", ")
@@ -241,6 +249,7 @@ pub(crate) fn design<'py>(
     job.material = shell.shell.material.clone();
     job.params = params;
     job.out = out;
+    job.overwrite = overwrite;
     job.rest = rest;
     let result = py.detach(move || run(&job)).map_err(design_err)?;
     if result.interrupted.is_some() {

@@ -307,3 +307,18 @@ def test_the_bending_wall_reaches_the_design():
     for bad in (-1.0, float("nan"), float("inf")):
         with pytest.raises(balloon.InvalidOption, match="bending"):
             balloon.design(vertices, faces, bending=bad, **options)
+
+
+def test_design_refuses_the_folder_of_an_earlier_design_unless_overwrite(tmp_path):
+    vertices, faces = icosphere(0.1, 1)
+    out = tmp_path / "d"
+    balloon.design(vertices, faces, pressure=100.0, out=out)
+    (out / "mine.txt").write_text("mine")
+    with pytest.raises(balloon.BalloonError, match="earlier design"):
+        balloon.design(vertices, faces, pressure=100.0, out=out)
+    with pytest.raises(balloon.InvalidOption, match="overwrite"):
+        balloon.design(vertices, faces, pressure=100.0, out=out, overwrite="yes")
+    r = balloon.design(vertices, faces, pressure=100.0, out=out, overwrite=True)
+    assert r["summary"]["converged"]
+    assert (out / "mine.txt").read_text() == "mine"
+    assert (out / "rest.obj").exists()

@@ -146,10 +146,15 @@ pub struct DesignArgs {
     #[arg(long, default_value = "30", value_parser = option_parser("conditioning_iterations"))]
     pub conditioning_iterations: OptionValue,
     /// Output folder: rest.obj, inflated.obj, distance.csv, design.png (target and check side
-    /// by side, coloured by the distance), summary.json, and rest.ply with --fit-thickness
-    /// (created; files of the same names are replaced).
+    /// by side, coloured by the distance), summary.json, rest.ply with --fit-thickness and
+    /// conditioning_modes.csv with --conditioning (created; a folder holding any of these is
+    /// refused before the design starts, unless --overwrite).
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace the files of an earlier design in --out (only the files named under --out;
+    /// nothing else in the folder is touched).
+    #[arg(long)]
+    pub overwrite: bool,
     /// Print no progress.
     #[arg(long)]
     pub quiet: bool,
@@ -291,6 +296,7 @@ pub fn run(args: &DesignArgs) -> Result<()> {
             .map(|r| load_rest(r, args.scale))
             .transpose()?,
         out: Some(args.out.clone()),
+        overwrite: args.overwrite,
         quiet: args.quiet,
     };
     report(&job, &balloon_run::jobs::design::run(&job)?)

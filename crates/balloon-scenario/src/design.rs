@@ -63,6 +63,9 @@ pub struct DesignScenario {
     pub rest: Option<String>,
     /// Output folder (joined to the file's folder).
     pub out: Option<PathBuf>,
+    /// Replace the files of an earlier design in `out` [default: false, such a folder is
+    /// refused].
+    pub overwrite: bool,
 }
 
 /// The keys of `[design]`, in the order the errors list them.
@@ -107,6 +110,7 @@ pub const DESIGN_KEYS: &[&str] = &[
     "conditioning_iterations",
     "rest",
     "out",
+    "overwrite",
 ];
 
 /// The options of the design solve (keys of `[design]` and of Python's `balloon.design`), with
@@ -417,6 +421,7 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
         params: DesignParams::default(),
         rest: None,
         out: None,
+        overwrite: false,
     };
     let (mut has_target, mut has_pressure) = (false, false);
     let mut material_span: Span = None;
@@ -508,6 +513,14 @@ pub fn read(path: &Path) -> Result<Option<DesignScenario>, ScenarioError> {
                 d.scale = in_range(number()?, 0.0, 1e6, false, "in (0, 1e6]").map_err(invalid)?;
             }
             "out" => d.out = Some(PathBuf::from(path_of(text()?))),
+            "overwrite" => {
+                d.overwrite = value.as_bool().ok_or_else(|| {
+                    err(format!(
+                        "expected true or false, found {}",
+                        type_name(value)
+                    ))
+                })?;
+            }
             "rest" => {
                 let s = text()?;
                 d.rest = Some(if s.starts_with("builtin") {

@@ -193,6 +193,7 @@ fn run_design(args: &RunArgs, d: &balloon_scenario::design::DesignScenario) -> R
     job.material = d.material.clone();
     job.params = d.params;
     job.out.clone_from(&d.out);
+    job.overwrite = d.overwrite;
     job.rest = d
         .rest
         .as_deref()

@@ -436,6 +436,19 @@ fn design_scenario_runs_the_design_job() {
         std::fs::read(out.join("rest.obj")).unwrap(),
         std::fs::read(by_flags.join("rest.obj")).unwrap()
     );
+    // Run again: the folder of the first run is refused, in the file's spelling, until the
+    // table says `overwrite = true`.
+    let o = run_balloon(&["run", file.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("earlier design") && err.contains("overwrite"),
+        "{err}"
+    );
+    let text = std::fs::read_to_string(&file).unwrap() + "overwrite = true\n";
+    std::fs::write(&file, text).unwrap();
+    let o = run_balloon(&["run", file.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
 #[test]
@@ -1031,4 +1044,67 @@ fn the_bending_wall_reaches_the_design_from_flag_and_scenario() {
     design(&plain, &[]);
     assert_eq!(read(&plain)["params"]["wall_bending"], 0.0);
     assert_ne!(std::fs::read(plain.join("rest.obj")).unwrap(), rest);
+}
+
+#[test]
+fn a_folder_of_an_earlier_design_is_refused_unless_overwrite() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("d");
+    let design = |extra: &[&str]| {
+        let mut args = vec![
+            "design",
+            "builtin:icosphere",
+            "--pressure",
+            "100",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        run_balloon(&args)
+    };
+    let o = design(&[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rest = std::fs::read(out.join("rest.obj")).unwrap();
+    // A file of the user's beside the design, and one of the design's names that this design
+    // does not write (no --conditioning).
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    std::fs::write(out.join("conditioning_modes.csv"), "vertex\n").unwrap();
+
+    // Again into the same folder: refused, naming the folder and the flag, nothing changed.
+    let o = design(&["--tolerance", "1e-6"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains(&out.display().to_string())
+            && err.contains("earlier design")
+            && err.contains("--overwrite"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(out.join("rest.obj")).unwrap(), rest);
+    assert!(out.join("conditioning_modes.csv").exists());
+
+    // With --overwrite: the design's files are replaced, the stale one removed, the user's kept.
+    let o = design(&["--tolerance", "1e-6", "--overwrite"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "mine"
+    );
+    assert!(!out.join("conditioning_modes.csv").exists());
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["params"]["inverse"]["tolerance"], 1e-6);
+    // No temporary file is left behind.
+    for entry in std::fs::read_dir(&out).unwrap() {
+        let name = entry.unwrap().file_name();
+        assert!(!name.to_string_lossy().ends_with(".tmp"), "{name:?}");
+    }
+
+    // A rest shape read from the folder is an input: never replaced, even with --overwrite.
+    let kept = out.join("rest.obj");
+    let o = design(&["--rest", kept.to_str().unwrap(), "--overwrite"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("an input of this design"), "{err}");
 }

@@ -48,6 +48,9 @@ pub struct DesignJob {
     pub rest: Option<TriMesh>,
     /// Output folder (none: nothing written).
     pub out: Option<PathBuf>,
+    /// Replace the files of an earlier design in `out` (else such a folder is refused before
+    /// the design starts; nothing else in it is touched).
+    pub overwrite: bool,
     /// Print no progress.
     pub quiet: bool,
 }
@@ -67,6 +70,7 @@ impl DesignJob {
             params: DesignParams::default(),
             rest: None,
             out: None,
+            overwrite: false,
             quiet: true,
         }
     }
@@ -321,6 +325,9 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         .map_err(anyhow::Error::msg)
         .context("material")?;
     let material_name = material.name();
+    if let Some(out) = &job.out {
+        crate::output::check_out_dir_files(out, job.overwrite, DESIGN_FILES, "design")?;
+    }
     let thickness = vec![job.thickness; job.target.num_triangles()];
     let problem = match job.gas_amount {
         None => DesignProblem::try_new(&job.target, thickness, material, job.pressure)?,
@@ -388,7 +395,14 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         }
     };
     let picture = match &job.out {
-        Some(out) => write_outputs(out, &job.target, &result, problem.target(), pressure)?,
+        Some(out) => write_outputs(
+            out,
+            job.overwrite,
+            &job.target,
+            &result,
+            problem.target(),
+            pressure,
+        )?,
         None => None,
     };
     let interrupted = crate::interrupt::pending();
@@ -463,9 +477,10 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
         picture,
     };
     if let Some(out) = &job.out {
-        let path = out.join("summary.json");
-        std::fs::write(&path, serde_json::to_string_pretty(&summary)? + "\n")
-            .with_context(|| format!("cannot write `{}`", path.display()))?;
+        let text = serde_json::to_string_pretty(&summary)? + "\n";
+        write_file(out, SUMMARY, |tmp| {
+            std::fs::write(tmp, text).map_err(anyhow::Error::from)
+        })?;
     }
     Ok(DesignRun {
         design: result,
@@ -480,41 +495,46 @@ pub fn run(job: &DesignJob) -> Result<DesignRun> {
 /// rendered: a missing picture does not fail the design.
 fn write_outputs(
     out: &Path,
+    overwrite: bool,
     target: &TriMesh,
     result: &Design,
     target_x: &[f64],
     pressure: f64,
 ) -> Result<Option<String>> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create `{}`", out.display()))?;
+    crate::output::prepare_out_dir_files(out, overwrite, DESIGN_FILES, "design")?;
     let mut rest = target.clone();
     rest.set_positions_flat(&result.rest);
     let mut inflated = target.clone();
     inflated.set_positions_flat(&result.check.positions);
     for (name, mesh) in [("rest.obj", &rest), ("inflated.obj", &inflated)] {
-        let path = out.join(name);
-        balloon::mesh::io::write_obj(&path, mesh)
-            .with_context(|| format!("cannot write `{}`", path.display()))?;
+        write_file(out, name, |tmp| {
+            balloon::mesh::io::write_obj(tmp, mesh).map_err(anyhow::Error::from)
+        })?;
     }
     if let Some(fit) = &result.thickness {
-        let path = out.join(FITTED_REST);
-        balloon::mesh::io::write_ply_binary_with_face_property(
-            &path,
-            &rest,
-            Some(("thickness", &fit.thickness)),
-        )
-        .with_context(|| format!("cannot write `{}`", path.display()))?;
+        write_file(out, FITTED_REST, |tmp| {
+            balloon::mesh::io::write_ply_binary_with_face_property(
+                tmp,
+                &rest,
+                Some(("thickness", &fit.thickness)),
+            )
+            .map_err(anyhow::Error::from)
+        })?;
     }
     if let Some(c) = &result.conditioning {
-        let path = out.join(CONDITIONING_MODES);
-        std::fs::write(&path, modes_csv(&c.modes, target.num_vertices()))
-            .with_context(|| format!("cannot write `{}`", path.display()))?;
+        let csv = modes_csv(&c.modes, target.num_vertices());
+        write_file(out, CONDITIONING_MODES, |tmp| {
+            std::fs::write(tmp, csv).map_err(anyhow::Error::from)
+        })?;
     }
     let d = balloon_design::vertex_distances(&result.check.positions, target_x);
     let csv: String = std::iter::once("vertex,distance_m\n".to_string())
         .chain(d.iter().enumerate().map(|(i, v)| format!("{i},{v:e}\n")))
         .collect();
-    let path = out.join("distance.csv");
-    std::fs::write(&path, csv).with_context(|| format!("cannot write `{}`", path.display()))?;
+    write_file(out, "distance.csv", |tmp| {
+        std::fs::write(tmp, csv).map_err(anyhow::Error::from)
+    })?;
     let caption = format!(
         "{} at {} Pa{}",
         if result.inverse.converged {
@@ -548,6 +568,26 @@ fn write_outputs(
 
 /// File name of the rest shape with the fitted wall thickness (a `thickness` face property).
 pub const FITTED_REST: &str = "rest.ply";
+
+/// File name of the design's summary.
+pub const SUMMARY: &str = "summary.json";
+
+/// Every file a design writes into its output folder: the only ones `overwrite` replaces.
+pub const DESIGN_FILES: &[&str] = &[
+    "rest.obj",
+    FITTED_REST,
+    "inflated.obj",
+    "distance.csv",
+    PICTURE,
+    CONDITIONING_MODES,
+    SUMMARY,
+];
+
+/// Writes `name` in `out` through a temporary file `.NAME.tmp` and a rename, so an earlier
+/// file of that name stays whole until the new one is.
+fn write_file(out: &Path, name: &str, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    crate::output::write_via_tmp(&out.join(name), &out.join(format!(".{name}.tmp")), write)
+}
 
 /// The area (m^2) of each triangle of the flat positions `x`.
 fn triangle_areas(x: &[f64], triangles: &[[usize; 3]]) -> Vec<f64> {

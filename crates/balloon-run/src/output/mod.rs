@@ -141,6 +141,41 @@ pub fn prepare_out_dir(dir: &Path, overwrite: bool) -> Result<()> {
 /// The earlier run's files in `dir` (refused unless `overwrite`; an input of this process is
 /// refused always).
 fn old_run_files(dir: &Path, overwrite: bool) -> Result<Vec<PathBuf>> {
+    old_files(dir, overwrite, &is_run_file, true, "run")
+}
+
+/// [`check_out_dir`] for a job that writes the files `names` (and nothing else) into `dir`,
+/// `what` naming the job in the error (`design`): a path that is not a folder, a folder holding
+/// one of them without `overwrite`, or holding one that is an input of this process, is
+/// refused. Removes nothing.
+pub fn check_out_dir_files(dir: &Path, overwrite: bool, names: &[&str], what: &str) -> Result<()> {
+    old_files(dir, overwrite, &|n| names.contains(&n), false, what).map(drop)
+}
+
+/// [`check_out_dir_files`], then with `overwrite` the removal of those of `names` that `dir`
+/// holds, so that the job's files are all its own (a design without a fitted wall leaves no
+/// `rest.ply` of an earlier one). Nothing else is touched.
+pub fn prepare_out_dir_files(
+    dir: &Path,
+    overwrite: bool,
+    names: &[&str],
+    what: &str,
+) -> Result<()> {
+    for f in old_files(dir, overwrite, &|n| names.contains(&n), false, what)? {
+        std::fs::remove_file(&f).with_context(|| format!("cannot remove {}", f.display()))?;
+    }
+    Ok(())
+}
+
+/// The files of an earlier job in `dir` (those `ours` names, and with `renders` the rendered
+/// frames in `renders/`), refused as [`check_out_dir`] says.
+fn old_files(
+    dir: &Path,
+    overwrite: bool,
+    ours: &dyn Fn(&str) -> bool,
+    renders: bool,
+    what: &str,
+) -> Result<Vec<PathBuf>> {
     let meta = match std::fs::metadata(dir) {
         Ok(m) => m,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
@@ -164,7 +199,7 @@ fn old_run_files(dir: &Path, overwrite: bool) -> Result<Vec<PathBuf>> {
                     .and_then(|n| n.strip_suffix(".png"))
                     .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
             } else {
-                is_run_file(&name)
+                ours(&name)
             };
             if ours && entry.file_type().is_ok_and(|t| t.is_file()) {
                 old.push(entry.path());
@@ -173,15 +208,15 @@ fn old_run_files(dir: &Path, overwrite: bool) -> Result<Vec<PathBuf>> {
         Ok(())
     };
     list(dir, false, &mut old)?;
-    let renders = dir.join("renders");
-    if renders.is_dir() {
-        list(&renders, true, &mut old)?;
+    let renders_dir = dir.join("renders");
+    if renders && renders_dir.is_dir() {
+        list(&renders_dir, true, &mut old)?;
     }
     old.sort();
     if let Some(input) = old.iter().find(|f| balloon::mesh::io::was_read(f)) {
         bail!(
-            "`out` = {} holds {}, an input of this run, where the run writes its own file of \
-             that name; choose another output folder",
+            "`out` = {} holds {}, an input of this {what}, where the {what} writes its own \
+             file of that name; choose another output folder",
             dir.display(),
             input.display()
         );
@@ -191,8 +226,8 @@ fn old_run_files(dir: &Path, overwrite: bool) -> Result<Vec<PathBuf>> {
     }
     if !overwrite {
         bail!(
-            "`out` = {} already holds the files of an earlier run ({} file(s), e.g. {}); choose \
-             another folder or add `overwrite` to remove them first",
+            "`out` = {} already holds the files of an earlier {what} ({} file(s), e.g. {}); \
+             choose another folder or add `overwrite` to remove them first",
             dir.display(),
             old.len(),
             old[0]
@@ -205,7 +240,11 @@ fn old_run_files(dir: &Path, overwrite: bool) -> Result<Vec<PathBuf>> {
 
 /// Writes a file at `path` through `tmp` and a rename; on any failure `tmp` is removed, so a
 /// failed write leaves no temporary file, and the error names `path`.
-fn write_via_tmp(path: &Path, tmp: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+pub(crate) fn write_via_tmp(
+    path: &Path,
+    tmp: &Path,
+    write: impl FnOnce(&Path) -> Result<()>,
+) -> Result<()> {
     let result = write(tmp).and_then(|()| {
         std::fs::rename(tmp, path).with_context(|| format!("cannot write {}", path.display()))
     });

@@ -195,3 +195,38 @@ fn an_input_of_the_run_is_never_removed_by_overwrite() {
     assert!(e.contains("an input of this run"), "{e}");
     assert!(scenario.exists());
 }
+
+#[test]
+fn a_job_with_named_files_refuses_and_replaces_only_those() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("design");
+    let names = ["rest.obj", "summary.json"];
+    // A folder that does not exist yet, or holds none of the names, is fine.
+    check_out_dir_files(&out, false, &names, "design").unwrap();
+    std::fs::create_dir_all(&out).unwrap();
+    // A run's frame is not one of this job's files: it is left alone.
+    for f in ["rest.obj", "mine.txt", "frame_00000.obj"] {
+        std::fs::write(out.join(f), "x").unwrap();
+    }
+    let e = prepare_out_dir_files(&out, false, &names, "design")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("earlier design (1 file(s), e.g. rest.obj)") && e.contains("`overwrite`"),
+        "{e}"
+    );
+    assert!(out.join("rest.obj").exists());
+    prepare_out_dir_files(&out, true, &names, "design").unwrap();
+    let mut left: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["frame_00000.obj", "mine.txt"]);
+    let file = dir.path().join("file");
+    std::fs::write(&file, "x").unwrap();
+    let e = check_out_dir_files(&file, true, &names, "design")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("is not a folder"), "{e}");
+}
