@@ -503,6 +503,8 @@ fn write_outputs(
 ) -> Result<Option<String>> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create `{}`", out.display()))?;
     crate::output::prepare_out_dir_files(out, overwrite, DESIGN_FILES, "design")?;
+    // A second Ctrl-C while the files are written removes their temporary files.
+    crate::output::temp::watch_out_files(out, DESIGN_FILES);
     let mut rest = target.clone();
     rest.set_positions_flat(&result.rest);
     let mut inflated = target.clone();

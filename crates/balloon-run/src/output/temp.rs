@@ -4,16 +4,25 @@
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-/// The output folders of the runs in this process, whose temporary files
-/// [`remove_temp_files`] removes.
-static OUT_DIRS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+/// The output folders of the jobs in this process, whose temporary files
+/// [`remove_temp_files`] removes, each with the names of the files a job other than a run
+/// writes there through `.NAME.tmp`.
+static OUT_DIRS: Mutex<Vec<(PathBuf, &'static [&'static str])>> = Mutex::new(Vec::new());
 
 /// Records `dir` as an output folder being written (done by `OutputDir::create`).
 pub fn watch_out_dir(dir: &Path) {
-    if let Ok(mut dirs) = OUT_DIRS.lock()
-        && !dirs.iter().any(|d| d == dir)
-    {
-        dirs.push(dir.to_path_buf());
+    watch_out_files(dir, &[]);
+}
+
+/// Records `dir` as an output folder into which a job writes the files `names`, each through
+/// a temporary `.NAME.tmp` (a design's files).
+pub fn watch_out_files(dir: &Path, names: &'static [&'static str]) {
+    if let Ok(mut dirs) = OUT_DIRS.lock() {
+        match dirs.iter_mut().find(|(d, _)| d == dir) {
+            Some(entry) if !names.is_empty() => entry.1 = names,
+            Some(_) => {}
+            None => dirs.push((dir.to_path_buf(), names)),
+        }
     }
 }
 
@@ -27,14 +36,21 @@ pub fn remove_temp_files() -> usize {
         Err(_) => return 0,
     };
     let mut removed = 0;
-    for dir in dirs.iter().flat_map(|d| [d.clone(), d.join("renders")]) {
+    for (dir, names) in dirs
+        .iter()
+        .flat_map(|(d, names)| [(d.clone(), *names), (d.join("renders"), &[][..])])
+    {
         let Ok(entries) = std::fs::read_dir(&dir) else {
             continue;
         };
         for entry in entries.flatten() {
             let name = entry.file_name();
             let name = name.to_string_lossy();
-            if super::is_temp_file(&name)
+            let named = name
+                .strip_prefix('.')
+                .and_then(|n| n.strip_suffix(".tmp"))
+                .is_some_and(|n| names.contains(&n));
+            if (named || super::is_temp_file(&name))
                 && entry.file_type().is_ok_and(|t| t.is_file())
                 && std::fs::remove_file(entry.path()).is_ok()
             {

@@ -183,6 +183,14 @@ fn temp_files_are_recognised_and_removed_on_request() {
     assert!(super::temp::remove_temp_files() >= 1);
     assert!(!out.path().join(".run.gif.tmp").exists());
     assert!(out.path().join("notes.tmp").exists());
+    // A job's own files written through `.NAME.tmp` (a design's), in a folder it watches.
+    let design = tempfile::tempdir().unwrap();
+    super::temp::watch_out_files(design.path(), &["rest.obj"]);
+    std::fs::write(design.path().join(".rest.obj.tmp"), "partial").unwrap();
+    std::fs::write(design.path().join(".mine.obj.tmp"), "the user's").unwrap();
+    assert!(super::temp::remove_temp_files() >= 1);
+    assert!(!design.path().join(".rest.obj.tmp").exists());
+    assert!(design.path().join(".mine.obj.tmp").exists());
 }
 
 #[test]
